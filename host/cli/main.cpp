@@ -1,0 +1,49 @@
+// microshadow: the generic VNDF-based micro-shadowing term on OpenCL.
+// Exit status: 0 success, 1 failure while running, 2 bad command line or bad input, 130 interrupted.
+#include <iostream>
+
+#include "cli/common.hpp"
+#include "cli/progress.hpp"
+#include "core/cancel.hpp"
+#include "io/csv.hpp"
+#include "opencl/error.hpp"
+
+int main(int argc, char** argv) {
+    using namespace ms;
+    cli::set_command_line(argc, argv);
+    CLI::App app{"microshadow " MICROSHADOW_VERSION
+                 " - the generic VNDF-based micro-shadowing term (GGX), by OpenCL VNDF sampling"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", "microshadow " MICROSHADOW_VERSION);
+    cli::add_devices_command(app);
+    cli::add_eval_command(app);
+    cli::install_interrupt_handlers();
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::CallForHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForAllHelp& e) {
+        return app.exit(e);
+    } catch (const CLI::CallForVersion& e) {
+        return app.exit(e);
+    } catch (const CLI::ParseError& e) {
+        app.exit(e);
+        return 2;
+    } catch (const Cancelled& e) {
+        std::cerr << "microshadow: " << e.what() << "\n";
+        return 130;
+    } catch (const CsvError& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 2;
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 2;
+    } catch (const ocl::NoDeviceError& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 1;
+    } catch (const std::exception& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 1;
+    }
+    return 0;
+}

@@ -1,0 +1,27 @@
+// Progress reporting on stderr: a redrawn bar on a terminal, a plain line every 10% otherwise.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <string>
+
+namespace ms::cli {
+
+class Progress {
+public:
+    Progress(std::string label, bool quiet = false);
+    void update(std::size_t done, std::size_t total);
+    void finish();
+
+private:
+    std::string label_;
+    bool quiet_, tty_;
+    int last_decile_ = -1;
+    bool drawn_ = false;
+    std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
+// Installs SIGINT/SIGTERM handlers that set ms::cancel_requested().
+void install_interrupt_handlers();
+
+}  // namespace ms::cli

@@ -1,0 +1,75 @@
+#include "core/estimate.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace ms {
+
+Estimate reduce_replicates(const double* cone, const double* hemisphere, std::size_t replicates) {
+    if (replicates == 0) throw std::invalid_argument("reduce_replicates: no replicates");
+    double cone_sum = 0, hemi_sum = 0;
+    for (std::size_t r = 0; r < replicates; ++r) {
+        cone_sum += cone[r];
+        hemi_sum += hemisphere[r];
+    }
+    Estimate e;
+    if (hemi_sum <= 0) return e;
+    e.term = cone_sum / hemi_sum;
+    if (replicates < 2) return e;
+    double mean = 0;
+    for (std::size_t r = 0; r < replicates; ++r) mean += hemisphere[r] > 0 ? cone[r] / hemisphere[r] : 0.0;
+    mean /= double(replicates);
+    double ss = 0;
+    for (std::size_t r = 0; r < replicates; ++r) {
+        const double d = (hemisphere[r] > 0 ? cone[r] / hemisphere[r] : 0.0) - mean;
+        ss += d * d;
+    }
+    e.std_error = std::sqrt(ss / (double(replicates) * double(replicates - 1)));
+    return e;
+}
+
+namespace {
+// Regularised incomplete beta by Lentz's continued fraction (Numerical Recipes' formulation), enough
+// for the t distribution's CDF: P(|T| > t) = I_{df/(df+t^2)}(df/2, 1/2).
+double incomplete_beta_cf(double a, double b, double x) {
+    const double tiny = 1e-300;
+    double c = 1, d = 1 - (a + b) * x / (a + 1);
+    d = 1 / (std::abs(d) < tiny ? tiny : d);
+    double h = d;
+    for (int m = 1; m < 500; ++m) {
+        const double m2 = 2.0 * m;
+        double aa = m * (b - m) * x / ((a + m2 - 1) * (a + m2));
+        d = 1 + aa * d; d = 1 / (std::abs(d) < tiny ? tiny : d);
+        c = 1 + aa / c; c = std::abs(c) < tiny ? tiny : c;
+        h *= d * c;
+        aa = -(a + m) * (a + b + m) * x / ((a + m2) * (a + m2 + 1));
+        d = 1 + aa * d; d = 1 / (std::abs(d) < tiny ? tiny : d);
+        c = 1 + aa / c; c = std::abs(c) < tiny ? tiny : c;
+        const double delta = d * c;
+        h *= delta;
+        if (std::abs(delta - 1) < 1e-15) break;
+    }
+    return h;
+}
+double regularised_beta(double a, double b, double x) {
+    if (x <= 0) return 0;
+    if (x >= 1) return 1;
+    const double front = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log(1 - x));
+    if (x < (a + 1) / (a + b + 2)) return front * incomplete_beta_cf(a, b, x) / a;
+    return 1 - front * incomplete_beta_cf(b, a, 1 - x) / b;
+}
+double two_sided_tail(double t, int df) { return regularised_beta(df / 2.0, 0.5, df / (df + t * t)); }
+}  // namespace
+
+double student_t_quantile(double confidence, int df) {
+    if (!(confidence > 0 && confidence < 1) || df < 1) throw std::invalid_argument("student_t_quantile: bad arguments");
+    const double tail = 1 - confidence;
+    double lo = 0, hi = 1e6;
+    for (int i = 0; i < 200; ++i) {  // bisection: the tail probability decreases in t
+        const double mid = 0.5 * (lo + hi);
+        (two_sided_tail(mid, df) > tail ? lo : hi) = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+}  // namespace ms

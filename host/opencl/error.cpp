@@ -1,0 +1,83 @@
+#include "opencl/error.hpp"
+
+namespace ms::ocl {
+
+std::string error_name(int code) {
+    switch (code) {
+#define MS_CL_CASE(name) case name: return #name;
+        MS_CL_CASE(CL_SUCCESS)
+        MS_CL_CASE(CL_DEVICE_NOT_FOUND)
+        MS_CL_CASE(CL_DEVICE_NOT_AVAILABLE)
+        MS_CL_CASE(CL_COMPILER_NOT_AVAILABLE)
+        MS_CL_CASE(CL_MEM_OBJECT_ALLOCATION_FAILURE)
+        MS_CL_CASE(CL_OUT_OF_RESOURCES)
+        MS_CL_CASE(CL_OUT_OF_HOST_MEMORY)
+        MS_CL_CASE(CL_PROFILING_INFO_NOT_AVAILABLE)
+        MS_CL_CASE(CL_MEM_COPY_OVERLAP)
+        MS_CL_CASE(CL_IMAGE_FORMAT_MISMATCH)
+        MS_CL_CASE(CL_IMAGE_FORMAT_NOT_SUPPORTED)
+        MS_CL_CASE(CL_BUILD_PROGRAM_FAILURE)
+        MS_CL_CASE(CL_MAP_FAILURE)
+        MS_CL_CASE(CL_MISALIGNED_SUB_BUFFER_OFFSET)
+        MS_CL_CASE(CL_EXEC_STATUS_ERROR_FOR_EVENTS_IN_WAIT_LIST)
+        MS_CL_CASE(CL_COMPILE_PROGRAM_FAILURE)
+        MS_CL_CASE(CL_LINKER_NOT_AVAILABLE)
+        MS_CL_CASE(CL_LINK_PROGRAM_FAILURE)
+        MS_CL_CASE(CL_DEVICE_PARTITION_FAILED)
+        MS_CL_CASE(CL_KERNEL_ARG_INFO_NOT_AVAILABLE)
+        MS_CL_CASE(CL_INVALID_VALUE)
+        MS_CL_CASE(CL_INVALID_DEVICE_TYPE)
+        MS_CL_CASE(CL_INVALID_PLATFORM)
+        MS_CL_CASE(CL_INVALID_DEVICE)
+        MS_CL_CASE(CL_INVALID_CONTEXT)
+        MS_CL_CASE(CL_INVALID_QUEUE_PROPERTIES)
+        MS_CL_CASE(CL_INVALID_COMMAND_QUEUE)
+        MS_CL_CASE(CL_INVALID_HOST_PTR)
+        MS_CL_CASE(CL_INVALID_MEM_OBJECT)
+        MS_CL_CASE(CL_INVALID_IMAGE_FORMAT_DESCRIPTOR)
+        MS_CL_CASE(CL_INVALID_IMAGE_SIZE)
+        MS_CL_CASE(CL_INVALID_SAMPLER)
+        MS_CL_CASE(CL_INVALID_BINARY)
+        MS_CL_CASE(CL_INVALID_BUILD_OPTIONS)
+        MS_CL_CASE(CL_INVALID_PROGRAM)
+        MS_CL_CASE(CL_INVALID_PROGRAM_EXECUTABLE)
+        MS_CL_CASE(CL_INVALID_KERNEL_NAME)
+        MS_CL_CASE(CL_INVALID_KERNEL_DEFINITION)
+        MS_CL_CASE(CL_INVALID_KERNEL)
+        MS_CL_CASE(CL_INVALID_ARG_INDEX)
+        MS_CL_CASE(CL_INVALID_ARG_VALUE)
+        MS_CL_CASE(CL_INVALID_ARG_SIZE)
+        MS_CL_CASE(CL_INVALID_KERNEL_ARGS)
+        MS_CL_CASE(CL_INVALID_WORK_DIMENSION)
+        MS_CL_CASE(CL_INVALID_WORK_GROUP_SIZE)
+        MS_CL_CASE(CL_INVALID_WORK_ITEM_SIZE)
+        MS_CL_CASE(CL_INVALID_GLOBAL_OFFSET)
+        MS_CL_CASE(CL_INVALID_EVENT_WAIT_LIST)
+        MS_CL_CASE(CL_INVALID_EVENT)
+        MS_CL_CASE(CL_INVALID_OPERATION)
+        MS_CL_CASE(CL_INVALID_GL_OBJECT)
+        MS_CL_CASE(CL_INVALID_BUFFER_SIZE)
+        MS_CL_CASE(CL_INVALID_MIP_LEVEL)
+        MS_CL_CASE(CL_INVALID_GLOBAL_WORK_SIZE)
+        MS_CL_CASE(CL_INVALID_PROPERTY)
+        MS_CL_CASE(CL_INVALID_IMAGE_DESCRIPTOR)
+        MS_CL_CASE(CL_INVALID_COMPILER_OPTIONS)
+        MS_CL_CASE(CL_INVALID_LINKER_OPTIONS)
+        MS_CL_CASE(CL_INVALID_DEVICE_PARTITION_COUNT)
+        MS_CL_CASE(CL_PLATFORM_NOT_FOUND_KHR)
+#undef MS_CL_CASE
+        default: return "CL_UNKNOWN_ERROR(" + std::to_string(code) + ")";
+    }
+}
+
+Error::Error(std::string call, int code, const std::string& detail)
+    : std::runtime_error("OpenCL call " + call + " failed with " + error_name(code) + (detail.empty() ? "" : ": " + detail)),
+      call_(std::move(call)),
+      code_(code) {}
+
+BuildError::BuildError(const std::string& device, const std::string& options, const std::string& log)
+    : Error("clBuildProgram", CL_BUILD_PROGRAM_FAILURE,
+            "kernel build failed on '" + device + "' with options '" + options + "'; build log:\n" + log),
+      log_(log) {}
+
+}  // namespace ms::ocl

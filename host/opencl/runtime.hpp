@@ -1,0 +1,70 @@
+// OpenCL devices, kernel sources and build options, and a per-device program cache.
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "opencl/error.hpp"
+
+namespace ms::ocl {
+
+struct DeviceInfo {
+    std::size_t index = 0;  // position in enumerate_devices(), the number `--device N` takes
+    std::string platform, name, vendor, version, driver, type;
+    unsigned compute_units = 0;
+    std::uint64_t global_memory = 0;
+    bool fp64 = false;
+    cl::Device device;
+
+    std::string label() const { return name + " [" + platform + "]"; }
+};
+
+// Every device of every platform, in platform order. Throws NoDeviceError when there is no platform.
+std::vector<DeviceInfo> enumerate_devices();
+
+// Device selection by a user's spec:
+//   "" or "default": PoCL's CPU device if present, else the first CPU device, else device 0;
+//   "all": every device;  "N" or "N,M": by index;  anything else: devices whose name or platform
+//   contains the text (case-insensitive). Throws NoDeviceError with the list of devices when nothing matches.
+std::vector<DeviceInfo> select_devices(const std::string& spec);
+
+// Everything that changes the compiled program. build_options() is the one place that turns it into
+// compiler flags: strict IEEE float by default; fast math only when asked (and then recorded by callers).
+struct BuildConfig {
+    bool fast_math = false;
+    bool double_precision = false;               // MS_REAL=double, for devices with cl_khr_fp64
+    std::map<std::string, std::string> defines;  // extra -D NAME=VALUE
+};
+std::string build_options(const BuildConfig& config);
+
+// Source of kernels/<file> with the shared header inlined: embedded at build time, or read from the
+// directory in $MICROSHADOW_KERNEL_DIR when set (a development switch: edit kernels without rebuilding).
+std::string kernel_source(const std::string& file);
+
+// A device with its own context and in-order queue. Programs are built once per (source hash,
+// options) and cached; build times are recorded so benchmarks can report them apart from run time.
+class Device {
+public:
+    explicit Device(DeviceInfo info);
+    const DeviceInfo& info() const { return info_; }
+    cl::Context& context() { return context_; }
+    cl::CommandQueue& queue() { return queue_; }
+
+    cl::Program& program(const std::string& file, const BuildConfig& config);
+    cl::Kernel kernel(const std::string& file, const std::string& kernel_name, const BuildConfig& config);
+    double last_build_seconds() const { return last_build_seconds_; }
+
+private:
+    DeviceInfo info_;
+    cl::Context context_;
+    cl::CommandQueue queue_;
+    std::mutex mutex_;
+    std::map<std::string, cl::Program> programs_;
+    double last_build_seconds_ = 0;
+};
+
+}  // namespace ms::ocl

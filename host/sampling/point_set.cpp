@@ -1,0 +1,95 @@
+#include "sampling/point_set.hpp"
+
+#include <stdexcept>
+#include <string>
+
+namespace ms {
+
+namespace {
+
+// splitmix64 finaliser: a bijective 64-bit mixer, used to derive independent seeds and random bits.
+std::uint64_t mix64(std::uint64_t z) {
+    z += 0x9e3779b97f4a7c15ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+}
+
+// Keep the top 24 bits so the value is exactly representable in float and strictly below 1.
+float to_unit_float(std::uint32_t bits) { return float(bits >> 8) * (1.0f / 16777216.0f); }
+
+bool is_power_of_two(std::uint64_t x) { return x && !(x & (x - 1)); }
+
+}  // namespace
+
+std::uint32_t reverse_bits(std::uint32_t x) {
+    x = ((x >> 1) & 0x55555555u) | ((x & 0x55555555u) << 1);
+    x = ((x >> 2) & 0x33333333u) | ((x & 0x33333333u) << 2);
+    x = ((x >> 4) & 0x0f0f0f0fu) | ((x & 0x0f0f0f0fu) << 4);
+    x = ((x >> 8) & 0x00ff00ffu) | ((x & 0x00ff00ffu) << 8);
+    return (x >> 16) | (x << 16);
+}
+
+// Nested uniform scrambling flips each bit of x depending only on the bits above it. In bit-reversed
+// order "the bits above" become "the bits below", and a multiply-xorshift hash whose every step only
+// propagates information upwards (x * odd, x ^ (x * even)) has exactly that dependency structure.
+// Constants from Burley, "Practical Hash-based Owen Scrambling", JCGT 2020.
+std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed) {
+    x = reverse_bits(x);
+    x ^= x * 0x3d20adeau;
+    x += seed;
+    x *= (seed >> 16) | 1u;
+    x ^= x * 0x05526c56u;
+    x ^= x * 0x53a22864u;
+    return reverse_bits(x);
+}
+
+std::uint64_t round_up_samples(std::uint64_t requested, std::uint32_t replicates) {
+    if (replicates == 0) throw std::invalid_argument("replicates must be at least 1");
+    std::uint64_t n = 16;
+    while (n * replicates < requested) n <<= 1;
+    return n * replicates;
+}
+
+PointSet make_point_set(const SamplingPlan& plan) {
+    if (plan.replicates < 1 || plan.replicates > 1024)
+        throw std::invalid_argument("replicates must be in [1, 1024], got " + std::to_string(plan.replicates));
+    if (plan.samples % plan.replicates != 0)
+        throw std::invalid_argument("samples (" + std::to_string(plan.samples) + ") must be a multiple of replicates");
+    const std::uint64_t n = plan.samples / plan.replicates;
+    if (!is_power_of_two(n) || n < 16 || n > (1ull << 28))
+        throw std::invalid_argument("samples per replicate must be a power of two in [16, 2^28], got " + std::to_string(n));
+
+    PointSet ps;
+    ps.sequence = plan.sequence;
+    ps.replicates = plan.replicates;
+    ps.points_per_replicate = std::uint32_t(n);
+    ps.seed = plan.seed;
+    ps.u1.resize(ps.total());
+    ps.u2.resize(ps.total());
+
+    int m = 0;
+    while ((1ull << m) < n) ++m;
+    for (std::uint32_t r = 0; r < plan.replicates; ++r) {
+        const std::uint64_t rep_key = mix64(plan.seed ^ mix64(r + 1));
+        const std::uint32_t seed0 = std::uint32_t(mix64(rep_key ^ 0x51));
+        const std::uint32_t seed1 = std::uint32_t(mix64(rep_key ^ 0xa3));
+        float* u1 = ps.u1.data() + std::uint64_t(r) * n;
+        float* u2 = ps.u2.data() + std::uint64_t(r) * n;
+        for (std::uint32_t i = 0; i < n; ++i) {
+            if (plan.sequence == Sequence::sobol) {
+                const std::uint32_t x0 = m == 0 ? 0u : i << (32 - m);  // i / n in 0.32 fixed point
+                const std::uint32_t x1 = reverse_bits(i);              // radical inverse of i
+                u1[i] = to_unit_float(owen_scramble(x0, seed0));
+                u2[i] = to_unit_float(owen_scramble(x1, seed1));
+            } else {
+                const std::uint64_t bits = mix64(rep_key ^ mix64(0x9000000000000000ull + i));
+                u1[i] = to_unit_float(std::uint32_t(bits));
+                u2[i] = to_unit_float(std::uint32_t(bits >> 32));
+            }
+        }
+    }
+    return ps;
+}
+
+}  // namespace ms

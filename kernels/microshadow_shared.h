@@ -1,0 +1,60 @@
+/*
+ * microshadow_shared.h - layout shared by the host (C++) and the OpenCL C 1.2 kernels.
+ *
+ * Only layout lives here: argument structs, enums and constants. No formula may be shared between
+ * the kernels and the scalar oracle (host/oracle/), so that one mistake cannot pass both.
+ *
+ * Every struct uses only 32-bit scalars in a fixed order so that the C++ and OpenCL C layouts agree
+ * without packing pragmas (checked by static_asserts on the host side).
+ */
+#ifndef MICROSHADOW_SHARED_H
+#define MICROSHADOW_SHARED_H
+
+#ifdef __OPENCL_C_VERSION__
+typedef uint ms_u32;
+typedef int ms_i32;
+#else
+#include <stdint.h>
+typedef uint32_t ms_u32;
+typedef int32_t ms_i32;
+#endif
+
+/* Mapping of the AO visibility to the cosine of the visibility cone angle (part 1). */
+#define MS_AO_COSINE 0  /* cos_t = sqrt(1 - v): the AO bake used cosine-weighted rays (default) */
+#define MS_AO_UNIFORM 1 /* cos_t = 1 - v: the AO bake used uniform-weighted rays */
+
+/* Smith form of the sample weight G2(wi,wo,wm) / G1(wi,wm). */
+#define MS_FORM_HEIGHT_CORRELATED 0
+#define MS_FORM_UNCORRELATED 1
+
+/* Sample sequences. */
+#define MS_SEQUENCE_SOBOL 0  /* Owen-scrambled (0,m,2)-nets in base 2, one independent scramble per replicate */
+#define MS_SEQUENCE_RANDOM 1 /* independent uniform points */
+
+/* The kernels consume points in SIMD blocks of this many lanes (float16). */
+#define MS_LANES 16
+
+/*
+ * One query of the generic term: a visibility cone and an anisotropic GGX microsurface seen from wi
+ * and lit from wo. Directions are unit vectors in the tangent frame (normal = +z); the host normalises.
+ * cos_theta is the cosine of the cone half-angle, already mapped from visibility by the host.
+ */
+typedef struct ms_query {
+    float cos_theta;
+    float alpha_x;
+    float alpha_y;
+    float wi_x, wi_y, wi_z;
+    float wo_x, wo_y, wo_z;
+    float pad0, pad1, pad2; /* keeps the struct 48 bytes, a multiple of 16 */
+} ms_query;
+
+/*
+ * Integer tallies of one query over one replicate of the point set.
+ * cone: samples with both cone conditions; hemisphere: samples with both hemisphere conditions.
+ */
+typedef struct ms_tally {
+    ms_u32 cone;
+    ms_u32 hemisphere;
+} ms_tally;
+
+#endif /* MICROSHADOW_SHARED_H */

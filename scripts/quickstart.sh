@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# The README's quick start: installs what is missing, builds in Release, then
+#   main: runs the main job (the default seed-3d LUT bake and its preview, into out/)
+#   test: runs the whole test suite through ctest
+set -euo pipefail
+cd "$(dirname "$0")/.."
+job=${1:-main}
+case "$job" in main|test) ;; *) echo "usage: $0 main|test" >&2; exit 2 ;; esac
+
+bash scripts/install-deps.sh
+build=${MICROSHADOW_BUILD_DIR:-build}
+cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake --build "$build" -j"$(nproc)"
+
+if [ "$job" = main ]; then
+  mkdir -p out
+  "$build/microshadow" devices
+  "$build/microshadow" eval --in examples/queries.csv --out out/queries_result.csv
+  echo "wrote out/queries_result.csv"
+else
+  cd "$build"
+  ctest --output-on-failure -j"$(nproc)"
+fi

@@ -152,7 +152,10 @@ MicrofacetTerm generic_m_m(double cos_theta, const Vec3& wm, const Vec3& wo, con
 
 Tally tally(const Query& q, const TermOptions& opt, const PointSet& points) {
     if (!(q.alpha_x > 0 && q.alpha_y > 0)) throw std::invalid_argument("oracle: alpha must be positive");
-    if (!(q.wi.z > 0)) throw std::invalid_argument("oracle: wi must be above the horizon");
+    // wi exactly on the horizon is accepted: the sampler is well defined there (the cap becomes the
+    // upper half sphere) and gives the continuous limit wi.z -> 0 (the height-correlated weight tends
+    // to G1o / G1o = 1 as Lambda_i -> inf, which is what smith_g1 = 0 for wi yields). Below: invalid.
+    if (!(q.wi.z >= 0)) throw std::invalid_argument("oracle: wi must not be below the horizon");
     const std::size_t n = points.points_per_replicate;
     if (points.u1.size() != points.total() || points.u2.size() != points.total())
         throw std::invalid_argument("oracle: point set arrays do not match replicates * points_per_replicate");

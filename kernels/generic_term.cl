@@ -24,23 +24,56 @@
 #include "microshadow_shared.h"
 
 /*
+ * Working precision. MS_REAL_IS_DOUBLE=1 (BuildConfig::double_precision, devices with cl_khr_fp64)
+ * runs the same algorithm in double, which tells float rounding apart from algorithmic differences
+ * when the kernel is compared with the oracle. The points stay float: they are exact in both.
+ */
+#if MS_REAL_IS_DOUBLE
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+typedef double real;
+typedef double3 real3;
+typedef double16 real16;
+#define convert_real16 convert_double16
+#define MS_R(x) x
+#else
+typedef float real;
+typedef float3 real3;
+typedef float16 real16;
+#define convert_real16 convert_float16
+#define MS_R(x) x##f
+#endif
+
+/*
  * cos(2 pi u) and sin(2 pi u) for u in [0, 1). Write 2 pi u = q pi/2 + a with q = round(4u) and
  * a in [-pi/4, pi/4]; Taylor polynomials of degree 7 (sin) and 8 (cos) are accurate to 3e-7 there,
- * below float's resolution of the sampled directions. The quadrant rotation is done with selects.
+ * below float's resolution of the sampled directions (double mode adds terms up to degree 12, 1e-11).
+ * The quadrant rotation is done with selects.
  */
-inline void sincos_turns16(float16 u, float16* sin_out, float16* cos_out)
+#if MS_REAL_IS_DOUBLE
+typedef long16 mask16; /* vector comparisons of double16 yield long16 */
+#define convert_mask16 convert_long16
+#else
+typedef int16 mask16;
+#define convert_mask16 convert_int16
+#endif
+inline void sincos_turns16(real16 u, real16* sin_out, real16* cos_out)
 {
-    const float16 t = u * 4.0f;
-    const int16 q = convert_int16(t + 0.5f); /* t >= 0, so truncation rounds to nearest */
-    const float16 a = (t - convert_float16(q)) * 1.57079632679489662f;
-    const float16 a2 = a * a;
-    const float16 sa = a * (1.0f + a2 * (-1.0f / 6.0f + a2 * (1.0f / 120.0f + a2 * (-1.0f / 5040.0f))));
-    const float16 ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24.0f + a2 * (-1.0f / 720.0f + a2 * (1.0f / 40320.0f))));
-    const int16 quadrant = q & 3;
+    const real16 t = u * MS_R(4.0);
+    const int16 q = convert_int16(t + MS_R(0.5)); /* t >= 0, so truncation rounds to nearest */
+    const real16 a = (t - convert_real16(q)) * MS_R(1.57079632679489662);
+    const real16 a2 = a * a;
+#if MS_REAL_IS_DOUBLE
+    const real16 sa = a * (1.0 + a2 * (-1.0 / 6 + a2 * (1.0 / 120 + a2 * (-1.0 / 5040 + a2 * (1.0 / 362880 + a2 * (-1.0 / 39916800))))));
+    const real16 ca = 1.0 + a2 * (-0.5 + a2 * (1.0 / 24 + a2 * (-1.0 / 720 + a2 * (1.0 / 40320 + a2 * (-1.0 / 3628800 + a2 * (1.0 / 479001600))))));
+#else
+    const real16 sa = a * (1.0f + a2 * (-1.0f / 6.0f + a2 * (1.0f / 120.0f + a2 * (-1.0f / 5040.0f))));
+    const real16 ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24.0f + a2 * (-1.0f / 720.0f + a2 * (1.0f / 40320.0f))));
+#endif
+    const mask16 quadrant = convert_mask16(q & 3);
     /* quadrant 0: (cos, sin) = (ca, sa); 1: (-sa, ca); 2: (-ca, -sa); 3: (sa, -ca) */
-    const int16 odd = (quadrant & 1) != 0;
-    const float16 c = select(ca, sa, odd);
-    const float16 s = select(sa, ca, odd);
+    const mask16 odd = (quadrant & 1) != 0;
+    const real16 c = select(ca, sa, odd);
+    const real16 s = select(sa, ca, odd);
     *cos_out = select(c, -c, (quadrant == 1) | (quadrant == 2));
     *sin_out = select(s, -s, quadrant >= 2);
 }
@@ -62,28 +95,29 @@ inline ms_tally tally_points(const ms_query q, __global const float* u1, __globa
     if (q.wo_z <= 0.0f || q.wo_z <= 2.0f * q.cos_theta * q.cos_theta - 1.0f || q.cos_theta >= 1.0f)
         return result;
 
-    float3 wi_std = (float3)(q.alpha_x * q.wi_x, q.alpha_y * q.wi_y, q.wi_z);
+    const real ax = q.alpha_x, ay = q.alpha_y;
+    real3 wi_std = (real3)(ax * q.wi_x, ay * q.wi_y, q.wi_z);
     wi_std *= rsqrt(dot(wi_std, wi_std));
-    const float c2 = q.cos_theta * q.cos_theta;
+    const real c2 = (real)q.cos_theta * (real)q.cos_theta;
 
     int16 cone = 0, hemisphere = 0; /* comparisons yield -1 for true, so these count downwards */
     for (uint i = first; i < first + count; i += MS_LANES) {
-        const float16 r1 = vload16(0, u1 + i);
-        const float16 r2 = vload16(0, u2 + i);
-        float16 sin_phi, cos_phi;
+        const real16 r1 = convert_real16(vload16(0, u1 + i));
+        const real16 r2 = convert_real16(vload16(0, u2 + i));
+        real16 sin_phi, cos_phi;
         sincos_turns16(r1, &sin_phi, &cos_phi);
-        const float16 z = mad(1.0f - r2, 1.0f + wi_std.z, -wi_std.z);
-        const float16 s = sqrt(max(1.0f - z * z, 0.0f));
-        const float16 mx = q.alpha_x * mad(s, cos_phi, wi_std.x);
-        const float16 my = q.alpha_y * mad(s, sin_phi, wi_std.y);
-        const float16 mz = z + wi_std.z;
-        const float16 len2 = mad(mx, mx, mad(my, my, mz * mz));
-        const float16 m_dot_l = mad(mx, q.wo_x, mad(my, q.wo_y, mz * q.wo_z));
-        const int16 facing_up = mz > 0.0f;
-        const int16 facing_light = m_dot_l > 0.0f;
-        const float16 threshold2 = c2 * len2;
-        hemisphere += facing_up & facing_light;
-        cone += facing_up & facing_light & (mz * mz > threshold2) & (m_dot_l * m_dot_l > threshold2);
+        const real16 z = mad(MS_R(1.0) - r2, MS_R(1.0) + wi_std.z, -wi_std.z);
+        const real16 s = sqrt(max(MS_R(1.0) - z * z, MS_R(0.0)));
+        const real16 mx = ax * mad(s, cos_phi, wi_std.x);
+        const real16 my = ay * mad(s, sin_phi, wi_std.y);
+        const real16 mz = z + wi_std.z;
+        const real16 len2 = mad(mx, mx, mad(my, my, mz * mz));
+        const real16 m_dot_l = mad(mx, (real)q.wo_x, mad(my, (real)q.wo_y, mz * (real)q.wo_z));
+        const real16 threshold2 = c2 * len2;
+        const mask16 facing = (mz > MS_R(0.0)) & (m_dot_l > MS_R(0.0));
+        const mask16 in_cone = facing & (mz * mz > threshold2) & (m_dot_l * m_dot_l > threshold2);
+        hemisphere += convert_int16(facing);
+        cone += convert_int16(in_cone);
     }
     /* Lanes hold at most count / 16 each; the horizontal sum cannot overflow for count < 2^31. */
     int8 c8 = cone.lo + cone.hi;

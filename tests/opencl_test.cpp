@@ -70,6 +70,29 @@ TEST(OpenClKernel, MatchesWeightedOracleOnTheSamePoints) {
     }
 }
 
+TEST(OpenClKernel, DoublePrecisionBuildFollowsTheOracleOnTheSamePoints) {
+    // MS_REAL_IS_DOUBLE runs the kernel's algorithm in double: on the same points it must agree with
+    // the oracle's weighted double sums to within the odd sample within 1e-11 of a boundary (the
+    // polynomial sincos error), i.e. at most a flip or two per query.
+    const auto devices = ocl::select_devices("default");
+    if (!devices.front().fp64) GTEST_SKIP() << "device has no cl_khr_fp64";
+    OpenClBackendConfig config;
+    config.build.double_precision = true;
+    auto cl = make_opencl_backend(devices, config);
+    const auto queries = testing::random_queries(40, true, 8);
+    const SamplingPlan plan{Sequence::sobol, 1 << 15, 8, 9};
+    const PointSet points = make_point_set(plan);
+    const TermOptions opt{};
+    const Tallies counts = cl->tally(queries, opt, points);
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        const Estimate a = reduce_replicates(&counts.cone[i * 8], &counts.hemisphere[i * 8], 8);
+        const Estimate b = oracle::generic_m_g(queries[i], opt, points);
+        double hemisphere = 0;
+        for (int r = 0; r < 8; ++r) hemisphere += counts.hemisphere[i * 8 + r];
+        EXPECT_LE(std::abs(a.term - b.term), 2.0 / hemisphere) << "query " << i;
+    }
+}
+
 TEST(OpenClKernel, SameSeedSameBitsAcrossBatchSizes) {
     const auto queries = testing::random_queries(50, true, 4);
     const SamplingPlan plan{Sequence::sobol, 1 << 13, 8, 99};

@@ -43,6 +43,7 @@ SamplingPlan SamplingOptions::plan() const {
 ocl::BuildConfig SamplingOptions::build_config() const {
     ocl::BuildConfig b;
     b.fast_math = fast_math;
+    b.double_precision = double_kernels;
     return b;
 }
 
@@ -74,6 +75,8 @@ void add_sampling_options(CLI::App* app, SamplingOptions& o) {
     app->add_option("--device", o.device, "OpenCL device: default, all, an index (see 'devices') or a name")
         ->capture_default_str();
     app->add_flag("--fast-math", o.fast_math, "build kernels with -cl-fast-relaxed-math (recorded in outputs)");
+    app->add_flag("--double-kernels", o.double_kernels,
+                  "run the kernels in double precision (devices with cl_khr_fp64; separates rounding from algorithm)");
     app->add_flag("--quiet,-q", o.quiet, "no progress or summary on stderr");
 }
 

@@ -21,6 +21,7 @@ struct SamplingOptions {
     std::string backend = "opencl";
     std::string device = "default";
     bool fast_math = false;
+    bool double_kernels = false;
     bool quiet = false;
 
     TermOptions term_options() const;
@@ -40,5 +41,8 @@ void set_command_line(int argc, char** argv);
 // Subcommand registration (one per file in host/cli/).
 void add_devices_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
+void add_bake_command(CLI::App& app);
+void add_sweep_command(CLI::App& app);
+void add_merge_command(CLI::App& app);
 
 }  // namespace ms::cli

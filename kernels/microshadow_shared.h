@@ -57,4 +57,29 @@ typedef struct ms_tally {
     ms_u32 hemisphere;
 } ms_tally;
 
+
+/*
+ * LUT bakes (kernels/bake_lut.cl): one (roughness, NdotV) slice, i.e. one alpha and one wi, tallied for
+ * `directions` light directions wo (NdotL rows x azimuth nodes) and `texels` visibility texels at once.
+ * Visibility texel j sits at v_j = vis_min + (j + bin_offset) / bin_scale (the host maps the texel
+ * convention onto scale and offset).
+ */
+typedef struct ms_bake_slice {
+    float alpha_x, alpha_y;
+    float wi_x, wi_y, wi_z;
+    float vis_min;
+    float bin_scale;
+    float bin_offset;
+    ms_u32 points;     /* points per replicate (a multiple of MS_LANES) */
+    ms_u32 replicates;
+    ms_u32 directions; /* number of wo directions (float4 each: x, y, z, unused) */
+    ms_u32 texels;     /* visibility texel count nv */
+    ms_u32 ao_weighting;
+    ms_u32 pad0, pad1, pad2; /* 64 bytes */
+} ms_bake_slice;
+
+/* The histogram kernel keeps this many interleaved copies of each histogram so that consecutive
+ * increments of one bin (frequent: t is concentrated) do not form one long store-to-load chain. */
+#define MS_BAKE_SUBHISTOGRAMS 4
+
 #endif /* MICROSHADOW_SHARED_H */

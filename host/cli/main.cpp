@@ -17,6 +17,9 @@ int main(int argc, char** argv) {
     app.set_version_flag("--version", "microshadow " MICROSHADOW_VERSION);
     cli::add_devices_command(app);
     cli::add_eval_command(app);
+    cli::add_bake_command(app);
+    cli::add_sweep_command(app);
+    cli::add_merge_command(app);
     cli::install_interrupt_handlers();
     try {
         app.parse(argc, argv);

@@ -1,0 +1,122 @@
+// Compiled with -O3 -march=native -fno-math-errno -fopenmp (see bench/CMakeLists.txt); nothing else in
+// the project is. The loop mirrors kernels/generic_term.cl operation by operation (same polynomial
+// sincos, same fma placement, squared comparisons instead of a normalisation) so the counts agree with
+// the kernel's up to samples that sit on a threshold within float rounding; see borderline_samples().
+#include "baseline/baseline_tally.hpp"
+
+#include <omp.h>
+
+#include <cmath>
+
+namespace ms::bench {
+
+namespace {
+
+struct Prepared {
+    bool zero = false;  // provably zero: the kernel's guard
+    float ax, ay, wx, wy, wz, ox, oy, oz, c2;
+};
+
+Prepared prepare(const ms_query& q) {
+    Prepared p{};
+    p.zero = q.wo_z <= 0.0f || q.wo_z <= 2.0f * q.cos_theta * q.cos_theta - 1.0f || q.cos_theta >= 1.0f;
+    const float sx = q.alpha_x * q.wi_x, sy = q.alpha_y * q.wi_y, sz = q.wi_z;
+    const float inv = 1.0f / std::sqrt(sx * sx + sy * sy + sz * sz);
+    p.ax = q.alpha_x, p.ay = q.alpha_y;
+    p.wx = sx * inv, p.wy = sy * inv, p.wz = sz * inv;
+    p.ox = q.wo_x, p.oy = q.wo_y, p.oz = q.wo_z;
+    p.c2 = q.cos_theta * q.cos_theta;
+    return p;
+}
+
+// One sample's unnormalised microfacet normal m (see the kernel): returns mz, len2 and m.wo.
+inline void sample(const Prepared& p, float r1, float r2, float& mz, float& len2, float& mdl) {
+    // sincos(2 pi r1): quadrant q = round(4 r1), remainder a in [-pi/4, pi/4], Taylor polynomials.
+    const float t = r1 * 4.0f;
+    const int qd = int(t + 0.5f);
+    const float a = (t - float(qd)) * 1.57079632679489662f;
+    const float a2 = a * a;
+    const float sa = a * (1.0f + a2 * (-1.0f / 6.0f + a2 * (1.0f / 120.0f + a2 * (-1.0f / 5040.0f))));
+    const float ca = 1.0f + a2 * (-0.5f + a2 * (1.0f / 24.0f + a2 * (-1.0f / 720.0f + a2 * (1.0f / 40320.0f))));
+    const int quadrant = qd & 3;
+    const bool odd = (quadrant & 1) != 0;
+    const float c = odd ? sa : ca;
+    const float s_ = odd ? ca : sa;
+    const float cos_phi = (quadrant == 1 || quadrant == 2) ? -c : c;
+    const float sin_phi = quadrant >= 2 ? -s_ : s_;
+    // Spherical cap in z, then unstretch (Dupuy & Benyoub 2023).
+    const float z = std::fma(1.0f - r2, 1.0f + p.wz, -p.wz);
+    const float s = std::sqrt(std::fmax(1.0f - z * z, 0.0f));
+    const float mx = p.ax * std::fma(s, cos_phi, p.wx);
+    const float my = p.ay * std::fma(s, sin_phi, p.wy);
+    mz = z + p.wz;
+    len2 = std::fma(mx, mx, std::fma(my, my, mz * mz));
+    mdl = std::fma(mx, p.ox, std::fma(my, p.oy, mz * p.oz));
+}
+
+ms_tally tally_range(const Prepared& p, const float* __restrict u1, const float* __restrict u2, std::uint32_t count) {
+    if (p.zero) return {0u, 0u};
+    int cone = 0, hemisphere = 0;
+    // Branch-free body so GCC if-converts it into masked vector code (checked with -fopt-info-vec).
+#pragma omp simd reduction(+ : cone, hemisphere)
+    for (std::uint32_t i = 0; i < count; ++i) {
+        float mz, len2, mdl;
+        sample(p, u1[i], u2[i], mz, len2, mdl);
+        const float threshold2 = p.c2 * len2;
+        const int up = (mz > 0.0f) & (mdl > 0.0f);
+        hemisphere += up;
+        cone += up & (mz * mz > threshold2) & (mdl * mdl > threshold2);
+    }
+    return {std::uint32_t(cone), std::uint32_t(hemisphere)};
+}
+
+}  // namespace
+
+int baseline_threads() { return omp_get_max_threads(); }
+
+void baseline_tally(const std::vector<ms_query>& queries, const float* u1, const float* u2, std::uint32_t n,
+                    std::uint32_t replicates, std::vector<ms_tally>& out) {
+    const std::size_t pairs = queries.size() * replicates;
+    // Split replicates into chunks so there are a few items per thread for dynamic balancing, like the
+    // OpenCL host code does; chunks stay long (>= 4096 points) so the loop runs at vector speed.
+    std::uint32_t chunks = 1;
+    while (pairs * chunks < std::size_t(8 * omp_get_max_threads()) && n / (chunks * 2) >= 4096) chunks *= 2;
+    const std::uint32_t per_chunk = n / chunks;
+    std::vector<ms_tally> items(pairs * chunks);
+    std::vector<Prepared> prepared(queries.size());
+    for (std::size_t q = 0; q < queries.size(); ++q) prepared[q] = prepare(queries[q]);
+#pragma omp parallel for schedule(dynamic, 1)
+    for (std::ptrdiff_t g = 0; g < std::ptrdiff_t(items.size()); ++g) {
+        const std::size_t chunk = std::size_t(g) % chunks;
+        const std::size_t pair = std::size_t(g) / chunks;
+        const std::size_t q = pair / replicates, r = pair % replicates;
+        const std::size_t first = r * n + chunk * per_chunk;
+        items[std::size_t(g)] = tally_range(prepared[q], u1 + first, u2 + first, per_chunk);
+    }
+    out.assign(pairs, ms_tally{0u, 0u});
+    for (std::size_t g = 0; g < items.size(); ++g) {
+        out[g / chunks].cone += items[g].cone;
+        out[g / chunks].hemisphere += items[g].hemisphere;
+    }
+}
+
+std::uint64_t borderline_samples(const ms_query& q, const float* u1, const float* u2, std::uint32_t count, float margin) {
+    const Prepared p = prepare(q);
+    if (p.zero) return 0;
+    std::uint64_t border = 0;
+    auto near = [margin](float a, float b) { return std::fabs(a - b) <= margin * std::fmax(std::fabs(a), std::fabs(b)); };
+    for (std::uint32_t i = 0; i < count; ++i) {
+        float mz, len2, mdl;
+        sample(p, u1[i], u2[i], mz, len2, mdl);
+        // Each comparison of the kernel, with its scale: the sign tests against |m|, the cone tests
+        // against their squared threshold.
+        const float len = std::sqrt(len2);
+        const float threshold2 = p.c2 * len2;
+        if (std::fabs(mz) <= margin * len || std::fabs(mdl) <= margin * len || near(mz * mz, threshold2) ||
+            near(mdl * mdl, threshold2))
+            ++border;
+    }
+    return border;
+}
+
+}  // namespace ms::bench

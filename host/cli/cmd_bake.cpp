@@ -1,0 +1,190 @@
+// microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR.
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "bake/bake.hpp"
+#include "bake/verify.hpp"
+#include "cli/common.hpp"
+#include "cli/progress.hpp"
+#include "io/atomic_file.hpp"
+#include "io/exr_lut.hpp"
+#include "io/png_preview.hpp"
+
+namespace ms::cli {
+
+namespace {
+
+struct BakeArgs {
+    std::string layout = "seed-3d", out, preview, texel = "centres", azimuth = "mean";
+    std::uint32_t size = 32, size_visibility = 0, size_n_dot_l = 0, size_n_dot_v = 0;
+    std::vector<double> roughness, visibility_range, n_dot_l_range, n_dot_v_range;
+    std::uint32_t azimuth_intervals = 0, max_batches = 64, verify = 0;
+    double tolerance = 0;
+    bool half = false;
+    SamplingOptions sampling;
+    CLI::App* cmd = nullptr;
+};
+
+bool given(CLI::App* cmd, const std::string& name) { return cmd->get_option(name)->count() > 0; }
+
+void set_range(LutAxis& axis, const std::vector<double>& range) {
+    if (range.empty()) return;
+    if (range.size() != 2) throw std::invalid_argument("--" + axis.name + "-range takes MIN,MAX");
+    axis.min = range[0];
+    axis.max = range[1];
+}
+
+BakeSpec make_spec(const BakeArgs& a) {
+    const LutLayout layout = parse_lut_layout(a.layout);
+    if (a.sampling.backend != "opencl")
+        throw std::invalid_argument("bake runs on OpenCL devices; --backend oracle is for eval (use --verify to check with it)");
+    if (layout != LutLayout::custom) {
+        for (const char* o : {"--roughness", "--visibility-range", "--n-dot-l-range", "--n-dot-v-range"})
+            if (given(a.cmd, o)) throw std::invalid_argument(std::string(o) + " needs --layout custom");
+    }
+    if (layout == LutLayout::seed_2d && given(a.cmd, "--size-n-dot-v"))
+        throw std::invalid_argument("--size-n-dot-v does not apply to seed-2d (the NdotV = 1 slice)");
+    if (given(a.cmd, "--samples") && given(a.cmd, "--tolerance"))
+        throw std::invalid_argument("give --samples or --tolerance, not both (--tolerance adds batches of the default size)");
+
+    BakeSpec s = default_bake_spec(layout, a.size);
+    if (a.size_visibility) s.visibility.count = a.size_visibility;
+    if (a.size_n_dot_l) s.n_dot_l.count = a.size_n_dot_l;
+    if (a.size_n_dot_v) s.n_dot_v.count = a.size_n_dot_v;
+    const TexelConvention texel = parse_texel_convention(a.texel);
+    s.visibility.texel = s.n_dot_l.texel = texel;
+    if (layout != LutLayout::seed_2d) s.n_dot_v.texel = texel;
+    if (layout == LutLayout::custom) {
+        if (!a.roughness.empty()) s.roughness = a.roughness;
+        set_range(s.visibility, a.visibility_range);
+        set_range(s.n_dot_l, a.n_dot_l_range);
+        set_range(s.n_dot_v, a.n_dot_v_range);
+    }
+    if (a.azimuth == "mean") {
+        s.azimuth_mean = true;
+    } else {
+        std::size_t used = 0;
+        double deg = 0;
+        try {
+            deg = std::stod(a.azimuth, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != a.azimuth.size()) throw std::invalid_argument("--azimuth must be 'mean' or degrees in [0, 180], not '" + a.azimuth + "'");
+        s.azimuth_mean = false;
+        s.azimuth_degrees = deg;
+    }
+    if (given(a.cmd, "--azimuth-intervals") && !s.azimuth_mean)
+        throw std::invalid_argument("--azimuth-intervals applies to --azimuth mean only");
+    s.azimuth_intervals = a.azimuth_intervals;
+    const SamplingPlan plan = a.sampling.plan();
+    s.term = a.sampling.term_options();
+    s.sequence = plan.sequence;
+    s.replicates = plan.replicates;
+    s.seed = plan.seed;
+    s.samples = given(a.cmd, "--samples") ? plan.samples : 0;
+    s.tolerance = given(a.cmd, "--tolerance") ? a.tolerance : kDefaultTolerance;
+    s.max_batches = a.max_batches;
+    s.device = a.sampling.device;
+    s.build = a.sampling.build_config();
+    s.command_line = command_line();
+    validate(s);
+    return s;
+}
+
+void run_bake(const BakeArgs& args) {
+    const BakeSpec spec = make_spec(args);
+    // Fail on a bad destination before the (long) bake, not after it.
+    check_writable_destination(args.out);
+    if (!args.preview.empty()) check_writable_destination(args.preview);
+
+    Progress progress("bake", args.sampling.quiet);
+    BakeCallbacks callbacks;
+    callbacks.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
+    const BakeResult result = bake_lut(spec, callbacks);
+    progress.finish();
+
+    BakeVerification check;
+    if (args.verify > 0) check = verify_bake(spec, result, args.verify);
+
+    std::vector<LutChannel> channels;
+    const char* names[4] = {"R", "G", "B", "A"};
+    for (std::size_t c = 0; c < spec.roughness.size(); ++c) {
+        const double r = spec.roughness[c];
+        channels.push_back({names[c], r, r * r, r * r});
+    }
+    nlohmann::json meta = bake_metadata(spec, result);
+    if (args.verify > 0)
+        meta["verify"] = {{"texels", check.checked}, {"failed", check.failed}, {"worst_z", check.worst_z},
+                          {"threshold", check.threshold}, {"worst_abs_diff", check.worst_abs_diff}};
+    if (check.failed > 0) {
+        std::ostringstream s;
+        s << "verification failed: " << check.failed << " of " << check.checked
+          << " texels differ from the oracle beyond their error bars (worst z " << std::setprecision(3) << check.worst_z
+          << " > " << check.threshold << "; " << check.worst_texel << "); nothing was written";
+        throw std::runtime_error(s.str());
+    }
+    // Preview first, LUT last: each is atomic, and the LUT appearing means the whole job finished.
+    if (!args.preview.empty())
+        write_lut_preview(args.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels,
+                                         result.value.data()});
+    write_lut(args.out, {spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value, meta, args.half);
+
+    if (!args.sampling.quiet) {
+        std::cerr << std::setprecision(3) << "bake: " << spec.visibility.count << " x " << spec.n_dot_l.count << " x "
+                  << spec.n_dot_v.count << " x " << result.channels << " (" << result.texels << " texels; skipped "
+                  << result.skipped_zero << " exact 0 in the zero region, " << result.skipped_one << " exact 1 at v = 1), "
+                  << result.slices << " slices, " << result.azimuth_nodes << " azimuth node(s), "
+                  << result.samples_per_batch << " samples per batch, " << result.batches << " batches; max std error "
+                  << result.max_std_error;
+        if (spec.tolerance > 0) std::cerr << (result.tolerance_met ? " (tolerance met)" : " (TOLERANCE NOT MET: raise --max-batches)");
+        std::cerr << "; " << result.seconds << " s on " << meta["device"].get<std::string>() << "\n";
+        if (result.rerun_chunks)
+            for (const auto& f : result.failed_devices) std::cerr << "bake: device failed, its chunks were rerun: " << f << "\n";
+        if (args.verify > 0)
+            std::cerr << "verify: " << check.checked << " texels against the oracle, worst z " << check.worst_z
+                      << " (limit " << check.threshold << "), worst |diff| " << check.worst_abs_diff << "\n";
+    }
+}
+
+}  // namespace
+
+void add_bake_command(CLI::App& app) {
+    auto a = std::make_shared<BakeArgs>();
+    auto* cmd = app.add_subcommand("bake", "bake a micro-shadowing LUT (part 2's 3D/2D layouts or custom) to OpenEXR");
+    a->cmd = cmd;
+    cmd->add_option("--layout", a->layout, "seed-3d (v, NdotL, NdotV; RGBA = roughness 0.1 0.4 0.7 1), seed-2d (NdotV = 1) or custom")
+        ->check(CLI::IsMember({"seed-3d", "seed-2d", "custom"}))
+        ->capture_default_str();
+    cmd->add_option("--out", a->out, "output OpenEXR file")->required();
+    cmd->add_option("--size", a->size, "texels on every axis")->check(CLI::Range(1u, 4096u))->capture_default_str();
+    cmd->add_option("--size-visibility", a->size_visibility, "texels on the visibility axis")->check(CLI::Range(1u, 4096u));
+    cmd->add_option("--size-n-dot-l", a->size_n_dot_l, "texels on the NdotL axis")->check(CLI::Range(1u, 4096u));
+    cmd->add_option("--size-n-dot-v", a->size_n_dot_v, "texels on the NdotV axis")->check(CLI::Range(1u, 4096u));
+    cmd->add_option("--texel", a->texel, "texel parameters: centres (i + 0.5) / n or endpoints i / (n - 1)")
+        ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
+        ->capture_default_str();
+    cmd->add_option("--azimuth", a->azimuth, "relative azimuth of wi and wo: 'mean' (mean term over [0, 180]) or degrees")
+        ->capture_default_str();
+    cmd->add_option("--azimuth-intervals", a->azimuth_intervals, "trapezoid intervals of --azimuth mean (default: measured)")
+        ->check(CLI::Range(1u, 256u));
+    cmd->add_option("--roughness", a->roughness, "custom layout: 1 to 4 roughness values in (0, 1] (channels R, G, B, A)")
+        ->delimiter(',');
+    cmd->add_option("--visibility-range", a->visibility_range, "custom layout: MIN,MAX of the visibility axis")->delimiter(',');
+    cmd->add_option("--n-dot-l-range", a->n_dot_l_range, "custom layout: MIN,MAX of the NdotL axis")->delimiter(',');
+    cmd->add_option("--n-dot-v-range", a->n_dot_v_range, "custom layout: MIN,MAX of the NdotV axis")->delimiter(',');
+    cmd->add_flag("--half", a->half, "store 16-bit half floats instead of 32-bit floats");
+    cmd->add_option("--preview", a->preview, "also write a PNG picture of the slices (roughness across, NdotV down)");
+    cmd->add_option("--tolerance", a->tolerance, "add sample batches to a slice until every texel's std error <= E")
+        ->check(CLI::Range(1e-7, 1.0));
+    cmd->add_option("--max-batches", a->max_batches, "most batches per slice with --tolerance")
+        ->check(CLI::Range(1u, 4096u))
+        ->capture_default_str();
+    cmd->add_option("--verify", a->verify, "recompute K random texels with the scalar oracle; fail if they disagree")
+        ->check(CLI::Range(0u, 100000u));
+    add_sampling_options(cmd, a->sampling);
+    cmd->callback([a] { run_bake(*a); });
+}
+
+}  // namespace ms::cli

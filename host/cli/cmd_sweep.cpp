@@ -1,0 +1,135 @@
+// microshadow sweep SPEC.toml: a parameter study of the generic term against comparators, streamed
+// to disk in chunks (resumable, shardable). microshadow merge: joins the outputs of --shard runs.
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+
+#include "cli/common.hpp"
+#include "cli/progress.hpp"
+#include "core/cancel.hpp"
+#include "sweep/runner.hpp"
+
+namespace ms::cli {
+
+namespace {
+
+struct SweepArgs {
+    std::string spec, out, shard = "0/1";
+    std::uint64_t max_chunks = 0;
+    bool restart = false, plot = false;
+    SamplingOptions sampling;
+    CLI::App* cmd = nullptr;
+};
+
+std::string plot_script() {
+    // The script ships in the source tree beside the kernels (scripts/plot_sweep.py).
+    return (std::filesystem::path(MICROSHADOW_SOURCE_KERNEL_DIR) / ".." / "scripts" / "plot_sweep.py")
+        .lexically_normal()
+        .string();
+}
+
+void run_plot(const std::string& out_dir, bool quiet) {
+    // Debian's python3 carries python3-matplotlib; a python3 earlier on PATH may not.
+    const std::string cmd = "/usr/bin/python3 '" + plot_script() + "' heatmaps '" + out_dir + "/sweep.csv' --out '" +
+                            out_dir + "/figures'";
+    if (!quiet) std::cerr << "sweep: " << cmd << "\n";
+    if (std::system(cmd.c_str()) != 0) throw std::runtime_error("plotting failed: " + cmd);
+}
+
+void run_sweep_command(SweepArgs& args) {
+    sweep::Spec spec = sweep::parse_spec_file(args.spec);
+    // The spec's [sampling] values are defaults; an option given on the command line wins.
+    auto given = [&](const char* name) { return args.cmd->get_option(name)->count() > 0; };
+    if (spec.samples && !given("--samples")) args.sampling.samples = *spec.samples;
+    if (spec.replicates && !given("--replicates")) args.sampling.replicates = *spec.replicates;
+    if (spec.seed && !given("--seed")) args.sampling.seed = *spec.seed;
+    if (spec.sequence && !given("--sequence")) args.sampling.sequence = *spec.sequence;
+    if (!spec.forms.empty() && given("--form"))
+        throw std::invalid_argument("--form conflicts with parameters.form in " + args.spec + "; use one of them");
+    if (!spec.weightings.empty() && given("--ao-weighting"))
+        throw std::invalid_argument("--ao-weighting conflicts with parameters.ao_weighting in " + args.spec);
+
+    sweep::RunConfig config;
+    config.out_dir = args.out.empty() ? std::filesystem::path(args.spec).stem().string() + ".sweep" : args.out;
+    config.plan = args.sampling.plan();
+    config.defaults = args.sampling.term_options();
+    config.shard = sweep::parse_shard(args.shard);
+    config.max_chunks = args.max_chunks;
+    config.restart = args.restart;
+    config.fast_math = args.sampling.fast_math;
+    config.command_line = command_line();
+    auto backend = args.sampling.make_backend();
+    config.backend = backend.get();
+    config.backend_label = backend->name();
+    Progress progress("sweep", args.sampling.quiet);
+    config.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
+
+    sweep::RunResult r;
+    try {
+        r = sweep::run_sweep(spec, config);
+    } catch (const Cancelled&) {
+        progress.finish();
+        std::cerr << "sweep: interrupted; finished chunks are kept in " << config.out_dir
+                  << " - rerun the same command to resume\n";
+        throw;
+    }
+    progress.finish();
+    if (!args.sampling.quiet)
+        std::cerr << "sweep: " << r.points << " points in " << r.chunks << " chunks of " << spec.chunk_size
+                  << "; this run computed " << r.computed << ", found " << r.skipped << " finished (spec hash "
+                  << r.spec_hash << ")\n";
+    if (!r.complete) {
+        std::cerr << "sweep: stopped after --max-chunks " << args.max_chunks << "; rerun to continue\n";
+        return;
+    }
+    if (!r.assembled) {
+        std::cerr << "sweep: shard " << args.shard << " finished in " << config.out_dir
+                  << "; join the shards with 'microshadow merge --out DIR SHARD_DIRS...'\n";
+        return;
+    }
+    std::cout << "wrote " << config.out_dir << "/sweep.csv\n\n";
+    std::ifstream md(config.out_dir + "/summary.md");
+    std::cout << md.rdbuf();
+    if (args.plot) run_plot(config.out_dir, args.sampling.quiet);
+}
+
+}  // namespace
+
+void add_sweep_command(CLI::App& app) {
+    auto args = std::make_shared<SweepArgs>();
+    auto* cmd = app.add_subcommand("sweep", "parameter study of the generic term against analytic terms and LUTs");
+    args->cmd = cmd;
+    cmd->add_option("spec", args->spec, "sweep spec (TOML; see host/sweep/spec.hpp or docs/study.md)")
+        ->required()
+        ->check(CLI::ExistingFile);
+    cmd->add_option("--out,-o", args->out, "output directory (default: SPEC-STEM.sweep)");
+    cmd->add_option("--shard", args->shard, "run only chunks c with c % N == I (I/N); join with 'merge'")
+        ->capture_default_str();
+    cmd->add_option("--max-chunks", args->max_chunks, "compute at most this many chunks, then stop (resumable)");
+    cmd->add_flag("--restart", args->restart, "discard a previous run of a different sweep in --out");
+    cmd->add_flag("--plot", args->plot, "draw heatmaps with scripts/plot_sweep.py (/usr/bin/python3, matplotlib)");
+    add_sampling_options(cmd, args->sampling);
+    cmd->callback([args] { run_sweep_command(*args); });
+}
+
+void add_merge_command(CLI::App& app) {
+    struct MergeArgs {
+        std::vector<std::string> dirs;
+        std::string out;
+        bool quiet = false;
+    };
+    auto args = std::make_shared<MergeArgs>();
+    auto* cmd = app.add_subcommand("merge", "join the outputs of 'sweep --shard I/N' runs into one sweep.csv");
+    cmd->add_option("shards", args->dirs, "shard output directories")->required()->check(CLI::ExistingDirectory);
+    cmd->add_option("--out,-o", args->out, "output directory")->required();
+    cmd->add_flag("--quiet,-q", args->quiet, "no summary on stdout");
+    cmd->callback([args] {
+        sweep::merge_shards(args->dirs, args->out, command_line());
+        if (args->quiet) return;
+        std::cout << "wrote " << args->out << "/sweep.csv\n\n";
+        std::ifstream md(args->out + "/summary.md");
+        std::cout << md.rdbuf();
+    });
+}
+
+}  // namespace ms::cli

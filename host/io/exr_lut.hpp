@@ -1,0 +1,66 @@
+// The LUT file: a single-part scanline OpenEXR slice atlas with the bake's metadata.
+//
+// Contract (the bake writes it, sweeps and tests read it):
+// - channels R, G, B, A (FLOAT, or HALF), one per roughness, in that order (1 to 4 of them);
+// - width = visibility count (x = visibility, increasing left to right); height = nNdotL * nNdotV;
+//   NdotV slice k occupies rows [k * nNdotL, (k + 1) * nNdotL), row j of a slice is NdotL index j
+//   (increasing top to bottom); a 2D LUT has nNdotV = 1;
+// - header string attribute "microshadow" holds the JSON metadata: layout, axes (name, min, max, count,
+//   texel), channels (name, roughness, alpha_x, alpha_y), azimuth, form, ao_weighting, sequence, seed,
+//   samples, max_error, device, version, command_line, ...; the main fields are also written as typed
+//   attributes "microshadow.<field>" for people reading the header with exrheader.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace ms {
+
+// Where a texel's parameter sits: centres min + (max - min) (i + 0.5) / n, endpoints min + (max - min) i / (n - 1).
+enum class TexelConvention { centres, endpoints };
+std::string to_string(TexelConvention);
+TexelConvention parse_texel_convention(const std::string&);  // "centres" | "endpoints"; std::invalid_argument
+
+struct LutAxis {
+    std::string name;
+    double min = 0, max = 1;
+    std::uint32_t count = 1;
+    TexelConvention texel = TexelConvention::centres;
+    // The parameter of texel i. With endpoints and count 1 the single texel sits at min.
+    double value(std::uint32_t i) const;
+};
+
+struct LutChannel {
+    std::string name;  // "R", "G", "B" or "A"
+    double roughness = 0, alpha_x = 0, alpha_y = 0;
+};
+
+struct LutFile {
+    nlohmann::json metadata;          // the "microshadow" header attribute, parsed
+    std::vector<LutAxis> axes;        // visibility, n_dot_l, n_dot_v
+    std::vector<LutChannel> channels;
+    std::uint32_t width = 0, height = 0;
+    bool half = false;                // stored as HALF (read back as float)
+    std::vector<float> data;          // data[(y * width + x) * channels.size() + c]
+
+    const LutAxis& visibility() const { return axes.at(0); }
+    const LutAxis& n_dot_l() const { return axes.at(1); }
+    const LutAxis& n_dot_v() const { return axes.at(2); }
+    // Texel of channel c at visibility index iv, NdotL index il, NdotV index ivv.
+    float at(std::uint32_t c, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const;
+};
+
+// Writes the LUT atomically (temporary file, then rename). `data` is laid out as LutFile::data.
+// axes and channels are recorded in the metadata (which must already hold the other fields) and
+// checked against width/height/data size. Throws std::invalid_argument or std::runtime_error.
+void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels,
+               const std::vector<float>& data, const nlohmann::json& metadata, bool half);
+
+// Reads and checks a LUT file. Throws std::runtime_error naming the file and the problem
+// (not an EXR, missing "microshadow" attribute, axes that do not match the image size, ...).
+LutFile read_lut(const std::string& path);
+
+}  // namespace ms

@@ -1,0 +1,74 @@
+#include "sweep/lut_lookup.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <stdexcept>
+
+namespace ms::sweep {
+
+namespace {
+
+struct Tap {
+    std::uint32_t i0, i1;
+    double f;  // weight of i1
+};
+
+// Texel coordinate of parameter p on an axis, clamp-to-edge, as described in the header.
+Tap tap(const LutAxis& a, double p) {
+    if (a.count <= 1 || a.max == a.min) return {0, 0, 0};
+    const double u = (p - a.min) / (a.max - a.min);
+    double t = a.texel == TexelConvention::centres ? u * a.count - 0.5 : u * (a.count - 1);
+    t = std::clamp(t, 0.0, double(a.count - 1));
+    const auto i0 = std::uint32_t(std::floor(t));
+    const std::uint32_t i1 = std::min(i0 + 1, a.count - 1);
+    return {i0, i1, t - i0};
+}
+
+}  // namespace
+
+LutLookup::LutLookup(LutFile lut) : lut_(std::move(lut)) {
+    if (lut_.axes.size() != 3 || lut_.channels.empty())
+        throw std::runtime_error("LUT: need the visibility, n_dot_l and n_dot_v axes and at least one channel");
+    order_.resize(lut_.channels.size());
+    std::iota(order_.begin(), order_.end(), 0u);
+    std::stable_sort(order_.begin(), order_.end(),
+                     [&](auto a, auto b) { return lut_.channels[a].roughness < lut_.channels[b].roughness; });
+    for (std::size_t k = 1; k < order_.size(); ++k)
+        if (lut_.channels[order_[k]].roughness == lut_.channels[order_[k - 1]].roughness)
+            throw std::runtime_error("LUT: two channels hold the same roughness");
+}
+
+LutLookup LutLookup::open(const std::string& path) {
+    try {
+        return LutLookup(read_lut(path));
+    } catch (const std::exception& e) {
+        const std::string what = e.what();
+        // read_lut already names the file; add it only where a check here failed.
+        throw std::runtime_error(what.find(path) == std::string::npos ? path + ": " + what : what);
+    }
+}
+
+double LutLookup::operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const {
+    const Tap tv = tap(lut_.visibility(), visibility);
+    const Tap tl = tap(lut_.n_dot_l(), n_dot_l);
+    const Tap tz = tap(lut_.n_dot_v(), n_dot_v);  // one slice (2D LUT): always slice 0
+    auto sample = [&](std::uint32_t c) {
+        auto row = [&](std::uint32_t il, std::uint32_t iz) {
+            return (1 - tv.f) * lut_.at(c, tv.i0, il, iz) + tv.f * lut_.at(c, tv.i1, il, iz);
+        };
+        auto slice = [&](std::uint32_t iz) { return (1 - tl.f) * row(tl.i0, iz) + tl.f * row(tl.i1, iz); };
+        return (1 - tz.f) * slice(tz.i0) + tz.f * slice(tz.i1);
+    };
+    // Roughness: clamp to the channel range, then blend the bracketing channels.
+    const auto& ch = lut_.channels;
+    if (order_.size() == 1 || roughness <= ch[order_.front()].roughness) return sample(order_.front());
+    if (roughness >= ch[order_.back()].roughness) return sample(order_.back());
+    std::size_t k = 1;
+    while (ch[order_[k]].roughness < roughness) ++k;
+    const double r0 = ch[order_[k - 1]].roughness, r1 = ch[order_[k]].roughness;
+    const double f = (roughness - r0) / (r1 - r0);
+    return (1 - f) * sample(order_[k - 1]) + f * sample(order_[k]);
+}
+
+}  // namespace ms::sweep

@@ -1,0 +1,38 @@
+// LUT lookups as a renderer does them, used as sweep comparators: a baked LUT (io/exr_lut.hpp) read
+// once, then sampled with linear filtering and clamp-to-edge addressing.
+//
+// Per axis (visibility, NdotL, NdotV) the parameter p maps to a continuous texel coordinate
+//   centres:   t = (p - min) / (max - min) * n - 0.5      (GPU texture convention)
+//   endpoints: t = (p - min) / (max - min) * (n - 1)
+// clamped to [0, n - 1]; the value is the linear blend of texels floor(t) and floor(t) + 1 with
+// weight frac(t). Over (visibility, NdotL) this is bilinear; with several NdotV slices it is
+// trilinear (a 3D texture); a 2D LUT (one NdotV slice) ignores NdotV: it stands for NdotV = 1 only.
+//
+// Roughness: channels hold roughness values r_0 < r_1 < ... (R, G, B, A). The lookup clamps r to
+// [r_0, r_last] and blends linearly between the two channels that bracket it, i.e. the way a shader
+// lerps the RGBA sample by roughness. The LUT knows no azimuth: its "azimuth" policy (mean or fixed)
+// is part of what a study measures.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "io/exr_lut.hpp"
+
+namespace ms::sweep {
+
+class LutLookup {
+public:
+    explicit LutLookup(LutFile lut);
+    // Reads the file (io/exr_lut.hpp's read_lut) and checks it can be sampled. Throws std::runtime_error.
+    static LutLookup open(const std::string& path);
+
+    double operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
+    const LutFile& file() const { return lut_; }
+
+private:
+    LutFile lut_;
+    std::vector<std::uint32_t> order_;  // channel indices by increasing roughness
+};
+
+}  // namespace ms::sweep

@@ -1,0 +1,97 @@
+// Running a sweep: chunked streaming to disk, resume, shards and merge, and the summary table.
+//
+// Output directory layout:
+//   chunks/chunk-XXXXXXXX.csv   finished chunks (CSV rows without header), each written atomically
+//   manifest.json               (or manifest.shard-I-of-N.json) spec hash, sampling, finished chunks;
+//                               rewritten atomically after every chunk
+//   sweep.csv                   every point, assembled from the chunks once all are finished
+//   sweep.json                  provenance (command line, spec, sampling, backend)
+//   summary.csv, summary.md     each comparator's error against the generic term
+//
+// Determinism: every point is evaluated with the same randomised point set (the plan's seed), so a
+// point's value depends only on its parameters, the plan and the backend; never on the chunk it
+// falls in, the chunk size or the shard layout. Chunks are written in one fixed text format, so
+// the assembled sweep.csv is the same bytes whether the run was interrupted, resumed or sharded.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <iosfwd>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+#include "engine/evaluator.hpp"
+#include "sweep/spec.hpp"
+
+namespace ms::sweep {
+
+struct Shard {
+    std::uint32_t index = 0, count = 1;  // this run does chunks c with c % count == index
+};
+// Parses "I/N" (0 <= I < N); throws std::invalid_argument.
+Shard parse_shard(const std::string& text);
+
+struct RunConfig {
+    std::string out_dir;
+    SamplingPlan plan;
+    TermOptions defaults;  // form and weighting for specs that do not sweep them
+    TermBackend* backend = nullptr;
+    std::string backend_label;  // recorded and hashed: other backends give other bits
+    bool fast_math = false;
+    Shard shard;
+    std::uint64_t max_chunks = 0;  // > 0: compute at most this many chunks in this run, then stop (resumable)
+    bool restart = false;          // discard a previous run's manifest and chunks of another spec
+    std::string command_line;
+    // Called after each chunk: (chunks done in this shard, chunks of this shard).
+    std::function<void(std::uint64_t, std::uint64_t)> progress;
+};
+
+struct RunResult {
+    std::uint64_t points = 0, chunks = 0;          // of the whole sweep
+    std::uint64_t shard_chunks = 0;                // of this shard
+    std::uint64_t computed = 0, skipped = 0;       // chunks computed in this run, found finished
+    bool complete = false;                         // every chunk of this shard is finished
+    bool assembled = false;                        // sweep.csv written (unsharded runs)
+    std::string spec_hash;
+};
+
+// The CSV header of a sweep's output.
+std::string csv_header(const Spec& spec);
+
+// Runs (or resumes) the sweep. Throws ms::Cancelled when ms::cancel_requested() is set (finished
+// chunks stay on disk), std::invalid_argument for a spec/out-dir mismatch, std::runtime_error on I/O.
+RunResult run_sweep(const Spec& spec, const RunConfig& config);
+
+// Merges the shard outputs (directories holding manifest.shard-I-of-N.json files and their chunks)
+// into out_dir/sweep.csv plus summary; byte-identical to an unsharded run. Throws std::invalid_argument
+// when shards are missing, duplicated, unfinished or of different sweeps.
+void merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir,
+                  const std::string& command_line);
+
+// Error statistics of one comparator against the generic term (comparator - term).
+struct ErrorStats {
+    std::uint64_t count = 0;
+    double max_abs = 0, sum_abs = 0, sum_sq = 0, sum = 0;
+    void add(double error);
+    double mean_abs() const { return count ? sum_abs / count : 0; }
+    double rms() const;
+    double bias() const { return count ? sum / count : 0; }
+};
+
+struct Summary {
+    std::vector<std::string> comparators;
+    std::vector<ErrorStats> overall;                             // per comparator
+    std::map<double, std::vector<ErrorStats>> per_roughness;     // roughness -> per comparator
+    double max_std_error = 0;
+    std::uint64_t points = 0;
+};
+
+// Streams a sweep CSV (header + rows) into the summary; bounded memory.
+Summary summarise(std::istream& csv, const std::string& name);
+// Markdown table (stdout, summary.md) and CSV (summary.csv) forms.
+std::string summary_markdown(const Summary& s);
+std::string summary_csv(const Summary& s);
+
+}  // namespace ms::sweep

@@ -95,8 +95,10 @@ __kernel void ms_bake_histogram(const ms_bake_slice p, __global const float4* wo
         const float16 t = fmin(mz, m_dot_l);
         const float16 u = p.ao_weighting == MS_AO_COSINE ? 1.0f - t * t : 1.0f - t;
         const float16 x = mad(u - p.vis_min, p.bin_scale, -p.bin_offset);
-        /* Clamp in float first so the conversion never overflows; j0 in [0, nv]. */
-        int16 bin = convert_int16(floor(clamp(x, -1.0f, (float)nv))) + 1;
+        /* Clamp in float first so the conversion never overflows; j0 in [0, nv]. After the clamp
+         * x + 1 >= 0, where truncation equals floor: convert_int16 vectorises, the floor builtin
+         * stays scalar on PoCL. */
+        int16 bin = convert_int16(clamp(x, -1.0f, (float)nv) + 1.0f);
         bin = min(bin, (int)nv);
         bin = select((int16)(nv + 1), bin, t > 0.0f); /* outside the hemisphere: discarded bin */
         int lanes[MS_LANES];

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The README's quick start: installs what is missing, builds in Release, then
-#   main: runs the main job (the default seed-3d LUT bake and its preview, into out/)
+#   main: runs the main job: the default seed-3d LUT bake (32^3 x 4 roughness) and its preview, into out/
 #   test: runs the whole test suite through ctest
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,8 +15,8 @@ cmake --build "$build" -j"$(nproc)"
 if [ "$job" = main ]; then
   mkdir -p out
   "$build/microshadow" devices
-  "$build/microshadow" eval --in examples/queries.csv --out out/queries_result.csv
-  echo "wrote out/queries_result.csv"
+  "$build/microshadow" bake --out out/microshadow_lut.exr --preview out/microshadow_lut.png --verify 64
+  echo "wrote out/microshadow_lut.exr and out/microshadow_lut.png"
 else
   cd "$build"
   ctest --output-on-failure -j"$(nproc)"

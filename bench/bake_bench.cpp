@@ -140,7 +140,7 @@ BakeBenchResult run_bake(const Options& opt, const std::vector<RefEntry>& refere
         spec.samples = b, spec.tolerance = 0;
         record("shared samples, one batch", "bake: shared samples", spec, bake_and_score(spec, texels));
     }
-    const std::vector<double> tolerances = opt.smoke ? std::vector<double>{1e-2} : std::vector<double>{1e-3, 4e-4, 2e-4, 1e-4};
+    const std::vector<double> tolerances = opt.smoke ? std::vector<double>{1e-2} : std::vector<double>{1e-3, 4e-4, 2e-4};
     for (double tol : tolerances) {
         BakeSpec spec = base;
         spec.samples = opt.smoke ? 1024 : 16384, spec.tolerance = tol;

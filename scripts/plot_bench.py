@@ -33,7 +33,9 @@ def main(argv):
     fig, axes = plt.subplots(1, 2, figsize=(12, 5), sharex=True)
     for ax, col, title in ((axes[0], 1, "max error"), (axes[1], 2, "RMS error")):
         for method, pts in series.items():
-            pts = sorted(p for p in pts if p[col] > 0)
+            # In budget order (the CSV order): at small budgets the time is fixed overhead and noise,
+            # and sorting by time would zigzag the line.
+            pts = [p for p in pts if p[col] > 0]
             if pts:
                 ax.loglog([p[0] for p in pts], [p[col] for p in pts], "o-", label=method)
         ax.axhline(1e-3, color="grey", linestyle="--", linewidth=1)
@@ -49,6 +51,7 @@ def main(argv):
     os.close(fd)
     try:
         fig.savefig(tmp, dpi=110)
+        os.chmod(tmp, 0o644)  # mkstemp creates 0600; the plot is a published file
         os.replace(tmp, dst)
     finally:
         if os.path.exists(tmp):

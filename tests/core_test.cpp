@@ -106,3 +106,20 @@ TEST(Cone, MappingAndZeroRegion) {
 
 }  // namespace
 }  // namespace ms
+
+namespace ms {
+namespace {
+TEST(PointSet, SharedPointSetsAreGeneratedOnceAndEqualFreshOnes) {
+    const SamplingPlan plan{Sequence::sobol, 1 << 17, 8, 77};
+    const auto a = shared_point_set(plan);
+    const auto b = shared_point_set(plan);
+    EXPECT_EQ(a.get(), b.get());
+    const PointSet fresh = make_point_set(plan);  // also checks threaded generation == itself
+    EXPECT_EQ(a->u1, fresh.u1);
+    EXPECT_EQ(a->u2, fresh.u2);
+    SamplingPlan other = plan;
+    other.sequence = Sequence::random;
+    EXPECT_NE(shared_point_set(other).get(), a.get());
+}
+}  // namespace
+}  // namespace ms

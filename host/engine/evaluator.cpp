@@ -99,6 +99,8 @@ private:
     struct DevicePoints {
         const PointSet* identity = nullptr;
         std::uint64_t seed = 0, total = 0;
+        std::uint32_t replicates = 0;
+        Sequence sequence = Sequence::sobol;
         cl::Buffer u1, u2;
     };
 
@@ -106,7 +108,9 @@ private:
     DevicePoints& points_on(ocl::Device& device, const PointSet& points) {
         std::lock_guard<std::mutex> lock(points_mutex_);
         DevicePoints& dp = device_points_[&device];
-        if (dp.identity != &points || dp.seed != points.seed || dp.total != points.total()) {
+        // The address alone is not enough: a freed point set's address can be reused by another plan.
+        if (dp.identity != &points || dp.seed != points.seed || dp.total != points.total() ||
+            dp.replicates != points.replicates || dp.sequence != points.sequence) {
             ocl::checked([&] {
                 dp.u1 = cl::Buffer(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u1.size() * sizeof(float),
                                    const_cast<float*>(points.u1.data()));
@@ -117,6 +121,8 @@ private:
             dp.identity = &points;
             dp.seed = points.seed;
             dp.total = points.total();
+            dp.replicates = points.replicates;
+            dp.sequence = points.sequence;
         }
         return dp;
     }
@@ -233,7 +239,8 @@ std::vector<Estimate> evaluate(TermBackend& backend, const std::vector<Query>& q
         }
     }
     if (!to_sample.empty()) {
-        const PointSet points = make_point_set(plan);
+        const auto shared_points = shared_point_set(plan);
+        const PointSet& points = *shared_points;
         const std::size_t R = points.replicates;
         // Progress in slices so a long evaluation reports as it goes.
         const std::size_t slice = std::min<std::size_t>(1 << 15, std::max<std::size_t>(256, to_sample.size() / 20 + 1));

@@ -1,7 +1,12 @@
 #include "sampling/point_set.hpp"
 
+#include <algorithm>
+#include <list>
+#include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <tuple>
 
 namespace ms {
 
@@ -70,7 +75,9 @@ PointSet make_point_set(const SamplingPlan& plan) {
 
     int m = 0;
     while ((1ull << m) < n) ++m;
-    for (std::uint32_t r = 0; r < plan.replicates; ++r) {
+    // Replicates are independent: generate them on all hardware threads (the output does not depend
+    // on the thread count).
+    auto generate = [&](std::uint32_t r) {
         const std::uint64_t rep_key = mix64(plan.seed ^ mix64(r + 1));
         const std::uint32_t seed0 = std::uint32_t(mix64(rep_key ^ 0x51));
         const std::uint32_t seed1 = std::uint32_t(mix64(rep_key ^ 0xa3));
@@ -88,8 +95,37 @@ PointSet make_point_set(const SamplingPlan& plan) {
                 u2[i] = to_unit_float(std::uint32_t(bits >> 32));
             }
         }
+    };
+    const unsigned threads = std::min<unsigned>(plan.replicates, std::max(1u, std::thread::hardware_concurrency()));
+    if (threads <= 1 || ps.total() < (1u << 16)) {
+        for (std::uint32_t r = 0; r < plan.replicates; ++r) generate(r);
+    } else {
+        std::vector<std::thread> pool;
+        for (unsigned t = 0; t < threads; ++t)
+            pool.emplace_back([&, t] {
+                for (std::uint32_t r = t; r < plan.replicates; r += threads) generate(r);
+            });
+        for (auto& th : pool) th.join();
     }
     return ps;
+}
+
+std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan) {
+    using Key = std::tuple<int, std::uint64_t, std::uint32_t, std::uint64_t>;
+    static std::mutex mutex;
+    static std::list<std::pair<Key, std::shared_ptr<const PointSet>>> recent;  // most recent first
+    const Key key{int(plan.sequence), plan.samples, plan.replicates, plan.seed};
+    std::lock_guard<std::mutex> lock(mutex);
+    for (auto it = recent.begin(); it != recent.end(); ++it)
+        if (it->first == key) {
+            recent.splice(recent.begin(), recent, it);
+            return recent.front().second;
+        }
+    auto points = std::make_shared<const PointSet>(make_point_set(plan));
+    recent.emplace_front(key, points);
+    // A handful of plans covers a bake's batches or a sweep's chunks; bound the memory.
+    if (recent.size() > 4) recent.pop_back();
+    return points;
 }
 
 }  // namespace ms

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "core/types.hpp"
@@ -32,6 +33,11 @@ std::uint64_t round_up_samples(std::uint64_t requested, std::uint32_t replicates
 // random: independent uniform points from a counter-based hash of (seed, replicate, index, dim).
 // Deterministic: the same plan gives the same bits. Throws std::invalid_argument on a bad plan.
 PointSet make_point_set(const SamplingPlan& plan);
+
+// The same point set, generated once and shared: repeated evaluations with one plan (benchmarks,
+// sweeps, bakes of many batches) neither regenerate the points nor, in the OpenCL backend, upload them
+// again. Keeps the few most recently used plans; thread-safe.
+std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan);
 
 // The building blocks, exposed for tests.
 std::uint32_t reverse_bits(std::uint32_t x);

@@ -1,8 +1,11 @@
 // libFuzzer target: the command-line parser. The input is split at NUL and newline bytes into argv;
-// the CLI11 app is built exactly as host/cli/main.cpp builds it, then every command callback is
-// removed so that parsing runs (option conversion, range and membership checks, subcommand
-// selection) but no command does. Contract: parse() returns or throws CLI::ParseError (which
-// main.cpp turns into exit code 2 with a message); anything else is a finding.
+// the CLI11 app is built exactly as host/cli/main.cpp builds it, and each subcommand gets a
+// parse-complete callback that throws ParsedOnly: CLI11 calls it after the subcommand's options were
+// converted, checked (ranges, membership, files) and its requirements validated, and before the
+// final callback that would run the command. The final callbacks must stay in place: they own the
+// option storage (a shared_ptr captured by the lambda), so removing them would free it mid-parse.
+// Contract: parse() returns or throws CLI::ParseError (main.cpp's exit code 2 with a message) or
+// ParsedOnly; anything else is a finding.
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -19,7 +22,12 @@ void build_app(CLI::App& app) {
     app.set_version_flag("--version", "microshadow " MICROSHADOW_VERSION);
     ms::cli::add_devices_command(app);
     ms::cli::add_eval_command(app);
+    ms::cli::add_bake_command(app);
+    ms::cli::add_sweep_command(app);
+    ms::cli::add_merge_command(app);
 }
+
+struct ParsedOnly {};
 
 }  // namespace
 
@@ -40,16 +48,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 
     CLI::App app{"microshadow (fuzz)"};
     build_app(app);
-    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
-        sub->callback({});
-        sub->parse_complete_callback({});
-        sub->preparse_callback({});
-    }
+    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; }))
+        sub->parse_complete_callback([] { throw ParsedOnly{}; });
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     try {
         app.parse(int(argv.size()), argv.data());
     } catch (const CLI::ParseError&) {
+    } catch (const ParsedOnly&) {
     }
     return 0;
 }

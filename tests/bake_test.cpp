@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
 
 #include "bake/bake.hpp"
 #include "bake/verify.hpp"
@@ -247,6 +248,97 @@ TEST_F(BakeTest, ToleranceAddsBatchesUntilMetAndVerifyAgreesWithOracle) {
     EXPECT_EQ(v.checked, 12u);
     EXPECT_EQ(v.failed, 0u) << v.worst_texel;
     EXPECT_LE(v.worst_z, v.threshold);
+}
+
+// Adaptive azimuth (the default): every NdotL row of every slice equals, bit for bit, the fixed-K bake
+// of the same points at the K the row ended at (nested trapezoid nodes, same reduction order); rows
+// forced to refine reach the finest grid; and the recorded quadrature estimate is max |T_K - T_K/2|.
+TEST_F(BakeTest, AdaptiveAzimuthRowsMatchFixedGridsBitForBit) {
+    BakeSpec base = small_spec();
+    base.roughness = {0.7, 1.0};
+    base.n_dot_v.min = 0;
+    base.n_dot_v.max = 0.3;  // near grazing, where the azimuth matters
+    base.n_dot_l.max = 0.6;
+    const std::uint32_t ks[] = {2, 4, 8};
+    std::map<std::uint32_t, BakeResult> fixed;
+    for (std::uint32_t k : ks) {
+        BakeSpec s = base;
+        s.azimuth_intervals = k;
+        fixed[k] = bake_lut(s);
+    }
+    BakeSpec adaptive = base;
+    adaptive.azimuth_intervals = 0;
+    adaptive.azimuth_min_intervals = 2;
+    adaptive.azimuth_max_intervals = 8;
+    const std::uint32_t nv = 6, nl = 5, nvv = 3, ch = 2, rows = nl * nvv * ch;
+    auto row_of = [&](const BakeResult& r, std::uint32_t c, std::uint32_t il, std::uint32_t ivv, bool se) {
+        std::vector<float> v;
+        for (std::uint32_t iv = 0; iv < nv; ++iv) {
+            const std::size_t at = ((std::size_t(ivv) * nl + il) * nv + iv) * ch + c;
+            v.push_back(se ? r.std_error[at] : r.value[at]);
+        }
+        return v;
+    };
+    // |T_K - T_K/2| of a row from the fixed bakes (float values: agrees with the double estimate to 1e-6).
+    auto quadrature = [&](std::uint32_t k, std::uint32_t c, std::uint32_t il, std::uint32_t ivv) {
+        double q = 0;
+        const auto a = row_of(fixed[k], c, il, ivv, false), b = row_of(fixed[k / 2], c, il, ivv, false);
+        const auto se = row_of(fixed[k], c, il, ivv, true);
+        for (std::uint32_t iv = 0; iv < nv; ++iv)
+            if (se[iv] > 0) q = std::max(q, std::abs(double(a[iv]) - double(b[iv])));
+        return q;
+    };
+
+    // Forced: threshold 0 and no noise allowance refine every row with any difference to K = 8.
+    adaptive.azimuth_refine_threshold = 0;
+    adaptive.azimuth_refine_z = 0;
+    const BakeResult forced = bake_lut(adaptive);
+    EXPECT_EQ(forced.azimuth_rows_by_intervals.at(8), rows);
+    EXPECT_EQ(0, std::memcmp(forced.value.data(), fixed[8].value.data(), forced.value.size() * sizeof(float)));
+    EXPECT_EQ(0, std::memcmp(forced.std_error.data(), fixed[8].std_error.data(), forced.value.size() * sizeof(float)));
+    double q8 = 0;
+    for (std::uint32_t c = 0; c < ch; ++c)
+        for (std::uint32_t ivv = 0; ivv < nvv; ++ivv)
+            for (std::uint32_t il = 0; il < nl; ++il) q8 = std::max(q8, quadrature(8, c, il, ivv));
+    EXPECT_GT(q8, 0.0);
+    EXPECT_NEAR(forced.azimuth_quadrature_error, q8, 1e-6);
+    EXPECT_NEAR(fixed[8].azimuth_quadrature_error, q8, 1e-6);  // fixed even K records the same estimate
+
+    // Never: an unreachable threshold keeps every row at the start grid.
+    adaptive.azimuth_refine_threshold = 10;
+    const BakeResult coarse = bake_lut(adaptive);
+    EXPECT_EQ(coarse.azimuth_rows_by_intervals.at(2), rows);
+    EXPECT_EQ(0, std::memcmp(coarse.value.data(), fixed[2].value.data(), coarse.value.size() * sizeof(float)));
+
+    // Mixed: a threshold between the rows' differences; each row is one of the fixed bakes' rows, and
+    // the estimate is the largest |T_K - T_K/2| at the K each row stopped at.
+    adaptive.azimuth_refine_threshold = 2e-3;
+    adaptive.azimuth_refine_z = 1;
+    const BakeResult mixed = bake_lut(adaptive);
+    std::map<std::uint32_t, std::uint64_t> counts;
+    double q = 0;
+    for (std::uint32_t c = 0; c < ch; ++c)
+        for (std::uint32_t ivv = 0; ivv < nvv; ++ivv)
+            for (std::uint32_t il = 0; il < nl; ++il) {
+                std::uint32_t match = 0;
+                for (std::uint32_t k : ks)  // the finest fixed grid with the same values (coarser may tie)
+                    if (row_of(mixed, c, il, ivv, false) == row_of(fixed[k], c, il, ivv, false) &&
+                        row_of(mixed, c, il, ivv, true) == row_of(fixed[k], c, il, ivv, true))
+                        match = k;
+                ASSERT_NE(match, 0u) << "row c " << c << " l " << il << " nv " << ivv << " matches no fixed grid";
+                ++counts[match];
+                q = std::max(q, quadrature(match, c, il, ivv));
+            }
+    std::uint64_t total = 0;
+    for (const auto& kv : mixed.azimuth_rows_by_intervals) total += kv.second;
+    EXPECT_EQ(total, rows);
+    EXPECT_EQ(counts, mixed.azimuth_rows_by_intervals);
+    EXPECT_GT(mixed.azimuth_rows_by_intervals.size(), 1u) << "the threshold should split the rows";
+    EXPECT_NEAR(mixed.azimuth_quadrature_error, q, 1e-6);
+    // Refinement is decided from integer counts only, so it is deterministic.
+    const BakeResult again = bake_lut(adaptive);
+    EXPECT_EQ(again.value, mixed.value);
+    EXPECT_EQ(again.azimuth_rows_by_intervals, mixed.azimuth_rows_by_intervals);
 }
 
 // The CLI with two PoCL devices (POCL_DEVICES must be set before the ICD loads, hence a subprocess).

@@ -10,7 +10,12 @@
 //      hemisphere count of the row, i.e. a whole LUT row per (wo, replicate) from one pass;
 //   3. reduces on the host: per azimuth node the pooled ratio sum_r cone / sum_r hemisphere (exactly
 //      eval's estimator); for --azimuth mean the value is the trapezoid-weighted mean over the nodes of
-//      those ratios (the mean of the term, not a ratio of means). Its standard error comes from the
+//      those ratios (the mean of the term, not a ratio of means). The nodes are chosen per NdotL row
+//      (adaptive, the default): a row starts at K = 4 intervals (5 nodes) and, while some sampled texel
+//      has |T_K - T_K/2| > threshold + z * se(T_K - T_K/2) (se from the replicates' own differences;
+//      the trapezoid nodes are nested, so T_K/2 costs nothing), gets the K midpoint nodes of 2K, up to
+//      K = 32. Decided on batch 0's integer counts, kept for later batches; a row that stops at K is
+//      bit for bit the fixed-K bake's row. The file records max |T_K - T_K/2| at the rows' final K. Its standard error comes from the
 //      replicates: per replicate r the node-weighted mean x_r of its own ratios, then
 //      se = sqrt(sum_r (x_r - mean x)^2 / (R (R - 1))) - this accounts for the correlation between
 //      nodes (they share the points) because each x_r already combines them.
@@ -50,7 +55,26 @@ static_assert(sizeof(ms_bake_slice) == 64, "ms_bake_slice layout must match the 
 // - Azimuth: trapezoid intervals K. 32^3 bakes at 262144 samples (same points), max |T_K - T_2K| over
 //   all texels: K=4 vs 8: 1.4e-2, K=8 vs 16: 2.7e-3, K=16 vs 32: 6.6e-4 (rms 1.1e-5); the large
 //   differences sit only at the grazing corner (NdotV, NdotL < 0.05, roughness 1), where the term
-//   changes fast with azimuth. K = 16 keeps the quadrature error below ~7e-4 there and ~1e-5 elsewhere.
+//   changes fast with azimuth. Fixed K = 16 was the default until the adaptive rule replaced it; it
+//   stays the reference grid of azimuth_nodes() (verify, benchmarks) and --azimuth-intervals 16.
+// - Adaptive azimuth (default; BakeSpec::azimuth_*: K 4..32, threshold 1e-4, z = 3). 64^3 default bake,
+//   per-row |T_K - T_K/2| at batch 0: its replicate std error is 5e-5..1e-4 (median), so a bare 1e-4
+//   threshold on the row max of 64 texels refines on noise (52% of rows went to K = 32: 2.5x slower
+//   than fixed 16); with the z = 3 noise allowance rows end at K = 4/8/16/32: 7267/5425/3018/674 of
+//   16384 (mean 9.7 nodes vs 17). Accuracy (seed 0 bakes vs `eval --samples 1048576 --seed 7` averaged
+//   with K = 64 trapezoid weights; |T32 - T64| of the reference <= 4.5e-5 there): 300 random sampled
+//   texels: adaptive max 3.0e-4 rms 9.8e-5, fixed 16 max 3.4e-4 rms 9.2e-5, fixed 32 max 3.3e-4;
+//   72 grazing-corner texels (roughness 0.7/1, NdotV, NdotL <= 0.1): adaptive 6.1e-4, fixed 16 6.1e-4;
+//   the 12 texels where fixed 16 and fixed 32 differ most (roughness 1, v = 0.99, NdotV, NdotL < 0.05):
+//   fixed 16 max 2.6e-3 (rms 2.1e-3, fails 1e-3), adaptive and fixed 32 max 8.8e-4 (adaptive refines
+//   those rows to 32). Against fixed 32 on the same points the adaptive bake differs by max 6.5e-4,
+//   rms 4.2e-5 (fixed 16: max 2.0e-3, rms 2.6e-5): rows kept at K = 4 average fewer rotated copies of
+//   the same points, slightly more noise (rms +7% vs the reference), not a measurable bias.
+//   Speed, 64^3 default bake, old fixed-16 binary and this one back to back x3 on the shared 2-core
+//   machine (load average 2.4..3.8 from other jobs): wall 24.5/17.3, 23.7/15.4, 24.9/11.9 s (ratio
+//   1.4..2.1, median 1.5), CPU (user) 22.9/13.8, 22.2/13.4, 22.6/14.1 s (1.63x, steady): the histogram
+//   work falls with the nodes (9.7 vs 17), the per-slice normals pass does not. --azimuth-intervals 16
+//   gives the old file bit for bit.
 // - Samples: a single batch of 65536 (8 replicates x 8192) per slice. 64^3 bake vs a reference of
 //   2^20 samples per node at 1000 random sampled texels: max |error| 7.3e-4, rms 1.1e-4 (K = 8);
 //   32768 samples gave max 1.1e-3 at 300 texels, failing the 1e-3 goal. A tolerance is not the
@@ -127,6 +151,12 @@ void validate(const BakeSpec& s) {
     if (!s.azimuth_mean && (!std::isfinite(s.azimuth_degrees) || s.azimuth_degrees < 0 || s.azimuth_degrees > 180))
         throw std::invalid_argument("azimuth must be 'mean' or a number of degrees in [0, 180]");
     if (s.azimuth_intervals > 256) throw std::invalid_argument("azimuth intervals must be in 1..256");
+    auto pow2 = [](std::uint32_t k) { return k >= 2 && k <= 256 && (k & (k - 1)) == 0; };
+    if (!pow2(s.azimuth_min_intervals) || !pow2(s.azimuth_max_intervals) || s.azimuth_min_intervals > s.azimuth_max_intervals)
+        throw std::invalid_argument("adaptive azimuth intervals must be powers of two with 2 <= min <= max <= 256");
+    if (!std::isfinite(s.azimuth_refine_threshold) || s.azimuth_refine_threshold < 0 || !std::isfinite(s.azimuth_refine_z) ||
+        s.azimuth_refine_z < 0)
+        throw std::invalid_argument("azimuth refine threshold and z must be >= 0");
     if (s.replicates < 2 || s.replicates > 1024) throw std::invalid_argument("replicates must be in 2..1024");
     if (s.samples != 0 && (s.samples < 16 || s.samples > (std::uint64_t(1) << 30)))
         throw std::invalid_argument("samples must be in 16..2^30");
@@ -180,8 +210,13 @@ struct Plan {
     BakeSpec spec;
     std::uint32_t nv = 0, nl = 0, nvv = 0, channels = 0, replicates = 0, points = 0;
     std::uint64_t batch_samples = 0;
-    std::vector<double> node_degrees, node_weights;
-    std::vector<float> wo;  // float4 per direction, direction = row * nodes + node
+    // Azimuth: a grid of `grid` trapezoid intervals (grid + 1 nodes; grid 0: the one fixed angle). A
+    // row uses the nested sub-grid of k intervals (nodes i * grid / k), k from k_start, doubled while
+    // the row's |T_k/2 - T_k| exceeds refine_threshold and k < grid (adaptive), or k = grid (fixed).
+    std::uint32_t grid = 0, k_start = 0;
+    double refine_threshold = 0, refine_z = 0;
+    std::vector<double> node_degrees;
+    std::vector<float> wo;  // float4 per direction, direction = row * (grid + 1) + node
     ms_bake_slice base{};   // fields common to every slice
     // Texel status per (row, visibility): 0 sampled, 1 exact zero, 2 exact one (same in every slice).
     std::vector<std::uint8_t> status;
@@ -244,8 +279,7 @@ public:
             histogram_ = device_.kernel("bake_lut.cl", "ms_bake_histogram", plan.spec.build);
             const std::size_t total = std::size_t(plan.points) * plan.replicates;
             const std::size_t items = plan.wo.size() / 4 * plan.replicates;
-            wo_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, plan.wo.size() * sizeof(float),
-                             const_cast<float*>(plan.wo.data()));
+            wo_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, plan.wo.size() * sizeof(float));
             for (auto* b : {&nx_, &ny_, &nz_}) *b = cl::Buffer(device_.context(), CL_MEM_READ_WRITE, total * sizeof(float));
             scratch_ = cl::Buffer(device_.context(), CL_MEM_READ_WRITE,
                                   items * MS_BAKE_SUBHISTOGRAMS * (plan.nv + 2) * sizeof(cl_uint));
@@ -255,11 +289,8 @@ public:
     }
     const ocl::DeviceInfo& info() const { return device_.info(); }
 
-    // Adds one batch's counts of the slice to `acc` (items x (nv + 1)). Returns the seconds spent.
-    double run_batch(const ms_bake_slice& slice, const PointSet& points, std::uint32_t batch, std::vector<std::uint64_t>& acc) {
-        const auto start = std::chrono::steady_clock::now();
-        const std::size_t items = plan_.wo.size() / 4 * plan_.replicates;
-        std::vector<cl_uint> counts(items * (plan_.nv + 1));
+    // Turns one batch's points into the slice's normals (kept on the device for histogram()).
+    void normals(const ms_bake_slice& slice, const PointSet& points, std::uint32_t batch) {
         ocl::checked([&] {
             auto& uploaded = points_[batch];
             if (!uploaded.first()) {
@@ -276,6 +307,23 @@ public:
             normals_.setArg(5, nz_);
             const std::size_t blocks = std::size_t(plan_.points) / MS_LANES * plan_.replicates;
             device_.queue().enqueueNDRangeKernel(normals_, cl::NullRange, cl::NDRange(blocks), cl::NullRange);
+            return 0;
+        });
+    }
+
+    // Bins the current normals for the given directions (indices into plan.wo) and adds the counts
+    // of direction dirs[d], replicate r to acc[(dirs[d] * R + r) * (nv + 1) ...]. Returns the seconds.
+    double histogram(ms_bake_slice slice, const std::vector<std::uint32_t>& dirs, std::vector<std::uint64_t>& acc) {
+        const auto start = std::chrono::steady_clock::now();
+        const std::size_t R = plan_.replicates, stride = plan_.nv + 1;
+        const std::size_t items = dirs.size() * R;
+        std::vector<float> wo(dirs.size() * 4);
+        for (std::size_t d = 0; d < dirs.size(); ++d)
+            std::copy_n(&plan_.wo[std::size_t(dirs[d]) * 4], 4, &wo[d * 4]);
+        std::vector<cl_uint> counts(items * stride);
+        slice.directions = std::uint32_t(dirs.size());
+        ocl::checked([&] {
+            device_.queue().enqueueWriteBuffer(wo_, CL_FALSE, 0, wo.size() * sizeof(float), wo.data());
             histogram_.setArg(0, slice);
             histogram_.setArg(1, wo_);
             histogram_.setArg(2, nx_);
@@ -287,7 +335,11 @@ public:
             device_.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, counts.size() * sizeof(cl_uint), counts.data());
             return 0;
         });
-        for (std::size_t i = 0; i < counts.size(); ++i) acc[i] += counts[i];
+        for (std::size_t d = 0; d < dirs.size(); ++d) {
+            const cl_uint* from = &counts[d * R * stride];
+            std::uint64_t* to = &acc[std::size_t(dirs[d]) * R * stride];
+            for (std::size_t i = 0; i < R * stride; ++i) to[i] += from[i];
+        }
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
 
@@ -299,12 +351,74 @@ private:
     std::map<std::uint32_t, std::pair<cl::Buffer, cl::Buffer>> points_;
 };
 
-// Reduces a slice's accumulated counts into values and std errors of its rows (see the header comment,
-// step 3). Writes into the result atlas; returns the largest std error of a sampled texel.
-double reduce_slice(const Plan& plan, const std::vector<std::uint64_t>& acc, std::uint32_t channel, std::uint32_t ivv,
-                    BakeResult& out) {
+// Node index (in the plan's grid) and trapezoid weight of node i of a row with k intervals; k = 0 is
+// the one fixed angle. The weights are azimuth_nodes()'s for k, so a row at k reduces exactly like a
+// fixed-k bake.
+std::uint32_t row_node(const Plan& plan, std::uint32_t k, std::uint32_t i) { return k ? i * (plan.grid / k) : 0; }
+double row_weight(std::uint32_t k, std::uint32_t i) { return k ? (i == 0 || i == k ? 0.5 : 1.0) / double(k) : 1.0; }
+
+// The pooled-ratio trapezoid mean of texel iv of row il over the row's nodes at k intervals.
+double row_mean(const Plan& plan, const std::vector<std::uint64_t>& acc, std::uint32_t il, std::uint32_t k, std::uint32_t iv) {
     const std::uint32_t nv = plan.nv, R = plan.replicates;
-    const std::size_t nodes = plan.node_weights.size();
+    const std::size_t stride = nv + 1;
+    double value = 0;
+    for (std::uint32_t i = 0; i <= k; ++i) {
+        const std::size_t item0 = (std::size_t(il) * (plan.grid + 1) + row_node(plan, k, i)) * R;
+        std::uint64_t cone = 0, hemi = 0;
+        for (std::uint32_t r = 0; r < R; ++r) {
+            const std::uint64_t* row = &acc[(item0 + r) * stride];
+            cone += row[iv];
+            hemi += row[nv];
+        }
+        if (hemi) value += row_weight(k, i) * (double(cone) / double(hemi));
+    }
+    return value;
+}
+
+// Quadrature check of row il at k intervals (k even; 0 otherwise or without sampled texels): per
+// sampled texel d = T_k - T_k/2 (pooled ratios, the same counts) and its std error se_d from the
+// replicates (per replicate r the same difference of its own ratios). Returns max |d| over the row;
+// `significant` is set when some texel has |d| > threshold + z * se_d, i.e. a difference above the
+// threshold that the sampling noise of d does not explain.
+double row_quadrature(const Plan& plan, const std::vector<std::uint64_t>& acc, std::uint32_t il, std::uint32_t k,
+                      double threshold = 0, double z = 0, bool* significant = nullptr) {
+    if (significant) *significant = false;
+    if (k < 2 || k % 2) return 0;
+    const std::uint32_t nv = plan.nv, R = plan.replicates;
+    const std::size_t stride = nv + 1;
+    std::vector<double> dr(R);
+    double worst = 0;
+    for (std::uint32_t iv = 0; iv < nv; ++iv) {
+        if (plan.status[std::size_t(il) * nv + iv] != 0) continue;
+        const double d = row_mean(plan, acc, il, k, iv) - row_mean(plan, acc, il, k / 2, iv);
+        worst = std::max(worst, std::abs(d));
+        if (!significant || *significant || std::abs(d) <= threshold) continue;
+        std::fill(dr.begin(), dr.end(), 0.0);
+        for (std::uint32_t kk : {k, k / 2})
+            for (std::uint32_t i = 0; i <= kk; ++i) {
+                const double w = (kk == k ? 1.0 : -1.0) * row_weight(kk, i);
+                const std::size_t item0 = (std::size_t(il) * (plan.grid + 1) + row_node(plan, kk, i)) * R;
+                for (std::uint32_t r = 0; r < R; ++r) {
+                    const std::uint64_t* row = &acc[(item0 + r) * stride];
+                    dr[r] += w * (row[nv] ? double(row[iv]) / double(row[nv]) : 0.0);
+                }
+            }
+        double mean = 0, ss = 0;
+        for (double x : dr) mean += x;
+        mean /= R;
+        for (double x : dr) ss += (x - mean) * (x - mean);
+        const double se = std::sqrt(ss / (double(R) * double(R - 1)));
+        if (std::abs(d) > threshold + z * se) *significant = true;
+    }
+    return worst;
+}
+
+// Reduces a slice's accumulated counts into values and std errors of its rows (see the header comment,
+// step 3), row il over its k[il] intervals. Writes into the result atlas; returns the largest std error
+// of a sampled texel.
+double reduce_slice(const Plan& plan, const std::vector<std::uint64_t>& acc, const std::vector<std::uint32_t>& k,
+                    std::uint32_t channel, std::uint32_t ivv, BakeResult& out) {
+    const std::uint32_t nv = plan.nv, R = plan.replicates;
     const std::size_t stride = nv + 1;
     std::vector<double> x(R);
     double max_se = 0;
@@ -320,17 +434,18 @@ double reduce_slice(const Plan& plan, const std::vector<std::uint64_t>& acc, std
             }
             double value = 0;
             std::fill(x.begin(), x.end(), 0.0);
-            for (std::size_t a = 0; a < nodes; ++a) {
-                const std::size_t item0 = (std::size_t(il) * nodes + a) * R;
+            for (std::uint32_t a = 0; a <= k[il]; ++a) {
+                const double weight = row_weight(k[il], a);
+                const std::size_t item0 = (std::size_t(il) * (plan.grid + 1) + row_node(plan, k[il], a)) * R;
                 std::uint64_t cone = 0, hemi = 0;
                 for (std::uint32_t r = 0; r < R; ++r) {
                     const std::uint64_t* row = &acc[(item0 + r) * stride];
                     cone += row[iv];
                     hemi += row[nv];
                     // A replicate with no hemisphere sample counts as ratio 0 (the term's definition).
-                    x[r] += plan.node_weights[a] * (row[nv] ? double(row[iv]) / double(row[nv]) : 0.0);
+                    x[r] += weight * (row[nv] ? double(row[iv]) / double(row[nv]) : 0.0);
                 }
-                if (hemi) value += plan.node_weights[a] * (double(cone) / double(hemi));
+                if (hemi) value += weight * (double(cone) / double(hemi));
             }
             double mean = 0;
             for (double xr : x) mean += xr;
@@ -356,7 +471,22 @@ Plan make_plan(const BakeSpec& spec) {
     p.replicates = spec.replicates;
     p.batch_samples = round_up_samples(spec.samples ? spec.samples : kDefaultBatchSamples, spec.replicates);
     p.points = std::uint32_t(p.batch_samples / spec.replicates);
-    azimuth_nodes(spec, p.node_degrees, p.node_weights);
+    if (!spec.azimuth_mean) {
+        p.grid = p.k_start = 0;
+    } else if (spec.azimuth_intervals) {
+        p.grid = p.k_start = spec.azimuth_intervals;
+    } else {
+        p.grid = spec.azimuth_max_intervals;
+        p.k_start = spec.azimuth_min_intervals;
+        p.refine_threshold = spec.azimuth_refine_threshold;
+        p.refine_z = spec.azimuth_refine_z;
+    }
+    if (p.grid == 0) {
+        p.node_degrees = {spec.azimuth_mean ? 0.0 : spec.azimuth_degrees};
+    } else {
+        // As azimuth_nodes(): 180 i / grid; node i * (grid / k) of the grid is bit for bit node i of k.
+        for (std::uint32_t i = 0; i <= p.grid; ++i) p.node_degrees.push_back(180.0 * double(i) / double(p.grid));
+    }
     for (std::uint32_t il = 0; il < p.nl; ++il)
         for (double deg : p.node_degrees) {
             const Query q = texel_query(spec, 0, 0, il, 0, deg);
@@ -408,7 +538,7 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
     result.std_error.assign(result.texels, 0.0f);
     result.slices = std::uint64_t(plan.channels) * plan.nvv;
     result.samples_per_batch = plan.batch_samples;
-    result.azimuth_nodes = std::uint32_t(plan.node_weights.size());
+    result.azimuth_nodes = std::uint32_t(plan.node_degrees.size());
     for (std::uint32_t il = 0; il < plan.nl; ++il)
         for (std::uint32_t iv = 0; iv < plan.nv; ++iv) {
             const std::uint8_t s = plan.status[std::size_t(il) * plan.nv + iv];
@@ -427,7 +557,8 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
     std::exception_ptr fatal;
     std::vector<std::string> failures;
     std::atomic<bool> stop{false};
-    double max_se = 0, device_seconds = 0;
+    double max_se = 0, device_seconds = 0, quadrature = 0;
+    std::map<std::uint32_t, std::uint64_t> rows_by_intervals;
     std::uint64_t batches = 0, max_batches_used = 0, rerun = 0, updates = 0;
     bool tolerance_met = true;
 
@@ -451,27 +582,72 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
                 const std::uint32_t channel = std::uint32_t(slice % plan.channels);
                 const std::uint32_t ivv = std::uint32_t(slice / plan.channels);
                 std::vector<std::uint64_t> acc(std::size_t(plan.wo.size() / 4) * plan.replicates * (plan.nv + 1), 0);
+                // Intervals per NdotL row: every row starts at k_start; rows with no sampled texel need
+                // no tallies at all (their values come from the exact rule).
+                std::vector<std::uint32_t> k(plan.nl, plan.k_start);
+                std::vector<std::uint8_t> row_sampled(plan.nl, 0);
+                for (std::uint32_t il = 0; il < plan.nl; ++il)
+                    for (std::uint32_t iv = 0; iv < plan.nv; ++iv)
+                        if (plan.status[std::size_t(il) * plan.nv + iv] == 0) row_sampled[il] = 1;
                 // Each slice writes only its own texels of `local`; merged under the lock at the end.
                 BakeResult local;
                 local.value.assign(result.texels, 0.0f);
                 local.std_error.assign(result.texels, 0.0f);
-                double slice_se = 0, seconds = 0;
+                double slice_se = 0, seconds = 0, slice_quadrature = 0;
+                std::uint64_t slice_updates = 0;
                 std::uint32_t batch = 0;
                 if (any_sampled) {
                     const Query q = texel_query(spec, channel, 0, 0, ivv, 0);
                     ms_bake_slice params = plan.base;
                     params.alpha_x = params.alpha_y = float(q.alpha_x);
                     params.wi_x = float(q.wi.x), params.wi_y = float(q.wi.y), params.wi_z = float(q.wi.z);
+                    auto run = [&](const std::vector<std::uint32_t>& dirs) {
+                        if (dirs.empty()) return;
+                        seconds += runner->histogram(params, dirs, acc);
+                        slice_updates += std::uint64_t(dirs.size()) * plan.batch_samples;
+                    };
+                    std::vector<std::uint32_t> dirs;
                     for (;;) {
                         throw_if_cancelled();
                         if (stop) return;
-                        seconds += runner->run_batch(params, *point_sets.get(batch), batch, acc);
+                        runner->normals(params, *point_sets.get(batch), batch);
+                        // Every row's current nodes (batch 0: the k_start grid).
+                        dirs.clear();
+                        for (std::uint32_t il = 0; il < plan.nl; ++il)
+                            if (row_sampled[il])
+                                for (std::uint32_t i = 0; i <= k[il]; ++i)
+                                    dirs.push_back(il * (plan.grid + 1) + row_node(plan, k[il], i));
+                        run(dirs);
+                        // Adaptive azimuth (batch 0 only; later batches keep the rows' nodes): a row whose
+                        // |T_k/2 - T_k| exceeds the threshold gets the k new midpoint nodes of 2k.
+                        if (batch == 0 && plan.k_start < plan.grid) {
+                            std::vector<std::uint8_t> open = row_sampled;
+                            for (;;) {
+                                dirs.clear();
+                                for (std::uint32_t il = 0; il < plan.nl; ++il) {
+                                    if (!open[il]) continue;
+                                    bool refine = false;
+                                    if (k[il] < plan.grid) row_quadrature(plan, acc, il, k[il], plan.refine_threshold, plan.refine_z, &refine);
+                                    if (!refine) {
+                                        open[il] = 0;
+                                        continue;
+                                    }
+                                    k[il] *= 2;
+                                    for (std::uint32_t i = 1; i < k[il]; i += 2)
+                                        dirs.push_back(il * (plan.grid + 1) + row_node(plan, k[il], i));
+                                }
+                                if (dirs.empty()) break;
+                                run(dirs);
+                            }
+                        }
                         ++batch;
-                        slice_se = reduce_slice(plan, acc, channel, ivv, local);
+                        slice_se = reduce_slice(plan, acc, k, channel, ivv, local);
                         if (spec.tolerance <= 0 || slice_se <= spec.tolerance || batch >= spec.max_batches) break;
                     }
+                    for (std::uint32_t il = 0; il < plan.nl; ++il)
+                        if (row_sampled[il]) slice_quadrature = std::max(slice_quadrature, row_quadrature(plan, acc, il, k[il]));
                 } else {
-                    reduce_slice(plan, acc, channel, ivv, local);
+                    reduce_slice(plan, acc, k, channel, ivv, local);
                 }
                 std::lock_guard<std::mutex> lock(mutex);
                 for (std::uint32_t il = 0; il < plan.nl; ++il)
@@ -484,7 +660,10 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
                 device_seconds += seconds;
                 batches += batch;
                 max_batches_used = std::max<std::uint64_t>(max_batches_used, batch);
-                updates += std::uint64_t(batch) * plan.batch_samples * (plan.wo.size() / 4);
+                updates += slice_updates;
+                quadrature = std::max(quadrature, slice_quadrature);
+                for (std::uint32_t il = 0; il < plan.nl; ++il)
+                    if (row_sampled[il]) ++rows_by_intervals[k[il]];
                 if (spec.tolerance > 0 && slice_se > spec.tolerance) tolerance_met = false;
                 ++done;
                 changed.notify_all();
@@ -545,6 +724,8 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
     result.tolerance_met = tolerance_met;
     result.device_seconds = device_seconds;
     result.sample_node_rows = updates;
+    result.azimuth_quadrature_error = quadrature;
+    result.azimuth_rows_by_intervals = rows_by_intervals;
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
 }
@@ -554,10 +735,22 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     m["layout"] = to_string(spec.layout);
     if (spec.azimuth_mean) {
         m["azimuth"] = "mean";
-        std::vector<double> deg, w;
-        azimuth_nodes(spec, deg, w);
-        m["azimuth_nodes"] = deg.size();
-        m["azimuth_quadrature"] = "trapezoid on [0, 180] degrees";
+        if (spec.azimuth_intervals) {
+            m["azimuth_nodes"] = spec.azimuth_intervals + 1;
+            m["azimuth_quadrature"] = "trapezoid on [0, 180] degrees";
+        } else {
+            m["azimuth_nodes"] = r.azimuth_nodes;  // the finest grid a row may use
+            m["azimuth_quadrature"] = "adaptive nested trapezoid on [0, 180] degrees, per (slice, NdotL row)";
+            m["azimuth_intervals_min"] = spec.azimuth_min_intervals;
+            m["azimuth_intervals_max"] = spec.azimuth_max_intervals;
+            m["azimuth_refine_threshold"] = spec.azimuth_refine_threshold;
+            m["azimuth_refine_z"] = spec.azimuth_refine_z;
+            nlohmann::json rows = nlohmann::json::object();
+            for (const auto& [k, n] : r.azimuth_rows_by_intervals) rows[std::to_string(k)] = n;
+            m["azimuth_rows_by_intervals"] = rows;
+        }
+        // max over sampled rows of |T_k/2 - T_k| (same points) at the intervals k the row used.
+        m["azimuth_quadrature_error"] = r.azimuth_quadrature_error;
     } else {
         m["azimuth"] = spec.azimuth_degrees;
     }

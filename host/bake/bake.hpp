@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -33,7 +34,13 @@ struct BakeSpec {
     // with azimuth_intervals + 1 nodes), or one fixed angle in degrees.
     bool azimuth_mean = true;
     double azimuth_degrees = 0;
-    std::uint32_t azimuth_intervals = 0;  // 0: the measured default (kDefaultAzimuthIntervals)
+    // azimuth_intervals > 0: that fixed K for every texel. 0 (the default): adaptive, per (slice, NdotL
+    // row): start at azimuth_min_intervals and double K (nested nodes, same points) while some sampled
+    // texel of the row has |T_K - T_K/2| > azimuth_refine_threshold + azimuth_refine_z * (its replicate
+    // std error), up to azimuth_max_intervals (powers of two; defaults measured, see bake.cpp).
+    std::uint32_t azimuth_intervals = 0;
+    std::uint32_t azimuth_min_intervals = 4, azimuth_max_intervals = 32;
+    double azimuth_refine_threshold = 1e-4, azimuth_refine_z = 3;
 
     TermOptions term;
     Sequence sequence = Sequence::sobol;
@@ -87,6 +94,10 @@ struct BakeResult {
     double seconds = 0;
     double device_seconds = 0;            // summed kernel time of all chunks (wall time of the waits)
     std::uint64_t sample_node_rows = 0;   // histogram updates performed: samples x rows x azimuth nodes
+    // Azimuth quadrature estimate: max over sampled (slice, row) of |T_K/2 - T_K| at the K used (0 when
+    // K is odd or a fixed angle), and how many (slice, row) pairs ended at each K (adaptive or fixed).
+    double azimuth_quadrature_error = 0;
+    std::map<std::uint32_t, std::uint64_t> azimuth_rows_by_intervals;
 
     float at(std::uint32_t channel, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const;
 };
@@ -105,7 +116,9 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& result);
 // The (alpha, wi, wo) query of one texel at one azimuth (degrees), as `microshadow eval` would take it.
 Query texel_query(const BakeSpec& spec, std::uint32_t channel, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv,
                   double azimuth_degrees);
-// The azimuth nodes (degrees) and trapezoid weights (summing to 1) a bake uses.
+// The azimuth nodes (degrees) and trapezoid weights (summing to 1) a fixed-K bake uses; for the adaptive
+// default (azimuth_intervals 0) the reference grid of kDefaultAzimuthIntervals, which the adaptive rows
+// approximate to within the recorded quadrature estimate (verify and the benchmarks use it).
 void azimuth_nodes(const BakeSpec& spec, std::vector<double>& degrees, std::vector<double>& weights);
 
 }  // namespace ms

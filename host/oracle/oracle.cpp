@@ -50,7 +50,12 @@ Vec3 normalize(const Vec3& v) {
 // (-1 + sqrt(1 + a)) / 2 for a = alpha_w^2 tan^2 theta >= 0, written as a / (2 (1 + sqrt(1 + a))):
 // algebraically the same, but without the cancellation that loses every digit when a is tiny
 // (directions near the normal or small roughness), so the two Lambda forms can be compared to ulps.
-double lambda_from_a(double a) { return a / (2.0 * (1.0 + std::sqrt(1.0 + a))); }
+// a = +inf (w.z^2 underflowed to 0 for a grazing but valid direction) is Lambda = +inf, G1 = 0:
+// returned explicitly because the quotient would be inf / inf = NaN.
+double lambda_from_a(double a) {
+    if (std::isinf(a)) return std::numeric_limits<double>::infinity();
+    return a / (2.0 * (1.0 + std::sqrt(1.0 + a)));
+}
 
 // Neumaier's compensated sum: the replicates' sums are the oracle's output, keep them exact to ~1 ulp.
 struct CompensatedSum {

@@ -149,7 +149,7 @@ TEST_F(HostileInput, BadQueryFilesFailCleanly) {
 }
 
 TEST_F(HostileInput, OddButValidQueryFilesWork) {
-    // Denormals, a leading '+', CRLF, reordered columns, unnormalised directions, 5000-digit numbers,
+    // Denormals, directions whose squared length under- or overflows (1e-200, 1e200), a leading '+', CRLF, reordered columns, unnormalised directions, 5000-digit numbers,
     // a header without rows, and the extreme values of the stress suite: all valid input.
     std::vector<std::string> columns = ms::kQueryColumns;
     columns.push_back("term");

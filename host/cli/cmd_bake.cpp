@@ -93,6 +93,16 @@ BakeSpec make_spec(const BakeArgs& a) {
     return s;
 }
 
+// "azimuth: 120 rows x 5 nodes, 8 rows x 9 nodes" (per-row node counts of an adaptive bake), or
+// "1 azimuth node" for a fixed angle.
+std::string azimuth_summary(const BakeResult& result) {
+    if (result.azimuth_rows_by_intervals.empty()) return std::to_string(result.azimuth_nodes) + " azimuth node(s)";
+    std::string s = "azimuth rows x nodes:";
+    for (const auto& [intervals, rows] : result.azimuth_rows_by_intervals)
+        s += " " + std::to_string(rows) + " x " + std::to_string(intervals == 0 ? 1 : intervals + 1);
+    return s;
+}
+
 void run_bake(const BakeArgs& args) {
     const BakeSpec spec = make_spec(args);
     // Fail on a bad destination before the (long) bake, not after it.
@@ -135,7 +145,7 @@ void run_bake(const BakeArgs& args) {
         std::cerr << std::setprecision(3) << "bake: " << spec.visibility.count << " x " << spec.n_dot_l.count << " x "
                   << spec.n_dot_v.count << " x " << result.channels << " (" << result.texels << " texels; skipped "
                   << result.skipped_zero << " exact 0 in the zero region, " << result.skipped_one << " exact 1 at v = 1), "
-                  << result.slices << " slices, " << result.azimuth_nodes << " azimuth node(s), "
+                  << result.slices << " slices, " << azimuth_summary(result) << ", "
                   << result.samples_per_batch << " samples per batch, " << result.batches << " batches; max std error "
                   << result.max_std_error;
         if (spec.tolerance > 0) std::cerr << (result.tolerance_met ? " (tolerance met)" : " (TOLERANCE NOT MET: raise --max-batches)");

@@ -58,7 +58,13 @@ void add_sampling_options(CLI::App* app, SamplingOptions& o) {
     app->add_option("--samples", o.samples, "VNDF samples per query (rounded up to replicates x 2^k)")
         ->check(CLI::Range(std::uint64_t(16), std::uint64_t(1) << 34))
         ->capture_default_str();
-    app->add_option("--seed", o.seed, "seed of the point-set randomisation")->capture_default_str();
+    // CLI11's unsigned conversion would wrap "-1" to 2^64 - 1 silently.
+    const CLI::Validator no_sign(
+        [](std::string& s) { return s.find_first_of("+-") == std::string::npos ? std::string() : "--seed takes an integer in 0 .. 2^64 - 1, got '" + s + "'"; },
+        "UINT");
+    app->add_option("--seed", o.seed, "seed of the point-set randomisation (0 .. 2^64 - 1)")
+        ->check(no_sign)
+        ->capture_default_str();
     app->add_option("--replicates", o.replicates, "independent randomisations, for the error estimate")
         ->check(CLI::Range(2u, 1024u))
         ->capture_default_str();

@@ -20,7 +20,8 @@ static_assert(sizeof(ms_tally) == 8, "ms_tally layout must match the OpenCL C st
 
 namespace {
 
-double length(const Vec3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }
+// hypot: no intermediate underflow or overflow, so (1e-200, 0, 1e-200) is a valid direction, not zero.
+double length(const Vec3& v) { return std::hypot(v.x, v.y, v.z); }
 bool finite(const Vec3& v) { return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z); }
 
 // Runs job(i) for i in [0, count) on `workers` threads pulling indices from a shared counter;

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <map>
 
@@ -41,6 +42,8 @@ std::string printable(const std::string& s) {
 }  // namespace
 
 NumericCsv read_numeric_csv(const std::string& path, const std::vector<std::string>& expected) {
+    std::error_code ec;
+    if (std::filesystem::is_directory(path, ec)) throw CsvError(path + ": is a directory, not a CSV file");
     std::ifstream in(path, std::ios::binary);
     if (!in) throw CsvError(path + ": cannot open for reading");
     std::string line;
@@ -122,8 +125,9 @@ std::vector<Query> read_query_csv(const std::string& path) {
         if (q.visibility < 0 || q.visibility > 1) throw CsvError(where + "column 'visibility': " + format_number(q.visibility) + " is outside [0, 1]");
         if (!(q.alpha_x > 0)) throw CsvError(where + "column 'alpha_x': " + format_number(q.alpha_x) + " must be > 0");
         if (!(q.alpha_y > 0)) throw CsvError(where + "column 'alpha_y': " + format_number(q.alpha_y) + " must be > 0");
-        const double li = std::sqrt(q.wi.x * q.wi.x + q.wi.y * q.wi.y + q.wi.z * q.wi.z);
-        const double lo = std::sqrt(q.wo.x * q.wo.x + q.wo.y * q.wo.y + q.wo.z * q.wo.z);
+        // hypot: tiny or huge components are valid directions as long as the length is representable.
+        const double li = std::hypot(q.wi.x, q.wi.y, q.wi.z);
+        const double lo = std::hypot(q.wo.x, q.wo.y, q.wo.z);
         if (!(li > 0) || !std::isfinite(li)) throw CsvError(where + "columns 'wi_x,wi_y,wi_z': zero-length or overflowing direction");
         if (!(lo > 0) || !std::isfinite(lo)) throw CsvError(where + "columns 'wo_x,wo_y,wo_z': zero-length or overflowing direction");
         if (!(q.wi.z / li > 0)) throw CsvError(where + "column 'wi_z': the view direction wi must be above the horizon (wi_z > 0)");

@@ -93,13 +93,16 @@ BakeSpec make_spec(const BakeArgs& a) {
     return s;
 }
 
-// "azimuth: 120 rows x 5 nodes, 8 rows x 9 nodes" (per-row node counts of an adaptive bake), or
+// "azimuth nodes per row: 5 (7267 rows), 9 (5425 rows)" (adaptive bakes choose per row), or
 // "1 azimuth node" for a fixed angle.
 std::string azimuth_summary(const BakeResult& result) {
     if (result.azimuth_rows_by_intervals.empty()) return std::to_string(result.azimuth_nodes) + " azimuth node(s)";
-    std::string s = "azimuth rows x nodes:";
-    for (const auto& [intervals, rows] : result.azimuth_rows_by_intervals)
-        s += " " + std::to_string(rows) + " x " + std::to_string(intervals == 0 ? 1 : intervals + 1);
+    std::string s = "azimuth nodes per row:";
+    const char* sep = " ";
+    for (const auto& [intervals, rows] : result.azimuth_rows_by_intervals) {
+        s += sep + std::to_string(intervals == 0 ? 1 : intervals + 1) + " (" + std::to_string(rows) + " rows)";
+        sep = ", ";
+    }
     return s;
 }
 

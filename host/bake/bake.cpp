@@ -90,6 +90,11 @@ constexpr double kPi = 3.14159265358979323846;
 // NdotV = 0 (the endpoint convention's first slice) has wi on the horizon, where the VNDF sampler and
 // eval's input check (wi_z > 0) are undefined; such texels are evaluated at this NdotV instead.
 constexpr double kMinNdotV = 1e-4;
+// NdotL = 0 (the endpoints convention's first row) is a light exactly on the horizon, where the term
+// is 0 by definition, but its limit from above is not (0.50 at v = 0.89 for roughness 1): a row of
+// zeros would drag the whole first NdotL interval of a bilinear lookup towards a wrong 0 (measured in
+// docs/study.md, section 3). The row stores the limit instead, evaluated at this NdotL.
+constexpr double kMinNdotL = 1e-4;
 
 std::uint64_t mix64(std::uint64_t z) {
     z += 0x9e3779b97f4a7c15ull;
@@ -191,7 +196,7 @@ Query texel_query(const BakeSpec& spec, std::uint32_t channel, std::uint32_t iv,
     q.alpha_x = q.alpha_y = r * r;
     const double nv = std::max(spec.n_dot_v.value(ivv), kMinNdotV);
     q.wi = {std::sqrt(std::max(0.0, 1 - nv * nv)), 0, nv};
-    const double nl = spec.n_dot_l.value(il);
+    const double nl = std::max(spec.n_dot_l.value(il), kMinNdotL);
     const double sl = std::sqrt(std::max(0.0, 1 - nl * nl));
     const double phi = azimuth_degrees * kPi / 180.0;
     q.wo = {sl * std::cos(phi), sl * std::sin(phi), nl};
@@ -496,7 +501,7 @@ Plan make_plan(const BakeSpec& spec) {
     for (std::uint32_t il = 0; il < p.nl; ++il)
         for (std::uint32_t iv = 0; iv < p.nv; ++iv) {
             const double v = spec.visibility.value(iv);
-            const double nl = spec.n_dot_l.value(il);
+            const double nl = std::max(spec.n_dot_l.value(il), kMinNdotL);
             p.status[std::size_t(il) * p.nv + iv] =
                 in_zero_region(cone_cos_theta(v, spec.term.ao_weighting), nl) ? 1 : v == 1.0 ? 2 : 0;
         }
@@ -769,6 +774,7 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     m["skipped_zero"] = r.skipped_zero;
     m["skipped_one"] = r.skipped_one;
     m["n_dot_v_clamp_min"] = kMinNdotV;
+    m["n_dot_l_clamp_min"] = kMinNdotL;
     m["rerun_chunks"] = r.rerun_chunks;  // chunks rerun after a device failed (the data do not depend on it)
     std::string devices;
     for (std::size_t i = 0; i < r.devices.size(); ++i) devices += (i ? "; " : "") + r.devices[i];

@@ -40,7 +40,7 @@ Probe probe(const ocl::DeviceInfo& info) {
     ocl::checked([&] {
         cl::Kernel kernel = device.kernel("generic_term.cl", "ms_tally_queries", build);
         ms_query q{};
-        q.cos_theta = 0.5f, q.alpha_x = q.alpha_y = 0.5f, q.wi_z = 1.0f, q.wo_z = 1.0f;
+        q.cos_theta = 0.5f, q.sin2_cone = 0.75f, q.alpha_x = q.alpha_y = 0.5f, q.wi_z = 1.0f, q.wo_z = 1.0f;
         float u[16];
         for (int i = 0; i < 16; ++i) u[i] = (i + 0.5f) / 16.0f;
         cl::Buffer qb(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, sizeof q, &q);

@@ -64,6 +64,7 @@ std::vector<ms_query> pack(const std::vector<Query>& queries) {
     for (const Query& q : queries) {
         ms_query p{};
         p.cos_theta = float(cone_cos_theta(q.visibility, AoWeighting::cosine));
+        p.sin2_cone = float(cone_sin2_theta(q.visibility, AoWeighting::cosine));
         p.alpha_x = float(q.alpha_x), p.alpha_y = float(q.alpha_y);
         p.wi_x = float(q.wi.x), p.wi_y = float(q.wi.y), p.wi_z = float(q.wi.z);
         p.wo_x = float(q.wo.x), p.wo_y = float(q.wo.y), p.wo_z = float(q.wo.z);

@@ -17,6 +17,16 @@
  * H(<a.b> - cos_t) is simply a.b > cos_t. wo at or below the horizon: Lambda_o is infinite, w = 0,
  * term 0.
  *
+ * Cone test in tangents, not cosines. In float, cos_t = 1 for v < ~6e-8 and m.a > cos_t |m| resolves
+ * 1 - cos_t only to ~6e-8 absolute, so tiny cones come out empty or wrong (0.23 off at v = 1e-7). For a
+ * unit axis a and theta in (0, 90 deg]:
+ *     angle(m, a) < theta  <=>  m.a > 0  and  cos_t^2 |m x a|^2 < sin_t^2 (m.a)^2,
+ * with |m x a| taken from m's components perpendicular to a (mx, my for a = z; an orthonormal frame
+ * t1, t2 around wo for a = wo), never from |m|^2 - (m.a)^2. Both sides are products of non-negative
+ * terms with small relative error, so tan^2 is resolved to a few ulps at any cone size (the sine form
+ * alone would fail near 90 deg, the cosine form near 0). The host passes sin_t^2 (from v in double);
+ * k = cot_t scales the perpendicular side, and k = 0 at v = 1 gives the whole hemisphere.
+ *
  * Vectorisation. Each work-item handles one (query, replicate, chunk) triple and walks its points in
  * float16 blocks: PoCL keeps sin/cos/normalize scalar, so the sampler uses a polynomial sincos with
  * integer quadrant selection and compares squared quantities instead of normalising.
@@ -82,40 +92,54 @@ inline void sincos_turns16(real16 u, real16* sin_out, real16* cos_out)
  * Tally one query over `count` points (a multiple of MS_LANES) starting at `first`.
  * Spherical-cap VNDF sampling (Dupuy & Benyoub 2023): stretch wi into the isotropic configuration,
  * sample a spherical cap [-wi_std.z, 1] in z, add wi_std, and unstretch. The unstretched vector
- * m = (ax h.x, ay h.y, h.z) is left unnormalised: with len = |m|,
- *     wm.wg > c  <=>  m.z > c len,      wm.wo > c  <=>  m.wo > c len,
- * and for c >= 0 and positive left sides these are compared squared, which avoids a sqrt and a division.
+ * m = (ax h.x, ay h.y, h.z) is left unnormalised: the cone tests (see the header) are homogeneous
+ * in m, which avoids a sqrt and a division per sample.
  */
 inline ms_tally tally_points(const ms_query q, __global const float* u1, __global const float* u2,
                              uint first, uint count)
 {
     ms_tally result = {0u, 0u};
-    /* Provable zeros (see host/core/cone.hpp): light at or below the horizon, or outside twice the
-     * cone. The host never sends these; the guard keeps the kernel correct on its own. */
-    if (q.wo_z <= 0.0f || q.wo_z <= 2.0f * q.cos_theta * q.cos_theta - 1.0f || q.cos_theta >= 1.0f)
+    /* Provable zeros (see host/core/cone.hpp): light at or below the horizon, an empty cone (v = 0),
+     * or NdotL <= cos(2 theta) = 1 - 2 sin_t^2. The host never sends these; the guard keeps the kernel
+     * correct on its own. The 2^-22 margin exceeds the float rounding of wo_z and 1 - 2 sin_t^2, so a
+     * query just outside the zero region is never cut. */
+    if (q.wo_z <= 0.0f || q.sin2_cone <= 0.0f || q.wo_z < 1.0f - 2.0f * q.sin2_cone - 0x1p-22f)
         return result;
 
     const real ax = q.alpha_x, ay = q.alpha_y;
     real3 wi_std = (real3)(ax * q.wi_x, ay * q.wi_y, q.wi_z);
     wi_std *= rsqrt(dot(wi_std, wi_std));
-    const real c2 = (real)q.cos_theta * (real)q.cos_theta;
+
+    /* k = cot_t; the cone tests read mz^2 > k^2 (mx^2 + my^2) and (m.wo)^2 > e1^2 + e2^2 with
+     * e = k (m.t1, m.t2), t1 = (-sin phi_o, cos phi_o, 0), t2 = wo x t1 (phi_o: azimuth of wo). */
+    const real wox = q.wo_x, woy = q.wo_y, woz = q.wo_z;
+    const real k = (real)q.cos_theta / sqrt((real)q.sin2_cone);
+    const real k2 = k * k;
+    const real r = sqrt(fma(wox, wox, woy * woy));
+    /* Below 1e-18 r^2 would be subnormal; wo is then the normal to far below any cone's resolution. */
+    const int polar = r < MS_R(1e-18);
+    const real cos_po = polar ? MS_R(1.0) : wox / r, sin_po = polar ? MS_R(0.0) : woy / r;
+    const real p1x = -k * sin_po, p1y = k * cos_po;
+    const real p2x = -k * woz * cos_po, p2y = -k * woz * sin_po, p2z = k * r;
 
     int16 cone = 0, hemisphere = 0; /* comparisons yield -1 for true, so these count downwards */
+    /* fma, not mad: PoCL 3.1 lowers mad to a separate multiply and add, ~10 more instructions a block. */
     for (uint i = first; i < first + count; i += MS_LANES) {
         const real16 r1 = convert_real16(vload16(0, u1 + i));
         const real16 r2 = convert_real16(vload16(0, u2 + i));
         real16 sin_phi, cos_phi;
         sincos_turns16(r1, &sin_phi, &cos_phi);
-        const real16 z = mad(MS_R(1.0) - r2, MS_R(1.0) + wi_std.z, -wi_std.z);
+        const real16 z = fma(MS_R(1.0) - r2, MS_R(1.0) + wi_std.z, -wi_std.z);
         const real16 s = sqrt(max(MS_R(1.0) - z * z, MS_R(0.0)));
-        const real16 mx = ax * mad(s, cos_phi, wi_std.x);
-        const real16 my = ay * mad(s, sin_phi, wi_std.y);
+        const real16 mx = ax * fma(s, cos_phi, wi_std.x);
+        const real16 my = ay * fma(s, sin_phi, wi_std.y);
         const real16 mz = z + wi_std.z;
-        const real16 len2 = mad(mx, mx, mad(my, my, mz * mz));
-        const real16 m_dot_l = mad(mx, (real)q.wo_x, mad(my, (real)q.wo_y, mz * (real)q.wo_z));
-        const real16 threshold2 = c2 * len2;
+        const real16 m_dot_l = fma(mx, wox, fma(my, woy, mz * woz));
+        const real16 e1 = fma(mx, p1x, my * p1y);
+        const real16 e2 = fma(mx, p2x, fma(my, p2y, mz * p2z));
         const mask16 facing = (mz > MS_R(0.0)) & (m_dot_l > MS_R(0.0));
-        const mask16 in_cone = facing & (mz * mz > threshold2) & (m_dot_l * m_dot_l > threshold2);
+        const mask16 in_cone = facing & (mz * mz > k2 * fma(mx, mx, my * my)) &
+                               (m_dot_l * m_dot_l > fma(e1, e1, e2 * e2));
         hemisphere += convert_int16(facing);
         cone += convert_int16(in_cone);
     }

@@ -37,7 +37,8 @@ typedef int32_t ms_i32;
 /*
  * One query of the generic term: a visibility cone and an anisotropic GGX microsurface seen from wi
  * and lit from wo. Directions are unit vectors in the tangent frame (normal = +z); the host normalises.
- * cos_theta is the cosine of the cone half-angle, already mapped from visibility by the host.
+ * cos_theta and sin2_cone are the cosine and the squared sine of the cone half-angle, both mapped from
+ * visibility by the host in double: sin2_cone carries tiny cones whose float cos_theta rounds to 1.
  */
 typedef struct ms_query {
     float cos_theta;
@@ -45,7 +46,8 @@ typedef struct ms_query {
     float alpha_y;
     float wi_x, wi_y, wi_z;
     float wo_x, wo_y, wo_z;
-    float pad0, pad1, pad2; /* keeps the struct 48 bytes, a multiple of 16 */
+    float sin2_cone;
+    float pad1, pad2; /* keeps the struct 48 bytes, a multiple of 16 */
 } ms_query;
 
 /*

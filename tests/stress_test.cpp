@@ -27,7 +27,10 @@ namespace {
 // The extremes of issue 6. NdotV = 0 (wi at the horizon) is invalid input and tested separately.
 const double kNdotV[] = {1e-7, 1e-3, 0.5, 1 - 1e-7, 1};
 const double kNdotL[] = {0, 1e-7, 1e-3, 0.5, 1 - 1e-7, 1};
-const double kVisibility[] = {0, 1e-7, 0.25, 0.5, 0.75, 1 - 1e-7, 1};
+// Tiny visibilities down to 1e-12: float cos_t is 1 below ~6e-8, so these exercise the kernel's tangent
+// form of the cone test (generic_term.cl). Below ~1e-12 the double oracle's own cosine test stops
+// resolving 1 - cos_t = v/2 (double rounding ~1e-16), so it could no longer referee.
+const double kVisibility[] = {0, 1e-12, 1e-10, 1e-7, 1e-5, 1e-3, 0.25, 0.5, 0.75, 1 - 1e-7, 1};
 // Relative azimuth of wo to wi (radians); wi itself sits at 30 degrees, off both anisotropy axes.
 const double kAzimuth[] = {0, M_PI / 2, M_PI};
 constexpr double kPhiI = M_PI / 6;
@@ -99,17 +102,9 @@ void expect_sane(const std::vector<Estimate>& r, const Grid& g, const std::strin
             EXPECT_GE(r[row[k]].term, r[row[k - 1]].term) << who << ": not monotone at " << g.labels[row[k]];
 }
 
-// Where float cannot follow. The kernel decides "wm inside the cone" by comparing squared cosines,
-// m.z^2 > c^2 |m|^2, whose float rounding is ~6e-8 in absolute terms, i.e. the cone's 1 - cos_t is
-// resolved only to ~6e-8 (the host also rounds cos_t itself to float: 1 - 5e-8 becomes exactly 1).
-// The relative error of the cone is therefore ~6e-8 / (1 - cos_t). Measured on this grid and on
-// extra probes (8 x 2048 points, alpha 1e-4..1e-2, wo inside and on the cone boundary):
-//   1 - cos_t = 5e-8 (v = 1e-7): float 0.07 vs double 0.42 (346 standard errors); v = 1e-6: 82 se;
-//   v = 1e-5: 29 se (1.7 % off); v = 1e-4: 14 se (wo exactly on the cone boundary, alpha = 1e-4);
-//   v = 1e-3: 6 se (0.25 %, same degenerate configuration); v >= 0.25: at most one flipped sample.
-// Below this floor on 1 - cos_t the float kernel is not compared (the lead is asked to reformulate
-// the comparisons in sines, or route such queries to the oracle: see the issue 6 report).
-constexpr double kFloatConeFloor = 1.0 / 4096;
+// Cones the former cosine test could not resolve in float (1 - cos_t < 2^-12: up to 0.23 off at
+// v = 1e-7). They are compared like every other query; the worst among them is reported apart.
+bool tiny_cone(double visibility, AoWeighting ao) { return 1 - cone_cos_theta(visibility, ao) < 1.0 / 4096; }
 
 struct Worst {
     double diff = 0;
@@ -128,8 +123,8 @@ TEST(Stress, FloatKernelFollowsDoubleOracleAtTheExtremes) {
     const std::size_t R = kPlan.replicates;
     // Two comparisons per query and weighting; Bonferroni keeps the family-wise false alarm <= 1e-3.
     const double k = student_t_quantile(1 - 1e-3 / double(2 * g.queries.size()), int(R) - 1);
-    Worst compared_worst, below_floor_worst;
-    std::size_t compared = 0, below_floor = 0, sampled = 0;
+    Worst worst, tiny_worst;
+    std::size_t compared = 0, tiny = 0, sampled = 0;
     for (AoWeighting ao : {AoWeighting::cosine, AoWeighting::uniform}) {
         const TermOptions opt{Form::height_correlated, ao};
         const auto a = evaluate(*cl, g.queries, opt, kPlan);
@@ -147,13 +142,12 @@ TEST(Stress, FloatKernelFollowsDoubleOracleAtTheExtremes) {
                 for (std::size_t r = 0; r < R; ++r) hemi += t.hemisphere[r];
             }
             const std::string where = g.labels[i] + " ao=" + to_string(ao);
-            if (1 - cone_cos_theta(g.queries[i].visibility, ao) < kFloatConeFloor && g.queries[i].visibility > 0) {
-                ++below_floor;
-                below_floor_worst.update(diff, diff * hemi, where);
-                continue;
-            }
             ++compared;
-            compared_worst.update(diff, diff * hemi, where);
+            worst.update(diff, diff * hemi, where);
+            if (g.queries[i].visibility > 0 && tiny_cone(g.queries[i].visibility, ao)) {
+                ++tiny;
+                tiny_worst.update(diff, diff * hemi, where);
+            }
             // Same points: what remains after the statistical error is at most one sample lying within
             // float rounding of a boundary (seen only where wo lies exactly on the cone, NdotL = cos_t).
             const double bound = k * std::hypot(a[i].std_error, b[i].std_error) + (hemi > 0 ? 1.0 / hemi : 0.0) + 1e-12;
@@ -164,10 +158,52 @@ TEST(Stress, FloatKernelFollowsDoubleOracleAtTheExtremes) {
     std::printf("[stress] %zu queries x 2 weightings (%zu sampled, %u x %u points each): %zu compared, worst "
                 "|float - double| = %.3g (%.3g samples) at %s\n",
                 g.queries.size(), sampled, kPlan.replicates, unsigned(kPlan.samples / kPlan.replicates), compared,
-                compared_worst.diff, compared_worst.flips, compared_worst.where.c_str());
-    std::printf("[stress] below the float cone floor (1 - cos_t < %g): %zu queries, worst %.3g (%.3g samples) at %s\n",
-                kFloatConeFloor, below_floor, below_floor_worst.diff, below_floor_worst.flips,
-                below_floor_worst.where.c_str());
+                worst.diff, worst.flips, worst.where.c_str());
+    std::printf("[stress] of which tiny cones (1 - cos_t < 2^-12, 0 < v): %zu queries, worst %.3g (%.3g samples) at %s\n",
+                tiny, tiny_worst.diff, tiny_worst.flips, tiny_worst.where.c_str());
+}
+
+TEST(Stress, FloatKernelResolvesConesOfEverySize) {
+    // A family whose term hardly depends on the cone size: alpha = sin_t (the visible normals spread
+    // over about the cone) and wo half a cone angle off the normal, so both cone conditions cut. The
+    // former float cosine test was 0.04 off here at v = 1e-7 and counted nothing at 1e-9 (float cos_t
+    // = 1); the tangent test must follow the oracle on the same points down to v = 1e-12, with a term
+    // well inside (0, 1) so that agreement is not 0 = 0 or 1 = 1.
+    auto cl = opencl();
+    auto oracle = make_oracle_backend();
+    const SamplingPlan plan{Sequence::sobol, 8 * 2048, 8, 77};
+    const PointSet points = make_point_set(plan);
+    const double visibilities[] = {1e-2, 1e-4, 1e-7, 1e-9, 1e-12};
+    const double k = student_t_quantile(1 - 1e-3 / (2.0 * std::size(visibilities)), int(plan.replicates) - 1);
+    for (AoWeighting ao : {AoWeighting::cosine, AoWeighting::uniform}) {
+        std::vector<Query> qs;
+        for (double v : visibilities) {
+            const double sin_t = std::sqrt(cone_sin2_theta(v, ao));
+            const double half = 0.5 * std::asin(sin_t);  // from the sine: no cancellation for tiny angles
+            Query q;
+            q.visibility = v;
+            q.alpha_x = sin_t;
+            q.alpha_y = 0.7 * sin_t;
+            q.wi = direction(0.6, 0.4);
+            q.wo = {std::sin(half) * std::cos(2.0), std::sin(half) * std::sin(2.0), std::cos(half)};
+            qs.push_back(q);
+        }
+        const TermOptions opt{Form::height_correlated, ao};
+        const auto a = evaluate(*cl, qs, opt, plan);
+        const auto b = evaluate(*oracle, qs, opt, plan);
+        for (std::size_t i = 0; i < qs.size(); ++i) {
+            const Tallies t = cl->tally({normalised(qs[i])}, opt, points);
+            double hemi = 0;
+            for (double h : t.hemisphere) hemi += h;
+            ASSERT_GT(hemi, 0);
+            const double bound = k * std::hypot(a[i].std_error, b[i].std_error) + 1.0 / hemi;
+            EXPECT_GT(b[i].term, 0.05) << "v=" << qs[i].visibility << " ao=" << to_string(ao);
+            EXPECT_LT(b[i].term, 0.95) << "v=" << qs[i].visibility << " ao=" << to_string(ao);
+            EXPECT_LE(std::abs(a[i].term - b[i].term), bound)
+                << "v=" << qs[i].visibility << " ao=" << to_string(ao) << ": opencl " << a[i].term << " +- "
+                << a[i].std_error << ", oracle " << b[i].term << " +- " << b[i].std_error;
+        }
+    }
 }
 
 TEST(Stress, ViewAtTheHorizonIsRejected) {
@@ -204,16 +240,15 @@ TEST(Stress, ViewAtTheHorizonIsRejected) {
 TEST(Stress, BothFormsAgreeOnTheSamePointsAtTheExtremes) {
     // The Smith weight is constant per query apart from H(wo.wm) (generic_term.cl's header), so the
     // weighted oracle must give the same ratio in both forms, and the kernel (which drops the weight)
-    // the same bits. Checked on the extreme grid's sampled, above-floor queries of one roughness pair
-    // per anisotropy class to keep the double oracle's time small.
+    // the same bits. Checked on the extreme grid's queries with 0 < v < 1 (tiny cones included) of one
+    // roughness pair per anisotropy class to keep the double oracle's time small.
     const Grid g = make_grid();
     std::vector<Query> subset;
     for (std::size_t i = 0; i < g.queries.size(); ++i) {
         const Query& q = g.queries[i];
         const bool picked = (q.alpha_x == 1e-4 && q.alpha_y == 1e-4) || (q.alpha_x == 1 && q.alpha_y == 1e-3) ||
                             (q.alpha_x == 1e-4 && q.alpha_y == 0.1);
-        if (picked && q.visibility > 0 && q.visibility < 1 && 1 - cone_cos_theta(q.visibility, AoWeighting::cosine) >= kFloatConeFloor)
-            subset.push_back(q);
+        if (picked && q.visibility > 0 && q.visibility < 1) subset.push_back(q);
     }
     auto cl = opencl();
     auto oracle = make_oracle_backend();

@@ -1,7 +1,8 @@
 // Compiled with -O3 -march=native -fno-math-errno -fopenmp (see bench/CMakeLists.txt); nothing else in
 // the project is. The loop mirrors kernels/generic_term.cl operation by operation (same polynomial
-// sincos, same fma placement, squared comparisons instead of a normalisation) so the counts agree with
-// the kernel's up to samples that sit on a threshold within float rounding; see borderline_samples().
+// sincos, same fma placement, same tangent-form cone tests without a normalisation) so the counts
+// agree with the kernel's up to samples that sit on a threshold within float rounding; see
+// borderline_samples().
 #include "baseline/baseline_tally.hpp"
 
 #include <omp.h>
@@ -13,7 +14,8 @@ namespace ms::bench {
 namespace {
 
 struct Prepared {
-    float ax, ay, wx, wy, wz, ox, oy, oz, c2;
+    float ax, ay, wx, wy, wz, ox, oy, oz;
+    float k2, p1x, p1y, p2x, p2y, p2z;  // cot^2 of the cone and the scaled frame around wo (see the kernel)
     // Provably zero (the kernel's guard). An int, not a bool: a bool member kept GCC from vectorising
     // loops that read the struct ("no vectype for stmt", -fopt-info-vec-missed).
     int zero;
@@ -21,18 +23,25 @@ struct Prepared {
 
 Prepared prepare(const ms_query& q) {
     Prepared p{};
-    p.zero = q.wo_z <= 0.0f || q.wo_z <= 2.0f * q.cos_theta * q.cos_theta - 1.0f || q.cos_theta >= 1.0f;
+    p.zero = q.wo_z <= 0.0f || q.sin2_cone <= 0.0f || q.wo_z < 1.0f - 2.0f * q.sin2_cone - 0x1p-22f;
     const float sx = q.alpha_x * q.wi_x, sy = q.alpha_y * q.wi_y, sz = q.wi_z;
     const float inv = 1.0f / std::sqrt(sx * sx + sy * sy + sz * sz);
     p.ax = q.alpha_x, p.ay = q.alpha_y;
     p.wx = sx * inv, p.wy = sy * inv, p.wz = sz * inv;
     p.ox = q.wo_x, p.oy = q.wo_y, p.oz = q.wo_z;
-    p.c2 = q.cos_theta * q.cos_theta;
+    const float k = q.cos_theta / std::sqrt(q.sin2_cone);
+    p.k2 = k * k;
+    const float r = std::sqrt(std::fma(q.wo_x, q.wo_x, q.wo_y * q.wo_y));
+    const bool polar = r < 1e-18f;
+    const float cos_po = polar ? 1.0f : q.wo_x / r, sin_po = polar ? 0.0f : q.wo_y / r;
+    p.p1x = -k * sin_po, p.p1y = k * cos_po;
+    p.p2x = -k * q.wo_z * cos_po, p.p2y = -k * q.wo_z * sin_po, p.p2z = k * r;
     return p;
 }
 
-// One sample's unnormalised microfacet normal m (see the kernel): returns mz, len2 and m.wo.
-inline void sample(const Prepared& p, float r1, float r2, float& mz, float& len2, float& mdl) {
+// One sample's unnormalised microfacet normal m (see the kernel): returns the quantities its tests
+// compare: mz, mx^2 + my^2, m.wo and e1^2 + e2^2 (k^2 |m x wo|^2 from the frame around wo).
+inline void sample(const Prepared& p, float r1, float r2, float& mz, float& rho2, float& mdl, float& e2sum) {
     // sincos(2 pi r1): quadrant q = round(4 r1), remainder a in [-pi/4, pi/4], Taylor polynomials.
     const float t = r1 * 4.0f;
     const int qd = int(t + 0.5f);
@@ -54,8 +63,11 @@ inline void sample(const Prepared& p, float r1, float r2, float& mz, float& len2
     const float mx = p.ax * std::fma(s, cos_phi, p.wx);
     const float my = p.ay * std::fma(s, sin_phi, p.wy);
     mz = z + p.wz;
-    len2 = std::fma(mx, mx, std::fma(my, my, mz * mz));
+    rho2 = std::fma(mx, mx, my * my);
     mdl = std::fma(mx, p.ox, std::fma(my, p.oy, mz * p.oz));
+    const float e1 = std::fma(mx, p.p1x, my * p.p1y);
+    const float e2 = std::fma(mx, p.p2x, std::fma(my, p.p2y, mz * p.p2z));
+    e2sum = std::fma(e1, e1, e2 * e2);
 }
 
 ms_tally tally_range(const Prepared& p, const float* __restrict u1, const float* __restrict u2, std::uint32_t count) {
@@ -65,12 +77,11 @@ ms_tally tally_range(const Prepared& p, const float* __restrict u1, const float*
     // Branch-free body so GCC if-converts it into masked vector code (checked with -fopt-info-vec).
 #pragma omp simd reduction(+ : cone, hemisphere)
     for (std::uint32_t i = 0; i < count; ++i) {
-        float mz, len2, mdl;
-        sample(c, u1[i], u2[i], mz, len2, mdl);
-        const float threshold2 = c.c2 * len2;
+        float mz, rho2, mdl, e2sum;
+        sample(c, u1[i], u2[i], mz, rho2, mdl, e2sum);
         const int up = int(mz > 0.0f) & int(mdl > 0.0f);
         hemisphere += up;
-        cone += up & int(mz * mz > threshold2) & int(mdl * mdl > threshold2);
+        cone += up & int(mz * mz > c.k2 * rho2) & int(mdl * mdl > e2sum);
     }
     return {std::uint32_t(cone), std::uint32_t(hemisphere)};
 }
@@ -111,14 +122,13 @@ std::uint64_t borderline_samples(const ms_query& q, const float* u1, const float
     std::uint64_t border = 0;
     auto near = [margin](float a, float b) { return std::fabs(a - b) <= margin * std::fmax(std::fabs(a), std::fabs(b)); };
     for (std::uint32_t i = 0; i < count; ++i) {
-        float mz, len2, mdl;
-        sample(p, u1[i], u2[i], mz, len2, mdl);
+        float mz, rho2, mdl, e2sum;
+        sample(p, u1[i], u2[i], mz, rho2, mdl, e2sum);
         // Each comparison of the kernel, with its scale: the sign tests against |m|, the cone tests
-        // against their squared threshold.
-        const float len = std::sqrt(len2);
-        const float threshold2 = p.c2 * len2;
-        if (std::fabs(mz) <= margin * len || std::fabs(mdl) <= margin * len || near(mz * mz, threshold2) ||
-            near(mdl * mdl, threshold2))
+        // between their two sides.
+        const float len = std::sqrt(std::fma(mz, mz, rho2));
+        if (std::fabs(mz) <= margin * len || std::fabs(mdl) <= margin * len || near(mz * mz, p.k2 * rho2) ||
+            near(mdl * mdl, e2sum))
             ++border;
     }
     return border;

@@ -1,9 +1,11 @@
 #include "cli/progress.hpp"
 
+#include <pthread.h>
 #include <unistd.h>
 
 #include <csignal>
 #include <cstdio>
+#include <thread>
 
 #include "core/cancel.hpp"
 
@@ -40,13 +42,31 @@ void Progress::finish() {
     drawn_ = false;
 }
 
-namespace {
-extern "C" void on_interrupt(int) { cancel_requested().store(true); }
-}  // namespace
-
+// SIGINT/SIGTERM are blocked in every thread and taken by one thread with sigwait, instead of an
+// asynchronous handler, because a blocked mask is inherited by child processes: PoCL runs its linker
+// as a child while it compiles a kernel, and a terminal's Ctrl-C (sent to the whole process group)
+// killed it mid-link, which made PoCL abort the process (exit 134) instead of the clean stop (130).
+// Called before any other thread exists, so PoCL's own threads inherit the mask as well.
 void install_interrupt_handlers() {
-    std::signal(SIGINT, on_interrupt);
-    std::signal(SIGTERM, on_interrupt);
+    sigset_t set;
+    sigemptyset(&set);
+    sigaddset(&set, SIGINT);
+    sigaddset(&set, SIGTERM);
+    if (pthread_sigmask(SIG_BLOCK, &set, nullptr) != 0) return;  // keeps the default: die on the signal
+    std::thread([set] {
+        for (int received = 0;;) {
+            int sig = 0;
+            if (sigwait(&set, &sig) != 0) continue;
+            cancel_requested().store(true);
+            // The first signals ask the running batch to finish and stop cleanly; a third one means the
+            // user will not wait for that (a long device batch): leave now, like an unhandled signal.
+            if (++received >= 3) {
+                static const char msg[] = "\nmicroshadow: interrupted three times: exiting without cleaning up\n";
+                (void)!::write(STDERR_FILENO, msg, sizeof msg - 1);
+                ::_exit(130);
+            }
+        }
+    }).detach();
 }
 
 }  // namespace ms::cli

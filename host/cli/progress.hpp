@@ -21,7 +21,8 @@ private:
     std::chrono::steady_clock::time_point start_, last_draw_;
 };
 
-// Installs SIGINT/SIGTERM handlers that set ms::cancel_requested().
+// SIGINT/SIGTERM set ms::cancel_requested() (taken by a dedicated thread; call before starting any
+// other thread). A third signal exits at once with status 130.
 void install_interrupt_handlers();
 
 }  // namespace ms::cli

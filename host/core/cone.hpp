@@ -10,6 +10,10 @@ namespace ms {
 // (the cone subtends projected solid angle v), 1 - v for uniform-weighted ones (solid angle v).
 double cone_cos_theta(double visibility, AoWeighting weighting);
 
+// Squared sine of the same half-angle, v (cosine) or v (2 - v) (uniform), without the cancellation of
+// 1 - cos^2: the kernels need it for cones so narrow that cos_theta rounds to 1 in float.
+double cone_sin2_theta(double visibility, AoWeighting weighting);
+
 // The generic term is exactly 0 when no microfacet can satisfy both cone conditions:
 // angle(wg, wm) < theta and angle(wm, wo) < theta imply angle(wg, wo) < 2 theta, so
 // NdotL <= cos(2 theta) = 2 cos^2(theta) - 1 forces 0. For cosine weighting this is part 2's

@@ -144,6 +144,7 @@ private:
             ms_query& p = packed[i];
             p = ms_query{};
             p.cos_theta = float(cone_cos_theta(q.visibility, options.ao_weighting));
+            p.sin2_cone = float(cone_sin2_theta(q.visibility, options.ao_weighting));
             p.alpha_x = float(q.alpha_x);
             p.alpha_y = float(q.alpha_y);
             p.wi_x = float(q.wi.x), p.wi_y = float(q.wi.y), p.wi_z = float(q.wi.z);

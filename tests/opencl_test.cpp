@@ -93,7 +93,7 @@ TEST(OpenClKernel, DoublePrecisionBuildFollowsTheOracleOnTheSamePoints) {
     }
 }
 
-TEST(OpenClKernel, SameSeedSameBitsAcrossBatchSizes) {
+TEST(OpenClKernel, SameSeedSameBitsAcrossBatchAndWorkGroupSizes) {
     const auto queries = testing::random_queries(50, true, 4);
     const SamplingPlan plan{Sequence::sobol, 1 << 13, 8, 99};
     auto a = evaluate(*opencl(), queries, {}, plan);
@@ -102,6 +102,14 @@ TEST(OpenClKernel, SameSeedSameBitsAcrossBatchSizes) {
     auto b = evaluate(*make_opencl_backend(ocl::select_devices("default"), small_batches), queries, {}, plan);
     for (std::size_t i = 0; i < queries.size(); ++i) {
         EXPECT_EQ(std::memcmp(&a[i], &b[i], sizeof(Estimate)), 0) << "query " << i;
+    }
+    // Work-group sizes: 1, one that divides nothing, and one larger than some batches.
+    for (std::size_t local : {1, 7, 256}) {
+        OpenClBackendConfig config;
+        config.local_size = local;
+        auto d = evaluate(*make_opencl_backend(ocl::select_devices("default"), config), queries, {}, plan);
+        for (std::size_t i = 0; i < queries.size(); ++i)
+            EXPECT_EQ(std::memcmp(&a[i], &d[i], sizeof(Estimate)), 0) << "local size " << local << ", query " << i;
     }
     SamplingPlan other = plan;
     other.seed = 100;

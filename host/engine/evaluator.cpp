@@ -1,5 +1,6 @@
 #include "engine/evaluator.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -155,6 +156,9 @@ private:
         std::vector<ms_tally> tallies(items);
         ocl::checked([&] {
             cl::Kernel kernel = device.kernel("generic_term.cl", "ms_tally_queries", config_.build);
+            const std::size_t limit = kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device.info().device);
+            const std::size_t local = std::max<std::size_t>(1, std::min(config_.local_size, limit));
+            const std::size_t global = (items + local - 1) / local * local;  // the kernel checks its range
             cl::Buffer qbuf(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, packed.size() * sizeof(ms_query),
                             packed.data());
             cl::Buffer tbuf(device.context(), CL_MEM_WRITE_ONLY, items * sizeof(ms_tally));
@@ -166,7 +170,7 @@ private:
             kernel.setArg(5, cl_uint(R));
             kernel.setArg(6, cl_uint(chunks));
             kernel.setArg(7, tbuf);
-            device.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(items), cl::NullRange);
+            device.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(global), cl::NDRange(local));
             device.queue().enqueueReadBuffer(tbuf, CL_TRUE, 0, items * sizeof(ms_tally), tallies.data());
             return 0;
         });

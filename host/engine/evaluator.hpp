@@ -33,6 +33,10 @@ std::unique_ptr<TermBackend> make_oracle_backend(unsigned threads = 0);
 struct OpenClBackendConfig {
     ocl::BuildConfig build;
     std::size_t max_batch_queries = 1 << 15;  // bounds device memory per enqueue
+    // Work-group size of the tally kernel (clamped to the device's limit). Fixed rather than left to
+    // the runtime: PoCL compiles a work-group function per distinct local size, and with NullRange it
+    // picks a new one for most new batch sizes. Results do not depend on it (tested).
+    std::size_t local_size = 32;
 };
 std::unique_ptr<TermBackend> make_opencl_backend(const std::vector<ocl::DeviceInfo>& devices,
                                                  const OpenClBackendConfig& config = {});

@@ -15,6 +15,7 @@
 #include <map>
 
 #include "bake/bake.hpp"
+#include "cli_runner.hpp"
 #include "bake/verify.hpp"
 #include "core/cone.hpp"
 #include "core/estimate.hpp"
@@ -26,32 +27,18 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace ms;
-
-struct RunResult {
-    int exit_code;
-    std::string output;
-};
+using ms::testing::RunResult;
+using ms::testing::ScratchDirTest;
+using ms::testing::run_shell;
 
 RunResult run(const std::string& env, const std::string& args) {
     const std::string cmd = env + " " + std::string(MICROSHADOW_CLI) + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    std::string out;
-    std::array<char, 4096> buf;
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+    return run_shell(cmd);
 }
 
-class BakeTest : public ::testing::Test {
+class BakeTest : public ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("microshadow_bake_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
-    fs::path dir_;
+    BakeTest() : ScratchDirTest("bake") {}
 };
 
 // A small 3D LUT with every axis and channel distinguishable: 6 visibilities, 5 NdotL, 3 NdotV, 4 roughness.

@@ -1,7 +1,6 @@
 // The microshadow CLI end to end: eval on good and bad input, exit codes, messages, no partial files.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
 
 #include <array>
 #include <cstdio>
@@ -9,42 +8,29 @@
 #include <fstream>
 #include <sstream>
 
+#include "cli_runner.hpp"
 #include "io/csv.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
-
-struct RunResult {
-    int exit_code;
-    std::string output;
-};
+using ms::testing::RunResult;
+using ms::testing::ScratchDirTest;
+using ms::testing::run_shell;
 
 RunResult run(const std::string& args) {
     const std::string cmd = std::string(MICROSHADOW_CLI) + " " + args + " 2>&1";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    std::string out;
-    std::array<char, 4096> buf;
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+    return run_shell(cmd);
 }
 
-class CliTest : public ::testing::Test {
+class CliTest : public ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("microshadow_cli_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
+    CliTest() : ScratchDirTest("cli") {}
     std::string write(const std::string& name, const std::string& text) {
         const auto p = dir_ / name;
         std::ofstream(p, std::ios::binary) << text;
         return p.string();
     }
-    std::string path(const std::string& name) const { return (dir_ / name).string(); }
-    fs::path dir_;
 };
 
 const std::string kHeader = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n";

@@ -4,21 +4,20 @@
 // output (or a temporary file) behind. The valid-but-odd files (tests/data/hostile/valid) must work.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 
+#include "cli_runner.hpp"
 #include "io/csv.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
+using ms::testing::RunResult;
+using ms::testing::ScratchDirTest;
+using ms::testing::run_shell;
 
 #if defined(__SANITIZE_ADDRESS__)
 constexpr bool kAsan = true;
@@ -32,11 +31,6 @@ constexpr bool kAsan = false;
 constexpr bool kAsan = false;
 #endif
 
-struct RunResult {
-    int exit_code;  // -1: killed by a signal (crash, or the time limit)
-    std::string output;
-};
-
 // Runs the CLI under `timeout` (a hang is a failure, exit 124) and, outside ASan (which reserves
 // terabytes of address space), a 2 GiB address-space limit: an input that makes the program allocate
 // without bound fails with bad_alloc (exit 1, "std::bad_alloc" in the message) instead of thrashing.
@@ -44,30 +38,18 @@ RunResult run_cli(const std::string& args, const std::string& env = "") {
     std::string cmd = "cd " + fs::temp_directory_path().string() + " && ";
     if (!kAsan) cmd += "ulimit -v 2097152 && ";
     cmd += env + " timeout 120 " + std::string(MICROSHADOW_CLI) + " " + args + " 2>&1 </dev/null";
-    FILE* pipe = popen(cmd.c_str(), "r");
-    std::string out;
-    std::array<char, 4096> buf;
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+    return run_shell(cmd);
 }
 
 const fs::path kCorpus = fs::path(MICROSHADOW_TEST_DATA) / "hostile";
 
-class HostileInput : public ::testing::Test {
+class HostileInput : public ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("microshadow_hostile_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
+    HostileInput() : ScratchDirTest("hostile") {}
     // Nothing but what the test put there: no output, no temporary file.
     void expect_dir_empty(const std::string& context) const {
         for (const auto& e : fs::directory_iterator(dir_)) ADD_FAILURE() << context << ": left behind " << e.path();
     }
-    fs::path dir_;
 };
 
 // A clean failure: non-zero exit (not a signal, not the timeout), one "error" line naming the input,

@@ -23,6 +23,7 @@
 #include <sstream>
 #include <thread>
 
+#include "cli_runner.hpp"
 #include "io/exr_lut.hpp"
 
 extern char** environ;
@@ -31,6 +32,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using ms::testing::ScratchDirTest;
 
 std::string slurp(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
@@ -70,16 +72,9 @@ CliRun run_cli(const fs::path& dir, const std::string& args, const std::string& 
     return {code, std::chrono::duration<double>(Clock::now() - t0).count(), slurp(dir / "log.txt")};
 }
 
-class Resilience : public ::testing::Test {
+class Resilience : public ScratchDirTest {
 protected:
-    void SetUp() override {
-        dir_ = fs::temp_directory_path() / ("microshadow_resilience_" + std::to_string(::getpid()) + "_" +
-                                            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-    fs::path dir_;
+    Resilience() : ScratchDirTest("resilience") {}
 };
 
 // Queries for eval runs long enough (a second or so) to be killed in the middle.

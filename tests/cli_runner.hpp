@@ -1,0 +1,52 @@
+// Helpers shared by the tests that run the `microshadow` binary: a shell command's exit code and
+// output, and a fixture with a scratch directory named after the running test.
+#pragma once
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+namespace ms::testing {
+
+struct RunResult {
+    int exit_code;  // -1 when killed by a signal
+    std::string output;  // stdout and whatever the command redirects into it
+};
+
+// Runs `command` through sh and collects its stdout.
+inline RunResult run_shell(const std::string& command) {
+    FILE* pipe = popen(command.c_str(), "r");
+    if (!pipe) return {-1, "popen failed: " + command};
+    std::string out;
+    std::array<char, 4096> buf;
+    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
+    const int status = pclose(pipe);
+    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+// A fresh, empty directory per test (prefix + pid + test name), removed afterwards.
+class ScratchDirTest : public ::testing::Test {
+protected:
+    explicit ScratchDirTest(std::string prefix) : prefix_(std::move(prefix)) {}
+    void SetUp() override {
+        dir_ = std::filesystem::temp_directory_path() /
+               ("microshadow_" + prefix_ + "_" + std::to_string(::getpid()) + "_" +
+                ::testing::UnitTest::GetInstance()->current_test_info()->name());
+        std::filesystem::remove_all(dir_);
+        std::filesystem::create_directories(dir_);
+    }
+    void TearDown() override { std::filesystem::remove_all(dir_); }
+    std::string path(const std::string& name) const { return (dir_ / name).string(); }
+
+    std::filesystem::path dir_;
+
+private:
+    std::string prefix_;
+};
+
+}  // namespace ms::testing

@@ -25,8 +25,12 @@ inline std::vector<Query> random_queries(std::size_t count, bool anisotropic, un
         const double r = 0.1 + 0.9 * u(rng);
         q.alpha_x = r * r;
         q.alpha_y = anisotropic ? std::pow(0.1 + 0.9 * u(rng), 2) : q.alpha_x;
-        q.wi = direction(0.05 + 0.95 * u(rng), 2 * M_PI * u(rng));
-        q.wo = direction(0.02 + 0.98 * u(rng), 2 * M_PI * u(rng));
+        // Azimuth drawn before the cosine, in separate statements: the order of evaluation of two
+        // draws in one call's arguments is up to the compiler (GCC and clang differ).
+        const double phi_i = 2 * M_PI * u(rng), cos_i = 0.05 + 0.95 * u(rng);
+        q.wi = direction(cos_i, phi_i);
+        const double phi_o = 2 * M_PI * u(rng), cos_o = 0.02 + 0.98 * u(rng);
+        q.wo = direction(cos_o, phi_o);
         if (2 * q.visibility + q.wo.z <= 1) continue;  // zero region: exact, not a sampling test
         out.push_back(q);
     }

@@ -14,11 +14,11 @@
 #include <ostream>
 #include <stdexcept>
 
-#include "bake/bake.hpp"
+#include "jobs/bake.hpp"
 #include "bench.hpp"
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
-#include "opencl/runtime.hpp"
+#include "jobs/eval.hpp"
+#include "device/runtime.hpp"
 
 namespace ms::bench {
 

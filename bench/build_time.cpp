@@ -13,7 +13,7 @@
 
 #include "bench.hpp"
 #include "microshadow_shared.h"
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 
 namespace ms::bench {
 
@@ -32,13 +32,13 @@ Probe probe(const ocl::DeviceInfo& info) {
     ocl::Device device(info);
     const ocl::BuildConfig build;
     auto start = Clock::now();
-    device.program("generic_term.cl", build);
+    device.program("term/generic_term.cl", build);
     p.build = since(start);
     start = Clock::now();
-    device.program("generic_term.cl", build);
+    device.program("term/generic_term.cl", build);
     p.lookup = since(start);
     ocl::checked([&] {
-        cl::Kernel kernel = device.kernel("generic_term.cl", "ms_tally_queries", build);
+        cl::Kernel kernel = device.kernel("term/generic_term.cl", "ms_tally_queries", build);
         ms_query q{};
         q.cos_theta = 0.5f, q.sin2_cone = 0.75f, q.alpha_x = q.alpha_y = 0.5f, q.wi_z = 1.0f, q.wo_z = 1.0f;
         float u[16];

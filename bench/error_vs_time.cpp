@@ -7,8 +7,8 @@
 #include <ostream>
 
 #include "bench.hpp"
-#include "engine/evaluator.hpp"
-#include "opencl/runtime.hpp"
+#include "jobs/eval.hpp"
+#include "device/runtime.hpp"
 
 namespace ms::bench {
 

@@ -22,7 +22,7 @@
 #include "bench.hpp"
 #include "core/cone.hpp"
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "sampling/point_set.hpp"

@@ -13,9 +13,9 @@
 #include "baseline/baseline_tally.hpp"
 #include "bench.hpp"
 #include "core/cone.hpp"
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 #include "microshadow_shared.h"
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 #include "oracle/oracle.hpp"
 #include "sampling/point_set.hpp"
 
@@ -55,7 +55,7 @@ std::string naive_source() {
     const std::string include = "#include \"microshadow_shared.h\"";
     const auto pos = text.find(include);
     if (pos == std::string::npos) throw std::runtime_error("naive_term.cl does not include microshadow_shared.h");
-    text.replace(pos, include.size(), read_text(std::string(MICROSHADOW_BENCH_DIR) + "/../kernels/microshadow_shared.h"));
+    text.replace(pos, include.size(), read_text(std::string(MICROSHADOW_BENCH_DIR) + "/../kernels/common/microshadow_shared.h"));
     return text;
 }
 
@@ -110,7 +110,7 @@ ThroughputResult run_throughput(const Options& opt, const std::vector<RefEntry>&
         const std::size_t items = queries.size() * R * chunks;
         std::vector<ms_tally> raw(items);
         ocl::checked([&] {
-            cl::Kernel kernel = device.kernel("generic_term.cl", "ms_tally_queries", build);
+            cl::Kernel kernel = device.kernel("term/generic_term.cl", "ms_tally_queries", build);
             cl::Buffer qbuf(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, packed.size() * sizeof(ms_query),
                             const_cast<ms_query*>(packed.data()));
             cl::Buffer u1(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u1.size() * sizeof(float),

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdint>
 
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 #include "fuzz_common.hpp"
 #include "io/csv.hpp"
 

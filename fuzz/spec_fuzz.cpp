@@ -1,6 +1,6 @@
 // libFuzzer target: the TOML sweep specification reader (ms::sweep::parse_spec, issue 4).
 // Contract: a spec is accepted (and then its grid is bounded by max_points and its canonical text can
-// be produced) or rejected with ms::sweep::SpecError; anything else is a finding. Until host/sweep/
+// be produced) or rejected with ms::sweep::SpecError; anything else is a finding. Until host/jobs/sweep/
 // spec.cpp exists the target exercises toml++ itself, the parser the spec reader is built on.
 #include <cstdint>
 #include <string>
@@ -8,7 +8,7 @@
 #include "fuzz_common.hpp"
 
 #ifdef MICROSHADOW_HAVE_SWEEP_SPEC
-#include "sweep/spec.hpp"
+#include "jobs/sweep/spec.hpp"
 #else
 #include <toml++/toml.h>
 #endif

@@ -14,14 +14,14 @@
 #include <filesystem>
 #include <map>
 
-#include "bake/bake.hpp"
+#include "jobs/bake.hpp"
 #include "cli_runner.hpp"
-#include "bake/verify.hpp"
+#include "jobs/verify.hpp"
 #include "core/cone.hpp"
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
-#include "io/exr_lut.hpp"
-#include "io/png_preview.hpp"
+#include "jobs/eval.hpp"
+#include "lut/exr_lut.hpp"
+#include "lut/preview.hpp"
 
 namespace {
 

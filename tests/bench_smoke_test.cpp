@@ -9,8 +9,8 @@
 
 #include "bench.hpp"
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
-#include "opencl/runtime.hpp"
+#include "jobs/eval.hpp"
+#include "device/runtime.hpp"
 
 namespace {
 

@@ -7,9 +7,9 @@
 #include <fstream>
 
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 #include "oracle/oracle.hpp"
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 #include "test_queries.hpp"
 
 namespace ms {
@@ -169,13 +169,14 @@ TEST(OpenClRuntime, FailedBuildCarriesTheBuildLog) {
     // The development switch loads kernels from a directory; a broken kernel there must surface
     // as a BuildError with the compiler's log.
     const auto dir = std::filesystem::temp_directory_path() / "microshadow_broken_kernel";
-    std::filesystem::create_directories(dir);
-    std::ofstream(dir / "microshadow_shared.h") << "\n";
-    std::ofstream(dir / "generic_term.cl") << "#include \"microshadow_shared.h\"\n__kernel void f(__global int* x) { x[0] = undefined_symbol; }\n";
+    std::filesystem::create_directories(dir / "common");
+    std::filesystem::create_directories(dir / "term");
+    std::ofstream(dir / "common/microshadow_shared.h") << "\n";
+    std::ofstream(dir / "term/generic_term.cl") << "#include \"microshadow_shared.h\"\n__kernel void f(__global int* x) { x[0] = undefined_symbol; }\n";
     setenv("MICROSHADOW_KERNEL_DIR", dir.c_str(), 1);
     ocl::Device device(ocl::select_devices("default").front());
     try {
-        device.program("generic_term.cl", {});
+        device.program("term/generic_term.cl", {});
         unsetenv("MICROSHADOW_KERNEL_DIR");
         FAIL() << "expected BuildError";
     } catch (const ocl::BuildError& e) {

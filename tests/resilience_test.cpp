@@ -24,7 +24,7 @@
 #include <thread>
 
 #include "cli_runner.hpp"
-#include "io/exr_lut.hpp"
+#include "lut/exr_lut.hpp"
 
 extern char** environ;
 

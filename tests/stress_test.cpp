@@ -15,9 +15,9 @@
 
 #include "core/cone.hpp"
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 #include "io/csv.hpp"
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 #include "oracle/oracle.hpp"
 #include "sampling/point_set.hpp"
 

@@ -10,13 +10,13 @@
 #include "analytic/part1_terms.hpp"
 #include "core/cancel.hpp"
 #include "core/estimate.hpp"
-#include "engine/evaluator.hpp"
-#include "io/exr_lut.hpp"
-#include "opencl/runtime.hpp"
-#include "sweep/lut_lookup.hpp"
-#include "sweep/points.hpp"
-#include "sweep/runner.hpp"
-#include "sweep/spec.hpp"
+#include "jobs/eval.hpp"
+#include "lut/exr_lut.hpp"
+#include "device/runtime.hpp"
+#include "lut/lookup.hpp"
+#include "jobs/sweep/points.hpp"
+#include "jobs/sweep/runner.hpp"
+#include "jobs/sweep/spec.hpp"
 
 namespace {
 

@@ -3,13 +3,13 @@
 #include <iostream>
 #include <sstream>
 
-#include "bake/bake.hpp"
-#include "bake/verify.hpp"
+#include "jobs/bake.hpp"
+#include "jobs/verify.hpp"
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
-#include "io/exr_lut.hpp"
-#include "io/png_preview.hpp"
+#include "lut/exr_lut.hpp"
+#include "lut/preview.hpp"
 
 namespace ms::cli {
 

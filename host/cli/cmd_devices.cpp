@@ -2,7 +2,7 @@
 #include <iostream>
 
 #include "cli/common.hpp"
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 
 namespace ms::cli {
 

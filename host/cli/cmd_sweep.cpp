@@ -7,7 +7,7 @@
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "core/cancel.hpp"
-#include "sweep/runner.hpp"
+#include "jobs/sweep/runner.hpp"
 
 namespace ms::cli {
 

@@ -7,7 +7,7 @@
 #include <string>
 
 #include "core/types.hpp"
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 
 namespace ms::cli {
 

@@ -6,7 +6,7 @@
 #include "cli/progress.hpp"
 #include "core/cancel.hpp"
 #include "io/csv.hpp"
-#include "opencl/error.hpp"
+#include "device/error.hpp"
 
 int main(int argc, char** argv) {
     using namespace ms;

@@ -6,7 +6,7 @@
 #include <fstream>
 #include <map>
 
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 
 namespace ms {
 

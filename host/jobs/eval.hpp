@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "core/types.hpp"
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 #include "sampling/point_set.hpp"
 
 namespace ms {

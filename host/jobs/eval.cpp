@@ -1,4 +1,4 @@
-#include "engine/evaluator.hpp"
+#include "jobs/eval.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -155,7 +155,7 @@ private:
         const std::size_t items = count * R * chunks;
         std::vector<ms_tally> tallies(items);
         ocl::checked([&] {
-            cl::Kernel kernel = device.kernel("generic_term.cl", "ms_tally_queries", config_.build);
+            cl::Kernel kernel = device.kernel("term/generic_term.cl", "ms_tally_queries", config_.build);
             const std::size_t limit = kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device.info().device);
             const std::size_t local = std::max<std::size_t>(1, std::min(config_.local_size, limit));
             const std::size_t global = (items + local - 1) / local * local;  // the kernel checks its range

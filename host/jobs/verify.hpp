@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <string>
 
-#include "bake/bake.hpp"
+#include "jobs/bake.hpp"
 
 namespace ms {
 

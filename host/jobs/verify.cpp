@@ -1,4 +1,4 @@
-#include "bake/verify.hpp"
+#include "jobs/verify.hpp"
 
 #include <algorithm>
 #include <atomic>

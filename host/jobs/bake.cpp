@@ -26,7 +26,7 @@
 // the kernel still bins them (a row is one pass), but their values come from the rule, not the counts.
 // Determinism: every count is an integer computed from (spec, slice, batch) alone, and each slice is
 // reduced in a fixed order, so the file is bit-identical whatever the devices or their number.
-#include "bake/bake.hpp"
+#include "jobs/bake.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -44,7 +44,7 @@
 #include "core/cancel.hpp"
 #include "core/cone.hpp"
 #include "microshadow_shared.h"
-#include "opencl/error.hpp"
+#include "device/error.hpp"
 #include "sampling/point_set.hpp"
 
 namespace ms {
@@ -287,8 +287,8 @@ class SliceRunner {
 public:
     SliceRunner(const ocl::DeviceInfo& info, const Plan& plan) : device_(info), plan_(plan) {
         ocl::checked([&] {
-            normals_ = device_.kernel("bake_lut.cl", "ms_bake_normals", plan.spec.build);
-            histogram_ = device_.kernel("bake_lut.cl", "ms_bake_histogram", plan.spec.build);
+            normals_ = device_.kernel("lut_slice/lut_slice.cl", "ms_bake_normals", plan.spec.build);
+            histogram_ = device_.kernel("lut_slice/lut_slice.cl", "ms_bake_histogram", plan.spec.build);
             const std::size_t total = std::size_t(plan.points) * plan.replicates;
             normals_local_ = local_size(normals_, kNormalsLocalSize);
             histogram_local_ = local_size(histogram_, kHistogramLocalSize);

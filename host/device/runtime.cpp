@@ -1,4 +1,4 @@
-#include "opencl/runtime.hpp"
+#include "device/runtime.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -136,7 +136,7 @@ std::string kernel_source(const std::string& file) {
         std::string text = read(kernel_dir + "/" + file);
         const std::string include = "#include \"microshadow_shared.h\"";
         if (auto pos = text.find(include); pos != std::string::npos)
-            text.replace(pos, include.size(), read(kernel_dir + "/microshadow_shared.h"));
+            text.replace(pos, include.size(), read(kernel_dir + "/common/microshadow_shared.h"));
         return text;
     }
     const auto& table = embedded_kernels();

@@ -1,4 +1,4 @@
-#include "io/png_preview.hpp"
+#include "lut/preview.hpp"
 
 #include <png.h>
 

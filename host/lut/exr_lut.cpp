@@ -1,4 +1,4 @@
-#include "io/exr_lut.hpp"
+#include "lut/exr_lut.hpp"
 
 #include <ImfChannelList.h>
 #include <ImfDoubleAttribute.h>

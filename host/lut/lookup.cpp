@@ -1,4 +1,4 @@
-#include "sweep/lut_lookup.hpp"
+#include "lut/lookup.hpp"
 
 #include <algorithm>
 #include <cmath>

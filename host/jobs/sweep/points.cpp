@@ -1,4 +1,4 @@
-#include "sweep/points.hpp"
+#include "jobs/sweep/points.hpp"
 
 #include <cmath>
 #include <stdexcept>

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "io/exr_lut.hpp"
+#include "lut/exr_lut.hpp"
 
 namespace ms::sweep {
 

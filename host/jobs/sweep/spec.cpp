@@ -1,4 +1,4 @@
-#include "sweep/spec.hpp"
+#include "jobs/sweep/spec.hpp"
 
 #include <toml++/toml.h>
 

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "opencl/error.hpp"
+#include "device/error.hpp"
 
 namespace ms::ocl {
 

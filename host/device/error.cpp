@@ -1,4 +1,4 @@
-#include "opencl/error.hpp"
+#include "device/error.hpp"
 
 namespace ms::ocl {
 

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "core/types.hpp"
-#include "io/exr_lut.hpp"
-#include "opencl/runtime.hpp"
+#include "lut/exr_lut.hpp"
+#include "device/runtime.hpp"
 
 namespace ms {
 

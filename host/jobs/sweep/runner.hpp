@@ -22,8 +22,8 @@
 #include <vector>
 
 #include "core/types.hpp"
-#include "engine/evaluator.hpp"
-#include "sweep/spec.hpp"
+#include "jobs/eval.hpp"
+#include "jobs/sweep/spec.hpp"
 
 namespace ms::sweep {
 

@@ -5,7 +5,7 @@
 #include <cstdint>
 
 #include "core/types.hpp"
-#include "sweep/spec.hpp"
+#include "jobs/sweep/spec.hpp"
 
 namespace ms::sweep {
 

@@ -1,4 +1,4 @@
-#include "sweep/runner.hpp"
+#include "jobs/sweep/runner.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -17,8 +17,8 @@
 #include "core/cancel.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
-#include "sweep/lut_lookup.hpp"
-#include "sweep/points.hpp"
+#include "lut/lookup.hpp"
+#include "jobs/sweep/points.hpp"
 
 namespace ms::sweep {
 

@@ -42,7 +42,7 @@ auto checked(F&& f) -> decltype(f());
 
 }  // namespace ms::ocl
 
-#include "opencl/cl.hpp"
+#include "device/cl.hpp"
 
 namespace ms::ocl {
 template <class F>

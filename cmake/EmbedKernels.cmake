@@ -1,13 +1,12 @@
-# Generates a C++ file holding every kernels/*.cl as a string, with the shared layout header inlined
-# in place of its #include line, so the program needs no files at run time.
-# Inputs: OUTPUT, SHARED_HEADER, KERNELS (a list of .cl paths).
-file(READ "${SHARED_HEADER}" shared_text)
+# Generates a C++ file holding every kernel source (kernels/*/*.cl and the shared layout header) as a
+# string keyed by its path under kernels/, so the program needs no files at run time. The host
+# prepends the common preamble to each program (device/runtime.cpp, kernel_source()).
+# Inputs: OUTPUT, KERNEL_ROOT, KERNELS (a list of paths).
 set(body "")
 set(table "")
 foreach(kernel IN LISTS KERNELS)
   file(RELATIVE_PATH name "${KERNEL_ROOT}" "${kernel}")
   file(READ "${kernel}" text)
-  string(REPLACE "#include \"microshadow_shared.h\"" "${shared_text}" text "${text}")
   string(MAKE_C_IDENTIFIER "${name}" ident)
   # Raw string literals are limited in length by some compilers; split into 8 KiB pieces.
   string(LENGTH "${text}" len)

@@ -171,8 +171,8 @@ TEST(OpenClRuntime, FailedBuildCarriesTheBuildLog) {
     const auto dir = std::filesystem::temp_directory_path() / "microshadow_broken_kernel";
     std::filesystem::create_directories(dir / "common");
     std::filesystem::create_directories(dir / "term");
-    std::ofstream(dir / "common/microshadow_shared.h") << "\n";
-    std::ofstream(dir / "term/generic_term.cl") << "#include \"microshadow_shared.h\"\n__kernel void f(__global int* x) { x[0] = undefined_symbol; }\n";
+    for (const auto& name : ocl::preamble_files()) std::ofstream(dir / name) << "\n";
+    std::ofstream(dir / "term/generic_term.cl") << "__kernel void f(__global int* x) { x[0] = undefined_symbol; }\n";
     setenv("MICROSHADOW_KERNEL_DIR", dir.c_str(), 1);
     ocl::Device device(ocl::select_devices("default").front());
     try {

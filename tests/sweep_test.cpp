@@ -250,19 +250,20 @@ TEST(SweepRun, ResumeAfterInterruptionSkipsFinishedChunksAndMatchesACleanRun) {
     EXPECT_FALSE(r.complete);
     EXPECT_EQ(r.computed, 5u);
     EXPECT_FALSE(fs::exists(resumed / "sweep.csv"));
-    // Second attempt: interrupted like Ctrl-C (the cancel flag) after 4 more chunks.
+    // Second attempt: interrupted like Ctrl-C (the cancel flag) once at least 9 chunks are finished. The
+    // scheduler polls the flag between items, so a few more may finish before it stops.
     c.max_chunks = 0;
-    c.progress = [n = 0](std::uint64_t, std::uint64_t) mutable {
-        if (++n == 5 + 4) cancel_requested() = true;
+    c.progress = [](std::uint64_t done, std::uint64_t) {
+        if (done >= 5 + 4) cancel_requested() = true;
     };
     EXPECT_THROW(run_sweep(spec, c), Cancelled);
     cancel_requested() = false;
     EXPECT_FALSE(fs::exists(resumed / "sweep.csv"));
-    // Third: finishes without recomputing the 9 finished chunks.
+    // Third: finishes without recomputing the finished chunks.
     c.progress = {};
     r = run_sweep(spec, c);
-    EXPECT_EQ(r.skipped, 9u);
-    EXPECT_EQ(r.computed, r.chunks - 9);
+    EXPECT_GE(r.skipped, 9u);
+    EXPECT_EQ(r.computed, r.chunks - r.skipped);
     ASSERT_TRUE(r.assembled);
     EXPECT_EQ(slurp(clean / "sweep.csv"), slurp(resumed / "sweep.csv"));
     // A finished sweep reruns without computing anything.

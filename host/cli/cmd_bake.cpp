@@ -26,6 +26,10 @@ struct BakeArgs {
     CLI::App* cmd = nullptr;
 };
 
+// The oracle bake of a 16^3 x 4 layout at the default samples takes about a minute on 2 cores; larger
+// layouts belong on a device (and --verify checks them against the oracle texel by texel).
+constexpr std::uint64_t kMaxOracleBakeTexels = 16 * 16 * 16 * 4;
+
 bool given(CLI::App* cmd, const std::string& name) { return cmd->get_option(name)->count() > 0; }
 
 void set_range(LutAxis& axis, const std::vector<double>& range) {
@@ -37,8 +41,6 @@ void set_range(LutAxis& axis, const std::vector<double>& range) {
 
 BakeSpec make_spec(const BakeArgs& a) {
     const LutLayout layout = parse_lut_layout(a.layout);
-    if (a.sampling.backend != "opencl")
-        throw std::invalid_argument("bake runs on OpenCL devices; --backend oracle is for eval (use --verify to check with it)");
     if (layout != LutLayout::custom) {
         for (const char* o : {"--roughness", "--visibility-range", "--n-dot-l-range", "--n-dot-v-range"})
             if (given(a.cmd, o)) throw std::invalid_argument(std::string(o) + " needs --layout custom");
@@ -84,10 +86,21 @@ BakeSpec make_spec(const BakeArgs& a) {
     s.replicates = plan.replicates;
     s.seed = plan.seed;
     s.samples = given(a.cmd, "--samples") ? plan.samples : 0;
-    s.tolerance = given(a.cmd, "--tolerance") ? a.tolerance : kDefaultTolerance;
+    s.tolerance = given(a.cmd, "--tolerance") ? a.tolerance : 0.0;
     s.max_batches = a.max_batches;
     s.device = a.sampling.device;
     s.build = a.sampling.build_config();
+    s.oracle = a.sampling.backend == "oracle";
+    if (s.oracle) {
+        if (a.sampling.double_kernels || a.sampling.fast_math)
+            throw std::invalid_argument("--double-kernels and --fast-math build kernels; the oracle bake has none (it is double already)");
+        // The oracle integrates every sampled texel on its own: nv times the kernel's work per direction.
+        const std::uint64_t texels = std::uint64_t(s.visibility.count) * s.n_dot_l.count * s.n_dot_v.count * s.roughness.size();
+        if (texels > kMaxOracleBakeTexels)
+            throw std::invalid_argument("--backend oracle bakes layouts of up to " + std::to_string(kMaxOracleBakeTexels) +
+                                        " texels x channels (this one has " + std::to_string(texels) +
+                                        "); check a large bake against the oracle with --verify K instead");
+    }
     s.command_line = command_line();
     validate(s);
     return s;
@@ -115,7 +128,9 @@ void run_bake(const BakeArgs& args) {
     Progress progress("bake", args.sampling.quiet);
     BakeCallbacks callbacks;
     callbacks.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
-    const BakeResult result = bake_lut(spec, callbacks);
+    schedule::Scheduler scheduler(bake_backend(spec));
+    scheduler.set_fault_injection(fault_injection_from_environment());
+    const BakeResult result = bake_lut(spec, scheduler, callbacks);
     progress.finish();
 
     BakeVerification check;

@@ -1,5 +1,7 @@
 #include "cli/common.hpp"
 
+#include <cstdlib>
+
 #include <iostream>
 
 #include "sampling/point_set.hpp"
@@ -40,6 +42,21 @@ SamplingPlan SamplingOptions::plan() const {
     return p;
 }
 
+schedule::FaultInjection fault_injection_from_environment() {
+    schedule::FaultInjection f;
+    const char* env = std::getenv("MICROSHADOW_FAIL_DEVICE");
+    if (!env || !*env) return f;
+    const std::string s(env);
+    const auto colon = s.find(':');
+    try {
+        f.place = std::stol(s.substr(0, colon));
+        f.after = colon == std::string::npos ? 0 : std::stol(s.substr(colon + 1));
+    } catch (const std::exception&) {
+        throw std::invalid_argument("MICROSHADOW_FAIL_DEVICE must be <place index>:<items>, not '" + s + "'");
+    }
+    return f;
+}
+
 ocl::BuildConfig SamplingOptions::build_config() const {
     ocl::BuildConfig b;
     b.fast_math = fast_math;
@@ -48,10 +65,16 @@ ocl::BuildConfig SamplingOptions::build_config() const {
 }
 
 std::unique_ptr<TermBackend> SamplingOptions::make_backend() const {
-    if (backend == "oracle") return make_oracle_backend();
-    OpenClBackendConfig config;
-    config.build = build_config();
-    return make_opencl_backend(ocl::select_devices(device), config);
+    std::unique_ptr<TermBackend> made;
+    if (backend == "oracle") {
+        made = make_oracle_backend();
+    } else {
+        OpenClBackendConfig config;
+        config.build = build_config();
+        made = make_opencl_backend(ocl::select_devices(device), config);
+    }
+    made->scheduler().set_fault_injection(fault_injection_from_environment());
+    return made;
 }
 
 void add_sampling_options(CLI::App* app, SamplingOptions& o) {

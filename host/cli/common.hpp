@@ -34,6 +34,10 @@ struct SamplingOptions {
 // Adds --samples --seed --replicates --sequence --form --ao-weighting --backend --device --fast-math --quiet.
 void add_sampling_options(CLI::App* app, SamplingOptions& options);
 
+// MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
+// its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.
+schedule::FaultInjection fault_injection_from_environment();
+
 // The full command line, for provenance records in output files.
 std::string command_line();
 void set_command_line(int argc, char** argv);

@@ -5,27 +5,36 @@
 
 namespace ms {
 
-Estimate reduce_replicates(const double* cone, const double* hemisphere, std::size_t replicates) {
-    if (replicates == 0) throw std::invalid_argument("reduce_replicates: no replicates");
+ReplicateRatioMean::ReplicateRatioMean(std::uint32_t replicates) : x_(replicates, 0.0) {
+    if (replicates == 0) throw std::invalid_argument("ReplicateRatioMean: no replicates");
+}
+
+void ReplicateRatioMean::add(double weight, const double* cone, const double* hemisphere, std::size_t stride) {
     double cone_sum = 0, hemi_sum = 0;
-    for (std::size_t r = 0; r < replicates; ++r) {
-        cone_sum += cone[r];
-        hemi_sum += hemisphere[r];
+    for (std::size_t r = 0; r < x_.size(); ++r) {
+        const double c = cone[r * stride], h = hemisphere[r * stride];
+        cone_sum += c;
+        hemi_sum += h;
+        x_[r] += weight * (h > 0 ? c / h : 0.0);
     }
-    Estimate e;
-    if (hemi_sum <= 0) return e;
-    e.term = cone_sum / hemi_sum;
-    if (replicates < 2) return e;
+    if (hemi_sum > 0) value_ += weight * (cone_sum / hemi_sum);
+}
+
+double ReplicateRatioMean::std_error() const {
+    const std::size_t R = x_.size();
+    if (R < 2) return 0;
     double mean = 0;
-    for (std::size_t r = 0; r < replicates; ++r) mean += hemisphere[r] > 0 ? cone[r] / hemisphere[r] : 0.0;
-    mean /= double(replicates);
+    for (double x : x_) mean += x;
+    mean /= double(R);
     double ss = 0;
-    for (std::size_t r = 0; r < replicates; ++r) {
-        const double d = (hemisphere[r] > 0 ? cone[r] / hemisphere[r] : 0.0) - mean;
-        ss += d * d;
-    }
-    e.std_error = std::sqrt(ss / (double(replicates) * double(replicates - 1)));
-    return e;
+    for (double x : x_) ss += (x - mean) * (x - mean);
+    return std::sqrt(ss / (double(R) * double(R - 1)));
+}
+
+Estimate reduce_replicates(const double* cone, const double* hemisphere, std::size_t replicates) {
+    ReplicateRatioMean mean{std::uint32_t(replicates)};
+    mean.add(1.0, cone, hemisphere);
+    return mean.estimate();
 }
 
 namespace {

@@ -1,18 +1,41 @@
-// Turning per-replicate tallies into an estimate with a standard error.
+// Turning per-replicate tallies into an estimate with a standard error: the one replicate-statistics
+// reduction of the project (eval, bake slices, the azimuth quadrature check, verify, benchmarks).
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <vector>
 
 #include "core/types.hpp"
 
 namespace ms {
 
-// GenericM_g is a ratio of two integrals over the same samples. With R independent randomisations
-// (replicates) of the point set, the pooled ratio sum(cone) / sum(hemisphere) is the estimate, and
-// the spread of the per-replicate ratios gives its standard error:
-//     se = sqrt( sum_r (ratio_r - mean ratio)^2 / (R (R - 1)) ).
-// A replicate whose hemisphere sum is 0 contributes ratio 0 (the term's definition). When every
-// hemisphere sum is 0 the term is 0 by definition, with error 0.
+// The estimator. GenericM_g is a ratio of two integrals over the same samples, and a LUT texel with an
+// azimuth policy is a weighted mean of such ratios over quadrature nodes a (weights w_a; a fixed query
+// is one node of weight 1). With R independent randomisations (replicates) of the point set and
+// per-replicate tallies (c_ar, h_ar):
+//     value = sum_a w_a (sum_r c_ar) / (sum_r h_ar)                 (pooled ratio per node)
+//     x_r   = sum_a w_a c_ar / h_ar                                  (replicate r's own estimate)
+//     se    = sqrt( sum_r (x_r - mean x)^2 / (R (R - 1)) )
+// x_r combines the nodes before the spread is taken, which accounts for the correlation between nodes
+// that share points. A ratio with a zero denominator counts as 0 (the term's definition), so a node no
+// replicate reaches adds nothing. se is a Student-t quantity with R - 1 degrees of freedom.
+// Weights may be negative: the quadrature check reduces T_K - T_K/2 with the same code.
+class ReplicateRatioMean {
+public:
+    explicit ReplicateRatioMean(std::uint32_t replicates);
+    // Adds one node: cone[r * stride], hemisphere[r * stride] for r < replicates.
+    void add(double weight, const double* cone, const double* hemisphere, std::size_t stride = 1);
+    double value() const { return value_; }
+    double std_error() const;
+    Estimate estimate() const { return {value_, std_error()}; }
+
+private:
+    std::vector<double> x_;
+    double value_ = 0;
+};
+
+// One node of weight 1: the pooled ratio sum(cone) / sum(hemisphere) and its standard error.
 Estimate reduce_replicates(const double* cone, const double* hemisphere, std::size_t replicates);
 
 // Two-sided Student-t quantile for the given confidence (e.g. 0.999) and degrees of freedom, used to

@@ -123,26 +123,48 @@ std::string build_options(const BuildConfig& config) {
     return options;
 }
 
+const std::vector<std::string>& preamble_files() {
+    // Order matters: layout first, then the working precision every later file uses.
+    static const std::vector<std::string> files = {"common/microshadow_shared.h", "common/real.cl", "common/sincos.cl",
+                                                   "common/vndf.cl", "common/cone.cl"};
+    return files;
+}
+
 std::string kernel_source(const std::string& file) {
+    std::function<std::string(const std::string&)> read;
     if (const char* dir = std::getenv("MICROSHADOW_KERNEL_DIR"); dir && *dir) {
         const std::string kernel_dir(dir);
-        auto read = [](const std::string& path) {
+        read = [kernel_dir](const std::string& name) {
+            const std::string path = kernel_dir + "/" + name;
             std::ifstream in(path, std::ios::binary);
             if (!in) throw std::runtime_error("MICROSHADOW_KERNEL_DIR is set but " + path + " cannot be read");
             std::ostringstream ss;
             ss << in.rdbuf();
             return ss.str();
         };
-        std::string text = read(kernel_dir + "/" + file);
-        const std::string include = "#include \"microshadow_shared.h\"";
-        if (auto pos = text.find(include); pos != std::string::npos)
-            text.replace(pos, include.size(), read(kernel_dir + "/common/microshadow_shared.h"));
-        return text;
+    } else {
+        read = [](const std::string& name) {
+            const auto& table = embedded_kernels();
+            auto it = table.find(name);
+            if (it == table.end()) throw std::runtime_error("no embedded kernel named " + name);
+            return it->second;
+        };
     }
-    const auto& table = embedded_kernels();
-    auto it = table.find(file);
-    if (it == table.end()) throw std::runtime_error("no embedded kernel named " + file);
-    return it->second;
+    // One program = the common preamble + the routine's file, so no two kernels can carry diverging
+    // copies of the sampler, the sincos or the cone test. #line keeps build logs pointing at the file.
+    std::string text;
+    for (const auto& name : preamble_files()) text += "#line 1 \"" + name + "\"\n" + read(name) + "\n";
+    return text + "#line 1 \"" + file + "\"\n" + read(file);
+}
+
+std::size_t local_size(const cl::Kernel& kernel, const DeviceInfo& device, std::size_t wanted) {
+    const auto limit = kernel.getWorkGroupInfo<CL_KERNEL_WORK_GROUP_SIZE>(device.device);
+    return std::max<std::size_t>(1, std::min(wanted, limit));
+}
+
+void require_build_support(const DeviceInfo& device, const BuildConfig& config) {
+    if (config.double_precision && !device.fp64)
+        throw std::invalid_argument("--double-kernels needs cl_khr_fp64, which " + device.label() + " does not have");
 }
 
 Device::Device(DeviceInfo info) : info_(std::move(info)) {

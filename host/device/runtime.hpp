@@ -41,9 +41,20 @@ struct BuildConfig {
 };
 std::string build_options(const BuildConfig& config);
 
-// Source of kernels/<file> with the shared header inlined: embedded at build time, or read from the
-// directory in $MICROSHADOW_KERNEL_DIR when set (a development switch: edit kernels without rebuilding).
+// The program source of kernels/<file> (a path such as "term/generic_term.cl"): the common preamble
+// (preamble_files(), in order) followed by the file. Embedded at build time, or read from the directory
+// in $MICROSHADOW_KERNEL_DIR when set (a development switch: edit kernels without rebuilding).
 std::string kernel_source(const std::string& file);
+const std::vector<std::string>& preamble_files();
+
+// What every kernel routine needs (CLBlast's routine base, in three functions):
+// the wanted work-group size, or the kernel's limit on this device if that is smaller (at least 1);
+std::size_t local_size(const cl::Kernel& kernel, const DeviceInfo& device, std::size_t wanted);
+// n rounded up to a multiple (kernels check their range, so global sizes are padded);
+inline std::size_t round_up(std::size_t n, std::size_t multiple) { return (n + multiple - 1) / multiple * multiple; }
+// throws std::invalid_argument when the device cannot build the configuration (double kernels
+// without cl_khr_fp64), naming the device, instead of a build log full of errors.
+void require_build_support(const DeviceInfo& device, const BuildConfig& config);
 
 // A device with its own context and in-order queue. Programs are built once per (source hash,
 // options) and cached; build times are recorded so benchmarks can report them apart from run time.

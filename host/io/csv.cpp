@@ -6,7 +6,7 @@
 #include <fstream>
 #include <map>
 
-#include "jobs/eval.hpp"
+#include "core/query.hpp"
 
 namespace ms {
 

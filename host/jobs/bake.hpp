@@ -1,7 +1,8 @@
 // LUT bakes of the generic VNDF-based micro-shadowing term (part 2's 3D and 2D LUTs, or a custom
-// layout): the spec, the result, and the library entry point ms::bake_lut that the CLI (`microshadow
-// bake`) and the benchmarks call. The algorithm (shared VNDF pass per slice, visibility histogram and
-// prefix sum, azimuth quadrature, batches until a tolerance is met) is derived in host/bake/bake.cpp.
+// layout) as a job: the layouts, the result, the file metadata, and ms::bake_lut that the CLI
+// (`microshadow bake`) and the benchmarks call. What is integrated, and how (shared VNDF pass per
+// slice, visibility histogram and prefix sum, azimuth quadrature, batches until a tolerance is met), is
+// the LUT slice integrand: host/integrands/lut_slice/.
 #pragma once
 
 #include <cstdint>
@@ -11,8 +12,9 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "integrands/lut_slice/lut_slice_spec.hpp"
 #include "lut/exr_lut.hpp"
-#include "device/runtime.hpp"
+#include "schedule/scheduler.hpp"
 
 namespace ms {
 
@@ -20,56 +22,18 @@ enum class LutLayout { seed_3d, seed_2d, custom };
 std::string to_string(LutLayout);
 LutLayout parse_lut_layout(const std::string&);  // "seed-3d" | "seed-2d" | "custom"; std::invalid_argument
 
-// Everything that decides the numbers of a bake.
-struct BakeSpec {
+// Everything that decides the numbers of a bake (LutSliceSpec), and where it runs.
+struct BakeSpec : LutSliceSpec {
     LutLayout layout = LutLayout::seed_3d;
-    // Axes, in file order: visibility (x), n_dot_l (rows within a slice), n_dot_v (slices).
-    LutAxis visibility{"visibility", 0, 1, 32, TexelConvention::centres};
-    LutAxis n_dot_l{"n_dot_l", 0, 1, 32, TexelConvention::centres};
-    LutAxis n_dot_v{"n_dot_v", 0, 1, 32, TexelConvention::centres};
-    // Isotropic roughness of each channel (R, G, B, A in order), alpha = roughness^2; 1 to 4 values in (0, 1].
-    std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
-
-    // Relative azimuth between wi and wo: the mean of the term over [0, 180] degrees (trapezoid rule
-    // with azimuth_intervals + 1 nodes), or one fixed angle in degrees.
-    bool azimuth_mean = true;
-    double azimuth_degrees = 0;
-    // azimuth_intervals > 0: that fixed K for every texel. 0 (the default): adaptive, per (slice, NdotL
-    // row): start at azimuth_min_intervals and double K (nested nodes, same points) while some sampled
-    // texel of the row has |T_K - T_K/2| > azimuth_refine_threshold + azimuth_refine_z * (its replicate
-    // std error), up to azimuth_max_intervals (powers of two; defaults measured, see bake.cpp).
-    std::uint32_t azimuth_intervals = 0;
-    std::uint32_t azimuth_min_intervals = 4, azimuth_max_intervals = 32;
-    double azimuth_refine_threshold = 1e-4, azimuth_refine_z = 3;
-
-    TermOptions term;
-    Sequence sequence = Sequence::sobol;
-    std::uint32_t replicates = 8;
-    // Samples per batch and slice (all replicates together), rounded up like eval's --samples.
-    std::uint64_t samples = 0;  // 0: the measured default (kDefaultBatchSamples)
-    std::uint64_t seed = 0;
-    // Error control: tolerance > 0 adds batches to a slice until every texel's std error <= tolerance
-    // (or max_batches is reached); tolerance == 0 runs exactly one batch of `samples`.
-    double tolerance = 0;
-    std::uint32_t max_batches = 64;
-
     std::string device = "default";  // ocl::select_devices spec: "default|all|N|name"
-    ocl::BuildConfig build;
-
+    bool oracle = false;             // run on the scalar double oracle (small layouts; nv times the work)
+    unsigned oracle_threads = 0;
     // Filled by callers for provenance only.
     std::string command_line;
 };
 
-// Defaults chosen by measurement (see bake.cpp for the figures).
-extern const std::uint32_t kDefaultAzimuthIntervals;
-extern const std::uint64_t kDefaultBatchSamples;
-extern const double kDefaultTolerance;
-
 // The spec of a layout with every axis of `size` texels (seed-2d: the NdotV = 1 slice).
 BakeSpec default_bake_spec(LutLayout layout, std::uint32_t size);
-
-// Throws std::invalid_argument naming the problem (sizes 1..4096, roughness in (0, 1], ranges, ...).
-void validate(const BakeSpec& spec);
 
 struct BakeResult {
     // Atlas of width = visibility count, height = n_dot_l count * n_dot_v count, `channels` floats
@@ -106,19 +70,18 @@ struct BakeCallbacks {
     std::function<void(std::size_t done, std::size_t total)> progress;  // slices done
 };
 
-// Runs the bake on the spec's devices. Throws std::invalid_argument for a bad spec, ocl::Error when
-// every device failed, ms::Cancelled when ms::cancel_requested() was set.
+// Where a spec's bake runs: its devices (spec.device) or the oracle (spec.oracle).
+schedule::Backend bake_backend(const BakeSpec& spec);
+
+// Runs the bake on the scheduler (the LUT slice integrand, one work item per slice). Throws
+// std::invalid_argument for a bad spec, ocl::Error when every device failed, ms::Cancelled when
+// ms::cancel_requested() was set.
+BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks = {});
+// The same on a scheduler made from bake_backend(spec).
 BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks = {});
 
 // The metadata JSON recorded in the file for this spec and result.
 nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& result);
 
-// The (alpha, wi, wo) query of one texel at one azimuth (degrees), as `microshadow eval` would take it.
-Query texel_query(const BakeSpec& spec, std::uint32_t channel, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv,
-                  double azimuth_degrees);
-// The azimuth nodes (degrees) and trapezoid weights (summing to 1) a fixed-K bake uses; for the adaptive
-// default (azimuth_intervals 0) the reference grid of kDefaultAzimuthIntervals, which the adaptive rows
-// approximate to within the recorded quadrature estimate (verify and the benchmarks use it).
-void azimuth_nodes(const BakeSpec& spec, std::vector<double>& degrees, std::vector<double>& weights);
 
 }  // namespace ms

@@ -1,5 +1,5 @@
-// Batched evaluation of GenericM_g on a backend: the OpenCL kernels on one or more devices, or the
-// scalar oracle. Provable zeros and v = 1 queries are answered exactly without sampling.
+// `microshadow eval` as a job: the term integrand (integrands/term/) over a list of queries, on the
+// scheduler (schedule/). Provable zeros and v = 1 queries are answered exactly without sampling.
 #pragma once
 
 #include <functional>
@@ -7,57 +7,59 @@
 #include <string>
 #include <vector>
 
+#include "core/query.hpp"
 #include "core/types.hpp"
 #include "device/runtime.hpp"
+#include "integrands/term/term_integrand.hpp"
 #include "sampling/point_set.hpp"
+#include "schedule/scheduler.hpp"
 
 namespace ms {
 
-// Per-(query, replicate) tallies: cone[q * R + r], hemisphere[q * R + r].
-struct Tallies {
-    std::vector<double> cone, hemisphere;
-};
+using term::Tallies;
+using OpenClBackendConfig = term::RoutineConfig;
 
+// Where the term is evaluated (a scheduler over OpenCL devices or oracle threads) and how its kernel
+// routine is built. Eval, sweeps, verification and the tests hold one of these.
 class TermBackend {
 public:
-    virtual ~TermBackend() = default;
-    virtual std::string name() const = 0;
-    // Tally every query over every replicate of the point set. Queries are valid and need sampling.
-    virtual Tallies tally(const std::vector<Query>& queries, const TermOptions& options, const PointSet& points) = 0;
+    TermBackend(schedule::Backend where, term::RoutineConfig config = {});
+    std::string name() const { return scheduler_.name(); }
+    schedule::Scheduler& scheduler() { return scheduler_; }
+    const term::RoutineConfig& config() const { return config_; }
+    // Raw per-replicate tallies of normalised, non-trivial queries on a given point set.
+    Tallies tally(const std::vector<Query>& queries, const TermOptions& options, const PointSet& points);
+
+private:
+    schedule::Scheduler scheduler_;
+    term::RoutineConfig config_;
 };
 
 // The scalar double oracle, spread over `threads` threads (0: all hardware threads).
 std::unique_ptr<TermBackend> make_oracle_backend(unsigned threads = 0);
-
-// The OpenCL kernels on the given devices; batches of queries are shared out among them.
-struct OpenClBackendConfig {
-    ocl::BuildConfig build;
-    std::size_t max_batch_queries = 1 << 15;  // bounds device memory per enqueue
-    // Work-group size of the tally kernel (clamped to the device's limit). Fixed rather than left to
-    // the runtime: PoCL compiles a work-group function per distinct local size, and with NullRange it
-    // picks a new one for most new batch sizes. Results do not depend on it (tested).
-    std::size_t local_size = 32;
-};
+// The OpenCL kernels on the given devices; work items are shared out among them.
 std::unique_ptr<TermBackend> make_opencl_backend(const std::vector<ocl::DeviceInfo>& devices,
                                                  const OpenClBackendConfig& config = {});
-
-// Throws std::invalid_argument naming the problem if a query is not valid input:
-// visibility in [0, 1], alpha_x and alpha_y > 0 and finite, non-zero finite directions, wi above the horizon.
-void validate_query(const Query& q);
-// Unit-length copy of the query's directions.
-Query normalised(const Query& q);
 
 struct EvalStats {
     std::size_t sampled = 0;       // queries that were integrated
     std::size_t exact_zero = 0;    // zero region or light below the horizon: exactly 0
     std::size_t exact_one = 0;     // visibility 1: exactly 1
+    std::size_t rerun = 0;         // work items rerun after a device failed
+    std::vector<std::string> failed_devices;
     double seconds = 0;
 };
 
-// Validates and normalises the queries, answers the trivial ones exactly, and tallies the rest on the
-// backend with the point set of `plan`. Progress reports (done, total) queries.
+// Validates the queries (std::invalid_argument naming the first bad one), answers the trivial ones
+// exactly, and samples the rest with the point set of `plan`. Progress reports (done, total) queries.
+// Throws ms::Cancelled when cancellation was requested (nothing is returned).
 std::vector<Estimate> evaluate(TermBackend& backend, const std::vector<Query>& queries, const TermOptions& options,
                                const SamplingPlan& plan, EvalStats* stats = nullptr,
+                               const std::function<void(std::size_t, std::size_t)>& progress = {});
+// The same with options per query (sweeps mix forms and AO weightings in one run).
+std::vector<Estimate> evaluate_each(TermBackend& backend, const std::vector<Query>& queries,
+                                    const std::vector<TermOptions>& options, const SamplingPlan& plan,
+                               EvalStats* stats = nullptr,
                                const std::function<void(std::size_t, std::size_t)>& progress = {});
 
 }  // namespace ms

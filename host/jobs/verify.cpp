@@ -1,13 +1,11 @@
 #include "jobs/verify.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <sstream>
-#include <thread>
 
 #include "core/estimate.hpp"
-#include "oracle/oracle.hpp"
+#include "integrands/term/term_integrand.hpp"
 #include "sampling/point_set.hpp"
 
 namespace ms {
@@ -45,51 +43,38 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
     const std::size_t R = plan.replicates;
     v.threshold = student_t_quantile(1.0 - 0.001 / double(std::max<std::size_t>(k, 1)), int(R) - 1);
 
-    struct Row {
-        double value = 0, se = 0;
-    };
-    std::vector<Row> oracle_rows(k);
-    const unsigned workers = std::max(1u, threads ? threads : std::thread::hardware_concurrency());
-    std::vector<std::thread> pool;
-    std::atomic<std::size_t> next_index{0};
-    for (unsigned w = 0; w < workers; ++w)
-        pool.emplace_back([&] {
-            for (std::size_t i; (i = next_index.fetch_add(1)) < k;) {
-                const std::size_t at = candidates[i];
-                const std::uint32_t c = std::uint32_t(at % result.channels);
-                const std::size_t texel = at / result.channels;
-                const std::uint32_t iv = std::uint32_t(texel % result.width);
-                const std::size_t y = texel / result.width;
-                const std::uint32_t il = std::uint32_t(y % result.n_dot_l_count), ivv = std::uint32_t(y / result.n_dot_l_count);
-                // Same estimator structure as the bake: pooled ratio per node, weighted mean over nodes;
-                // std error from the per-replicate node-weighted means.
-                std::vector<double> x(R, 0.0);
-                double value = 0;
-                for (std::size_t a = 0; a < degrees.size(); ++a) {
-                    const Query q = texel_query(spec, c, iv, il, ivv, degrees[a]);
-                    const oracle::Tally t = oracle::tally(q, spec.term, points);
-                    double cone = 0, hemi = 0;
-                    for (std::size_t r = 0; r < R; ++r) {
-                        cone += t.cone[r];
-                        hemi += t.hemisphere[r];
-                        x[r] += weights[a] * (t.hemisphere[r] > 0 ? t.cone[r] / t.hemisphere[r] : 0.0);
-                    }
-                    if (hemi > 0) value += weights[a] * cone / hemi;
-                }
-                double mean = 0, ss = 0;
-                for (double xr : x) mean += xr / double(R);
-                for (double xr : x) ss += (xr - mean) * (xr - mean);
-                oracle_rows[i] = {value, std::sqrt(ss / (double(R) * double(R - 1)))};
-            }
-        });
-    for (auto& t : pool) t.join();
+    // Every (texel, node) query, tallied by the term integrand on the oracle scheduler (cancellable,
+    // one work item per few queries), then reduced like the bake: pooled ratio per node, node-weighted
+    // mean, std error from the per-replicate node-weighted means (core/estimate.hpp).
+    std::vector<Query> queries;
+    queries.reserve(k * degrees.size());
+    for (std::size_t i = 0; i < k; ++i) {
+        const std::size_t at = candidates[i];
+        const std::uint32_t c = std::uint32_t(at % result.channels);
+        const std::size_t texel = at / result.channels;
+        const std::uint32_t iv = std::uint32_t(texel % result.width);
+        const std::size_t y = texel / result.width;
+        const std::uint32_t il = std::uint32_t(y % result.n_dot_l_count), ivv = std::uint32_t(y / result.n_dot_l_count);
+        for (double deg : degrees) queries.push_back(texel_query(spec, c, iv, il, ivv, deg));
+    }
+    schedule::Scheduler oracle(schedule::Backend::oracle(threads));
+    const term::Tallies t = term::tally(oracle, queries, spec.term, points);
+    std::vector<Estimate> oracle_rows(k);
+    for (std::size_t i = 0; i < k; ++i) {
+        ReplicateRatioMean mean{std::uint32_t(R)};
+        for (std::size_t a = 0; a < degrees.size(); ++a) {
+            const std::size_t q = i * degrees.size() + a;
+            mean.add(weights[a], &t.cone[q * R], &t.hemisphere[q * R]);
+        }
+        oracle_rows[i] = mean.estimate();
+    }
 
     for (std::size_t i = 0; i < k; ++i) {
         const std::size_t at = candidates[i];
         const double lut = result.value[at], se_lut = result.std_error[at];
-        const double diff = std::abs(lut - oracle_rows[i].value);
+        const double diff = std::abs(lut - oracle_rows[i].term);
         // Float storage rounds the value by at most half an ulp (2^-24 relative).
-        const double sigma = std::sqrt(se_lut * se_lut + oracle_rows[i].se * oracle_rows[i].se);
+        const double sigma = std::sqrt(se_lut * se_lut + oracle_rows[i].std_error * oracle_rows[i].std_error);
         const double slack = diff - 6e-8 * std::max(1.0, std::abs(lut));
         const double z = slack <= 0 ? 0.0 : sigma > 0 ? slack / sigma : HUGE_VAL;
         ++v.checked;
@@ -101,7 +86,7 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
             std::ostringstream s;
             s << "channel " << at % result.channels << ", visibility " << texel % result.width << ", n_dot_l "
               << y % result.n_dot_l_count << ", n_dot_v " << y / result.n_dot_l_count << ": lut " << lut << " +- "
-              << se_lut << ", oracle " << oracle_rows[i].value << " +- " << oracle_rows[i].se;
+              << se_lut << ", oracle " << oracle_rows[i].term << " +- " << oracle_rows[i].std_error;
             v.worst_texel = s.str();
         }
     }

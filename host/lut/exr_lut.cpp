@@ -27,26 +27,6 @@ nlohmann::json axis_json(const LutAxis& a) {
 }
 }  // namespace
 
-std::string to_string(TexelConvention t) { return t == TexelConvention::centres ? "centres" : "endpoints"; }
-
-TexelConvention parse_texel_convention(const std::string& s) {
-    if (s == "centres" || s == "centers") return TexelConvention::centres;
-    if (s == "endpoints") return TexelConvention::endpoints;
-    throw std::invalid_argument("texel convention must be 'centres' or 'endpoints', not '" + s + "'");
-}
-
-double LutAxis::value(std::uint32_t i) const {
-    if (texel == TexelConvention::centres) return min + (max - min) * (double(i) + 0.5) / double(count);
-    if (count <= 1) return min;
-    // The last texel is exactly max (no rounding drift), which the v = 1 exact-one rule relies on.
-    if (i + 1 == count) return max;
-    return min + (max - min) * double(i) / double(count - 1);
-}
-
-float LutFile::at(std::uint32_t c, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const {
-    const std::size_t y = std::size_t(ivv) * n_dot_l().count + il;
-    return data.at((y * width + iv) * channels.size() + c);
-}
 
 void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels,
                const std::vector<float>& data, const nlohmann::json& metadata, bool half) {

@@ -17,41 +17,9 @@
 #include <string>
 #include <vector>
 
+#include "lut/lut_image.hpp"
+
 namespace ms {
-
-// Where a texel's parameter sits: centres min + (max - min) (i + 0.5) / n, endpoints min + (max - min) i / (n - 1).
-enum class TexelConvention { centres, endpoints };
-std::string to_string(TexelConvention);
-TexelConvention parse_texel_convention(const std::string&);  // "centres" | "endpoints"; std::invalid_argument
-
-struct LutAxis {
-    std::string name;
-    double min = 0, max = 1;
-    std::uint32_t count = 1;
-    TexelConvention texel = TexelConvention::centres;
-    // The parameter of texel i. With endpoints and count 1 the single texel sits at min.
-    double value(std::uint32_t i) const;
-};
-
-struct LutChannel {
-    std::string name;  // "R", "G", "B" or "A"
-    double roughness = 0, alpha_x = 0, alpha_y = 0;
-};
-
-struct LutFile {
-    nlohmann::json metadata;          // the "microshadow" header attribute, parsed
-    std::vector<LutAxis> axes;        // visibility, n_dot_l, n_dot_v
-    std::vector<LutChannel> channels;
-    std::uint32_t width = 0, height = 0;
-    bool half = false;                // stored as HALF (read back as float)
-    std::vector<float> data;          // data[(y * width + x) * channels.size() + c]
-
-    const LutAxis& visibility() const { return axes.at(0); }
-    const LutAxis& n_dot_l() const { return axes.at(1); }
-    const LutAxis& n_dot_v() const { return axes.at(2); }
-    // Texel of channel c at visibility index iv, NdotL index il, NdotV index ivv.
-    float at(std::uint32_t c, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const;
-};
 
 // Writes the LUT atomically (temporary file, then rename). `data` is laid out as LutFile::data.
 // axes and channels are recorded in the metadata (which must already hold the other fields) and

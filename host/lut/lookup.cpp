@@ -17,9 +17,7 @@ struct Tap {
 // Texel coordinate of parameter p on an axis, clamp-to-edge, as described in the header.
 Tap tap(const LutAxis& a, double p) {
     if (a.count <= 1 || a.max == a.min) return {0, 0, 0};
-    const double u = (p - a.min) / (a.max - a.min);
-    double t = a.texel == TexelConvention::centres ? u * a.count - 0.5 : u * (a.count - 1);
-    t = std::clamp(t, 0.0, double(a.count - 1));
+    const double t = a.texel_coordinate(p);
     const auto i0 = std::uint32_t(std::floor(t));
     const std::uint32_t i1 = std::min(i0 + 1, a.count - 1);
     return {i0, i1, t - i0};

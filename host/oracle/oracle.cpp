@@ -24,6 +24,8 @@
 // host/core/cone.hpp or the kernels, so one mistake cannot pass both.
 #include "oracle/oracle.hpp"
 
+#include "core/cancel.hpp"
+
 #include <cmath>
 #include <cstddef>
 #include <limits>
@@ -172,6 +174,8 @@ Tally tally(const Query& q, const TermOptions& opt, const PointSet& points) {
     for (std::size_t r = 0; r < points.replicates; ++r) {
         CompensatedSum cone, hemisphere;
         for (std::size_t i = 0; i < n; ++i) {
+            // Long single queries (2^24 samples take seconds) must still stop within ~0.1 s of Ctrl-C.
+            if ((i & 0xffff) == 0) throw_if_cancelled();
             const std::size_t k = r * n + i;
             const Vec3 wm = sample_vndf(q.wi, q.alpha_x, q.alpha_y, points.u1[k], points.u2[k]);
             const MicrofacetTerm t = generic_m_m(cos_t, wm, q.wo, q.wi, q.alpha_x, q.alpha_y, opt.form);

@@ -15,6 +15,7 @@
 
 #include "analytic/part1_terms.hpp"
 #include "core/cancel.hpp"
+#include "integrands/term/term_integrand.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "lut/lookup.hpp"
@@ -98,30 +99,27 @@ double activision_roughness(const Point& p) {
 class ChunkComputer {
 public:
     ChunkComputer(const Spec& spec, const RunConfig& config)
-        : spec_(spec), config_(config), grid_(spec, config.defaults.form, config.defaults.ao_weighting) {
+        : spec_(spec), grid_(spec, config.defaults.form, config.defaults.ao_weighting) {
         for (const auto& l : spec.luts) luts_.push_back(std::make_unique<LutLookup>(LutLookup::open(l.file)));
     }
     const PointGrid& grid() const { return grid_; }
 
-    // The rows of points [first, last), in the fixed text format.
-    std::string compute(std::uint64_t first, std::uint64_t last) {
+    // The term's queries of points [first, last), each with its own form and AO weighting.
+    term::Batch queries(std::uint64_t first, std::uint64_t last) const {
+        term::Batch batch;
+        for (std::uint64_t i = first; i < last; ++i) {
+            const Point p = grid_.at(i);
+            batch.queries.push_back(to_query(p));
+            batch.options.push_back(TermOptions{p.form, p.weighting});
+        }
+        return batch;
+    }
+
+    // The rows of points [first, last) with their estimates, in the fixed text format.
+    std::string rows(std::uint64_t first, std::uint64_t last, const std::vector<Estimate>& est) const {
         std::vector<Point> points;
         points.reserve(last - first);
         for (std::uint64_t i = first; i < last; ++i) points.push_back(grid_.at(i));
-        std::vector<Estimate> est(points.size());
-        // evaluate() takes one TermOptions: form and weighting are the outermost axes, so a chunk is a
-        // few runs of equal options.
-        for (std::size_t a = 0; a < points.size();) {
-            std::size_t b = a;
-            while (b < points.size() && points[b].form == points[a].form && points[b].weighting == points[a].weighting) ++b;
-            std::vector<Query> queries;
-            for (std::size_t k = a; k < b; ++k) queries.push_back(to_query(points[k]));
-            const TermOptions options{points[a].form, points[a].weighting};
-            const auto r = evaluate(*config_.backend, queries, options, config_.plan, nullptr,
-                                    [](std::size_t, std::size_t) { throw_if_cancelled(); });
-            std::copy(r.begin(), r.end(), est.begin() + a);
-            a = b;
-        }
         std::string out;
         for (std::size_t k = 0; k < points.size(); ++k) {
             const Point& p = points[k];
@@ -146,7 +144,6 @@ public:
 
 private:
     const Spec& spec_;
-    const RunConfig& config_;
     PointGrid grid_;
     std::vector<std::unique_ptr<LutLookup>> luts_;
 };
@@ -290,29 +287,42 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         return result;
     }
 
-    std::uint64_t done_in_shard = 0;
-    for (std::uint64_t c = config.shard.index; c < result.chunks; c += config.shard.count) {
-        if (finished.count(c) && fs::exists(chunk_path(config.out_dir, c))) {
-            ++result.skipped;
-        } else {
-            if (config.max_chunks && result.computed >= config.max_chunks) break;
-            throw_if_cancelled();
-            finished.erase(c);  // listed but its file is gone: recompute
-            const std::uint64_t first = c * spec.chunk_size;
-            const std::uint64_t last = std::min(result.points, first + spec.chunk_size);
-            const std::string rows = computer.compute(first, last);
+    // Chunks are the term integrand's work items: the scheduler deals the unfinished ones of this shard
+    // to the places; each worker writes its chunk file (atomically) as soon as the chunk is computed, and
+    // the manifest names it only after that, one update at a time, so a kill between the two only costs
+    // recomputing that chunk.
+    std::uint64_t found = 0;
+    for (std::uint64_t c = config.shard.index; c < result.chunks; c += config.shard.count)
+        if (finished.count(c) && fs::exists(chunk_path(config.out_dir, c))) ++found;
+    result.skipped = found;
+    auto chunk_done = [&](std::uint64_t c) { return finished.count(c) && fs::exists(chunk_path(config.out_dir, c)); };
+    for (auto it = finished.begin(); it != finished.end();)  // listed but its file is gone: recompute
+        it = fs::exists(chunk_path(config.out_dir, *it)) ? std::next(it) : finished.erase(it);
+    const std::uint64_t chunk_size = spec.chunk_size;
+    term::TermIntegrand integrand(
+        result.chunks,
+        [&](std::uint64_t c) { return computer.queries(c * chunk_size, std::min(result.points, (c + 1) * chunk_size)); },
+        [&](std::uint64_t c, std::vector<Estimate>&& est) {
+            const std::string rows = computer.rows(c * chunk_size, std::min(result.points, (c + 1) * chunk_size), est);
             AtomicFile f(chunk_path(config.out_dir, c), true);
             f.stream() << rows;
             f.commit();
-            // The chunk file is on disk before the manifest names it, so a kill between the two
-            // only costs recomputing that chunk.
-            finished.insert(c);
-            save_manifest(false);
-            ++result.computed;
-        }
-        ++done_in_shard;
-        if (config.progress) config.progress(done_in_shard, result.shard_chunks);
-    }
+        },
+        config.plan, config.backend->config());
+    schedule::WorkSelection selection;
+    selection.shard_index = config.shard.index;
+    selection.shard_count = config.shard.count;
+    selection.already_done = chunk_done;
+    selection.max_items = config.max_chunks;
+    schedule::RunCallbacks callbacks;
+    callbacks.on_done = [&](std::uint64_t c) {
+        finished.insert(c);
+        save_manifest(false);
+        ++result.computed;
+    };
+    if (config.progress)
+        callbacks.progress = [&](std::uint64_t done, std::uint64_t) { config.progress(found + done, result.shard_chunks); };
+    config.backend->scheduler().run(integrand, selection, callbacks);
     std::uint64_t mine = 0;
     for (std::uint64_t c : finished) mine += (c % config.shard.count == config.shard.index && c < result.chunks);
     result.complete = mine == result.shard_chunks;

@@ -1,0 +1,294 @@
+#include "integrands/lut_slice/lut_slice_integrand.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#include "core/cancel.hpp"
+#include "core/seeds.hpp"
+#include "microshadow_shared.h"
+#include "oracle/oracle.hpp"
+
+namespace ms::lut_slice {
+
+static_assert(sizeof(ms_bake_slice) == 64, "ms_bake_slice layout must match the OpenCL C struct");
+
+namespace {
+
+// Local sizes of the bake kernels, fixed instead of left to the runtime (NullRange): given NullRange,
+// PoCL 3.1 chose a new local size for every new global size (the adaptive azimuth makes many) and
+// compiled a work-group function for each: 84 compilations, +10 s in a cold-cache 64^3 bake (16.9 s
+// vs 4.5 s at 4096 samples). 8, 16, 32 measured alike on PoCL; 32 is also a warp on NVIDIA.
+constexpr std::size_t kNormalsLocalSize = 32, kHistogramLocalSize = 32;
+
+// The fields of the kernel's slice argument that every slice shares.
+ms_bake_slice base_arguments(const SlicePlan& plan) {
+    ms_bake_slice b{};
+    const Axis& vis = plan.spec.visibility;
+    b.vis_min = float(vis.min);
+    const double range = vis.max - vis.min;
+    // v_j = vis_min + (j + offset) / scale for both conventions (and a lone endpoint texel at min).
+    if (vis.texel == TexelConvention::centres) {
+        b.bin_scale = float(plan.nv / range);
+        b.bin_offset = 0.5f;
+    } else {
+        b.bin_scale = plan.nv > 1 ? float((plan.nv - 1) / range) : 1.0f;
+        b.bin_offset = 0.0f;
+    }
+    b.points = plan.points;
+    b.replicates = plan.replicates;
+    b.directions = std::uint32_t(plan.directions());
+    b.texels = plan.nv;
+    b.ao_weighting = plan.spec.term.ao_weighting == AoWeighting::cosine ? MS_AO_COSINE : MS_AO_UNIFORM;
+    return b;
+}
+
+// The kernel routine: one device's buffers and kernels, reused across the slices it runs.
+class DeviceSliceTallier final : public SliceTallier {
+public:
+    DeviceSliceTallier(ocl::Device& device, const SlicePlan& plan) : device_(device), plan_(plan), base_(base_arguments(plan)) {
+        ocl::require_build_support(device_.info(), plan.spec.build);
+        const std::size_t real_size = plan.spec.build.double_precision ? sizeof(double) : sizeof(float);
+        ocl::checked([&] {
+            normals_ = device_.kernel("lut_slice/lut_slice.cl", "ms_bake_normals", plan.spec.build);
+            histogram_ = device_.kernel("lut_slice/lut_slice.cl", "ms_bake_histogram", plan.spec.build);
+            const std::size_t total = std::size_t(plan.points) * plan.replicates;
+            normals_local_ = ocl::local_size(normals_, device_.info(), kNormalsLocalSize);
+            histogram_local_ = ocl::local_size(histogram_, device_.info(), kHistogramLocalSize);
+            const std::size_t items = ocl::round_up(plan.directions() * plan.replicates, histogram_local_);
+            wo_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY, plan.wo.size() * sizeof(float));
+            for (auto* b : {&nx_, &ny_, &nz_}) *b = cl::Buffer(device_.context(), CL_MEM_READ_WRITE, total * real_size);
+            scratch_ = cl::Buffer(device_.context(), CL_MEM_READ_WRITE,
+                                  items * MS_BAKE_SUBHISTOGRAMS * (plan.nv + 2) * sizeof(cl_uint));
+            counts_ = cl::Buffer(device_.context(), CL_MEM_WRITE_ONLY, items * (plan.nv + 1) * sizeof(cl_uint));
+            return 0;
+        });
+    }
+
+    void begin_batch(std::uint32_t channel, std::uint32_t ivv, const PointSet& points) override {
+        const Query q = texel_query(plan_.spec, channel, 0, 0, ivv, 0);
+        slice_ = base_;
+        slice_.alpha_x = slice_.alpha_y = float(q.alpha_x);
+        slice_.wi_x = float(q.wi.x), slice_.wi_y = float(q.wi.y), slice_.wi_z = float(q.wi.z);
+        ocl::checked([&] {
+            // Keep one uploaded point set: a bake walks batches 0, 1, ... per slice, and every upload is
+            // small next to the slice's histogram work (a map of every batch grew without bound).
+            if (uploaded_ != &points || uploaded_seed_ != points.seed) {
+                u1_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u1.size() * sizeof(float),
+                                 const_cast<float*>(points.u1.data()));
+                u2_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u2.size() * sizeof(float),
+                                 const_cast<float*>(points.u2.data()));
+                uploaded_ = &points;
+                uploaded_seed_ = points.seed;
+            }
+            normals_.setArg(0, slice_);
+            normals_.setArg(1, u1_);
+            normals_.setArg(2, u2_);
+            normals_.setArg(3, nx_);
+            normals_.setArg(4, ny_);
+            normals_.setArg(5, nz_);
+            const std::size_t blocks = std::size_t(plan_.points) / MS_LANES * plan_.replicates;
+            device_.queue().enqueueNDRangeKernel(normals_, cl::NullRange, cl::NDRange(ocl::round_up(blocks, normals_local_)),
+                                                 cl::NDRange(normals_local_));
+            return 0;
+        });
+    }
+
+    void add_counts(const std::vector<std::uint32_t>& dirs, SliceTallies& acc) override {
+        const std::size_t R = plan_.replicates, stride = plan_.nv + 1;
+        const std::size_t items = dirs.size() * R;
+        std::vector<float> wo(dirs.size() * 4);
+        for (std::size_t d = 0; d < dirs.size(); ++d) std::copy_n(&plan_.wo[std::size_t(dirs[d]) * 4], 4, &wo[d * 4]);
+        std::vector<cl_uint> counts(items * stride);
+        ms_bake_slice slice = slice_;
+        slice.directions = std::uint32_t(dirs.size());
+        ocl::checked([&] {
+            device_.queue().enqueueWriteBuffer(wo_, CL_FALSE, 0, wo.size() * sizeof(float), wo.data());
+            histogram_.setArg(0, slice);
+            histogram_.setArg(1, wo_);
+            histogram_.setArg(2, nx_);
+            histogram_.setArg(3, ny_);
+            histogram_.setArg(4, nz_);
+            histogram_.setArg(5, scratch_);
+            histogram_.setArg(6, counts_);
+            device_.queue().enqueueNDRangeKernel(histogram_, cl::NullRange, cl::NDRange(ocl::round_up(items, histogram_local_)),
+                                                 cl::NDRange(histogram_local_));
+            device_.queue().enqueueReadBuffer(counts_, CL_TRUE, 0, counts.size() * sizeof(cl_uint), counts.data());
+            return 0;
+        });
+        for (std::size_t d = 0; d < dirs.size(); ++d) {
+            const cl_uint* from = &counts[d * R * stride];
+            double* to = &acc[std::size_t(dirs[d]) * R * stride];
+            for (std::size_t i = 0; i < R * stride; ++i) to[i] += from[i];
+        }
+    }
+
+private:
+    ocl::Device& device_;
+    const SlicePlan& plan_;
+    const ms_bake_slice base_;
+    ms_bake_slice slice_{};
+    std::size_t normals_local_ = 1, histogram_local_ = 1;
+    cl::Kernel normals_, histogram_;
+    cl::Buffer wo_, nx_, ny_, nz_, scratch_, counts_, u1_, u2_;
+    const PointSet* uploaded_ = nullptr;
+    std::uint64_t uploaded_seed_ = 0;
+};
+
+// The oracle: every sampled texel of a direction tallied on its own by oracle::tally (weights kept,
+// cosines and libm trigonometry in double, the light direction in double), which shares no formula
+// with the histogram kernel. The hemisphere tally does not depend on the visibility, so a row's is
+// taken from its first sampled texel.
+class OracleSliceTallier final : public SliceTallier {
+public:
+    explicit OracleSliceTallier(const SlicePlan& plan) : plan_(plan) {}
+    void begin_batch(std::uint32_t channel, std::uint32_t ivv, const PointSet& points) override {
+        channel_ = channel;
+        ivv_ = ivv;
+        points_ = &points;
+    }
+    void add_counts(const std::vector<std::uint32_t>& dirs, SliceTallies& acc) override {
+        const std::size_t R = plan_.replicates, stride = plan_.nv + 1, nodes = plan_.grid + 1;
+        for (std::uint32_t d : dirs) {
+            const std::uint32_t il = std::uint32_t(d / nodes), node = std::uint32_t(d % nodes);
+            bool hemisphere_done = false;
+            for (std::uint32_t iv = 0; iv < plan_.nv; ++iv) {
+                if (plan_.texel(il, iv) != sampled) continue;
+                const Query q = texel_query(plan_.spec, channel_, iv, il, ivv_, plan_.node_degrees[node]);
+                const oracle::Tally t = oracle::tally(q, plan_.spec.term, *points_);
+                for (std::size_t r = 0; r < R; ++r) {
+                    double* row = &acc[(std::size_t(d) * R + r) * stride];
+                    row[iv] += t.cone[r];
+                    if (!hemisphere_done) row[plan_.nv] += t.hemisphere[r];
+                }
+                hemisphere_done = true;
+            }
+        }
+    }
+
+private:
+    const SlicePlan& plan_;
+    std::uint32_t channel_ = 0, ivv_ = 0;
+    const PointSet* points_ = nullptr;
+};
+
+class SliceWorker final : public schedule::Worker {
+public:
+    SliceWorker(LutSliceIntegrand& integrand, std::unique_ptr<SliceTallier> tallier)
+        : integrand_(integrand), tallier_(std::move(tallier)) {}
+    void run(std::uint64_t id) override { integrand_.run_slice(id, tallier_.get()); }
+
+private:
+    LutSliceIntegrand& integrand_;
+    std::unique_ptr<SliceTallier> tallier_;
+};
+
+}  // namespace
+
+LutSliceIntegrand::LutSliceIntegrand(const LutSliceSpec& spec) : plan_(make_slice_plan(spec)) {
+    validate(spec);
+    any_sampled_ = std::find(plan_.status.begin(), plan_.status.end(), sampled) != plan_.status.end();
+    const std::size_t texels = plan_.atlas().texels();
+    value_.assign(texels, 0.0f);
+    std_error_.assign(texels, 0.0f);
+    reports_.resize(plan_.slices());
+}
+
+std::unique_ptr<schedule::Worker> LutSliceIntegrand::device_worker(ocl::Device& device) {
+    // A bake whose every texel is exact needs no kernels (and no device build).
+    if (!any_sampled_) return std::make_unique<SliceWorker>(*this, nullptr);
+    return std::make_unique<SliceWorker>(*this, std::make_unique<DeviceSliceTallier>(device, plan_));
+}
+
+std::unique_ptr<schedule::Worker> LutSliceIntegrand::oracle_worker() {
+    return std::make_unique<SliceWorker>(*this, std::make_unique<OracleSliceTallier>(plan_));
+}
+
+std::shared_ptr<const PointSet> LutSliceIntegrand::batch_points(std::uint32_t batch) const {
+    SamplingPlan p;
+    p.sequence = plan_.spec.sequence;
+    p.samples = plan_.batch_samples;
+    p.replicates = plan_.replicates;
+    p.seed = batch_seed(plan_.spec.seed, batch);
+    // shared_point_set keeps the few most recent sets: every slice starts with batch 0, and memory stays
+    // bounded however many batches a tolerance asks for.
+    return shared_point_set(p);
+}
+
+void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
+    const SlicePlan& plan = plan_;
+    // Slice order: channel = slice % channels, NdotV index = slice / channels.
+    const std::uint32_t channel = std::uint32_t(id % plan.channels);
+    const std::uint32_t ivv = std::uint32_t(id / plan.channels);
+    SliceReport report;
+    SliceTallies acc(any_sampled_ ? plan.tally_size() : 0, 0.0);
+    // Intervals per NdotL row: every row starts at k_start; rows with no sampled texel need no tallies.
+    std::vector<std::uint32_t> k(plan.nl, plan.k_start);
+    std::vector<std::uint8_t> row_sampled(plan.nl, 0);
+    for (std::uint32_t il = 0; il < plan.nl; ++il) row_sampled[il] = plan.row_sampled(il);
+    SliceValues local;
+    local.value.assign(std::size_t(plan.nl) * plan.nv, 0.0f);
+    local.std_error.assign(local.value.size(), 0.0f);
+    if (any_sampled_) {
+        auto run = [&](const std::vector<std::uint32_t>& dirs) {
+            if (dirs.empty()) return;
+            const auto start = std::chrono::steady_clock::now();
+            tallier->add_counts(dirs, acc);
+            report.device_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            report.histogram_updates += std::uint64_t(dirs.size()) * plan.batch_samples;
+        };
+        std::vector<std::uint32_t> dirs;
+        for (std::uint32_t batch = 0;; ++batch) {
+            throw_if_cancelled();
+            const auto points = batch_points(batch);
+            tallier->begin_batch(channel, ivv, *points);
+            dirs.clear();
+            for (std::uint32_t il = 0; il < plan.nl; ++il)
+                if (row_sampled[il])
+                    for (std::uint32_t i = 0; i <= k[il]; ++i) dirs.push_back(il * (plan.grid + 1) + row_node(plan, k[il], i));
+            run(dirs);
+            // Adaptive azimuth (batch 0 only; later batches keep the rows' nodes): a row whose check is
+            // significant gets the k new midpoint nodes of 2k.
+            if (batch == 0 && plan.k_start < plan.grid) {
+                std::vector<std::uint8_t> open = row_sampled;
+                for (;;) {
+                    throw_if_cancelled();
+                    dirs.clear();
+                    for (std::uint32_t il = 0; il < plan.nl; ++il) {
+                        if (!open[il]) continue;
+                        bool refine = false;
+                        if (k[il] < plan.grid) row_quadrature(plan, acc, il, k[il], plan.refine_threshold, plan.refine_z, &refine);
+                        if (!refine) {
+                            open[il] = 0;
+                            continue;
+                        }
+                        k[il] *= 2;
+                        for (std::uint32_t i = 1; i < k[il]; i += 2) dirs.push_back(il * (plan.grid + 1) + row_node(plan, k[il], i));
+                    }
+                    if (dirs.empty()) break;
+                    run(dirs);
+                }
+            }
+            report.batches = batch + 1;
+            report.max_std_error = reduce_slice(plan, acc, k, local);
+            const double tol = plan.spec.tolerance;
+            if (tol <= 0 || report.max_std_error <= tol || report.batches >= plan.spec.max_batches) break;
+        }
+        for (std::uint32_t il = 0; il < plan.nl; ++il)
+            if (row_sampled[il]) report.quadrature_error = std::max(report.quadrature_error, row_quadrature(plan, acc, il, k[il]));
+    } else {
+        reduce_slice(plan, acc, k, local);
+    }
+    for (std::uint32_t il = 0; il < plan.nl; ++il) report.row_intervals.push_back(row_sampled[il] ? int(k[il]) : -1);
+    // Each slice writes only its own texels, so workers on different places never touch the same floats.
+    for (std::uint32_t il = 0; il < plan.nl; ++il)
+        for (std::uint32_t iv = 0; iv < plan.nv; ++iv) {
+            const std::size_t at = plan.atlas().index(channel, iv, il, ivv);
+            value_[at] = local.value[std::size_t(il) * plan.nv + iv];
+            std_error_[at] = local.std_error[std::size_t(il) * plan.nv + iv];
+        }
+    report.done = true;
+    reports_[id] = std::move(report);
+}
+
+}  // namespace ms::lut_slice

@@ -1,0 +1,157 @@
+#include "schedule/scheduler.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <exception>
+#include <mutex>
+#include <thread>
+
+#include "core/cancel.hpp"
+
+namespace ms::schedule {
+
+Backend Backend::opencl(std::vector<ocl::DeviceInfo> devices) {
+    Backend b;
+    b.kind = Kind::opencl;
+    b.devices = std::move(devices);
+    return b;
+}
+
+Backend Backend::oracle(unsigned threads) {
+    Backend b;
+    b.kind = Kind::oracle;
+    b.oracle_threads = threads;
+    return b;
+}
+
+Scheduler::Scheduler(Backend backend) : backend_(std::move(backend)) {
+    if (backend_.kind == Backend::Kind::oracle) {
+        oracle_threads_ = backend_.oracle_threads ? backend_.oracle_threads : std::max(1u, std::thread::hardware_concurrency());
+    } else {
+        if (backend_.devices.empty()) throw ocl::NoDeviceError("no OpenCL device selected");
+        for (const auto& d : backend_.devices) devices_.push_back(std::make_unique<ocl::Device>(d));
+    }
+}
+
+Scheduler::~Scheduler() = default;
+
+std::size_t Scheduler::places() const { return is_oracle() ? oracle_threads_ : devices_.size(); }
+
+std::string Scheduler::place_label(std::size_t place) const {
+    if (is_oracle()) return "oracle thread " + std::to_string(place);
+    return devices_.at(place)->info().label() + " (device " + std::to_string(place) + ")";
+}
+
+std::string Scheduler::name() const {
+    if (is_oracle()) return "oracle (scalar double, " + std::to_string(oracle_threads_) + " threads)";
+    std::string s = "opencl (";
+    for (std::size_t i = 0; i < devices_.size(); ++i) s += (i ? "; " : "") + devices_[i]->info().label();
+    return s + ")";
+}
+
+std::vector<std::string> Scheduler::device_labels() const {
+    std::vector<std::string> labels;
+    for (const auto& d : devices_) labels.push_back(d->info().label());
+    return labels;
+}
+
+RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, const RunCallbacks& callbacks) {
+    if (selection.shard_count == 0 || selection.shard_index >= selection.shard_count)
+        throw std::invalid_argument("scheduler: bad shard " + std::to_string(selection.shard_index) + "/" +
+                                    std::to_string(selection.shard_count));
+    const auto start = std::chrono::steady_clock::now();
+    RunReport report;
+    std::deque<std::uint64_t> queue;
+    const std::uint64_t total = integrand.work_items();
+    for (std::uint64_t id = selection.shard_index; id < total; id += selection.shard_count)
+        if (!selection.already_done || !selection.already_done(id)) queue.push_back(id);
+    if (selection.max_items && queue.size() > selection.max_items) queue.resize(selection.max_items);
+    report.selected = queue.size();
+
+    std::mutex mutex;
+    std::condition_variable changed;
+    std::size_t alive = places();
+    std::exception_ptr fatal;
+    bool stop = false;
+
+    auto place_loop = [&](std::size_t place) {
+        std::unique_ptr<Worker> worker;
+        long items_started = 0;
+        for (;;) {
+            std::uint64_t id;
+            {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (stop || queue.empty()) return;
+                id = queue.front();
+                queue.pop_front();
+            }
+            try {
+                if (long(place) == fault_.place && items_started >= fault_.after)
+                    throw ocl::Error("injected failure (MICROSHADOW_FAIL_DEVICE)", CL_DEVICE_NOT_AVAILABLE);
+                ++items_started;
+                if (!worker) worker = is_oracle() ? integrand.oracle_worker() : integrand.device_worker(*devices_[place]);
+                worker->run(id);
+                std::lock_guard<std::mutex> lock(mutex);
+                ++report.done;
+                if (callbacks.on_done) callbacks.on_done(id);
+                changed.notify_all();
+            } catch (const ocl::Error& e) {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (is_oracle()) {  // no device to blame: a real error
+                    if (!fatal) fatal = std::current_exception();
+                    stop = true;
+                } else {
+                    // The device failed: give the item back and retire this place; the others rerun it.
+                    queue.push_front(id);
+                    ++report.rerun;
+                    report.failed_places.push_back(place_label(place) + ": " + e.what());
+                }
+                --alive;
+                changed.notify_all();
+                return;
+            } catch (...) {
+                std::lock_guard<std::mutex> lock(mutex);
+                if (!fatal) fatal = std::current_exception();
+                stop = true;
+                --alive;
+                changed.notify_all();
+                return;
+            }
+        }
+    };
+
+    std::vector<std::thread> threads;
+    for (std::size_t p = 0; p < places(); ++p) threads.emplace_back(place_loop, p);
+    {
+        // The calling thread reports progress, watches for Ctrl-C, and notices when no place is left.
+        std::unique_lock<std::mutex> lock(mutex);
+        for (;;) {
+            if (callbacks.progress) {
+                const std::uint64_t d = report.done;
+                lock.unlock();
+                callbacks.progress(d, report.selected);
+                lock.lock();
+            }
+            if (report.done == report.selected || fatal || alive == 0) break;
+            if (cancel_requested()) break;
+            changed.wait_for(lock, std::chrono::milliseconds(100));
+        }
+        stop = true;
+    }
+    for (auto& t : threads) t.join();
+    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (fatal) std::rethrow_exception(fatal);
+    throw_if_cancelled();
+    if (report.done != report.selected) {
+        std::string msg = "every selected device failed; " + std::to_string(report.selected - report.done) + " of " +
+                          std::to_string(report.selected) + " work items of " + integrand.name() +
+                          " are missing, nothing was written:";
+        for (const auto& f : report.failed_places) msg += "\n  " + f;
+        throw ocl::Error(integrand.name(), CL_DEVICE_NOT_AVAILABLE, msg);
+    }
+    return report;
+}
+
+}  // namespace ms::schedule

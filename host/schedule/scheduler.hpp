@@ -1,0 +1,95 @@
+// Where and how work runs: one scheduler for every job (eval, bake, sweep, verify, and what comes next).
+//
+// A backend is a set of places: the selected OpenCL devices (one host thread drives each), or N threads
+// of the scalar oracle. run() deals an integrand's work ids to the places from one queue, in increasing
+// id order, so a faster place simply takes more items. It
+//   - fails over: an item whose device throws ocl::Error goes back to the front of the queue, that
+//     device is retired for the rest of the run and the others rerun the item (the bits do not change);
+//     the run fails, naming every failure, only when no place is left;
+//   - cancels: ms::cancel_requested() (SIGINT/SIGTERM in the CLI) stops dealing new items at once; items
+//     in flight finish or throw ms::Cancelled (routines keep items well under a second); run() then
+//     throws ms::Cancelled, and jobs commit nothing, so old outputs stay intact;
+//   - reports progress (items done of items selected) from the calling thread every 100 ms and at the end;
+//   - calls on_done(id) after each item, one call at a time (jobs stream results there: sweep chunks);
+//   - shards: WorkSelection picks ids by id % count == index and skips finished ones, which is all a
+//     distributed engine (ranks of an MPI world, tasks of a Slurm array) needs to split a job.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "device/runtime.hpp"
+#include "schedule/integrand.hpp"
+
+namespace ms::schedule {
+
+struct Backend {
+    enum class Kind { opencl, oracle };
+    Kind kind = Kind::opencl;
+    std::vector<ocl::DeviceInfo> devices;  // opencl
+    unsigned oracle_threads = 0;           // oracle: 0 = every hardware thread
+
+    static Backend opencl(std::vector<ocl::DeviceInfo> devices);
+    static Backend oracle(unsigned threads = 0);
+};
+
+struct WorkSelection {
+    std::uint64_t shard_index = 0, shard_count = 1;  // ids with id % shard_count == shard_index
+    std::function<bool(std::uint64_t)> already_done;  // ids to skip (resume); empty: none
+    std::uint64_t max_items = 0;                      // > 0: stop after this many items (resumable runs)
+};
+
+// A test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE=P:N (never read inside the library): place P
+// throws a device error on every item after its first N.
+struct FaultInjection {
+    long place = -1;
+    long after = 0;
+};
+
+struct RunCallbacks {
+    std::function<void(std::uint64_t done, std::uint64_t total)> progress;
+    std::function<void(std::uint64_t id)> on_done;
+};
+
+struct RunReport {
+    std::uint64_t selected = 0, done = 0;
+    std::uint64_t rerun = 0;                   // items rerun after a place failed
+    std::vector<std::string> failed_places;    // "label: error"
+    double seconds = 0;
+};
+
+class Scheduler {
+public:
+    explicit Scheduler(Backend backend);
+    ~Scheduler();
+    Scheduler(const Scheduler&) = delete;
+    Scheduler& operator=(const Scheduler&) = delete;
+
+    const Backend& backend() const { return backend_; }
+    bool is_oracle() const { return backend_.kind == Backend::Kind::oracle; }
+    std::size_t places() const;
+    std::string place_label(std::size_t place) const;
+    // "opencl (device; device)" or "oracle (scalar double, N threads)".
+    std::string name() const;
+    // The devices' labels (empty for the oracle).
+    std::vector<std::string> device_labels() const;
+
+    void set_fault_injection(FaultInjection f) { fault_ = f; }
+
+    // Runs the selected items of the integrand. Throws ms::Cancelled, the first non-device error of a
+    // worker, or ocl::Error naming every failed place when no place is left.
+    RunReport run(Integrand& integrand, const WorkSelection& selection = {}, const RunCallbacks& callbacks = {});
+
+private:
+    Backend backend_;
+    unsigned oracle_threads_ = 1;
+    // Devices (context, queue, program cache) live as long as the scheduler, so a job that runs several
+    // integrands (bake, then verify) compiles each program once.
+    std::vector<std::unique_ptr<ocl::Device>> devices_;
+    FaultInjection fault_;
+};
+
+}  // namespace ms::schedule

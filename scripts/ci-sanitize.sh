@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 BUILD_DIR="${BUILD_DIR:-build-asan}"
 JOBS="${JOBS:-2}"
 
-config=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DMICROSHADOW_SANITIZE=ON -DMICROSHADOW_BUILD_BENCH=OFF)
+config=(-DCMAKE_BUILD_TYPE=RelWithDebInfo -DMICROSHADOW_SANITIZE=ON -DMICROSHADOW_BUILD_BENCH=OFF -DMICROSHADOW_WERROR=ON)
 if [[ "${WITH_FUZZERS:-0}" == 1 ]]; then
   # -O1 and line tables only: the sanitizers need neither -O2 nor full debug info for their reports,
   # and the build is most of this stage's time on 2 cores.

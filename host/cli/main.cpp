@@ -1,5 +1,5 @@
 // microshadow: the generic VNDF-based micro-shadowing term on OpenCL.
-// Exit status: 0 success, 1 failure while running, 2 bad command line or bad input, 130 interrupted.
+// Exit status: 0 success, 1 failure while running, 2 bad command line or bad input, 130 interrupted by SIGINT, 143 by SIGTERM.
 #include <iostream>
 
 #include "cli/common.hpp"
@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
         return 2;
     } catch (const Cancelled& e) {
         std::cerr << "microshadow: " << e.what() << "\n";
-        return 130;
+        return cli::interrupted_exit_status();
     } catch (const CsvError& e) {
         std::cerr << "microshadow: error: " << e.what() << "\n";
         return 2;

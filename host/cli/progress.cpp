@@ -1,5 +1,7 @@
 #include "cli/progress.hpp"
 
+#include <atomic>
+
 #include <pthread.h>
 #include <unistd.h>
 
@@ -47,6 +49,16 @@ void Progress::finish() {
 // as a child while it compiles a kernel, and a terminal's Ctrl-C (sent to the whole process group)
 // killed it mid-link, which made PoCL abort the process (exit 134) instead of the clean stop (130).
 // Called before any other thread exists, so PoCL's own threads inherit the mask as well.
+std::atomic<int>& last_signal() {
+    static std::atomic<int> sig{0};
+    return sig;
+}
+
+int interrupted_exit_status() {
+    const int sig = last_signal().load();
+    return 128 + (sig ? sig : SIGINT);  // the shell's convention: 130 for SIGINT, 143 for SIGTERM
+}
+
 void install_interrupt_handlers() {
     sigset_t set;
     sigemptyset(&set);
@@ -57,13 +69,14 @@ void install_interrupt_handlers() {
         for (int received = 0;;) {
             int sig = 0;
             if (sigwait(&set, &sig) != 0) continue;
+            last_signal().store(sig);
             cancel_requested().store(true);
             // The first signals ask the running batch to finish and stop cleanly; a third one means the
             // user will not wait for that (a long device batch): leave now, like an unhandled signal.
             if (++received >= 3) {
                 static const char msg[] = "\nmicroshadow: interrupted three times: exiting without cleaning up\n";
                 (void)!::write(STDERR_FILENO, msg, sizeof msg - 1);
-                ::_exit(130);
+                ::_exit(128 + sig);
             }
         }
     }).detach();

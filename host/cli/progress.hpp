@@ -24,5 +24,7 @@ private:
 // SIGINT/SIGTERM set ms::cancel_requested() (taken by a dedicated thread; call before starting any
 // other thread). A third signal exits at once with status 130.
 void install_interrupt_handlers();
+// 128 + the signal that interrupted the run (130 SIGINT, 143 SIGTERM; 130 when cancelled otherwise).
+int interrupted_exit_status();
 
 }  // namespace ms::cli

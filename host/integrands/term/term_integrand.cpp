@@ -212,8 +212,11 @@ std::vector<Estimate> TermIntegrand::evaluate(Tallier& tallier, const Batch& bat
 }
 
 std::uint64_t queries_per_item(const schedule::Scheduler& scheduler, const SamplingPlan& plan, const RoutineConfig& config) {
-    if (!scheduler.is_oracle()) return config.max_batch_queries;
-    return std::max<std::uint64_t>(1, (std::uint64_t(1) << 21) / std::max<std::uint64_t>(1, plan.samples));
+    // Samples per item: 2^28 is ~0.13 s of the kernel on 2 CPU cores (2e9 samples/s, far less on a GPU);
+    // 2^21 is ~0.3 s of one oracle thread (7.5e6 samples/s). Cancellation waits for the items in flight.
+    const std::uint64_t budget = std::uint64_t(1) << (scheduler.is_oracle() ? 21 : 28);
+    const std::uint64_t per_item = std::max<std::uint64_t>(1, budget / std::max<std::uint64_t>(1, plan.samples));
+    return std::min<std::uint64_t>(per_item, config.max_batch_queries);
 }
 
 namespace {

@@ -186,17 +186,17 @@ void add_bake_command(CLI::App& app) {
         ->check(CLI::IsMember({"seed-3d", "seed-2d", "custom"}))
         ->capture_default_str();
     cmd->add_option("--out", a->out, "output OpenEXR file")->required();
-    cmd->add_option("--size", a->size, "texels on every axis")->check(CLI::Range(1u, 4096u))->capture_default_str();
-    cmd->add_option("--size-visibility", a->size_visibility, "texels on the visibility axis")->check(CLI::Range(1u, 4096u));
-    cmd->add_option("--size-n-dot-l", a->size_n_dot_l, "texels on the NdotL axis")->check(CLI::Range(1u, 4096u));
-    cmd->add_option("--size-n-dot-v", a->size_n_dot_v, "texels on the NdotV axis")->check(CLI::Range(1u, 4096u));
+    cmd->add_option("--size", a->size, "texels on every axis")->transform(decimal_range(1, 4096))->capture_default_str();
+    cmd->add_option("--size-visibility", a->size_visibility, "texels on the visibility axis")->transform(decimal_range(1, 4096));
+    cmd->add_option("--size-n-dot-l", a->size_n_dot_l, "texels on the NdotL axis")->transform(decimal_range(1, 4096));
+    cmd->add_option("--size-n-dot-v", a->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
     cmd->add_option("--texel", a->texel, "texel parameters: centres (i + 0.5) / n or endpoints i / (n - 1)")
         ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
         ->capture_default_str();
     cmd->add_option("--azimuth", a->azimuth, "relative azimuth of wi and wo: 'mean' (mean term over [0, 180]) or degrees")
         ->capture_default_str();
     cmd->add_option("--azimuth-intervals", a->azimuth_intervals, "trapezoid intervals of --azimuth mean (default: measured)")
-        ->check(CLI::Range(1u, 256u));
+        ->transform(decimal_range(1, 256));
     cmd->add_option("--roughness", a->roughness, "custom layout: 1 to 4 roughness values in (0, 1] (channels R, G, B, A)")
         ->delimiter(',');
     cmd->add_option("--visibility-range", a->visibility_range, "custom layout: MIN,MAX of the visibility axis")->delimiter(',');
@@ -205,12 +205,12 @@ void add_bake_command(CLI::App& app) {
     cmd->add_flag("--half", a->half, "store 16-bit half floats instead of 32-bit floats");
     cmd->add_option("--preview", a->preview, "also write a PNG picture of the slices (roughness across, NdotV down)");
     cmd->add_option("--tolerance", a->tolerance, "add sample batches to a slice until every texel's std error <= E")
-        ->check(CLI::Range(1e-7, 1.0));
+        ->check(real_range(1e-7, 1.0));
     cmd->add_option("--max-batches", a->max_batches, "most batches per slice with --tolerance")
-        ->check(CLI::Range(1u, 4096u))
+        ->transform(decimal_range(1, 4096))
         ->capture_default_str();
     cmd->add_option("--verify", a->verify, "recompute K random texels with the scalar oracle; fail if they disagree")
-        ->check(CLI::Range(0u, 100000u));
+        ->transform(decimal_range(0, 100000));
     add_sampling_options(cmd, a->sampling);
     cmd->callback([a] { run_bake(*a); });
 }

@@ -22,6 +22,9 @@ void add_devices_command(CLI::App& app) {
                       << d.global_memory / (1024 * 1024) << " MiB, " << d.version << ", driver " << d.driver
                       << (d.fp64 ? ", fp64" : "") << "\n";
         }
+        // Where PoCL keeps compiled kernels: the directory to remove if a damaged entry breaks runs.
+        if (platform.find("Portable Computing Language") != std::string::npos || !devices.empty())
+            std::cout << "PoCL kernel cache: " << ocl::pocl_cache_dir() << "\n";
     });
 }
 

@@ -9,6 +9,7 @@
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
+#include "io/text.hpp"
 
 namespace ms::cli {
 
@@ -23,7 +24,12 @@ void run_eval(const EvalArgs& args) {
     const TermOptions term = args.sampling.term_options();
     const SamplingPlan plan = args.sampling.plan();
     const std::vector<Query> queries = read_query_csv(args.in);
-    check_writable_destination(args.out);
+    // Both outputs checked before computing, written together or not at all. `--out -` writes the
+    // CSV to standard output and no sidecar: its provenance has no file to sit beside.
+    OutputSet outputs;
+    const std::size_t csv_out = outputs.add(args.out, false, /*allow_stdout=*/true);
+    const bool sidecar = !outputs.to_stdout(csv_out);
+    const std::size_t json_out = sidecar ? outputs.add(args.out + ".json") : 0;
     auto backend = args.sampling.make_backend();
 
     Progress progress("eval", args.sampling.quiet);
@@ -32,8 +38,7 @@ void run_eval(const EvalArgs& args) {
                                   [&](std::size_t done, std::size_t total) { progress.update(done, total); });
     progress.finish();
 
-    AtomicFile file(args.out);
-    auto& out = file.stream();
+    auto& out = outputs.stream(csv_out);
     for (const auto& c : kQueryColumns) out << c << ",";
     out << "term,std_error\n";
     double max_error = 0;
@@ -44,7 +49,6 @@ void run_eval(const EvalArgs& args) {
         out << format_number(results[i].term) << "," << format_number(results[i].std_error) << "\n";
         max_error = std::max(max_error, results[i].std_error);
     }
-    file.commit();
 
     // Provenance beside the CSV (CSV has no standard place for metadata).
     nlohmann::json meta = {{"program", "microshadow " MICROSHADOW_VERSION},
@@ -62,9 +66,8 @@ void run_eval(const EvalArgs& args) {
                            {"exact_zero", stats.exact_zero},
                            {"exact_one", stats.exact_one},
                            {"max_std_error", max_error}};
-    AtomicFile meta_file(args.out + ".json");
-    meta_file.stream() << meta.dump(2) << "\n";
-    meta_file.commit();
+    if (sidecar) outputs.stream(json_out) << dump_json(meta, 2) << "\n";
+    outputs.commit();
 
     if (!args.sampling.quiet)
         std::cerr << "eval: " << queries.size() << " queries (" << stats.sampled << " sampled, " << stats.exact_zero
@@ -79,7 +82,8 @@ void add_eval_command(CLI::App& app) {
     auto args = std::make_shared<EvalArgs>();
     auto* cmd = app.add_subcommand("eval", "evaluate the generic term for the queries of a CSV file");
     cmd->add_option("--in", args->in, "query CSV: " "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z")->required();
-    cmd->add_option("--out", args->out, "result CSV: the input columns plus term,std_error")->required();
+    cmd->add_option("--out", args->out, "result CSV: the input columns plus term,std_error, and its provenance in OUT.json "
+                                       "(a symlink is followed; '-' writes the CSV to standard output, without the .json)")->required();
     add_sampling_options(cmd, args->sampling);
     cmd->callback([args] { run_eval(*args); });
 }

@@ -1,27 +1,68 @@
 #include "cli/common.hpp"
 
+#include <unistd.h>
+
 #include <cstdlib>
 
+#include <charconv>
+#include <cmath>
+#include <cstdio>
 #include <iostream>
+#include <limits>
 
+#include "io/text.hpp"
 #include "sampling/point_set.hpp"
 
 namespace ms::cli {
 
 namespace {
 std::string g_command_line;
+
+// Largest samples per replicate that make_point_set accepts (host/sampling/point_set.cpp).
+constexpr std::uint64_t kMaxPerReplicate = std::uint64_t(1) << 28;
+constexpr std::uint32_t kMaxReplicates = 1024;
+
+std::string format_g(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%g", v);
+    return buf;
 }
 
+std::string gib(std::uint64_t bytes) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g GiB", double(bytes) / double(1ull << 30));
+    return buf;
+}
+}  // namespace
+
 void set_command_line(int argc, char** argv) {
+    // Each argument as a bash word (shell_quote): the record is valid UTF-8 whatever bytes the
+    // arguments hold (file names on Linux are bytes), so JSON provenance never fails to dump it.
     g_command_line.clear();
-    for (int i = 0; i < argc; ++i) {
-        std::string arg = argv[i];
-        const bool quote = arg.empty() || arg.find_first_of(" \t\"'$") != std::string::npos;
-        g_command_line += (i ? " " : "") + (quote ? "'" + arg + "'" : arg);
-    }
+    for (int i = 0; i < argc; ++i) g_command_line += (i ? " " : "") + shell_quote(argv[i]);
 }
 
 std::string command_line() { return g_command_line; }
+
+std::uint64_t physical_memory() {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+    return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) : 0;
+}
+
+void check_sampling_size(const SamplingPlan& p) {
+    const std::uint64_t per_replicate = p.samples / p.replicates;
+    if (per_replicate > kMaxPerReplicate)
+        throw std::invalid_argument("--samples " + std::to_string(p.samples) + " with " + std::to_string(p.replicates) +
+                                    " replicates is " + std::to_string(per_replicate) +
+                                    " points per replicate; at most 2^28 = " + std::to_string(kMaxPerReplicate) +
+                                    " (raise --replicates or lower --samples)");
+    const std::uint64_t bytes = p.samples * 8;  // two floats a sample (sampling/point_set.hpp)
+    const std::uint64_t memory = physical_memory();
+    if (memory > 0 && bytes > memory / 2)
+        throw std::invalid_argument("--samples " + std::to_string(p.samples) + " needs " + gib(bytes) +
+                                    " for the point set (8 bytes a sample), more than the limit of " + gib(memory / 2) +
+                                    " (half the " + gib(memory) + " of physical memory); lower --samples");
+}
 
 TermOptions SamplingOptions::term_options() const {
     TermOptions t;
@@ -36,6 +77,7 @@ SamplingPlan SamplingOptions::plan() const {
     p.replicates = replicates;
     p.seed = seed;
     p.samples = round_up_samples(samples, replicates);
+    check_sampling_size(p);
     if (p.samples != samples && !quiet)
         std::cerr << "note: --samples " << samples << " rounded up to " << p.samples << " (" << replicates
                   << " replicates of a power-of-two net)\n";
@@ -77,19 +119,52 @@ std::unique_ptr<TermBackend> SamplingOptions::make_backend() const {
     return made;
 }
 
+CLI::Validator decimal_range(std::uint64_t min, std::uint64_t max) {
+    const std::string range = std::to_string(min) + " to " + std::to_string(max);
+    return CLI::Validator(
+        [min, max, range](std::string& s) -> std::string {
+            if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos)
+                return "'" + s + "' is not a decimal integer (" + range + ")";
+            std::uint64_t v = 0;
+            const auto [end, ec] = std::from_chars(s.data(), s.data() + s.size(), v, 10);
+            if (ec == std::errc::result_out_of_range || v > max || v < min)
+                return "Value " + s + " not in range " + range;
+            // Normalised: CLI11's own conversion would read the leading zero of "010" as octal.
+            s = std::to_string(v);
+            return {};
+        },
+        "UINT in [" + range + "]");
+}
+
+CLI::Validator real_range(double min, double max) {
+    const std::string range = format_g(min) + " to " + format_g(max);
+    return CLI::Validator(
+        [min, max, range](std::string& s) -> std::string {
+            double v = 0;
+            const char* begin = s.data() + (s.size() > 1 && s[0] == '+' ? 1 : 0);
+            const auto [end, ec] = std::from_chars(begin, s.data() + s.size(), v);
+            if (ec != std::errc() || end != s.data() + s.size() || !std::isfinite(v))
+                return "'" + s + "' is not a finite number (" + range + ")";
+            if (v < min || v > max) return "Value " + s + " not in range " + range;
+            return {};
+        },
+        "REAL in [" + range + "]");
+}
+
 void add_sampling_options(CLI::App* app, SamplingOptions& o) {
-    app->add_option("--samples", o.samples, "VNDF samples per query (rounded up to replicates x 2^k)")
-        ->check(CLI::Range(std::uint64_t(16), std::uint64_t(1) << 34))
+    const std::uint64_t memory = physical_memory();
+    const std::string memory_note = memory ? " here: " + gib(memory / 2) : "";
+    app->add_option("--samples", o.samples,
+                    "VNDF samples per query: 16 to replicates x 2^28 (2^31 with 8 replicates), rounded up to "
+                    "replicates x 2^k; the point set takes 8 bytes a sample, at most half the physical memory" +
+                        memory_note)
+        ->transform(decimal_range(16, kMaxPerReplicate * kMaxReplicates))
         ->capture_default_str();
-    // CLI11's unsigned conversion would wrap "-1" to 2^64 - 1 silently.
-    const CLI::Validator no_sign(
-        [](std::string& s) { return s.find_first_of("+-") == std::string::npos ? std::string() : "--seed takes an integer in 0 .. 2^64 - 1, got '" + s + "'"; },
-        "UINT");
-    app->add_option("--seed", o.seed, "seed of the point-set randomisation (0 .. 2^64 - 1)")
-        ->check(no_sign)
+    app->add_option("--seed", o.seed, "seed of the point-set randomisation (decimal, 0 .. 2^64 - 1)")
+        ->transform(decimal_range(0, std::numeric_limits<std::uint64_t>::max()))
         ->capture_default_str();
-    app->add_option("--replicates", o.replicates, "independent randomisations, for the error estimate")
-        ->check(CLI::Range(2u, 1024u))
+    app->add_option("--replicates", o.replicates, "independent randomisations, for the error estimate (2 to 1024)")
+        ->transform(decimal_range(2, kMaxReplicates))
         ->capture_default_str();
     app->add_option("--sequence", o.sequence, "sample points")->check(CLI::IsMember({"sobol", "random"}))->capture_default_str();
     app->add_option("--form", o.form, "Smith form of G2/G1")

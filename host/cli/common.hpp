@@ -31,6 +31,21 @@ struct SamplingOptions {
     ocl::BuildConfig build_config() const;
 };
 
+// The checks every sampling job passes before it computes anything (plan() calls it): samples per
+// replicate at most 2^28 (the point-set generator's limit), and the point set (8 bytes a sample: two
+// floats; the OpenCL backend holds a second copy, in host memory on PoCL's CPU device) at most half
+// the physical memory. Throws std::invalid_argument with the figure and the limit.
+void check_sampling_size(const SamplingPlan& plan);
+// Physical memory in bytes (sysconf), 0 when unknown.
+std::uint64_t physical_memory();
+
+// Integer options in decimal only: CLI11 reads "010" as octal 8 and "0x10" as hex; this transform
+// accepts digits only (leading zeros are decimal), rejects a sign and values outside [min, max]
+// (also >= 2^64, which CLI11 clamps silently), and passes the normalised digits on.
+CLI::Validator decimal_range(std::uint64_t min, std::uint64_t max);
+// A real range whose message prints the bounds with %g ("1", not "1.000000").
+CLI::Validator real_range(double min, double max);
+
 // Adds --samples --seed --replicates --sequence --form --ao-weighting --backend --device --fast-math --quiet.
 void add_sampling_options(CLI::App* app, SamplingOptions& options);
 
@@ -38,7 +53,18 @@ void add_sampling_options(CLI::App* app, SamplingOptions& options);
 // its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.
 schedule::FaultInjection fault_injection_from_environment();
 
-// The full command line, for provenance records in output files.
+// A failure whose exit status is not the usual 1 (the status of a child process: the plotter).
+class ExitError : public std::runtime_error {
+public:
+    ExitError(int code, const std::string& what) : std::runtime_error(what), code_(code) {}
+    int code() const { return code_; }
+
+private:
+    int code_;
+};
+
+// The full command line (each argument quoted as a bash word, valid UTF-8 whatever the bytes), for
+// provenance records in output files.
 std::string command_line();
 void set_command_line(int argc, char** argv);
 

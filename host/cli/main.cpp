@@ -41,6 +41,9 @@ int main(int argc, char** argv) {
     } catch (const std::invalid_argument& e) {
         std::cerr << "microshadow: error: " << e.what() << "\n";
         return 2;
+    } catch (const cli::ExitError& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return e.code();
     } catch (const ocl::NoDeviceError& e) {
         std::cerr << "microshadow: error: " << e.what() << "\n";
         return 1;

@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <stdexcept>
+#include <string>
 
 namespace ms {
 
@@ -15,6 +16,8 @@ inline std::atomic<bool>& cancel_requested() {
 class Cancelled : public std::runtime_error {
 public:
     Cancelled() : std::runtime_error("interrupted; nothing was written") {}
+    // For jobs that keep part of their work (a sweep keeps its finished chunks): say what is kept.
+    explicit Cancelled(const std::string& message) : std::runtime_error(message) {}
 };
 
 inline void throw_if_cancelled() {

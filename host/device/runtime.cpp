@@ -1,11 +1,20 @@
 #include "device/runtime.hpp"
 
+#include <signal.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iostream>
 #include <sstream>
 
 namespace ms {
@@ -35,9 +44,170 @@ std::string device_list_text(const std::vector<DeviceInfo>& devices) {
     return out.str();
 }
 
+namespace fs = std::filesystem;
+
+// PoCL variables that crash PoCL 3.1 when out of range (found by trying them): a negative or huge
+// POCL_MAX_PTHREAD_COUNT is a SIGSEGV while listing devices, 100000 an abort (cannot create the
+// threads); POCL_MAX_WORK_GROUP_SIZE of 0, -1 or a non-number an assertion (exit 134).
+struct PoclCount {
+    const char* name;
+    std::uint64_t min, max;
+};
+constexpr PoclCount kPoclCounts[] = {
+    {"POCL_MAX_PTHREAD_COUNT", 1, 1024},
+    {"POCL_MAX_WORK_GROUP_SIZE", 1, std::uint64_t(1) << 31},
+};
+
+void check_pocl_variables() {
+    for (const auto& v : kPoclCounts) {
+        const char* value = std::getenv(v.name);
+        if (!value) continue;
+        const std::string text(value);
+        std::uint64_t n = 0;
+        const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), n, 10);
+        const bool digits = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+        if (!digits || ec != std::errc() || end != text.data() + text.size() || n < v.min || n > v.max)
+            throw EnvironmentError(std::string(v.name) + "='" + text + "' is not an integer in [" + std::to_string(v.min) +
+                                   ", " + std::to_string(v.max) +
+                                   "]; PoCL crashes on such values. Unset it for PoCL's default or give a number in range.");
+    }
+}
+
+// PoCL 3.1's default cache location (lib/CL/pocl_cache.c): $XDG_CACHE_HOME/pocl/kcache, else
+// $HOME/.cache/pocl/kcache, else /tmp/pocl/kcache.
+std::string default_pocl_cache_dir() {
+    if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg && *xdg) return std::string(xdg) + "/pocl/kcache";
+    if (const char* home = std::getenv("HOME")) return std::string(home) + "/.cache/pocl/kcache";
+    return "/tmp/pocl/kcache";
+}
+
+// Whether `dir` can be created and written: tried, not predicted (access() says yes to root on /proc
+// and other special file systems where mkdir then fails). PoCL would create it the same way.
+bool can_use_directory(const fs::path& dir) {
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec || !fs::is_directory(dir, ec)) return false;
+    std::string probe = (dir / ".microshadow-probe-XXXXXX").string();
+    const int fd = ::mkstemp(probe.data());
+    if (fd < 0) return false;
+    ::close(fd);
+    ::unlink(probe.c_str());
+    return true;
+}
+
+std::string g_cache_note;        // why POCL_CACHE_DIR was set by us, for messages
+std::string g_abort_hint;        // written by the SIGABRT handler (precomputed: async-signal-safe)
+struct sigaction g_previous_abort {};
+
+extern "C" void on_abort(int sig) {
+    if (!g_abort_hint.empty()) (void)!::write(STDERR_FILENO, g_abort_hint.data(), g_abort_hint.size());
+    ::sigaction(sig, &g_previous_abort, nullptr);  // then die as before: exit status 134
+    ::raise(sig);
+}
+
+// If PoCL cannot create its default cache it reports no device at all ("platforms exist but none has
+// a device"): use a private directory under $TMPDIR instead, before PoCL reads the variable.
+void set_up_pocl_cache() {
+    const char* set = std::getenv("POCL_CACHE_DIR");
+    if (set && *set) return;
+    const std::string fallback_default = default_pocl_cache_dir();
+    if (can_use_directory(fallback_default)) return;
+    const char* tmp = std::getenv("TMPDIR");
+    const fs::path dir = fs::path(tmp && *tmp ? tmp : "/tmp") / ("microshadow-pocl-cache-" + std::to_string(::getuid()));
+    ::mkdir(dir.c_str(), 0700);
+    // Only a directory we own (not a symlink or someone else's directory planted in a shared /tmp).
+    struct stat st {};
+    if (::lstat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != ::getuid() ||
+        ::access(dir.c_str(), W_OK | X_OK) != 0) {
+        g_cache_note = "PoCL's kernel cache " + fallback_default + " cannot be created or written, and " + dir.string() +
+                       " is not a private writable directory; set POCL_CACHE_DIR to a writable directory";
+        return;
+    }
+    ::setenv("POCL_CACHE_DIR", dir.c_str(), 1);
+    g_cache_note = "PoCL's kernel cache " + fallback_default + " cannot be created or written; using POCL_CACHE_DIR=" +
+                   dir.string();
+    std::cerr << "note: " << g_cache_note << "\n";
+}
+
+bool starts_with_bytes(const fs::path& file, const std::string& magic) {
+    std::ifstream in(file, std::ios::binary);
+    std::string head(magic.size(), '\0');
+    return in.read(head.data(), std::streamsize(head.size())) && head == magic;
+}
+
+// Damaged entries of PoCL's kernel cache: PoCL trusts them and aborts (dlopen "file too short",
+// an assertion in pocl_llvm_build_program) or fails with a misleading CL_INVALID_KERNEL_NAME. PoCL
+// writes entries to a temporary file and renames them, so a half-written entry of a concurrent run
+// never has the final name: an entry with the final name and a wrong format is damaged.
+std::vector<std::string> damaged_cache_entries(const fs::path& cache) {
+    std::vector<std::string> damaged;
+    std::error_code ec;
+    if (!fs::is_directory(cache, ec)) return damaged;
+    std::size_t visited = 0;
+    for (auto it = fs::recursive_directory_iterator(cache, fs::directory_options::skip_permission_denied, ec);
+         !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+        if (++visited > 100000) break;  // bound the scan of a huge shared cache
+        if (it.depth() > 5) {
+            it.disable_recursion_pending();
+            continue;
+        }
+        if (!it->is_regular_file(ec)) continue;
+        const fs::path& f = it->path();
+        const std::string name = f.filename().string();
+        // LLVM bitcode: 'BC' 0xC0DE, or the bitcode wrapper 0x0B17C0DE (little-endian).
+        if (name == "program.bc" && !starts_with_bytes(f, "BC\xC0\xDE") && !starts_with_bytes(f, "\xDE\xC0\x17\x0B"))
+            damaged.push_back(f.string() + (it->file_size(ec) == 0 ? " (empty)" : " (not LLVM bitcode)"));
+        else if (f.extension() == ".so" && !starts_with_bytes(f, "\x7F" "ELF"))
+            damaged.push_back(f.string() + (it->file_size(ec) == 0 ? " (empty)" : " (not an ELF object)"));
+    }
+    return damaged;
+}
+
+// The program directory of a cache file (<cache>/<XX>/<hash>), the unit to remove.
+std::string entry_dir(const fs::path& cache, const std::string& file) {
+    const fs::path rel = fs::path(file.substr(0, file.find(" ("))).lexically_relative(cache);
+    auto it = rel.begin();
+    fs::path out = cache;
+    for (int k = 0; k < 2 && it != rel.end(); ++k, ++it) out /= *it;
+    return out.string();
+}
+
 }  // namespace
 
+std::string pocl_cache_dir() {
+    const char* set = std::getenv("POCL_CACHE_DIR");
+    return set && *set ? std::string(set) : default_pocl_cache_dir();
+}
+
+void prepare_opencl_environment() {
+    check_pocl_variables();
+    static std::once_flag once;
+    std::call_once(once, [] {
+        set_up_pocl_cache();
+        const std::string cache = pocl_cache_dir();
+        g_abort_hint = "\nmicroshadow: aborted (SIGABRT). If this happened inside the OpenCL driver (PoCL), its kernel cache "
+                       "may hold a damaged entry: remove " + cache + " (rm -rf) and rerun.\n";
+        struct sigaction sa {};
+        sa.sa_handler = on_abort;
+        sigemptyset(&sa.sa_mask);
+        ::sigaction(SIGABRT, &sa, &g_previous_abort);
+    });
+    const fs::path cache = pocl_cache_dir();
+    const auto damaged = damaged_cache_entries(cache);
+    if (!damaged.empty()) {
+        std::string list, dirs;
+        for (const auto& d : damaged) {
+            list += "\n  " + d;
+            const std::string dir = entry_dir(cache, d);
+            if (dirs.find("'" + dir + "'") == std::string::npos) dirs += " '" + dir + "'";
+        }
+        throw std::runtime_error("PoCL's kernel cache " + cache.string() + " has damaged entries (PoCL would abort on them):" +
+                                 list + "\nremove them and rerun: rm -rf" + dirs);
+    }
+}
+
 std::vector<DeviceInfo> enumerate_devices() {
+    prepare_opencl_environment();
     std::vector<cl::Platform> platforms;
     // clGetPlatformIDs returns CL_PLATFORM_NOT_FOUND_KHR (or an empty list) without any ICD installed.
     const cl_int status = [&] {
@@ -79,7 +249,18 @@ std::vector<DeviceInfo> enumerate_devices() {
             });
         }
     }
-    if (out.empty()) throw NoDeviceError("OpenCL platforms exist but none has a device; use --backend oracle");
+    if (out.empty()) {
+        // Say what commonly causes it with PoCL, the default platform.
+        std::string hint;
+        if (const char* d = std::getenv("POCL_DEVICES"))
+            hint += " POCL_DEVICES='" + std::string(d) + "' may select no PoCL driver (e.g. POCL_DEVICES=pthread).";
+        if (!can_use_directory(pocl_cache_dir()))
+            hint += " PoCL's kernel cache " + pocl_cache_dir() + " is not writable: set POCL_CACHE_DIR to a writable directory.";
+        else if (!g_cache_note.empty())
+            hint += " " + g_cache_note + ".";
+        throw NoDeviceError("OpenCL platforms exist but none has a device." + hint +
+                            " Use --backend oracle to run without OpenCL.");
+    }
     return out;
 }
 
@@ -99,8 +280,10 @@ std::vector<DeviceInfo> select_devices(const std::string& spec) {
         std::stringstream ss(spec);
         for (std::string item; std::getline(ss, item, ',');) {
             if (item.empty()) continue;
-            const std::size_t index = std::stoul(item);
-            if (index >= devices.size())
+            // from_chars, not stoul: an index beyond 2^64 said "error: stoul".
+            std::size_t index = 0;
+            const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), index, 10);
+            if (ec != std::errc() || end != item.data() + item.size() || index >= devices.size())
                 throw NoDeviceError("no OpenCL device " + item + "; the devices are:" + device_list_text(devices));
             out.push_back(devices[index]);
         }

@@ -5,6 +5,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,29 @@ struct DeviceInfo {
 };
 
 // Every device of every platform, in platform order. Throws NoDeviceError when there is no platform.
+// Calls prepare_opencl_environment() first.
 std::vector<DeviceInfo> enumerate_devices();
+
+// Checks and fixes what makes PoCL fail without a useful message, before the first OpenCL call:
+//   - POCL_MAX_PTHREAD_COUNT and POCL_MAX_WORK_GROUP_SIZE must be decimal integers in range (PoCL 3.1
+//     crashes on -1 (SIGSEGV) or 0/"abc" (assertion), or aborts on 100000 threads): EnvironmentError;
+//   - when POCL_CACHE_DIR is unset and PoCL's default kernel cache ($XDG_CACHE_HOME/pocl/kcache or
+//     $HOME/.cache/pocl/kcache) cannot be created or written (a read-only HOME made PoCL report no
+//     device at all), POCL_CACHE_DIR is set to $TMPDIR/microshadow-pocl-cache-UID (a note on stderr);
+//   - entries of the kernel cache that are damaged (an empty or non-bitcode program.bc, a kernel .so
+//     that is not ELF: PoCL aborts with exit 134 on them) are named in an EnvironmentError that says
+//     which directory to remove; a SIGABRT inside PoCL prints the cache directory as a hint.
+// Idempotent; the cache is set up once, the variables are checked on every call.
+void prepare_opencl_environment();
+
+// Bad OpenCL environment settings (exit status 2: bad input, like a bad option).
+class EnvironmentError : public std::invalid_argument {
+public:
+    using std::invalid_argument::invalid_argument;
+};
+
+// PoCL's kernel cache directory as PoCL will use it (POCL_CACHE_DIR or its default).
+std::string pocl_cache_dir();
 
 // Device selection by a user's spec:
 //   "" or "default": PoCL's CPU device if present, else the first CPU device, else device 0;

@@ -1,12 +1,14 @@
 #include "io/csv.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
+#include <cstdio>
 #include <map>
 
 #include "core/query.hpp"
+#include "io/input_file.hpp"
+#include "io/text.hpp"
 
 namespace ms {
 
@@ -39,20 +41,78 @@ std::string printable(const std::string& s) {
     return s.size() > 40 ? out + "..." : out;
 }
 
+// Checks every byte before any line is parsed, so a binary or wrongly encoded file is reported at its
+// first bad byte with line and column (and not as "unknown column" or "duplicate column" later):
+// a UTF-8 byte-order mark is skipped; UTF-16/32 (by their marks), NUL, control characters and bytes
+// that are not UTF-8 are refused; CRLF is accepted, CR-only (classic Mac) line endings are refused,
+// since they would read as one line. Returns the offset where the text starts (after a BOM).
+std::size_t check_bytes(const std::string& path, const std::string& data) {
+    auto starts = [&](const char* prefix, std::size_t n) { return data.size() >= n && data.compare(0, n, prefix, n) == 0; };
+    if (starts("\x00\x00\xFE\xFF", 4) || starts("\xFF\xFE\x00\x00", 4))
+        throw CsvError(path + ":1: binary data, not CSV text (a UTF-32 byte-order mark); save the file as UTF-8 or ASCII");
+    if (starts("\xFF\xFE", 2) || starts("\xFE\xFF", 2))
+        throw CsvError(path + ":1: binary data, not CSV text (a UTF-16 byte-order mark); save the file as UTF-8 or ASCII");
+    const std::size_t begin = starts("\xEF\xBB\xBF", 3) ? 3 : 0;
+    std::size_t line = 1, line_start = begin;
+    for (std::size_t i = begin; i < data.size(); ++i) {
+        const unsigned char c = static_cast<unsigned char>(data[i]);
+        const std::size_t column = i - line_start + 1;
+        auto where = [&] { return path + ":" + std::to_string(line) + ": "; };
+        auto hex = [&] {
+            char b[8];
+            std::snprintf(b, sizeof b, "0x%02X", c);
+            return std::string(b);
+        };
+        if (c == '\n') {
+            ++line;
+            line_start = i + 1;
+        } else if (c == '\r') {
+            if (i + 1 < data.size() && data[i + 1] != '\n')
+                throw CsvError(where() + "a carriage return without a line feed at column " + std::to_string(column) +
+                               ": CR-only (classic Mac) line endings are not supported; save the file with LF or CRLF line endings");
+        } else if (c == 0) {
+            throw CsvError(where() + "binary data, not CSV text (a NUL byte at column " + std::to_string(column) + ")");
+        } else if ((c < 0x20 && c != '\t') || c == 0x7F) {
+            throw CsvError(where() + "binary data, not CSV text (control character " + hex() + " at column " +
+                           std::to_string(column) + ")");
+        } else if (c >= 0x80) {
+            if (utf8_length_at(data, i) == 0)
+                throw CsvError(where() + "binary data, not CSV text (byte " + hex() + " at column " + std::to_string(column) +
+                               " is not UTF-8)");
+            throw CsvError(where() + "a non-ASCII character at column " + std::to_string(column) +
+                           ": a query file holds ASCII column names and numbers only");
+        }
+    }
+    return begin;
+}
+
 }  // namespace
 
 NumericCsv read_numeric_csv(const std::string& path, const std::vector<std::string>& expected) {
-    std::error_code ec;
-    if (std::filesystem::is_directory(path, ec)) throw CsvError(path + ": is a directory, not a CSV file");
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw CsvError(path + ": cannot open for reading");
+    std::string data;
+    try {
+        data = read_input_file(path, kMaxCsvBytes, "CSV");
+    } catch (const InputError& e) {
+        throw CsvError(e.what());
+    }
+    const std::size_t text_begin = check_bytes(path, data);
+    std::size_t pos = text_begin;
+    // One line at a time from the checked text, without its line feed (and a CRLF's carriage return).
+    auto next_line = [&](std::string& line) {
+        if (pos >= data.size()) return false;
+        std::size_t nl = data.find('\n', pos);
+        if (nl == std::string::npos) nl = data.size();
+        line.assign(data, pos, nl - pos);
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        pos = nl + 1;
+        return true;
+    };
     std::string line;
     std::size_t line_no = 0;
     // Header: the first non-blank line.
     std::vector<std::string> header;
-    while (std::getline(in, line)) {
+    while (next_line(line)) {
         ++line_no;
-        if (line.find('\0') != std::string::npos) throw CsvError(path + ":" + std::to_string(line_no) + ": binary data, not CSV text");
         if (!trim(line).empty()) {
             header = split(line);
             break;
@@ -82,10 +142,9 @@ NumericCsv read_numeric_csv(const std::string& path, const std::vector<std::stri
 
     NumericCsv table;
     table.columns = expected;
-    while (std::getline(in, line)) {
+    while (next_line(line)) {
         ++line_no;
         if (trim(line).empty()) continue;
-        if (line.find('\0') != std::string::npos) throw CsvError(path + ":" + std::to_string(line_no) + ": binary data, not CSV text");
         const auto fields = split(line);
         if (fields.size() != header.size())
             throw CsvError(path + ":" + std::to_string(line_no) + ": " + std::to_string(fields.size()) + " fields, but the header has " + std::to_string(header.size()));

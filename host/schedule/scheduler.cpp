@@ -73,6 +73,7 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
     std::mutex mutex;
     std::condition_variable changed;
     std::size_t alive = places();
+    std::size_t in_flight = 0;
     std::exception_ptr fatal;
     bool stop = false;
 
@@ -82,10 +83,14 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
         for (;;) {
             std::uint64_t id;
             {
-                std::lock_guard<std::mutex> lock(mutex);
+                // An idle place waits while items are in flight elsewhere: one of them may come back
+                // to the queue when its device fails, and a place that had left could not rerun it.
+                std::unique_lock<std::mutex> lock(mutex);
+                changed.wait(lock, [&] { return stop || !queue.empty() || in_flight == 0; });
                 if (stop || queue.empty()) return;
                 id = queue.front();
                 queue.pop_front();
+                ++in_flight;
             }
             try {
                 if (long(place) == fault_.place && items_started >= fault_.after)
@@ -94,11 +99,13 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
                 if (!worker) worker = is_oracle() ? integrand.oracle_worker() : integrand.device_worker(*devices_[place]);
                 worker->run(id);
                 std::lock_guard<std::mutex> lock(mutex);
+                --in_flight;
                 ++report.done;
                 if (callbacks.on_done) callbacks.on_done(id);
                 changed.notify_all();
             } catch (const ocl::Error& e) {
                 std::lock_guard<std::mutex> lock(mutex);
+                --in_flight;
                 if (is_oracle()) {  // no device to blame: a real error
                     if (!fatal) fatal = std::current_exception();
                     stop = true;
@@ -113,6 +120,7 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
                 return;
             } catch (...) {
                 std::lock_guard<std::mutex> lock(mutex);
+                --in_flight;
                 if (!fatal) fatal = std::current_exception();
                 stop = true;
                 --alive;
@@ -139,6 +147,7 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
             changed.wait_for(lock, std::chrono::milliseconds(100));
         }
         stop = true;
+        changed.notify_all();
     }
     for (auto& t : threads) t.join();
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -4,12 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
 
 #include "io/csv.hpp"
+#include "io/input_file.hpp"
+#include "io/text.hpp"
 
 namespace ms::sweep {
 
@@ -127,6 +130,48 @@ std::vector<std::string> string_axis(const Spec& spec, const toml::node& n, cons
     return out;
 }
 
+// Every analytic comparator must be defined on every point of the grid, checked here rather than at
+// the first bad point of a long run. From host/analytic/part1_terms.*, for the axes' own ranges
+// (visibility, NdotL in [0, 1], NdotV in (0, 1]): reference-step, naughty-dog, naughty-dog-ao-fresnel,
+// activision (guarded at v = 1) and pz-analytic (guarded at v = 0 and 1) are finite everywhere;
+// activision-adjusted maps the point's isotropic alpha (roughness^2, or sqrt(alpha_x alpha_y): see
+// points.cpp and runner.cpp) through activision_roughness_from_alpha, defined for alpha in
+// (0, sqrt(2)) and finite only while 2 / alpha^2 does not overflow. The mapping is monotonic, so the
+// smallest and largest alpha of the grid decide.
+void check_comparator_domains(const Spec& spec) {
+    if (std::find(spec.analytic.begin(), spec.analytic.end(), analytic::AnalyticTerm::activision_adjusted) ==
+        spec.analytic.end())
+        return;
+    double lo = 0, hi = 0;
+    if (spec.by_roughness) {
+        const auto [mn, mx] = std::minmax_element(spec.roughness.begin(), spec.roughness.end());
+        lo = *mn * *mn;
+        hi = *mx * *mx;
+    } else {
+        const auto [xn, xx] = std::minmax_element(spec.alpha_x.begin(), spec.alpha_x.end());
+        const auto [yn, yx] = std::minmax_element(spec.alpha_y.begin(), spec.alpha_y.end());
+        // The same expression as the runner's: roughness = sqrt(sqrt(ax ay)), alpha = roughness^2.
+        const double rl = std::sqrt(std::sqrt(*xn * *yn)), rh = std::sqrt(std::sqrt(*xx * *yx));
+        lo = rl * rl;
+        hi = rh * rh;
+    }
+    for (double alpha : {lo, hi}) {
+        bool ok = alpha > 0 && alpha < std::sqrt(2.0);
+        if (ok) {
+            try {
+                ok = std::isfinite(analytic::activision_roughness_from_alpha(alpha));
+            } catch (const std::domain_error&) {
+                ok = false;
+            }
+        }
+        if (!ok)
+            fail(spec, "comparators.analytic",
+                 "activision-adjusted needs an isotropic alpha in (0, sqrt(2)) whose Activision roughness is finite "
+                 "(alpha >= about 1e-154); the sweep reaches alpha = " + format_number(alpha) +
+                     (spec.by_roughness ? " (roughness^2)" : " (sqrt(alpha_x alpha_y))"));
+    }
+}
+
 std::string canonical_values(const std::vector<double>& v) {
     std::string s = "[";
     for (std::size_t i = 0; i < v.size(); ++i) s += (i ? "," : "") + format_number(v[i]);
@@ -229,7 +274,12 @@ Spec parse_spec(const std::string& text, const std::string& source_name, const s
     if (has_r) {
         spec.by_roughness = true;
         spec.roughness = axis("roughness", true, {});
-        check_interval(spec, spec.roughness, "parameters.roughness", 0, true, 1e3, "(0, 1000]");
+        check_interval(spec, spec.roughness, "parameters.roughness", 0, true, 1, "(0, 1]");
+        // alpha = roughness^2 must not underflow to 0 (the term needs alpha > 0: a run would stop
+        // part-way at the first such point).
+        for (double r : spec.roughness)
+            if (!(r * r > 0))
+                fail(spec, "parameters.roughness", "value " + format_number(r) + " is too small: alpha = roughness^2 underflows to 0");
     } else if (has_ax || has_ay) {
         if (!has_ax || !has_ay) fail(spec, has_ax ? "parameters.alpha_y" : "parameters.alpha_x", "required with the other alpha");
         spec.by_roughness = false;
@@ -294,6 +344,14 @@ Spec parse_spec(const std::string& text, const std::string& source_name, const s
                 l.file = p.is_absolute() ? file : (std::filesystem::path(base_dir) / p).lexically_normal().string();
                 if (l.name.empty() || l.name.find_first_of(",\"\n\r ") != std::string::npos)
                     fail(spec, key + ".name", "must be non-empty, without commas, quotes or spaces (it is a CSV column)");
+                // TOML strings may hold escapes such as \u0001 or \t: a control character in a column
+                // name corrupts the CSV header and the terminal output of the summary.
+                for (unsigned char c : l.name)
+                    if (c < 0x20 || c == 0x7F) {
+                        char code[8];
+                        std::snprintf(code, sizeof code, "0x%02X", c);
+                        fail(spec, key + ".name", std::string("must not contain control characters (found ") + code + ")");
+                    }
                 spec.luts.push_back(l);
             }
         }
@@ -304,47 +362,40 @@ Spec parse_spec(const std::string& text, const std::string& source_name, const s
     for (const auto& name : comparator_names(spec))
         if (!seen.insert(name).second) fail(spec, "comparators", "duplicate or reserved column name '" + name + "'");
 
-    if (std::find(spec.analytic.begin(), spec.analytic.end(), analytic::AnalyticTerm::activision_adjusted) !=
-        spec.analytic.end()) {
-        // Activision's roughness mapping exists only for alpha < sqrt(2) (part1_terms.hpp).
-        const auto& a = spec.by_roughness ? spec.roughness : spec.alpha_x;
-        for (double x : a) {
-            const double alpha = spec.by_roughness ? x * x : x;
-            if (alpha >= std::sqrt(2.0))
-                fail(spec, "comparators.analytic", "activision-adjusted needs alpha < sqrt(2); the sweep reaches " +
-                                                       format_number(alpha));
-        }
-        if (!spec.by_roughness)
-            for (double x : spec.alpha_y)
-                if (x >= std::sqrt(2.0))
-                    fail(spec, "comparators.analytic", "activision-adjusted needs alpha < sqrt(2); alpha_y reaches " +
-                                                           format_number(x));
-    }
+    check_comparator_domains(spec);
 
-    // Size check with overflow detection: the product of axis sizes must stay below the limit.
-    long double total = 1;
-    for (std::size_t n : {spec.visibility.size(), spec.n_dot_l.size(), spec.n_dot_v.size(),
-                          spec.by_roughness ? spec.roughness.size() : spec.alpha_x.size() * spec.alpha_y.size(),
-                          spec.phi_i.size(), spec.phi_o_or_delta.size(), std::max<std::size_t>(1, spec.forms.size()),
-                          std::max<std::size_t>(1, spec.weightings.size())})
-        total *= (long double)n;
-    if (total > (long double)spec.max_points) {
+    // Size check in uint64 with overflow detection: the product of axis sizes must stay below the
+    // limit (a long double product printed through llround gave "-9223372036854775808 points").
+    std::uint64_t total = 1;
+    bool overflow = false;
+    std::uint64_t alpha_pairs = spec.roughness.size();
+    if (!spec.by_roughness) overflow |= __builtin_mul_overflow(std::uint64_t(spec.alpha_x.size()), std::uint64_t(spec.alpha_y.size()), &alpha_pairs);
+    for (std::uint64_t n : {std::uint64_t(spec.visibility.size()), std::uint64_t(spec.n_dot_l.size()),
+                            std::uint64_t(spec.n_dot_v.size()), alpha_pairs, std::uint64_t(spec.phi_i.size()),
+                            std::uint64_t(spec.phi_o_or_delta.size()), std::uint64_t(std::max<std::size_t>(1, spec.forms.size())),
+                            std::uint64_t(std::max<std::size_t>(1, spec.weightings.size()))})
+        overflow |= __builtin_mul_overflow(total, n, &total);
+    if (overflow || total > spec.max_points) {
         std::ostringstream m;
-        m << "the sweep has " << std::llround(double(total)) << " points, more than the limit of " << spec.max_points
-          << (root["sweep"]["max_points"] ? " set by sweep.max_points"
-                                                     : "; set [sweep] max_points to run it anyway");
+        m << "the sweep has " << (overflow ? "more than 2^64" : std::to_string(total)) << " points, more than the limit of "
+          << spec.max_points
+          << (root["sweep"]["max_points"] ? " set by sweep.max_points" : "; set [sweep] max_points to run it anyway");
         fail(spec, "parameters", m.str());
     }
     return spec;
 }
 
 Spec parse_spec_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SpecError(path + ": cannot open the sweep spec");
-    std::ostringstream text;
-    text << in.rdbuf();
+    // Bounded read: a regular file (or pipe) of at most kMaxSpecBytes; /dev/zero ended in bad_alloc.
+    std::string text;
+    try {
+        text = read_input_file(path, kMaxSpecBytes, "sweep spec");
+    } catch (const InputError& e) {
+        throw SpecError(e.what());
+    }
     const auto dir = std::filesystem::path(path).parent_path();
-    return parse_spec(text.str(), path, dir.empty() ? "." : dir.string());
+    // The name is recorded in messages and in the manifest (JSON): invalid UTF-8 bytes as \xHH.
+    return parse_spec(text, json_safe(path), dir.empty() ? "." : dir.string());
 }
 
 std::vector<std::string> comparator_names(const Spec& spec) {

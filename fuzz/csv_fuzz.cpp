@@ -14,8 +14,19 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     ms::fuzz::write_scratch(path, data, size);
 
     // A small column set, so the fuzzer reaches the row parser with short inputs as well.
+    // Issue 10: an accepted file is text with LF or CRLF line ends: no NUL, no control byte other than
+    // tab, no CR without LF (a CR-only file read as one line and reported "duplicate column").
+    auto is_clean_text = [&] {
+        for (std::size_t i = 0; i < size; ++i) {
+            const unsigned char c = data[i];
+            if (c == '\r' && i + 1 < size && data[i + 1] != '\n') return false;
+            if ((c < 0x20 && c != '\t' && c != '\n' && c != '\r') || c == 0x7F) return false;
+        }
+        return true;
+    };
     try {
         const ms::NumericCsv t = ms::read_numeric_csv(path, {"a", "b"});
+        if (!is_clean_text()) ms::fuzz::finding("a file with NUL, control bytes or CR-only line ends accepted");
         if (t.rows.size() != t.lines.size()) ms::fuzz::finding("rows and line numbers disagree");
         for (const auto& row : t.rows) {
             if (row.size() != 2) ms::fuzz::finding("row width differs from the expected columns");

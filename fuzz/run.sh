@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, ASan + UBSan) and runs each for a bounded time.
 #   fuzz/run.sh [SECONDS_PER_TARGET]      (default 25; env BUILD_DIR, default build-fuzz; JOBS, default 2)
-# Seeds: the hand-made corpus in tests/data/hostile plus examples/. New inputs found go to
+# Seeds: the hand-made corpus in tests/data/hostile, fuzz/{csv,spec,cli}-seeds (encodings, control
+# bytes, huge counts and integers of issue 10) plus examples/. New inputs found go to
 # $BUILD_DIR/fuzz-corpus/<target> (kept between runs); crashes to $BUILD_DIR/fuzz-artifacts/.
 # Exit status: non-zero if any target crashed, leaked, timed out on one input or ran out of memory.
 set -euo pipefail
@@ -16,20 +17,21 @@ if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]]; then
     -DMICROSHADOW_FUZZ=ON -DMICROSHADOW_SANITIZE=ON \
     -DMICROSHADOW_BUILD_TESTS=OFF -DMICROSHADOW_BUILD_BENCH=OFF >/dev/null
 fi
-cmake --build "$BUILD_DIR" -j"$JOBS" --target fuzz_csv fuzz_spec fuzz_cli
+cmake --build "$BUILD_DIR" -j"$JOBS" --target fuzz_csv fuzz_spec fuzz_cli fuzz_text
 
 seed_dirs() {  # the seeds of one target, as directories libFuzzer reads (read-only; never written)
   case "$1" in
-    fuzz_csv) echo tests/data/hostile tests/data/hostile/valid ;;
-    fuzz_spec) echo tests/data/hostile/spec ;;
+    fuzz_csv) echo tests/data/hostile tests/data/hostile/valid fuzz/csv-seeds ;;
+    fuzz_spec) echo tests/data/hostile/spec fuzz/spec-seeds ;;
     fuzz_cli) echo fuzz/cli-seeds ;;
+    fuzz_text) echo fuzz/cli-seeds fuzz/csv-seeds ;;
   esac
 }
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 status=0
-for target in fuzz_csv fuzz_spec fuzz_cli; do
+for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text; do
   corpus="$BUILD_DIR/fuzz-corpus/$target"
   artifacts="$BUILD_DIR/fuzz-artifacts/$target/"
   mkdir -p "$corpus" "$artifacts"

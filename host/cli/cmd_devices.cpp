@@ -23,8 +23,9 @@ void add_devices_command(CLI::App& app) {
                       << (d.fp64 ? ", fp64" : "") << "\n";
         }
         // Where PoCL keeps compiled kernels: the directory to remove if a damaged entry breaks runs.
-        if (platform.find("Portable Computing Language") != std::string::npos || !devices.empty())
-            std::cout << "PoCL kernel cache: " << ocl::pocl_cache_dir() << "\n";
+        std::cout << "PoCL kernel cache: " << ocl::pocl_cache_dir() << "\n";
+        for (const auto& entry : ocl::damaged_kernel_cache_entries())
+            std::cout << "  damaged entry (remove it; PoCL aborts on it): " << entry << "\n";
     });
 }
 

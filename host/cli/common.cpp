@@ -133,7 +133,7 @@ CLI::Validator decimal_range(std::uint64_t min, std::uint64_t max) {
             s = std::to_string(v);
             return {};
         },
-        "UINT in [" + range + "]");
+        std::to_string(min) + ".." + std::to_string(max));
 }
 
 CLI::Validator real_range(double min, double max) {
@@ -148,7 +148,7 @@ CLI::Validator real_range(double min, double max) {
             if (v < min || v > max) return "Value " + s + " not in range " + range;
             return {};
         },
-        "REAL in [" + range + "]");
+        format_g(min) + ".." + format_g(max));
 }
 
 void add_sampling_options(CLI::App* app, SamplingOptions& o) {

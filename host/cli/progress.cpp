@@ -74,7 +74,11 @@ void install_interrupt_handlers() {
             // The first signals ask the running batch to finish and stop cleanly; a third one means the
             // user will not wait for that (a long device batch): leave now, like an unhandled signal.
             if (++received >= 3) {
-                static const char msg[] = "\nmicroshadow: interrupted three times: exiting without cleaning up\n";
+                // Outputs are renamed into place only when complete, so nothing half-written appears; a
+                // temporary file may be left, and the next run that writes the same output removes it.
+                static const char msg[] =
+                    "\nmicroshadow: interrupted three times: exiting at once; files appear only when complete, and "
+                    "a leftover temporary file is removed by the next run that writes the same output\n";
                 (void)!::write(STDERR_FILENO, msg, sizeof msg - 1);
                 ::_exit(128 + sig);
             }

@@ -192,18 +192,22 @@ void prepare_opencl_environment() {
         sigemptyset(&sa.sa_mask);
         ::sigaction(SIGABRT, &sa, &g_previous_abort);
     });
+}
+
+std::vector<std::string> damaged_kernel_cache_entries() { return damaged_cache_entries(pocl_cache_dir()); }
+
+void check_kernel_cache() {
     const fs::path cache = pocl_cache_dir();
     const auto damaged = damaged_cache_entries(cache);
-    if (!damaged.empty()) {
-        std::string list, dirs;
-        for (const auto& d : damaged) {
-            list += "\n  " + d;
-            const std::string dir = entry_dir(cache, d);
-            if (dirs.find("'" + dir + "'") == std::string::npos) dirs += " '" + dir + "'";
-        }
-        throw std::runtime_error("PoCL's kernel cache " + cache.string() + " has damaged entries (PoCL would abort on them):" +
-                                 list + "\nremove them and rerun: rm -rf" + dirs);
+    if (damaged.empty()) return;
+    std::string list, dirs;
+    for (const auto& d : damaged) {
+        list += "\n  " + d;
+        const std::string dir = entry_dir(cache, d);
+        if (dirs.find("'" + dir + "'") == std::string::npos) dirs += " '" + dir + "'";
     }
+    throw std::runtime_error("PoCL's kernel cache " + cache.string() + " has damaged entries (PoCL would abort on them):" +
+                             list + "\nremove them and rerun: rm -rf" + dirs);
 }
 
 std::vector<DeviceInfo> enumerate_devices() {
@@ -351,6 +355,18 @@ void require_build_support(const DeviceInfo& device, const BuildConfig& config) 
 }
 
 Device::Device(DeviceInfo info) : info_(std::move(info)) {
+    // Before any kernel is built on it: a damaged PoCL cache entry makes PoCL abort mid-build. Checked
+    // once per process (a scan of the cache directory).
+    static std::once_flag cache_checked;
+    static std::string cache_problem;
+    std::call_once(cache_checked, [] {
+        try {
+            check_kernel_cache();
+        } catch (const std::runtime_error& e) {
+            cache_problem = e.what();
+        }
+    });
+    if (!cache_problem.empty()) throw std::runtime_error(cache_problem);
     checked([&] {
         context_ = cl::Context(info_.device);
         queue_ = cl::CommandQueue(context_, info_.device);

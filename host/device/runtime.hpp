@@ -34,11 +34,17 @@ std::vector<DeviceInfo> enumerate_devices();
 //   - when POCL_CACHE_DIR is unset and PoCL's default kernel cache ($XDG_CACHE_HOME/pocl/kcache or
 //     $HOME/.cache/pocl/kcache) cannot be created or written (a read-only HOME made PoCL report no
 //     device at all), POCL_CACHE_DIR is set to $TMPDIR/microshadow-pocl-cache-UID (a note on stderr);
-//   - entries of the kernel cache that are damaged (an empty or non-bitcode program.bc, a kernel .so
-//     that is not ELF: PoCL aborts with exit 134 on them) are named in an EnvironmentError that says
-//     which directory to remove; a SIGABRT inside PoCL prints the cache directory as a hint.
+//   - a SIGABRT inside PoCL prints the cache directory as a hint (a damaged entry check_kernel_cache
+//     does not recognise).
 // Idempotent; the cache is set up once, the variables are checked on every call.
 void prepare_opencl_environment();
+
+// Entries of PoCL's kernel cache that are damaged (an empty or non-bitcode program.bc, a kernel .so
+// that is not ELF: PoCL aborts with exit 134 or fails with CL_INVALID_KERNEL_NAME on them).
+std::vector<std::string> damaged_kernel_cache_entries();
+// Throws std::runtime_error naming the damaged entries and the directories to remove. Device's
+// constructor calls it (once per process), before any kernel is built.
+void check_kernel_cache();
 
 // Bad OpenCL environment settings (exit status 2: bad input, like a bad option).
 class EnvironmentError : public std::invalid_argument {

@@ -252,7 +252,9 @@ std::size_t OutputSet::add(const std::string& path, bool binary, bool allow_stdo
     OutputTarget t = prepare_output(path, allow_stdout);
     for (const auto& e : entries_) {
         if (t.to_stdout && e->target.to_stdout) throw OutputError("two outputs go to standard output");
-        if (!t.to_stdout && !e->target.to_stdout && fs::absolute(t.path).lexically_normal() == fs::absolute(e->target.path).lexically_normal())
+        std::error_code ec1, ec2;
+        if (!t.to_stdout && !e->target.to_stdout &&
+            fs::weakly_canonical(t.path, ec1) == fs::weakly_canonical(e->target.path, ec2))
             throw OutputError("outputs " + e->target.named + " and " + path + " name the same file");
     }
     auto e = std::make_unique<Entry>();

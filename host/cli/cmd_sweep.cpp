@@ -124,7 +124,9 @@ void run_sweep_command(SweepArgs& args) {
     config.command_line = command_line();
     auto backend = args.sampling.make_backend();
     config.backend = backend.get();
-    config.backend_label = backend->name();
+    // Bits depend on the kind of device, not on how many: a sweep begun on one device resumes on --device all.
+    config.backend_label = backend->scheduler().results_label();
+    config.warn = [&](const std::string& w) { std::cerr << "\nsweep: warning: " << w << "\n"; };
     Progress progress("sweep", args.sampling.quiet);
     config.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
 

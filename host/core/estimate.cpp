@@ -37,6 +37,11 @@ Estimate reduce_replicates(const double* cone, const double* hemisphere, std::si
     return mean.estimate();
 }
 
+double binomial_zero_bound(double total, double confidence) {
+    if (!(total > 0)) return 1.0;
+    return -std::expm1(std::log1p(-confidence) / total);  // 1 - (1 - c)^(1/n), accurate for large n
+}
+
 namespace {
 // Regularised incomplete beta by Lentz's continued fraction (Numerical Recipes' formulation), enough
 // for the t distribution's CDF: P(|T| > t) = I_{df/(df+t^2)}(df/2, 1/2).

@@ -38,6 +38,11 @@ private:
 // One node of weight 1: the pooled ratio sum(cone) / sum(hemisphere) and its standard error.
 Estimate reduce_replicates(const double* cone, const double* hemisphere, std::size_t replicates);
 
+// When no sample (or every sample) of `total` passed, the replicate spread is 0 although the term is
+// not known exactly. The exact one-sided binomial bound at `confidence` on the fraction that a pass
+// (or a failure) can have and still produce that outcome: 1 - (1 - confidence)^(1 / total).
+double binomial_zero_bound(double total, double confidence);
+
 // Two-sided Student-t quantile for the given confidence (e.g. 0.999) and degrees of freedom, used to
 // turn a standard error with few replicates into an error bar that holds with that confidence.
 double student_t_quantile(double confidence, int degrees_of_freedom);

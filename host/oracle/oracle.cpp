@@ -173,6 +173,7 @@ Tally tally(const Query& q, const TermOptions& opt, const PointSet& points) {
     result.hemisphere.assign(points.replicates, 0.0);
     for (std::size_t r = 0; r < points.replicates; ++r) {
         CompensatedSum cone, hemisphere;
+        double cone_count = 0, hemisphere_count = 0;
         for (std::size_t i = 0; i < n; ++i) {
             // Long single queries (2^24 samples take seconds) must still stop within ~0.1 s of Ctrl-C.
             if ((i & 0xffff) == 0) throw_if_cancelled();
@@ -181,9 +182,13 @@ Tally tally(const Query& q, const TermOptions& opt, const PointSet& points) {
             const MicrofacetTerm t = generic_m_m(cos_t, wm, q.wo, q.wi, q.alpha_x, q.alpha_y, opt.form);
             cone.add(t.cone);
             hemisphere.add(t.hemisphere);
+            cone_count += t.cone > 0;
+            hemisphere_count += t.hemisphere > 0;
         }
         result.cone[r] = cone.value();
         result.hemisphere[r] = hemisphere.value();
+        result.cone_count.push_back(cone_count);
+        result.hemisphere_count.push_back(hemisphere_count);
     }
     return result;
 }

@@ -48,6 +48,9 @@ MicrofacetTerm generic_m_m(double cos_theta, const Vec3& wm, const Vec3& wo, con
 // Per-replicate sums of the cone and hemisphere terms of one query over a point set.
 struct Tally {
     std::vector<double> cone, hemisphere;  // one entry per replicate
+    // How many samples had a non-zero cone / hemisphere term (the weights are positive there): with
+    // these a caller can bound the term when no sample (or every sample) passed the cone.
+    std::vector<double> cone_count, hemisphere_count;
 };
 Tally tally(const Query& q, const TermOptions& opt, const PointSet& points);
 

@@ -6,6 +6,7 @@
 #include <deque>
 #include <exception>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "core/cancel.hpp"
@@ -48,6 +49,15 @@ std::string Scheduler::name() const {
     if (is_oracle()) return "oracle (scalar double, " + std::to_string(oracle_threads_) + " threads)";
     std::string s = "opencl (";
     for (std::size_t i = 0; i < devices_.size(); ++i) s += (i ? "; " : "") + devices_[i]->info().label();
+    return s + ")";
+}
+
+std::string Scheduler::results_label() const {
+    if (is_oracle()) return "oracle (scalar double)";
+    std::set<std::string> kinds;
+    for (const auto& d : devices_) kinds.insert(d->info().label());
+    std::string s = "opencl (";
+    for (auto it = kinds.begin(); it != kinds.end(); ++it) s += (it == kinds.begin() ? "" : "; ") + *it;
     return s + ")";
 }
 
@@ -151,6 +161,9 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
     }
     for (auto& t : threads) t.join();
     report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    // The final count: items can finish while a progress call is running, after which the loop above
+    // leaves without reporting them.
+    if (callbacks.progress && !fatal) callbacks.progress(report.done, report.selected);
     if (fatal) std::rethrow_exception(fatal);
     throw_if_cancelled();
     if (report.done != report.selected) {

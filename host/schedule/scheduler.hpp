@@ -74,6 +74,10 @@ public:
     std::string place_label(std::size_t place) const;
     // "opencl (device; device)" or "oracle (scalar double, N threads)".
     std::string name() const;
+    // What decides the bits of the results (recorded and hashed by resumable jobs): the distinct kinds of
+    // device, not how many there are ("opencl (D)" for one D or for two D alike), or "oracle (scalar
+    // double)" whatever the thread count.
+    std::string results_label() const;
     // The devices' labels (empty for the oracle).
     std::vector<std::string> device_labels() const;
 

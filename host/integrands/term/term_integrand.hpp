@@ -17,9 +17,14 @@
 
 namespace ms::term {
 
-// Per-(query, replicate) tallies: cone[q * R + r], hemisphere[q * R + r].
+// Per-(query, replicate) tallies: cone[q * R + r], hemisphere[q * R + r], and how many samples passed
+// each (the kernels count, so there the counts are the tallies; the oracle sums weights and counts apart).
 struct Tallies {
     std::vector<double> cone, hemisphere;
+    std::vector<double> cone_count, hemisphere_count;
+    void resize(std::size_t n) {
+        for (auto* v : {&cone, &hemisphere, &cone_count, &hemisphere_count}) v->assign(n, 0.0);
+    }
 };
 
 // How the kernel routine runs (the oracle has no options).

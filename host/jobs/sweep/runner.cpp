@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <set>
 #include <sstream>
 
@@ -28,7 +30,9 @@ using nlohmann::json;
 
 namespace {
 
-constexpr const char* kManifestFormat = "microshadow-sweep-manifest/1";
+// Format 2 records each finished chunk's row count and FNV-1a digest ("digests"); format 1 manifests
+// are still read, and their chunks checked by structure only.
+constexpr const char* kManifestFormat = "microshadow-sweep-manifest/2";
 
 std::uint64_t fnv1a(const std::string& bytes, std::uint64_t h = 1469598103934665603ULL) {
     for (unsigned char c : bytes) {
@@ -56,6 +60,63 @@ std::string chunk_path(const std::string& dir, std::uint64_t c) {
     char name[64];
     std::snprintf(name, sizeof name, "chunk-%010" PRIu64 ".csv", c);
     return (fs::path(dir) / "chunks" / name).string();
+}
+
+// What a finished chunk must hold, recorded in the manifest when the chunk is written.
+json chunk_digest(const std::string& text) {
+    std::uint64_t rows = 0;
+    for (char ch : text) rows += ch == '\n';
+    return {{"rows", rows}, {"fnv1a64", hex(fnv1a(text))}};
+}
+
+// Checks chunk c's file: exactly the rows of points [first, last), each with `fields` fields and its point
+// index first, and the digest recorded when it was written (when the manifest has one). Returns "" when
+// it is sound, else the reason (a short tag first: "missing", "digest", "rows", "index", "fields").
+std::string check_chunk(const std::string& path, std::uint64_t first, std::uint64_t last, std::size_t fields,
+                        const json* recorded) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return "missing: the file is gone";
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    const std::string text = ss.str();
+    if (recorded) {
+        const json d = chunk_digest(text);
+        if (d != *recorded)
+            return "digest: its " + std::to_string(d["rows"].get<std::uint64_t>()) + " rows and digest " +
+                   d["fnv1a64"].get<std::string>() + " are not the " + std::to_string((*recorded)["rows"].get<std::uint64_t>()) +
+                   " rows and digest " + (*recorded)["fnv1a64"].get<std::string>() + " recorded when it was written";
+    }
+    std::uint64_t expect = first;
+    std::size_t line_start = 0;
+    while (line_start < text.size()) {
+        const std::size_t end = text.find('\n', line_start);
+        if (end == std::string::npos) return "rows: the last row is cut off (no line end)";
+        const std::string line = text.substr(line_start, end - line_start);
+        line_start = end + 1;
+        if (expect >= last) return "rows: more rows than the chunk's " + std::to_string(last - first);
+        const std::size_t n = std::size_t(std::count(line.begin(), line.end(), ',')) + 1;
+        if (n != fields)
+            return "fields: row of point " + std::to_string(expect) + " has " + std::to_string(n) + " fields, not " +
+                   std::to_string(fields);
+        if (line.compare(0, line.find(','), std::to_string(expect)) != 0)
+            return "index: expected point " + std::to_string(expect) + ", found '" + line.substr(0, line.find(',')) + "'";
+        ++expect;
+    }
+    if (expect != last) return "rows: " + std::to_string(expect - first) + " rows, not " + std::to_string(last - first);
+    return "";
+}
+
+// Moves a damaged chunk to chunks/rejected/ (kept as evidence, never read again) and says so.
+std::string set_aside(const std::string& path, const std::string& reason) {
+    const fs::path from(path);
+    const fs::path dir = from.parent_path() / "rejected";
+    fs::create_directories(dir);
+    const std::string tag = reason.substr(0, reason.find(':'));
+    fs::path to = dir / (from.filename().string() + "." + tag);
+    for (int n = 1; fs::exists(to); ++n) to = dir / (from.filename().string() + "." + tag + "." + std::to_string(n));
+    std::error_code ec;
+    fs::rename(from, to, ec);
+    return path + ": " + reason + (ec ? " (could not be moved aside: " + ec.message() + ")" : "; moved to " + to.string());
 }
 
 std::string manifest_name(const Shard& s) {
@@ -149,8 +210,13 @@ private:
 };
 
 // Writes sweep.csv from the chunk files (in chunk order), then the summary and provenance.
+// Every chunk is checked first (`check` returns "" or the problem, already set aside and named), so a
+// damaged chunk never reaches sweep.csv: the error names the chunk, and sweep.csv is not written.
 void assemble(const std::string& out_dir, const std::string& header, std::uint64_t chunks,
-              const std::function<std::string(std::uint64_t)>& chunk_file, json provenance) {
+              const std::function<std::string(std::uint64_t)>& chunk_file,
+              const std::function<std::string(std::uint64_t)>& check, json provenance) {
+    for (std::uint64_t c = 0; c < chunks; ++c)
+        if (const std::string problem = check(c); !problem.empty()) throw std::runtime_error(problem);
     const std::string csv_path = (fs::path(out_dir) / "sweep.csv").string();
     {
         AtomicFile csv(csv_path, true);
@@ -228,6 +294,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
 
     // Every manifest in the directory must describe this sweep: chunk files are shared by name.
     std::set<std::uint64_t> finished;
+    json digests = json::object();  // chunk id (text) -> {rows, fnv1a64}, recorded as chunks are written
     bool complete_before = false;
     for (const auto& entry : fs::directory_iterator(dir)) {
         const std::string name = entry.path().filename().string();
@@ -243,13 +310,23 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         if (entry.path().string() == manifest_path) {
             complete_before = m.value("complete", false);
             for (std::uint64_t c : m.at("finished")) finished.insert(c);
+            if (m.contains("digests") && m["digests"].is_object()) digests = m["digests"];
         }
     }
     if (config.restart) {
-        for (const auto& entry : fs::directory_iterator(dir / "chunks")) fs::remove(entry.path());
-        for (const auto& entry : fs::directory_iterator(dir))
-            if (entry.path().filename().string().rfind("manifest", 0) == 0) fs::remove(entry.path());
+        // Everything the old sweep wrote goes: a new spec's manifest beside the old sweep.csv, summary
+        // and provenance would describe two different sweeps in one directory.
+        for (const auto& entry : fs::directory_iterator(dir / "chunks"))
+            if (entry.is_regular_file()) fs::remove(entry.path());
+        for (const auto& entry : fs::directory_iterator(dir)) {
+            const std::string name = entry.path().filename().string();
+            if (name.rfind("manifest", 0) == 0 || name == "sweep.csv" || name == "sweep.json" || name == "summary.md" ||
+                name == "summary.csv")
+                fs::remove(entry.path());
+        }
+        fs::remove_all(dir / "figures");
         finished.clear();
+        digests = json::object();
         complete_before = false;
     }
 
@@ -275,6 +352,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
                      {"finished", json::array()}};
     auto save_manifest = [&](bool complete) {
         manifest["finished"] = json(std::vector<std::uint64_t>(finished.begin(), finished.end()));
+        manifest["digests"] = digests;
         manifest["complete"] = complete;
         write_json(manifest_path, manifest);
     };
@@ -291,22 +369,45 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     // to the places; each worker writes its chunk file (atomically) as soon as the chunk is computed, and
     // the manifest names it only after that, one update at a time, so a kill between the two only costs
     // recomputing that chunk.
-    std::uint64_t found = 0;
-    for (std::uint64_t c = config.shard.index; c < result.chunks; c += config.shard.count)
-        if (finished.count(c) && fs::exists(chunk_path(config.out_dir, c))) ++found;
-    result.skipped = found;
-    auto chunk_done = [&](std::uint64_t c) { return finished.count(c) && fs::exists(chunk_path(config.out_dir, c)); };
-    for (auto it = finished.begin(); it != finished.end();)  // listed but its file is gone: recompute
-        it = fs::exists(chunk_path(config.out_dir, *it)) ? std::next(it) : finished.erase(it);
+    // Every chunk the manifest lists is checked before it is trusted: a damaged one is set aside (kept in
+    // chunks/rejected/ as evidence), named in the result's warnings, and computed again.
     const std::uint64_t chunk_size = spec.chunk_size;
+    const std::string header = csv_header(spec);
+    const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
+    auto chunk_end = [&](std::uint64_t c) { return std::min(result.points, (c + 1) * chunk_size); };
+    for (auto it = finished.begin(); it != finished.end();) {
+        const std::uint64_t c = *it;
+        const std::string key = std::to_string(c);
+        const json* recorded = digests.contains(key) ? &digests[key] : nullptr;
+        const std::string path = chunk_path(config.out_dir, c);
+        const std::string problem = c >= result.chunks ? "" : check_chunk(path, c * chunk_size, chunk_end(c), fields, recorded);
+        if (problem.empty()) {
+            ++it;
+            continue;
+        }
+        result.warnings.push_back(problem.rfind("missing", 0) == 0 ? path + ": listed as finished but " + problem.substr(9) +
+                                                                         "; computed again"
+                                                                   : set_aside(path, problem) + "; computed again");
+        if (config.warn) config.warn(result.warnings.back());
+        digests.erase(key);
+        it = finished.erase(it);
+    }
+    std::uint64_t found = 0;
+    for (std::uint64_t c = config.shard.index; c < result.chunks; c += config.shard.count) found += finished.count(c);
+    result.skipped = found;
+    auto chunk_done = [&](std::uint64_t c) { return finished.count(c) > 0; };
+    std::mutex digest_mutex;
+    std::map<std::uint64_t, json> fresh;  // digests of chunks written in this run, until on_done records them
     term::TermIntegrand integrand(
         result.chunks,
-        [&](std::uint64_t c) { return computer.queries(c * chunk_size, std::min(result.points, (c + 1) * chunk_size)); },
+        [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); },
         [&](std::uint64_t c, std::vector<Estimate>&& est) {
-            const std::string rows = computer.rows(c * chunk_size, std::min(result.points, (c + 1) * chunk_size), est);
+            const std::string rows = computer.rows(c * chunk_size, chunk_end(c), est);
             AtomicFile f(chunk_path(config.out_dir, c), true);
             f.stream() << rows;
             f.commit();
+            std::lock_guard<std::mutex> lock(digest_mutex);
+            fresh[c] = chunk_digest(rows);
         },
         config.plan, config.backend->config());
     schedule::WorkSelection selection;
@@ -316,6 +417,11 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     selection.max_items = config.max_chunks;
     schedule::RunCallbacks callbacks;
     callbacks.on_done = [&](std::uint64_t c) {
+        {
+            std::lock_guard<std::mutex> lock(digest_mutex);
+            digests[std::to_string(c)] = fresh.at(c);
+            fresh.erase(c);
+        }
         finished.insert(c);
         save_manifest(false);
         ++result.computed;
@@ -334,12 +440,25 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     if (unsharded) {
         json prov = manifest;
         prov.erase("finished");
+        prov.erase("digests");
         prov["complete"] = true;
-        assemble(config.out_dir, csv_header(spec), result.chunks,
-                 [&](std::uint64_t c) { return chunk_path(config.out_dir, c); }, prov);
+        auto check = [&](std::uint64_t c) -> std::string {
+            const std::string key = std::to_string(c);
+            const std::string path = chunk_path(config.out_dir, c);
+            const std::string problem = check_chunk(path, c * chunk_size, chunk_end(c), fields,
+                                                    digests.contains(key) ? &digests[key] : nullptr);
+            if (problem.empty()) return "";
+            // Forget it, so the next run computes it again.
+            finished.erase(c);
+            digests.erase(key);
+            save_manifest(false);
+            return set_aside(path, problem) + "; sweep.csv was not written: rerun the same command to compute it again";
+        };
+        assemble(config.out_dir, csv_header(spec), result.chunks, [&](std::uint64_t c) { return chunk_path(config.out_dir, c); },
+                 check, prov);
         save_manifest(true);
-        // sweep.csv holds every row now; the chunk files would only double the disk use.
-        for (std::uint64_t c = 0; c < result.chunks; ++c) fs::remove(chunk_path(config.out_dir, c));
+        // The chunk files stay: they are the evidence sweep.csv was assembled from, checked against the
+        // digests in the manifest (sweep --restart or removing the directory frees the space).
         result.assembled = true;
     }
     return result;
@@ -366,9 +485,12 @@ void merge_shards(const std::vector<std::string>& shard_dirs, const std::string&
                 hash = m.at("spec_hash");
                 count = n;
             }
-            if (m.at("spec_hash") != hash || n != count)
+            if (m.at("spec_hash") != hash)
                 throw std::invalid_argument(entry.path().string() + ": shard of a different sweep (spec hash " +
-                                            m.at("spec_hash").get<std::string>() + " vs " + hash + ")");
+                                            m.at("spec_hash").get<std::string>() + ", the first shard's is " + hash + ")");
+            if (n != count)
+                throw std::invalid_argument(entry.path().string() + ": the sweep was split into " + std::to_string(n) +
+                                            " shards here but into " + std::to_string(count) + " in the first shard found");
             if (!m.value("complete", false))
                 throw std::invalid_argument(entry.path().string() + ": shard " + std::to_string(i) + "/" +
                                             std::to_string(n) + " is not finished; rerun it first");
@@ -390,9 +512,25 @@ void merge_shards(const std::vector<std::string>& shard_dirs, const std::string&
     prov["merged_from"] = shard_dirs;
     prov["command_line"] = command_line;
     prov["complete"] = true;
+    prov.erase("digests");
+    const std::string header = first.at("header");
+    const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
+    const std::uint64_t points = first.at("points"), chunk_size = first.at("chunk_size");
+    auto check = [&](std::uint64_t c) -> std::string {
+        const Found& shard = shards.at(std::uint32_t(c % count));
+        const std::string key = std::to_string(c);
+        const json* recorded =
+            shard.manifest.contains("digests") && shard.manifest["digests"].contains(key) ? &shard.manifest["digests"][key] : nullptr;
+        const std::string path = chunk_path(shard.dir, c);
+        const std::string problem = check_chunk(path, c * chunk_size, std::min(points, (c + 1) * chunk_size), fields, recorded);
+        if (problem.empty()) return "";
+        return (problem.rfind("missing", 0) == 0 ? path + ": " + problem : set_aside(path, problem)) + "; rerun shard " +
+               std::to_string(c % count) + "/" + std::to_string(count) + " in " + shard.dir +
+               " (it computes the chunk again), then merge";
+    };
     fs::create_directories(out_dir);
-    assemble(out_dir, first.at("header"), chunks,
-             [&](std::uint64_t c) { return chunk_path(shards.at(std::uint32_t(c % count)).dir, c); }, prov);
+    assemble(out_dir, header, chunks, [&](std::uint64_t c) { return chunk_path(shards.at(std::uint32_t(c % count)).dir, c); },
+             check, prov);
 }
 
 void ErrorStats::add(double e) {

@@ -1,9 +1,12 @@
 // Running a sweep: chunked streaming to disk, resume, shards and merge, and the summary table.
 //
 // Output directory layout:
-//   chunks/chunk-XXXXXXXX.csv   finished chunks (CSV rows without header), each written atomically
-//   manifest.json               (or manifest.shard-I-of-N.json) spec hash, sampling, finished chunks;
-//                               rewritten atomically after every chunk
+//   chunks/chunk-XXXXXXXX.csv   finished chunks (CSV rows without header), each written atomically; kept
+//                               after assembly as the evidence sweep.csv was built from
+//   chunks/rejected/            chunks found damaged (wrong digest, rows, point indices or fields), set
+//                               aside and never read again; the run computes them anew
+//   manifest.json               (or manifest.shard-I-of-N.json) spec hash, sampling, finished chunks and
+//                               each one's row count and FNV-1a digest; rewritten atomically after every chunk
 //   sweep.csv                   every point, assembled from the chunks once all are finished
 //   sweep.json                  provenance (command line, spec, sampling, backend)
 //   summary.csv, summary.md     each comparator's error against the generic term
@@ -44,6 +47,8 @@ struct RunConfig {
     std::uint64_t max_chunks = 0;  // > 0: compute at most this many chunks in this run, then stop (resumable)
     bool restart = false;          // discard a previous run's manifest and chunks of another spec
     std::string command_line;
+    // Told of each damaged chunk as it is set aside (also listed in RunResult::warnings).
+    std::function<void(const std::string&)> warn;
     // Called after each chunk: (chunks done in this shard, chunks of this shard).
     std::function<void(std::uint64_t, std::uint64_t)> progress;
 };
@@ -55,6 +60,7 @@ struct RunResult {
     bool complete = false;                         // every chunk of this shard is finished
     bool assembled = false;                        // sweep.csv written (unsharded runs)
     std::string spec_hash;
+    std::vector<std::string> warnings;             // chunks found damaged, set aside and computed again
 };
 
 // The CSV header of a sweep's output.

@@ -110,6 +110,10 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
         for (std::size_t c = 0; c < channels.size(); ++c)
             header.channels().insert(exr_names[c], Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
         header.insert("microshadow", Imf::StringAttribute(meta.dump()));
+        // A 4-channel image written as PNG (or TIFF, ...) by OpenImageIO gets its 4th channel as alpha
+        // whatever its name, and OpenImageIO divides by it unless the data say they are unassociated:
+        // this attribute (read by OpenImageIO from any EXR) says so; nothing is premultiplied here.
+        header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
         // Typed copies of the main fields, for people reading the header with exrheader.
         for (auto it = meta.begin(); it != meta.end(); ++it) {
             const std::string name = "microshadow." + it.key();

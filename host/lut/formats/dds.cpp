@@ -23,7 +23,7 @@ void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encodi
 
     constexpr std::uint32_t DDSD_CAPS = 0x1, DDSD_HEIGHT = 0x2, DDSD_WIDTH = 0x4, DDSD_PITCH = 0x8,
                             DDSD_PIXELFORMAT = 0x1000, DDSD_MIPMAPCOUNT = 0x20000, DDSD_DEPTH = 0x800000;
-    constexpr std::uint32_t DDPF_FOURCC = 0x4, DDSCAPS_TEXTURE = 0x1000, DDSCAPS2_VOLUME = 0x200000;
+    constexpr std::uint32_t DDPF_FOURCC = 0x4, DDSCAPS_COMPLEX = 0x8, DDSCAPS_TEXTURE = 0x1000, DDSCAPS2_VOLUME = 0x200000;
     ByteWriter w;
     w.u32(0x20534444u);  // "DDS "
     w.u32(124);
@@ -38,7 +38,9 @@ void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encodi
     w.u32(DDPF_FOURCC);
     w.u32(0x30315844u);          // "DX10": the format is in the DXT10 header
     for (int i = 0; i < 5; ++i) w.u32(0);  // RGB bit count and masks: unused with DX10
-    w.u32(DDSCAPS_TEXTURE);      // no DDSCAPS_COMPLEX: one surface, no mips
+    // DDSCAPS_COMPLEX on a volume: Microsoft's volume texture example sets it, and readers (OpenImageIO)
+    // reject a volume without it.
+    w.u32(DDSCAPS_TEXTURE | (volume ? DDSCAPS_COMPLEX : 0));
     w.u32(volume ? DDSCAPS2_VOLUME : 0);
     w.u32(0), w.u32(0), w.u32(0);
     w.u32(dxgi_format(encoding));

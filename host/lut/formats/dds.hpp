@@ -6,7 +6,7 @@
 //   DDS_HEADER (124 bytes): dwSize 124, dwFlags CAPS|HEIGHT|WIDTH|PITCH|PIXELFORMAT (|DEPTH for a
 //     volume), dwHeight, dwWidth, dwPitchOrLinearSize = width x bytes per texel, dwDepth, dwMipMapCount 1,
 //     dwReserved1[11], ddspf { dwSize 32, dwFlags DDPF_FOURCC, dwFourCC "DX10", 0 x 5 },
-//     dwCaps DDSCAPS_TEXTURE, dwCaps2 DDSCAPS2_VOLUME for a volume, dwCaps3, dwCaps4, dwReserved2 = 0
+//     dwCaps DDSCAPS_TEXTURE (|COMPLEX for a volume), dwCaps2 DDSCAPS2_VOLUME for a volume, dwCaps3, dwCaps4, dwReserved2 = 0
 //   DDS_HEADER_DXT10 (20 bytes): dxgiFormat (R32G32B32A32_FLOAT 2, R16G16B16A16_FLOAT 10,
 //     R16G16B16A16_UNORM 11, R8G8B8A8_UNORM 28), resourceDimension (TEXTURE2D 3, TEXTURE3D 4),
 //     miscFlag 0, arraySize 1, miscFlags2 = DDS_ALPHA_MODE_CUSTOM (4: the 4th channel is data, not alpha)

@@ -145,7 +145,7 @@ void run_bake(const BakeArgs& args) {
     // Preview first, LUT last: each is atomic, and the LUT appearing means the whole job finished.
     if (!args.preview.empty())
         write_lut_preview(args.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels,
-                                         result.value.data()});
+                                         result.value.data(), {spec.visibility, spec.n_dot_l, spec.n_dot_v}, spec.roughness});
     // --- issue 12: the LUT in the chosen format (and the shaders), from one LutFile ---
     write_bake_outputs(args.outputs, output, args.out,
                        lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value, meta));

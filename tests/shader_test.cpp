@@ -140,6 +140,9 @@ TEST_F(ShaderTest, GeneratedGlslAndHlslCompile) {
         EXPECT_NE(glsl.find("(alpha_x * alpha_y)^(1/4)"), std::string::npos);
     }
     EXPECT_EQ(cli("shader " + path("missing.exr") + " --lang glsl").exit_code, 2);
+    const RunResult k = cli("shader " + path("seed3d.ktx2") + " --lang glsl");
+    EXPECT_EQ(k.exit_code, 2);
+    EXPECT_NE(k.output.find("--shader-glsl"), std::string::npos) << k.output;
 }
 
 // Random points over (and beyond) every axis range, plus every texel centre/endpoint and the edges.

@@ -1,5 +1,6 @@
 // microshadow shader: GLSL or HLSL that samples a baked LUT (lut/shader/shader_gen.hpp), generated from
 // the OpenEXR's metadata (the other formats: use bake --shader-glsl/--shader-hlsl when baking).
+#include <cctype>
 #include <filesystem>
 #include <iostream>
 
@@ -17,6 +18,11 @@ struct ShaderArgs {
 
 void run_shader(const ShaderArgs& a) {
     const auto language = lutshader::parse_shader_language(a.lang);
+    std::string ext = std::filesystem::path(a.lut).extension().string();
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext != ".exr")
+        throw std::invalid_argument(a.lut + ": `shader` reads the OpenEXR a bake wrote; for a " + ext +
+                                    " LUT pass --shader-glsl/--shader-hlsl to the bake that writes it");
     LutFile lut;
     try {
         lut = read_lut(a.lut);

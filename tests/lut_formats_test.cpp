@@ -435,6 +435,26 @@ TEST_F(LutFormatsTest, Ktx2DdsHeaderAndPngFromBakeReadBackEqualToTheExr) {
         }
     }
 
+    // .inc: only the values, to #include inside an initialiser; unorm8 here (uint8_t values).
+    write_lut_output(path("lut8.inc"), exr, {LutFormat::inc, PixelEncoding::unorm8});
+    {
+        std::ofstream(path("inc.cpp")) << "#include <cstdint>\nstatic const std::uint8_t lut[] = {\n#include \"lut8.inc\"\n};\n"
+                                          "static_assert(sizeof lut == " << exr.width * exr.height * 4 << ", \"size\");\n"
+                                          "int main() { return lut[0] * 0; }\n";
+        const RunResult r = run_shell("c++ -std=c++17 -Wall -Werror -fsyntax-only " + path("inc.cpp") + " 2>&1");
+        EXPECT_EQ(r.exit_code, 0) << r.output;
+        std::ifstream in(path("lut8.inc"));
+        std::string line, body;
+        while (std::getline(in, line))
+            if (line.rfind("/*", 0) != 0 && line.rfind(" *", 0) != 0) body += line + "\n";
+        std::istringstream values(body);
+        std::vector<int> v;
+        for (std::string tok; std::getline(values, tok, ',');) v.push_back(std::stoi(tok));
+        ASSERT_EQ(v.size(), std::size_t(exr.width) * exr.height * 4);
+        for (std::size_t i = 0; i < v.size(); ++i)
+            ASSERT_EQ(v[i], std::lround(exr.data[(i / 4) * 3 + std::min<std::size_t>(i % 4, 2)] * 255.0)) << i;
+    }
+
     // PNG atlas, 8-bit (from bake) and 16-bit (bake with --encoding unorm16).
     bake("lut16.png", "--encoding unorm16");
     for (const auto& [name, bits] : std::vector<std::pair<std::string, int>>{{"lut8.png", 8}, {"lut16.png", 16}}) {

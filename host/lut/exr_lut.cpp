@@ -25,9 +25,10 @@ namespace {
 const char* const kChannelNames[4] = {"R", "G", "B", "A"};
 const char* const kAxisNames[3] = {"visibility", "n_dot_l", "n_dot_v"};
 
-// Largest axis count and texel count a LUT file may claim: far above any bake (4096 per axis), far
-// below what would overflow or exhaust memory when a hostile file's numbers are multiplied.
-constexpr std::uint64_t kMaxAxisCount = 65536, kMaxTexels = std::uint64_t(1) << 26;
+// Largest axis count and texel count a LUT file may claim before anything is allocated: above any
+// bake worth sampling (2^28 texels is a 645^3 LUT, 4 GiB of floats at 4 channels), below what would
+// overflow or exhaust memory when a hostile file's numbers are multiplied.
+constexpr std::uint64_t kMaxAxisCount = 65536, kMaxTexels = std::uint64_t(1) << 28;
 
 nlohmann::json axis_json(const LutAxis& a) {
     return {{"name", a.name}, {"min", a.min}, {"max", a.max}, {"count", a.count}, {"texel", to_string(a.texel)}};

@@ -79,7 +79,7 @@ std::string generate_shader(const LutFile& lut, ShaderLanguage language, const s
       << c << " with the same geometric-mean alpha). Isotropic: roughness = sqrt(alpha).\n";
     o << c << " Outside the LUT's ranges the value clamps to the edge texels (roughness: to the first/last channel).\n\n";
 
-    const std::string clamp_fn = glsl ? "clamp" : "clamp";
+    const std::string clamp_fn = "clamp";  // the same name in GLSL and HLSL
     const std::string mix = glsl ? "mix" : "lerp";
     // Texture coordinate of (visibility, NdotL, NdotV).
     if (glsl) o << (three_d ? "vec3" : "vec2") << " ms_lut_coord(float visibility, float n_dot_l, float n_dot_v)\n{\n";

@@ -655,6 +655,8 @@ TEST_F(LutFormatsTest, HostileLutFilesAreRefusedNamingFileAndField) {
     m["axes"][1]["count"] = 2147483649u;
     m["axes"][2]["count"] = 2;
     expect_refused("wrap.exr", m, {0, 0, 0, 0}, 2, "axes[1].count");
+    m = good, m["axes"][0]["count"] = 65536, m["axes"][1]["count"] = 65536;  // refused before any allocation
+    expect_refused("huge.exr", m, data, 2, "texels");
     m = good, m["axes"][0]["count"] = 2.5;
     expect_refused("frac.exr", m, data, 2, "axes[0].count");
     m = good, m["axes"][2]["count"] = -2;

@@ -76,7 +76,7 @@ std::vector<std::uint32_t> compile(const std::string& source, const std::string&
     std::ifstream in(file + ".spv", std::ios::binary);
     std::vector<char> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
     std::vector<std::uint32_t> words(bytes.size() / 4);
-    std::memcpy(words.data(), bytes.data(), words.size() * 4);
+    if (!words.empty()) std::memcpy(words.data(), bytes.data(), words.size() * 4);  // no memcpy from null
     return words;
 }
 

@@ -210,6 +210,7 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
         const bool three_d = c.name != "seed2d", cosine = c.name != "uniform";
         const auto glsl = compile(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
         const auto hlsl = compile(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
+        ASSERT_FALSE(glsl.empty() || hlsl.empty()) << "the shaders did not compile";
         const std::vector<float> points = sample_points(lookup.file(), 4000);
         // Each texture is compared with the lut3d comparator on the values it stores (the EXR's texels
         // rounded as the encoding rounds them: Imath half, round(255 v) / 255) within 1e-5 (the issue's

@@ -25,6 +25,7 @@ void build_app(CLI::App& app) {
     ms::cli::add_bake_command(app);
     ms::cli::add_sweep_command(app);
     ms::cli::add_merge_command(app);
+    ms::cli::add_shader_command(app);
 }
 
 struct ParsedOnly {};

@@ -3,9 +3,11 @@
 which has python3-matplotlib).
 
   plot_sweep.py heatmaps SWEEP.csv --out DIR [--where COL=VAL ...] [--facet roughness]
-      Part 1-style heatmaps over (NdotL, visibility): one figure of every term (generic term and each
-      comparator) and one of each comparator's error against the generic term, per facet value.
-      Rows left over after --where (e.g. several azimuths) are averaged, and the title says so.
+      Part 1-style heatmaps over (visibility, NdotL), NdotL increasing downwards as in the LUT: one
+      figure of every term (generic term and each comparator; rows left over after --where, e.g.
+      several azimuths, are averaged and the title says so) and one of the errors against the generic
+      term per facet value: per comparator the max |error| over the cell's rows (errors of opposite
+      sign cannot cancel) and, beside it, the mean signed error (its direction).
 
   plot_sweep.py spread SWEEP.csv --over COL [--where COL=VAL ...] [--by roughness]
       How much the generic term depends on COL: for every point of the other parameters, the
@@ -32,8 +34,9 @@ which has python3-matplotlib).
   plot_sweep.py errormap SWEEP.csv --out PNG [--comparators NAME ...] [--where ...]
       Where the error sits: max |comparator - term| over the rows left after --where (e.g. every
       NdotV) per (visibility, NdotL) cell, one row of panels per comparator, one column per
-      roughness, with the zero-region edge NdotL = 2 cos_t^2 - 1 (dashed) and the smooth-surface
-      shadow edge NdotL = cos_t (dotted) drawn in, cos_t from the sweep's AO weighting.
+      roughness, NdotL increasing downwards, with the zero-region edge NdotL = 2 cos_t^2 - 1 (dashed)
+      and the smooth-surface shadow edge NdotL = cos_t (dotted) drawn in, cos_t from the sweep's AO
+      weighting.
 """
 import argparse
 import collections
@@ -94,52 +97,80 @@ def heatmaps(args):
     groups = collections.defaultdict(list)
     for row in rows:
         groups[row[args.facet]].append(row)
-    for facet_value, group in sorted(groups.items(), key=lambda kv: kv[0]):
+    for facet_value, group in sorted(groups.items(), key=lambda kv: float_or_text(kv[0])):
         vs = sorted({float(r["visibility"]) for r in group})
         ls = sorted({float(r["n_dot_l"]) for r in group})
         vi = {v: i for i, v in enumerate(vs)}
         li = {l: i for i, l in enumerate(ls)}
         names = ["term"] + comparators
+        # Per (NdotL, visibility) cell, over the rows left after --where (other azimuths, NdotV, ...):
+        # the mean of each term, and for each comparator's error both the max |error| (errors that change
+        # sign with the azimuth cannot cancel in it) and the mean signed error (shown beside it).
         acc = {n: np.zeros((len(ls), len(vs))) for n in names}
+        err_max = {c: np.zeros((len(ls), len(vs))) for c in comparators}
+        err_sum = {c: np.zeros((len(ls), len(vs))) for c in comparators}
         cnt = np.zeros((len(ls), len(vs)))
         for r in group:
             i, j = li[float(r["n_dot_l"])], vi[float(r["visibility"])]
             cnt[i, j] += 1
+            t = float(r["term"])
             for n in names:
                 acc[n][i, j] += float(r[n])
+            for c in comparators:
+                e = float(r[c]) - t
+                err_max[c][i, j] = max(err_max[c][i, j], abs(e))
+                err_sum[c][i, j] += e
         mean = {n: acc[n] / np.maximum(cnt, 1) for n in names}
-        averaged = int(cnt.max())
-        note = f"{args.facet} = {facet_value}" + (f", mean of {averaged} points per cell" if averaged > 1 else "")
-        extent = [vs[0], vs[-1], ls[0], ls[-1]]
+        per_cell = int(cnt.max())
+        over = f", {per_cell} points per cell" if per_cell > 1 else ""
+        # Cell-centred extent with NdotL increasing downwards, as in the LUT (row 0 = smallest NdotL on top).
+        dv = (vs[-1] - vs[0]) / max(1, len(vs) - 1) / 2 or 0.5
+        dl = (ls[-1] - ls[0]) / max(1, len(ls) - 1) / 2 or 0.5
+        extent = [vs[0] - dv, vs[-1] + dv, ls[-1] + dl, ls[0] - dl]
+        tag = f"{args.facet}-{facet_value}"
 
-        def grid(title_names, data, cmap, vmin, vmax, filename, label):
-            n = len(title_names)
-            cols = min(n, 4)
-            nrows = (n + cols - 1) // cols
-            fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 3.3 * nrows), squeeze=False)
-            for k, name in enumerate(title_names):
-                ax = axes[k // cols][k % cols]
-                im = ax.imshow(data[k], origin="lower", extent=extent, aspect="auto", cmap=cmap, vmin=vmin,
-                               vmax=vmax, interpolation="nearest")
-                ax.set_title(name, fontsize=9)
-                ax.set_xlabel("visibility")
-                ax.set_ylabel("NdotL")
-            for k in range(n, nrows * cols):
-                axes[k // cols][k % cols].axis("off")
-            fig.subplots_adjust(hspace=0.45, wspace=0.35)
-            fig.colorbar(im, ax=axes.ravel().tolist(), shrink=0.8, label=label)
-            fig.suptitle(note, fontsize=9)
+        def panel(ax, data, cmap, vmin, vmax, title, label, fig, norm=None):
+            im = ax.imshow(data, origin="upper", extent=extent, aspect="auto", cmap=cmap, vmin=None if norm else vmin,
+                           vmax=None if norm else vmax, norm=norm, interpolation="nearest")
+            ax.set_title(title, fontsize=8)
+            ax.set_xlabel("visibility", fontsize=8)
+            ax.set_ylabel("NdotL (increasing down)", fontsize=8)
+            ax.tick_params(labelsize=7)
+            fig.colorbar(im, ax=ax, label=label, shrink=0.9)
+
+        def save(fig, filename):
             path = os.path.join(args.out, filename)
             fig.savefig(path, dpi=args.dpi)
             plt.close(fig)
             print(path)
 
-        tag = f"{args.facet}-{facet_value}"
-        grid(["generic term"] + comparators, [mean[n] for n in names], "viridis", 0, 1, f"terms-{tag}.png", "term")
+        # Terms: mean over the cell's rows (the title says how many).
+        n = len(names)
+        cols = min(n, 4)
+        nrows = (n + cols - 1) // cols
+        fig, axes = plt.subplots(nrows, cols, figsize=(3.9 * cols, 3.4 * nrows + 0.5), squeeze=False, layout="constrained")
+        for k, name in enumerate(names):
+            panel(axes[k // cols][k % cols], mean[name], "viridis", 0, 1, "generic term" if name == "term" else name,
+                  "term" + (" (mean)" if per_cell > 1 else ""), fig)
+        for k in range(n, nrows * cols):
+            axes[k // cols][k % cols].axis("off")
+        fig.suptitle(f"{sweep_label(args.csv)}: terms, {args.facet} = {facet_value}" +
+                     (f", mean of {per_cell} points per cell" if per_cell > 1 else ""), fontsize=9)
+        save(fig, f"terms-{tag}.png")
+
+        # Errors: one row per comparator, max |error| (left, the figure of merit) and mean signed error
+        # (right, for the direction only), each with its own colour bar.
         if comparators:
-            errs = [mean[c] - mean["term"] for c in comparators]
-            lim = max(1e-6, max(float(np.abs(e).max()) for e in errs))
-            grid([f"{c} - generic" for c in comparators], errs, "RdBu_r", -lim, lim, f"errors-{tag}.png", "error")
+            emax = max(1e-6, max(float(err_max[c].max()) for c in comparators))
+            fig, axes = plt.subplots(len(comparators), 2, figsize=(8.6, 3.2 * len(comparators) + 0.5), squeeze=False,
+                                     layout="constrained")
+            for k, c in enumerate(comparators):
+                signed = err_sum[c] / np.maximum(cnt, 1)
+                lim = max(1e-6, float(np.abs(signed).max()))
+                panel(axes[k][0], err_max[c], "magma_r", 0, emax, f"{c}: max |error|", "max |comparator - term|", fig)
+                panel(axes[k][1], signed, "RdBu_r", -lim, lim, f"{c}: mean signed error", "mean (comparator - term)", fig)
+            fig.suptitle(f"{sweep_label(args.csv)}: errors, {args.facet} = {facet_value}{over}", fontsize=9)
+            save(fig, f"errors-{tag}.png")
 
 
 def spread(args):
@@ -358,7 +389,7 @@ def errormap(args):
                 ax.plot(vline, 2 * cos_t ** 2 - 1, "c--", lw=0.8)
                 ax.plot(vline, cos_t, "c:", lw=0.9)
             ax.set_xlim(extent[0], extent[1])
-            ax.set_ylim(extent[2], extent[3])
+            ax.set_ylim(extent[3], extent[2])  # NdotL increasing downwards, as in the LUT
             ax.set_title(f"{n}, roughness {gname}", fontsize=8)
             ax.tick_params(labelsize=7)
             if g == 0:

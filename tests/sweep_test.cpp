@@ -137,9 +137,11 @@ TEST(SweepPoints, MixedRadixOrderAndGeometry) {
     EXPECT_THROW(g.at(g.size()), std::out_of_range);
 }
 
-// A LUT whose texels hold f(v, l, z) = v + 2 l + 4 z + 8 r exactly at their texel parameters.
-// Linear filtering reproduces a function that is linear in each parameter, so any interior lookup
-// must return f up to float rounding of the stored texels (|f| <= 15, float eps 6e-8 -> 1e-5 is 10x that).
+// A LUT whose texels hold f(v, l, z) = (v + 2 l + 4 z + 8 r) / 16 exactly at their texel parameters
+// (scaled into [0, 1]: read_lut refuses texels outside it). Linear filtering reproduces a function that
+// is linear in each parameter, so any interior lookup must return f up to float rounding of the stored
+// texels (16 f <= 15, float eps 6e-8 -> 1e-5 on 16 f is 10x that).
+constexpr double kLinearScale = 16;
 fs::path write_linear_lut(const fs::path& dir, TexelConvention texel, std::uint32_t nz) {
     std::vector<LutAxis> axes = {{"visibility", 0, 1, 5, texel}, {"n_dot_l", 0, 1, 4, texel}, {"n_dot_v", 0, 1, nz, texel}};
     std::vector<LutChannel> ch = {{"R", 0.1, 0.01, 0.01}, {"G", 0.4, 0.16, 0.16}, {"B", 0.7, 0.49, 0.49}};
@@ -148,8 +150,8 @@ fs::path write_linear_lut(const fs::path& dir, TexelConvention texel, std::uint3
         for (std::uint32_t j = 0; j < 4; ++j)
             for (std::uint32_t i = 0; i < 5; ++i)
                 for (const auto& c : ch)
-                    data.push_back(float(axes[0].value(i) + 2 * axes[1].value(j) + 4 * (nz > 1 ? axes[2].value(k) : 1.0) +
-                                         8 * c.roughness));
+                    data.push_back(float((axes[0].value(i) + 2 * axes[1].value(j) + 4 * (nz > 1 ? axes[2].value(k) : 1.0) +
+                                          8 * c.roughness) / kLinearScale));
     nlohmann::json meta = {{"layout", "custom"}, {"azimuth", "mean"}, {"form", "height-correlated"},
                            {"ao_weighting", "cosine"}, {"sequence", "sobol"}, {"seed", 0}, {"samples", 16},
                            {"max_error", 0}, {"device", "test"}, {"version", "test"}, {"command_line", "test"}};
@@ -167,15 +169,15 @@ TEST(SweepLut, TrilinearBilinearAndRoughnessBlend) {
             for (double l : {0.2, 0.61})
                 for (double z : {0.35, 0.64})
                     for (double r : {0.1, 0.25, 0.55, 0.7})
-                        EXPECT_NEAR(lut3(v, l, z, r), v + 2 * l + 4 * z + 8 * r, 1e-5) << v << " " << l << " " << z << " " << r;
+                        EXPECT_NEAR(kLinearScale * lut3(v, l, z, r), v + 2 * l + 4 * z + 8 * r, 1e-5) << v << " " << l << " " << z << " " << r;
         // Clamp-to-edge: below the first texel centre a lookup returns the edge value; roughness clamps too.
         const LutAxis vis{"visibility", 0, 1, 5, texel};
-        EXPECT_NEAR(lut3(0.0, 0.5, 0.5, 0.05), vis.value(0) + 1 + 2 + 8 * 0.1, 1e-5);
-        EXPECT_NEAR(lut3(0.5, 0.5, 0.5, 1.0), 0.5 + 1 + 2 + 8 * 0.7, 1e-5);
+        EXPECT_NEAR(kLinearScale * lut3(0.0, 0.5, 0.5, 0.05), vis.value(0) + 1 + 2 + 8 * 0.1, 1e-5);
+        EXPECT_NEAR(kLinearScale * lut3(0.5, 0.5, 0.5, 1.0), 0.5 + 1 + 2 + 8 * 0.7, 1e-5);
         // 2D LUT: one slice (stored for NdotV = 1) whatever NdotV is asked.
         const LutLookup lut2 = LutLookup::open(write_linear_lut(dir, texel, 1).string());
-        EXPECT_NEAR(lut2(0.5, 0.5, 0.2, 0.4), 0.5 + 1 + 4 + 3.2, 1e-5);
-        EXPECT_NEAR(lut2(0.5, 0.5, 1.0, 0.4), 0.5 + 1 + 4 + 3.2, 1e-5);
+        EXPECT_NEAR(kLinearScale * lut2(0.5, 0.5, 0.2, 0.4), 0.5 + 1 + 4 + 3.2, 1e-5);
+        EXPECT_NEAR(kLinearScale * lut2(0.5, 0.5, 1.0, 0.4), 0.5 + 1 + 4 + 3.2, 1e-5);
     }
     EXPECT_THROW(LutLookup::open((dir / "missing.exr").string()), std::runtime_error);
 }

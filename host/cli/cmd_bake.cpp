@@ -5,6 +5,7 @@
 
 #include "jobs/bake.hpp"
 #include "jobs/verify.hpp"
+#include "cli/bake_outputs.hpp"  // issue 12: file formats, preview checks, shaders
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
@@ -23,6 +24,7 @@ struct BakeArgs {
     double tolerance = 0;
     bool half = false;
     SamplingOptions sampling;
+    BakeOutputArgs outputs;  // issue 12: --format --encoding --shader-glsl --shader-hlsl (cli/bake_outputs.hpp)
     CLI::App* cmd = nullptr;
 };
 
@@ -121,6 +123,8 @@ std::string azimuth_summary(const BakeResult& result) {
 
 void run_bake(const BakeArgs& args) {
     const BakeSpec spec = make_spec(args);
+    // --- issue 12: output format by extension or --format; preview and shader paths (before the bake) ---
+    const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
     // Fail on a bad destination before the (long) bake, not after it.
     check_writable_destination(args.out);
     if (!args.preview.empty()) check_writable_destination(args.preview);
@@ -156,8 +160,10 @@ void run_bake(const BakeArgs& args) {
     // Preview first, LUT last: each is atomic, and the LUT appearing means the whole job finished.
     if (!args.preview.empty())
         write_lut_preview(args.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels,
-                                         result.value.data()});
-    write_lut(args.out, {spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value, meta, args.half);
+                                         result.value.data(), {spec.visibility, spec.n_dot_l, spec.n_dot_v}, spec.roughness});
+    // --- issue 12: the LUT in the chosen format (and the shaders), from one LutFile ---
+    write_bake_outputs(args.outputs, output, args.out,
+                       lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value, meta));
 
     if (!args.sampling.quiet) {
         std::cerr << std::setprecision(3) << "bake: " << spec.visibility.count << " x " << spec.n_dot_l.count << " x "
@@ -185,7 +191,8 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--layout", a->layout, "seed-3d (v, NdotL, NdotV; RGBA = roughness 0.1 0.4 0.7 1), seed-2d (NdotV = 1) or custom")
         ->check(CLI::IsMember({"seed-3d", "seed-2d", "custom"}))
         ->capture_default_str();
-    cmd->add_option("--out", a->out, "output OpenEXR file")->required();
+    cmd->add_option("--out", a->out, "output LUT file: .exr, .ktx2, .dds, .h/.hpp/.inc or .png (see --format)")->required();
+    add_bake_output_options(cmd, a->outputs);  // issue 12
     cmd->add_option("--size", a->size, "texels on every axis")->transform(decimal_range(1, 4096))->capture_default_str();
     cmd->add_option("--size-visibility", a->size_visibility, "texels on the visibility axis")->transform(decimal_range(1, 4096));
     cmd->add_option("--size-n-dot-l", a->size_n_dot_l, "texels on the NdotL axis")->transform(decimal_range(1, 4096));

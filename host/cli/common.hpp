@@ -74,5 +74,6 @@ void add_eval_command(CLI::App& app);
 void add_bake_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
+void add_shader_command(CLI::App& app);  // issue 12 (cmd_shader.cpp)
 
 }  // namespace ms::cli

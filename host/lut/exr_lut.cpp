@@ -11,10 +11,13 @@
 
 #include <Imath/half.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "lut/formats/encoding.hpp"
 
 namespace ms {
 
@@ -22,10 +25,36 @@ namespace {
 const char* const kChannelNames[4] = {"R", "G", "B", "A"};
 const char* const kAxisNames[3] = {"visibility", "n_dot_l", "n_dot_v"};
 
+// Largest axis count and texel count a LUT file may claim before anything is allocated: above any
+// bake worth sampling (2^28 texels is a 645^3 LUT, 4 GiB of floats at 4 channels), below what would
+// overflow or exhaust memory when a hostile file's numbers are multiplied.
+constexpr std::uint64_t kMaxAxisCount = 65536, kMaxTexels = std::uint64_t(1) << 28;
+
 nlohmann::json axis_json(const LutAxis& a) {
     return {{"name", a.name}, {"min", a.min}, {"max", a.max}, {"count", a.count}, {"texel", to_string(a.texel)}};
 }
 }  // namespace
+
+std::string exr_channel_name(double roughness, int digits) {
+    // No '.' in the name: OpenEXR tools read "a.b" as channel b of layer a. 'p' stands for the point.
+    char buf[48];
+    std::snprintf(buf, sizeof buf, "roughness_%.*g", digits, roughness);
+    std::string s = buf;
+    for (char& c : s)
+        if (c == '.') c = 'p';
+    return s;
+}
+
+std::vector<std::string> exr_channel_names(const std::vector<LutChannel>& channels) {
+    for (int digits : {6, 17}) {
+        std::vector<std::string> names;
+        for (const auto& c : channels) names.push_back(exr_channel_name(c.roughness, digits));
+        std::vector<std::string> sorted = names;
+        std::sort(sorted.begin(), sorted.end());
+        if (std::adjacent_find(sorted.begin(), sorted.end()) == sorted.end()) return names;
+    }
+    throw std::invalid_argument("write_lut: two channels have the same roughness");
+}
 
 
 void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels,
@@ -38,12 +67,21 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
     if (width == 0 || height == 0 || data.size() != width * height * channels.size())
         throw std::invalid_argument("write_lut: data size does not match the axes");
 
+    // Each roughness is its own named channel (exr_channel_name), not R/G/B/A: image tools take "A" for
+    // premultiplied alpha and divide the other channels by it when they convert the file. The metadata
+    // keeps "name" = R/G/B/A (the channel's place in RGBA texture formats) and adds "exr_channel".
+    const std::vector<std::string> exr_names = exr_channel_names(channels);
     nlohmann::json meta = metadata;
     meta["axes"] = nlohmann::json::array();
     for (const auto& a : axes) meta["axes"].push_back(axis_json(a));
     meta["channels"] = nlohmann::json::array();
-    for (const auto& c : channels)
-        meta["channels"].push_back({{"name", c.name}, {"roughness", c.roughness}, {"alpha_x", c.alpha_x}, {"alpha_y", c.alpha_y}});
+    for (std::size_t c = 0; c < channels.size(); ++c) {
+        const auto& ch = channels[c];
+        meta["channels"].push_back({{"name", ch.name}, {"exr_channel", exr_names[c]}, {"texture_channel", ch.name},
+                                    {"roughness", ch.roughness}, {"alpha_x", ch.alpha_x}, {"alpha_y", ch.alpha_y}});
+    }
+    meta["file_format"] = "exr";
+    lutfmt::add_error_budget(meta, data, half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
 
     check_writable_destination(path);
     AtomicPath atomic(path);
@@ -51,8 +89,12 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
         Imf::Header header{int(width), int(height)};
         header.compression() = Imf::ZIP_COMPRESSION;
         for (std::size_t c = 0; c < channels.size(); ++c)
-            header.channels().insert(kChannelNames[c], Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
+            header.channels().insert(exr_names[c], Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
         header.insert("microshadow", Imf::StringAttribute(meta.dump()));
+        // A 4-channel image written as PNG (or TIFF, ...) by OpenImageIO gets its 4th channel as alpha
+        // whatever its name, and OpenImageIO divides by it unless the data say they are unassociated:
+        // this attribute (read by OpenImageIO from any EXR) says so; nothing is premultiplied here.
+        header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
         // Typed copies of the main fields, for people reading the header with exrheader.
         for (auto it = meta.begin(); it != meta.end(); ++it) {
             const std::string name = "microshadow." + it.key();
@@ -79,7 +121,7 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
         const std::size_t stride = channels.size() * elem;
         char* base = half ? (char*)halves.data() : (char*)data.data();
         for (std::size_t c = 0; c < channels.size(); ++c)
-            fb.insert(kChannelNames[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
+            fb.insert(exr_names[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
         try {
             Imf::OutputFile file(atomic.temp_path().c_str(), header);
             file.setFrameBuffer(fb);
@@ -91,6 +133,29 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
     atomic.commit();
 }
 
+namespace {
+
+// A JSON number that must be finite; `field` names it in the error.
+double finite_number(const nlohmann::json& j, const std::string& field) {
+    if (!j.is_number()) throw std::runtime_error("metadata " + field + " must be a number, not " + j.dump());
+    const double v = j.get<double>();
+    if (!std::isfinite(v)) throw std::runtime_error("metadata " + field + " must be finite");
+    return v;
+}
+
+// An axis count: checked as an integer in range before anything multiplies it (a JSON 2147483649 must
+// not pass as uint32 and wrap a product; 32.5 or -1 must not be truncated into a count).
+std::uint32_t axis_count(const nlohmann::json& j, const std::string& field) {
+    const std::string range = " is outside [1, " + std::to_string(kMaxAxisCount) + "]";
+    if (!j.is_number_integer()) throw std::runtime_error("metadata " + field + " must be an integer, not " + j.dump());
+    if (!j.is_number_unsigned() && j.get<std::int64_t>() < 1) throw std::runtime_error("metadata " + field + " = " + j.dump() + range);
+    const auto v = j.get<std::uint64_t>();
+    if (v < 1 || v > kMaxAxisCount) throw std::runtime_error("metadata " + field + " = " + j.dump() + range);
+    return std::uint32_t(v);
+}
+
+}  // namespace
+
 LutFile read_lut(const std::string& path) {
     LutFile lut;
     try {
@@ -99,38 +164,61 @@ LutFile read_lut(const std::string& path) {
         const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
         if (!attr) throw std::runtime_error("no \"microshadow\" header attribute: not a microshadow LUT");
         lut.metadata = nlohmann::json::parse(attr->value());
+        if (!lut.metadata.is_object()) throw std::runtime_error("the \"microshadow\" attribute is not a JSON object");
         const auto& axes = lut.metadata.at("axes");
         if (!axes.is_array() || axes.size() != 3) throw std::runtime_error("metadata must list 3 axes");
         for (std::size_t i = 0; i < 3; ++i) {
+            const std::string f = "axes[" + std::to_string(i) + "]";
             LutAxis a;
             a.name = axes[i].at("name").get<std::string>();
             if (a.name != kAxisNames[i]) throw std::runtime_error("axis " + std::to_string(i) + " must be " + kAxisNames[i]);
-            a.min = axes[i].at("min").get<double>();
-            a.max = axes[i].at("max").get<double>();
-            a.count = axes[i].at("count").get<std::uint32_t>();
+            a.min = finite_number(axes[i].at("min"), f + ".min (" + a.name + ")");
+            a.max = finite_number(axes[i].at("max"), f + ".max (" + a.name + ")");
+            a.count = axis_count(axes[i].at("count"), f + ".count (" + a.name + ")");
             a.texel = parse_texel_convention(axes[i].at("texel").get<std::string>());
+            // Every axis is a cosine or a visibility: a range outside [0, 1], or reversed, is a corrupt file.
+            if (a.min < 0 || a.max > 1 || a.min > a.max || (a.min == a.max && a.count > 1))
+                throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + std::to_string(a.min) + ", " +
+                                         std::to_string(a.max) + "] must satisfy 0 <= min < max <= 1");
             lut.axes.push_back(a);
         }
-        for (const auto& c : lut.metadata.at("channels")) {
+        const auto& channels = lut.metadata.at("channels");
+        if (!channels.is_array() || channels.empty() || channels.size() > 4)
+            throw std::runtime_error("metadata must list 1 to 4 channels");
+        std::vector<std::string> exr_names;
+        for (std::size_t i = 0; i < channels.size(); ++i) {
+            const auto& c = channels[i];
+            const std::string f = "channels[" + std::to_string(i) + "]";
             LutChannel ch;
             ch.name = c.at("name").get<std::string>();
-            ch.roughness = c.at("roughness").get<double>();
-            ch.alpha_x = c.at("alpha_x").get<double>();
-            ch.alpha_y = c.at("alpha_y").get<double>();
+            ch.roughness = finite_number(c.at("roughness"), f + ".roughness");
+            ch.alpha_x = finite_number(c.at("alpha_x"), f + ".alpha_x");
+            ch.alpha_y = finite_number(c.at("alpha_y"), f + ".alpha_y");
+            if (!(ch.roughness > 0 && ch.roughness <= 1))
+                throw std::runtime_error("metadata " + f + ".roughness = " + std::to_string(ch.roughness) + " is outside (0, 1]");
+            if (!(ch.alpha_x > 0) || !(ch.alpha_y > 0))
+                throw std::runtime_error("metadata " + f + ".alpha_x/alpha_y must be > 0");
+            if (ch.name != kChannelNames[i]) throw std::runtime_error("metadata " + f + ".name must be " + kChannelNames[i]);
+            // Files before issue 12 stored the roughness channels as R, G, B, A; newer ones name them
+            // (exr_channel). Both read the same.
+            exr_names.push_back(c.contains("exr_channel") ? c.at("exr_channel").get<std::string>() : ch.name);
             lut.channels.push_back(ch);
         }
-        if (lut.channels.empty() || lut.channels.size() > 4) throw std::runtime_error("metadata must list 1 to 4 channels");
+        const std::uint64_t want_w = lut.axes[0].count, want_h = std::uint64_t(lut.axes[1].count) * lut.axes[2].count;
+        if (want_w * want_h > kMaxTexels)
+            throw std::runtime_error("metadata axes claim " + std::to_string(want_w * want_h) + " texels, more than the limit " +
+                                     std::to_string(kMaxTexels));
         const Imath::Box2i dw = header.dataWindow();
-        lut.width = std::uint32_t(dw.max.x - dw.min.x + 1);
-        lut.height = std::uint32_t(dw.max.y - dw.min.y + 1);
-        if (lut.width != lut.axes[0].count || lut.height != lut.axes[1].count * lut.axes[2].count)
-            throw std::runtime_error("image size " + std::to_string(lut.width) + "x" + std::to_string(lut.height) +
-                                     " does not match the axes");
+        const std::int64_t w = std::int64_t(dw.max.x) - dw.min.x + 1, h = std::int64_t(dw.max.y) - dw.min.y + 1;
+        if (w != std::int64_t(want_w) || h != std::int64_t(want_h))
+            throw std::runtime_error("image size " + std::to_string(w) + "x" + std::to_string(h) + " does not match the axes (" +
+                                     std::to_string(want_w) + "x" + std::to_string(want_h) + ")");
+        lut.width = std::uint32_t(want_w);
+        lut.height = std::uint32_t(want_h);
         const std::size_t nc = lut.channels.size();
         for (std::size_t c = 0; c < nc; ++c) {
-            const Imf::Channel* ch = header.channels().findChannel(lut.channels[c].name);
-            if (!ch || lut.channels[c].name != kChannelNames[c])
-                throw std::runtime_error("missing channel " + std::string(kChannelNames[c]));
+            const Imf::Channel* ch = header.channels().findChannel(exr_names[c]);
+            if (!ch) throw std::runtime_error("missing channel " + exr_names[c] + " (channels[" + std::to_string(c) + "])");
             if (c == 0) lut.half = ch->type == Imf::HALF;
         }
         lut.data.assign(std::size_t(lut.width) * lut.height * nc, 0.0f);
@@ -139,9 +227,19 @@ LutFile read_lut(const std::string& path) {
         // Data window may not start at (0, 0): offset the base pointer as OpenEXR expects.
         char* base = (char*)lut.data.data() - (std::ptrdiff_t(dw.min.x) * stride + std::ptrdiff_t(dw.min.y) * stride * lut.width);
         for (std::size_t c = 0; c < nc; ++c)
-            fb.insert(kChannelNames[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * lut.width));
+            fb.insert(exr_names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * lut.width));
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
+        // Every texel is a fraction of facets: NaN, infinity or a value outside [0, 1] is corruption that
+        // a lookup would otherwise blend silently into its results.
+        for (std::size_t i = 0; i < lut.data.size(); ++i) {
+            const float v = lut.data[i];
+            if (!(v >= 0.0f && v <= 1.0f)) {
+                const std::size_t texel = i / nc, c = i % nc;
+                throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(texel / lut.width) +
+                                         ") of channel " + exr_names[c] + " is " + std::to_string(v) + ", not in [0, 1]");
+            }
+        }
     } catch (const nlohmann::json::exception& e) {
         throw std::runtime_error("cannot read LUT " + path + ": bad metadata: " + e.what());
     } catch (const std::exception& e) {

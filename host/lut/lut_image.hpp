@@ -23,7 +23,7 @@ namespace ms {
 using LutAxis = Axis;
 
 struct LutChannel {
-    std::string name;  // the file's channel name
+    std::string name;  // "R", "G", "B" or "A": the channel's place in RGBA textures (EXR: exr_channel_name)
     double roughness = 0, alpha_x = 0, alpha_y = 0;
 };
 

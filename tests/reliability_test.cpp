@@ -459,6 +459,28 @@ TEST_F(Reliability, QueryFileEncodingsAreReportedAtTheFirstBadByte) {
     }
 }
 
+TEST_F(Reliability, FuzzSeedsAreAcceptedOrRefusedCleanly) {
+    // The shapes added to the fuzz corpora (fuzz/csv-seeds, fuzz/spec-seeds) through the real CLI: each
+    // one works (exit 0) or is bad input (exit 2) with a message naming the file; never a crash.
+    const fs::path fuzz = fs::path(MICROSHADOW_SOURCE_DIR) / "fuzz";
+    std::size_t seen = 0;
+    for (const auto& [sub, command] : {std::pair<std::string, std::string>{"csv-seeds", "eval --out r.csv --in "},
+                                       std::pair<std::string, std::string>{"spec-seeds", "sweep --out o "}}) {
+        for (const auto& e : fs::directory_iterator(fuzz / sub)) {
+            ++seen;
+            const std::string file = e.path().string();
+            const auto r = run(command + sq(file) + " --backend oracle --samples 64 -q");
+            EXPECT_TRUE(r.exit_code == 0 || r.exit_code == 2) << file << ": exit " << r.exit_code << "\n" << r.output;
+            if (r.exit_code == 2) EXPECT_CONTAINS(r.output, e.path().filename().string());
+            fs::remove_all(dir_ / "o");
+            fs::remove(dir_ / "r.csv");
+            fs::remove(dir_ / "r.csv.json");
+        }
+    }
+    EXPECT_GE(seen, 20u);
+    EXPECT_TRUE(entries().empty());
+}
+
 TEST_F(Reliability, SpecDomainsAreCheckedBeforeTheRun) {
     const std::string base = "[parameters]\nvisibility = [0.5]\nn_dot_l = [0.5]\n";
     const std::vector<std::pair<std::string, std::string>> cases = {

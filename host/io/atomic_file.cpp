@@ -11,6 +11,8 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <map>
+#include <mutex>
 #include <set>
 
 namespace ms {
@@ -74,26 +76,51 @@ bool is_decimal(const std::string& s) {
 // A temporary of a run that was killed (kill -9, power loss) is never removed by that run; the next
 // run that writes the same output removes it once its process is gone. A live process with that pid
 // (possibly an unrelated one that reused it) keeps it: a stale file is harmless, a deleted one is not.
+// Each directory is listed once per process (a sweep writes thousands of chunk files into one
+// directory; listing it for each would be quadratic): the listing keeps the names that look like our
+// temporaries of dead processes, and each output removes those of its own name.
 void remove_stale_temporaries(const std::string& path) {
+    static std::mutex mutex;
+    static std::map<std::string, std::vector<std::string>> stale_by_dir;
     const std::string dir = parent_dir(path);
     const std::string base = "." + fs::path(path).filename().string() + ".";
-    DIR* d = ::opendir(dir.c_str());
-    if (!d) return;
-    while (const dirent* e = ::readdir(d)) {
-        const std::string name = e->d_name;
-        if (name.compare(0, base.size(), base) != 0) continue;
-        const std::string rest = name.substr(base.size());
-        if (rest.compare(0, 4, "tmp.") != 0 && rest.compare(0, 4, "bak.") != 0) continue;
-        const std::string pid_text = rest.substr(4);
-        if (!is_decimal(pid_text)) continue;
-        const long long pid = std::stoll(pid_text);
-        if (pid <= 0 || pid > INT_MAX || pid == ::getpid()) continue;
-        if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
-        const std::string full = (fs::path(dir) / name).string();
+    std::lock_guard<std::mutex> lock(mutex);
+    auto it = stale_by_dir.find(dir);
+    if (it == stale_by_dir.end()) {
+        std::vector<std::string> stale;
+        if (DIR* d = ::opendir(dir.c_str())) {
+            while (const dirent* e = ::readdir(d)) {
+                const std::string name = e->d_name;
+                if (name.size() < 8 || name[0] != '.') continue;
+                const auto dot = name.rfind('.');
+                const std::string pid_text = name.substr(dot + 1);
+                if (dot < 5 || !is_decimal(pid_text)) continue;
+                const std::string kind = name.substr(dot - 4, 5);  // ".tmp." or ".bak."
+                if (kind != ".tmp." && kind != ".bak.") continue;
+                const long long pid = std::stoll(pid_text);
+                if (pid <= 0 || pid > INT_MAX || pid == ::getpid()) continue;
+                if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+                stale.push_back(name);
+            }
+            ::closedir(d);
+        }
+        it = stale_by_dir.emplace(dir, std::move(stale)).first;
+    }
+    auto& names = it->second;
+    for (auto n = names.begin(); n != names.end();) {
+        // Exactly ".NAME.tmp.PID" or ".NAME.bak.PID" of this output (not of "NAME.json" when NAME is asked).
+        const bool ours = n->size() > base.size() + 4 && n->compare(0, base.size(), base) == 0 &&
+                          (n->compare(base.size(), 4, "tmp.") == 0 || n->compare(base.size(), 4, "bak.") == 0) &&
+                          is_decimal(n->substr(base.size() + 4));
+        if (!ours) {
+            ++n;
+            continue;
+        }
+        const std::string full = (fs::path(dir) / *n).string();
         struct stat st {};
         if (::lstat(full.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(full.c_str());
+        n = names.erase(n);
     }
-    ::closedir(d);
 }
 
 bool names_standard_output(const std::string& p) {
@@ -330,28 +357,33 @@ void OutputSet::commit() {
     // 3. Renames, with a hard-linked backup of each previous file so a failure part-way puts every
     //    output back as it was (both files or neither).
     std::vector<std::string> backups(entries_.size());
+    std::vector<bool> existed(entries_.size(), false);
     std::set<std::string> dirs;
     for (std::size_t i = 0; i < entries_.size(); ++i) {
         Entry& e = *entries_[i];
         if (e.target.to_stdout) continue;
         struct stat st {};
-        if (::lstat(e.target.path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) {
+        if (::lstat(e.target.path.c_str(), &st) == 0) {
+            existed[i] = true;
             const std::string bak = temp_name(e.target.path, "bak");
             ::unlink(bak.c_str());
-            if (::link(e.target.path.c_str(), bak.c_str()) == 0) backups[i] = bak;
+            if (S_ISREG(st.st_mode) && ::link(e.target.path.c_str(), bak.c_str()) == 0) backups[i] = bak;
         }
         if (std::rename(e.temp.c_str(), e.target.path.c_str()) != 0) {
             const int err = errno;
+            std::string lost;
             for (std::size_t j = 0; j < i; ++j) {
                 const Entry& done = *entries_[j];
                 if (done.target.to_stdout) continue;
                 if (!backups[j].empty()) std::rename(backups[j].c_str(), done.target.path.c_str());
-                else ::unlink(done.target.path.c_str());
+                else if (!existed[j]) ::unlink(done.target.path.c_str());
+                else lost += " " + done.target.named;  // no hard link possible here: cannot be put back
             }
             if (!backups[i].empty()) ::unlink(backups[i].c_str());
             discard();
             throw std::runtime_error("cannot rename " + e.temp + " to " + e.target.path + ": " + sys_error(err) +
-                                     "; no output was changed");
+                                     (lost.empty() ? "; no output was changed"
+                                                   : "; already replaced (the file system refused a backup link):" + lost));
         }
         dirs.insert(parent_dir(e.target.path));
     }

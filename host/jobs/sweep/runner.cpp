@@ -20,6 +20,8 @@
 #include "integrands/term/term_integrand.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
+#include "io/input_file.hpp"
+#include "io/text.hpp"
 #include "lut/lookup.hpp"
 #include "jobs/sweep/points.hpp"
 
@@ -48,13 +50,8 @@ std::string hex(std::uint64_t v) {
     return buf;
 }
 
-std::string read_all(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw std::runtime_error(path + ": cannot read");
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+// Manifests and LUT files read whole, with the input checks of io/input_file.hpp (regular files, a size limit).
+std::string read_all(const std::string& path) { return read_input_file(path, std::uint64_t(1) << 31, "file"); }
 
 std::string chunk_path(const std::string& dir, std::uint64_t c) {
     char name[64];
@@ -134,7 +131,7 @@ json read_json(const std::string& path) {
 
 void write_json(const std::string& path, const json& j) {
     AtomicFile f(path);
-    f.stream() << j.dump(1) << "\n";
+    f.stream() << dump_json(j, 1) << "\n";  // paths may hold bytes that are not UTF-8
     f.commit();
 }
 
@@ -217,27 +214,29 @@ void assemble(const std::string& out_dir, const std::string& header, std::uint64
               const std::function<std::string(std::uint64_t)>& check, json provenance) {
     for (std::uint64_t c = 0; c < chunks; ++c)
         if (const std::string problem = check(c); !problem.empty()) throw std::runtime_error(problem);
-    const std::string csv_path = (fs::path(out_dir) / "sweep.csv").string();
-    {
-        AtomicFile csv(csv_path, true);
-        csv.stream() << header << "\n";
-        for (std::uint64_t c = 0; c < chunks; ++c) {
-            std::ifstream in(chunk_file(c), std::ios::binary);
-            if (!in) throw std::runtime_error(chunk_file(c) + ": missing chunk file");
-            csv.stream() << in.rdbuf();
-        }
-        csv.commit();
+    // The four outputs appear together or not at all (one OutputSet): sweep.csv is written to its
+    // temporary, summarised from there, and renamed with the summaries and the provenance.
+    OutputSet outputs;
+    const std::size_t csv = outputs.add((fs::path(out_dir) / "sweep.csv").string(), true);
+    const std::size_t md = outputs.add((fs::path(out_dir) / "summary.md").string());
+    const std::size_t sc = outputs.add((fs::path(out_dir) / "summary.csv").string());
+    const std::size_t js = outputs.add((fs::path(out_dir) / "sweep.json").string());
+    std::ostream& out = outputs.stream(csv);
+    out << header << "\n";
+    for (std::uint64_t c = 0; c < chunks; ++c) {
+        std::ifstream in(chunk_file(c), std::ios::binary);
+        if (!in) throw std::runtime_error(chunk_file(c) + ": missing chunk file");
+        out << in.rdbuf();
     }
-    std::ifstream in(csv_path, std::ios::binary);
-    const Summary s = summarise(in, csv_path);
-    AtomicFile md((fs::path(out_dir) / "summary.md").string());
-    md.stream() << summary_markdown(s);
-    md.commit();
-    AtomicFile sc((fs::path(out_dir) / "summary.csv").string());
-    sc.stream() << summary_csv(s);
-    sc.commit();
+    out.flush();
+    if (!out) throw std::runtime_error((fs::path(out_dir) / "sweep.csv").string() + ": could not be written");
+    std::ifstream in(outputs.temp_path(csv), std::ios::binary);
+    const Summary s = summarise(in, (fs::path(out_dir) / "sweep.csv").string());
+    outputs.stream(md) << summary_markdown(s);
+    outputs.stream(sc) << summary_csv(s);
     provenance["max_std_error"] = s.max_std_error;
-    write_json((fs::path(out_dir) / "sweep.json").string(), provenance);
+    outputs.stream(js) << dump_json(provenance, 1) << "\n";
+    outputs.commit();
 }
 
 std::vector<std::string> split(const std::string& line) {

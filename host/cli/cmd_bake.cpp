@@ -133,6 +133,12 @@ void run_bake(const BakeArgs& args) {
     BakeCallbacks callbacks;
     callbacks.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
     schedule::Scheduler scheduler(bake_backend(spec));
+    // Refuse what cannot fit before computing (a 4096^3 bake used to end in bad_alloc).
+    if (const std::uint64_t need = bake_host_memory(spec, scheduler.places()), memory = physical_memory();
+        memory > 0 && need > memory / 2)
+        throw std::invalid_argument("this bake needs about " + gib(need) + " of memory (the atlas and each place's tallies), "
+                                    "more than the limit of " + gib(memory / 2) + " (half the " + gib(memory) +
+                                    " of physical memory); use fewer texels, channels or samples");
     scheduler.set_fault_injection(fault_injection_from_environment());
     const BakeResult result = bake_lut(spec, scheduler, callbacks);
     progress.finish();

@@ -28,12 +28,14 @@ std::string format_g(double v) {
     return buf;
 }
 
+}  // namespace
+
 std::string gib(std::uint64_t bytes) {
     char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3g GiB", double(bytes) / double(1ull << 30));
+    const double g = double(bytes) / double(1ull << 30);
+    std::snprintf(buf, sizeof buf, g >= 100 ? "%.0f GiB" : "%.3g GiB", g);
     return buf;
 }
-}  // namespace
 
 void set_command_line(int argc, char** argv) {
     // Each argument as a bash word (shell_quote): the record is valid UTF-8 whatever bytes the

@@ -38,6 +38,8 @@ struct SamplingOptions {
 void check_sampling_size(const SamplingPlan& plan);
 // Physical memory in bytes (sysconf), 0 when unknown.
 std::uint64_t physical_memory();
+// "1.5 GiB", for memory figures in messages.
+std::string gib(std::uint64_t bytes);
 
 // Integer options in decimal only: CLI11 reads "010" as octal 8 and "0x10" as hex; this transform
 // accepts digits only (leading zeros are decimal), rejects a sign and values outside [min, max]

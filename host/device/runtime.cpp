@@ -246,6 +246,7 @@ std::vector<DeviceInfo> enumerate_devices() {
                 info.type = device_type_name(device.getInfo<CL_DEVICE_TYPE>());
                 info.compute_units = device.getInfo<CL_DEVICE_MAX_COMPUTE_UNITS>();
                 info.global_memory = device.getInfo<CL_DEVICE_GLOBAL_MEM_SIZE>();
+                info.max_alloc = device.getInfo<CL_DEVICE_MAX_MEM_ALLOC_SIZE>();
                 info.fp64 = device.getInfo<CL_DEVICE_EXTENSIONS>().find("cl_khr_fp64") != std::string::npos;
                 info.device = device;
                 out.push_back(std::move(info));

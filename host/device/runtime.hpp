@@ -18,6 +18,7 @@ struct DeviceInfo {
     std::string platform, name, vendor, version, driver, type;
     unsigned compute_units = 0;
     std::uint64_t global_memory = 0;
+    std::uint64_t max_alloc = 0;  // CL_DEVICE_MAX_MEM_ALLOC_SIZE: the largest single buffer
     bool fp64 = false;
     cl::Device device;
 

@@ -38,6 +38,11 @@ float BakeResult::at(std::uint32_t c, std::uint32_t iv, std::uint32_t il, std::u
     return value.at(AtlasShape{width, n_dot_l_count, height / std::max(1u, n_dot_l_count), channels}.index(c, iv, il, ivv));
 }
 
+std::uint64_t bake_host_memory(const BakeSpec& spec, std::size_t places) {
+    validate(spec);
+    return lut_slice::memory_estimate(lut_slice::make_slice_plan(spec), places).host_bytes;
+}
+
 schedule::Backend bake_backend(const BakeSpec& spec) {
     if (spec.oracle) return schedule::Backend::oracle(spec.oracle_threads);
     return schedule::Backend::opencl(ocl::select_devices(spec.device));

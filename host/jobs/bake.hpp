@@ -70,6 +70,9 @@ struct BakeCallbacks {
     std::function<void(std::size_t done, std::size_t total)> progress;  // slices done
 };
 
+// The host memory a bake of this spec will need on `places` places (before anything is allocated).
+std::uint64_t bake_host_memory(const BakeSpec& spec, std::size_t places);
+
 // Where a spec's bake runs: its devices (spec.device) or the oracle (spec.oracle).
 schedule::Backend bake_backend(const BakeSpec& spec);
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <stdexcept>
 
 #include "core/cancel.hpp"
@@ -43,11 +44,28 @@ ms_bake_slice base_arguments(const SlicePlan& plan) {
     return b;
 }
 
+std::string gib(std::uint64_t bytes) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3g GiB", double(bytes) / double(1ull << 30));
+    return b;
+}
+
 // The kernel routine: one device's buffers and kernels, reused across the slices it runs.
 class DeviceSliceTallier final : public SliceTallier {
 public:
     DeviceSliceTallier(ocl::Device& device, const SlicePlan& plan) : device_(device), plan_(plan), base_(base_arguments(plan)) {
         ocl::require_build_support(device_.info(), plan.spec.build);
+        // Buffers a device cannot hold are refused here, named, with the device's limits.
+        const MemoryEstimate need = memory_estimate(plan, 1);
+        const ocl::DeviceInfo& info = device_.info();
+        for (const auto& [name, bytes] : need.device_buffers)
+            if (info.max_alloc && bytes > info.max_alloc)
+                throw std::invalid_argument("the bake's " + name + " buffer needs " + gib(bytes) + ", more than the " +
+                                            gib(info.max_alloc) + " one buffer may have on " + info.label() +
+                                            "; use fewer texels or samples");
+        if (info.global_memory && need.device_bytes() > info.global_memory)
+            throw std::invalid_argument("the bake needs " + gib(need.device_bytes()) + " on the device, more than the " +
+                                        gib(info.global_memory) + " of " + info.label());
         const std::size_t real_size = plan.spec.build.double_precision ? sizeof(double) : sizeof(float);
         ocl::checked([&] {
             normals_ = device_.kernel("lut_slice/lut_slice.cl", "ms_bake_normals", plan.spec.build);
@@ -184,6 +202,31 @@ private:
 };
 
 }  // namespace
+
+std::uint64_t MemoryEstimate::device_bytes() const {
+    std::uint64_t sum = 0;
+    for (const auto& b : device_buffers) sum += b.second;
+    return sum;
+}
+
+MemoryEstimate memory_estimate(const SlicePlan& plan, std::size_t places) {
+    const std::uint64_t real = plan.spec.build.double_precision ? 8 : 4;
+    const std::uint64_t samples = plan.batch_samples, stride = plan.nv + 1;
+    // The histogram kernel's work-items: (direction, replicate) pairs of the largest launch.
+    const std::uint64_t items = std::uint64_t(plan.directions()) * plan.replicates + kHistogramLocalSize;
+    MemoryEstimate m;
+    m.device_buffers = {{"normals", 3 * samples * real},
+                        {"points", 2 * samples * 4},
+                        {"histogram scratch", items * MS_BAKE_SUBHISTOGRAMS * (plan.nv + 2) * 4},
+                        {"counts", items * stride * 4},
+                        {"light directions", plan.wo.size() * 4}};
+    // Host: the atlas (values and errors), and per place a slice's tallies (double), the counts read
+    // back, the slice's texels, and the recent point sets (shared_point_set keeps 4).
+    const std::uint64_t atlas = plan.atlas().texels() * 2 * 4;
+    const std::uint64_t per_place = plan.tally_size() * 8 + items * stride * 4 + std::uint64_t(plan.nl) * plan.nv * 8;
+    m.host_bytes = atlas + places * per_place + 4 * samples * 8;
+    return m;
+}
 
 LutSliceIntegrand::LutSliceIntegrand(const LutSliceSpec& spec) : plan_(make_slice_plan(spec)) {
     validate(spec);

@@ -44,6 +44,16 @@ struct SliceReport {
     bool done = false;
 };
 
+// What a bake will allocate, before it allocates it: the host's share (the atlas and, per place, a
+// slice's tallies and a point set) and each device buffer of the kernel routine, so a bake that cannot
+// run is refused with the figures instead of failing with bad_alloc or CL_INVALID_BUFFER_SIZE.
+struct MemoryEstimate {
+    std::uint64_t host_bytes = 0;
+    std::vector<std::pair<std::string, std::uint64_t>> device_buffers;  // per device
+    std::uint64_t device_bytes() const;
+};
+MemoryEstimate memory_estimate(const SlicePlan& plan, std::size_t places);
+
 class LutSliceIntegrand final : public schedule::Integrand {
 public:
     explicit LutSliceIntegrand(const LutSliceSpec& spec);

@@ -121,12 +121,44 @@ std::string manifest_name(const Shard& s) {
     return "manifest.shard-" + std::to_string(s.index) + "-of-" + std::to_string(s.count) + ".json";
 }
 
+// Reads a manifest and checks its shape (what every reader below relies on), so a damaged or crafted
+// manifest is refused naming the file, never with a bare JSON type error.
 json read_json(const std::string& path) {
+    json m;
     try {
-        return json::parse(read_all(path));
+        m = json::parse(read_all(path));
     } catch (const json::exception& e) {
         throw std::runtime_error(path + ": not a valid manifest (" + e.what() + "); remove it or use --restart");
     }
+    auto bad = [&](const std::string& what) {
+        return std::runtime_error(path + ": not a valid manifest (" + what + "); remove it or use --restart");
+    };
+    if (!m.is_object()) throw bad("not a JSON object");
+    if (!m.contains("spec_hash") || !m["spec_hash"].is_string()) throw bad("no spec_hash string");
+    if (m.contains("complete") && !m["complete"].is_boolean()) throw bad("complete is not true or false");
+    if (!m.contains("finished") || !m["finished"].is_array()) throw bad("no finished list");
+    for (const auto& c : m["finished"])
+        if (!c.is_number_unsigned()) throw bad("finished holds " + c.dump() + ", not a chunk number");
+    if (m.contains("digests")) {
+        if (!m["digests"].is_object()) throw bad("digests is not an object");
+        for (const auto& [key, d] : m["digests"].items())
+            if (!d.is_object() || !d.contains("rows") || !d["rows"].is_number_unsigned() || !d.contains("fnv1a64") ||
+                !d["fnv1a64"].is_string())
+                throw bad("digest of chunk " + key + " is not {rows, fnv1a64}");
+    }
+    if (m.contains("shard")) {
+        const json& sh = m["shard"];
+        if (!sh.is_object() || !sh.contains("index") || !sh["index"].is_number_unsigned() || !sh.contains("count") ||
+            !sh["count"].is_number_unsigned() || sh["count"].get<std::uint64_t>() == 0 ||
+            sh["index"].get<std::uint64_t>() >= sh["count"].get<std::uint64_t>() || sh["count"].get<std::uint64_t>() > 1000000)
+            throw bad("shard is not {index, count} with index < count");
+    }
+    for (const char* key : {"header", "format"})
+        if (m.contains(key) && !m[key].is_string()) throw bad(std::string(key) + " is not a string");
+    for (const char* key : {"chunks", "points", "chunk_size"})
+        if (m.contains(key) && !m[key].is_number_unsigned()) throw bad(std::string(key) + " is not a count");
+    return m;
+}
 }
 
 void write_json(const std::string& path, const json& j) {
@@ -478,7 +510,11 @@ void merge_shards(const std::vector<std::string>& shard_dirs, const std::string&
             const std::string name = entry.path().filename().string();
             if (name.rfind("manifest.shard-", 0) != 0 || entry.path().extension() != ".json") continue;
             json m = read_json(entry.path().string());
-            if (m.value("format", "") != kManifestFormat) throw std::invalid_argument(entry.path().string() + ": not a sweep manifest");
+            const std::string format = m.value("format", "");
+            if (format != kManifestFormat && format != "microshadow-sweep-manifest/1")
+                throw std::invalid_argument(entry.path().string() + ": not a sweep manifest");
+            for (const char* key : {"shard", "chunks", "header", "points", "chunk_size"})
+                if (!m.contains(key)) throw std::invalid_argument(entry.path().string() + ": a shard manifest without " + key);
             const std::uint32_t i = m.at("shard").at("index"), n = m.at("shard").at("count");
             if (hash.empty()) {
                 hash = m.at("spec_hash");

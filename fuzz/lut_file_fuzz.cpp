@@ -1,0 +1,34 @@
+// libFuzzer target: LUT files as sweeps read them for comparators (issue 10, class 9). Contract:
+// read_lut either refuses with std::runtime_error (or std::invalid_argument), or returns a LUT a lookup
+// can use: three axes whose counts multiply to the image size without wrapping, 1 to 4 channels with
+// roughness in (0, 1], and every texel finite and in [0, 1].
+#include <cmath>
+#include <cstdint>
+#include <stdexcept>
+
+#include "fuzz_common.hpp"
+#include "lut/exr_lut.hpp"
+#include "lut/lookup.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+    const std::string& path = ms::fuzz::scratch_path(".exr");
+    ms::fuzz::write_scratch(path, data, size);
+    try {
+        const ms::LutFile lut = ms::read_lut(path);
+        if (lut.axes.size() != 3) ms::fuzz::finding("a LUT without three axes accepted");
+        const std::uint64_t texels = std::uint64_t(lut.visibility().count) * lut.n_dot_l().count * lut.n_dot_v().count;
+        if (texels != std::uint64_t(lut.width) * lut.height) ms::fuzz::finding("axis counts that do not make the image accepted");
+        if (lut.data.size() != texels * lut.channels.size()) ms::fuzz::finding("data size differs from the axes");
+        if (lut.channels.empty() || lut.channels.size() > 4) ms::fuzz::finding("channel count outside 1..4 accepted");
+        for (const auto& c : lut.channels)
+            if (!(c.roughness > 0 && c.roughness <= 1)) ms::fuzz::finding("roughness outside (0, 1] accepted");
+        for (float v : lut.data)
+            if (!(v >= 0 && v <= 1)) ms::fuzz::finding("a texel outside [0, 1] (or NaN) accepted");
+        const ms::sweep::LutLookup lookup(lut);
+        const double v = lookup(0.5, 0.5, 0.5, 0.5);
+        if (!(v >= 0 && v <= 1)) ms::fuzz::finding("a lookup outside [0, 1]");
+    } catch (const std::runtime_error&) {
+    } catch (const std::invalid_argument&) {
+    }
+    return 0;
+}

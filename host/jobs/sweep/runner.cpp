@@ -159,7 +159,6 @@ json read_json(const std::string& path) {
         if (m.contains(key) && !m[key].is_number_unsigned()) throw bad(std::string(key) + " is not a count");
     return m;
 }
-}
 
 void write_json(const std::string& path, const json& j) {
     AtomicFile f(path);

@@ -3,7 +3,12 @@
 // and seed-2d 4096 with 2^30 samples blamed the device (CL_INVALID_BUFFER_SIZE).
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <chrono>
+#include <cstdlib>
 
 #include "cli_runner.hpp"
 #include "jobs/bake.hpp"
@@ -33,6 +38,34 @@ TEST(BakeLimits, TheEstimateGrowsWithTheLayoutAndCoversTheAtlas) {
     EXPECT_GE(a, std::uint64_t(16) * 16 * 16 * 4 * 8);  // values and errors, 4 bytes each
     EXPECT_GE(b, std::uint64_t(64) * 64 * 64 * 4 * 8);
     EXPECT_GT(bake_host_memory(big, 2), b);  // each place holds a slice's tallies
+}
+
+// Peak resident memory (KiB) of `command` run through sh, from the kernel's accounting (wait4).
+long peak_rss_kib(const std::string& command) {
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+        ::execl("/bin/sh", "sh", "-c", command.c_str(), static_cast<char*>(nullptr));
+        ::_exit(127);
+    }
+    int status = 0;
+    struct rusage usage {};
+    if (pid < 0 || ::wait4(pid, &status, 0, &usage) != pid || !WIFEXITED(status) || WEXITSTATUS(status) != 0) return -1;
+    return usage.ru_maxrss;
+}
+
+TEST(BakeLimits, MemoryStaysFlatHoweverManyBatchesAToleranceAsksFor) {
+    // Class 11: every batch's point set was kept for the whole bake (a 2 x 2 seed-2d bake with
+    // --tolerance 1e-7 --max-batches 4096 reached 4.29 GB, about 1 MB a batch). 16 and 256 batches
+    // must now peak within 20 MB of each other (240 batches at ~1 MB each would add ~240 MB).
+    const std::string base = "POCL_CACHE_DIR=" + (std::filesystem::temp_directory_path() / "pocl-cache-limits").string() +
+                             " exec " + MICROSHADOW_CLI + " bake -q --layout seed-2d --size 2 --tolerance 1e-7 --out " +
+                             (std::filesystem::temp_directory_path() / "microshadow_limits_tol.exr").string() +
+                             " --max-batches ";
+    const long few = peak_rss_kib(base + "16"), many = peak_rss_kib(base + "256");
+    ASSERT_GT(few, 0);
+    ASSERT_GT(many, 0);
+    EXPECT_LT(many - few, 20 * 1024) << "peak RSS " << few << " KiB at 16 batches, " << many << " KiB at 256";
+    std::filesystem::remove(std::filesystem::temp_directory_path() / "microshadow_limits_tol.exr");
 }
 
 }  // namespace

@@ -54,6 +54,8 @@ int main(int argc, char** argv) {
         ->check(CLI::IsMember({"build-time", "throughput", "error", "bake", "bake-speed"}));
     ms::bench::Options speed;
     app.add_option("--speed-reps", speed.speed_reps, "bake-speed: interleaved repetitions");
+    app.add_option("--speed-tight", speed.speed_tight_texels, "bake-speed: texels of the tight reference (0: none)");
+    app.add_option("--speed-tight-samples", speed.speed_tight_samples, "bake-speed: its samples per azimuth node");
     app.add_option("--speed-old", speed.speed_old_samples, "bake-speed: samples per slice of the old default")->delimiter(',');
     app.add_option("--speed-old-k8", speed.speed_old_k8_samples, "bake-speed: samples of the old --azimuth-intervals 8")->delimiter(',');
     app.add_option("--speed-new", speed.speed_new_samples, "bake-speed: samples of stratified K=32")->delimiter(',');

@@ -10,6 +10,7 @@
 // found from a pilot run: se scales as N^(-1/2) for random points.
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <cmath>
 #include <ostream>
 #include <sstream>
@@ -330,13 +331,14 @@ BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& 
 
     std::vector<SpeedConfig> configs;
     auto add = [&](const std::string& method, bool old_path, std::uint64_t samples, std::uint32_t intervals,
-                   std::uint32_t cells) {
+                   std::uint32_t cells, double tolerance = 0) {
         SpeedConfig c;
         c.method = method;
         c.old_path = old_path;
         c.spec = base;
         c.spec.samples = samples;
-        if (old_path) {
+        c.spec.tolerance = tolerance;
+        if (old_path || cells == 0) {
             c.spec.azimuth_intervals = intervals;
         } else {
             c.spec.azimuth_quadrature = AzimuthQuadrature::stratified;
@@ -352,6 +354,9 @@ BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& 
         for (std::uint64_t n : opt.speed_old_k8_samples) add("nodes K=8", true, n, 8, 0);
         for (std::uint64_t n : opt.speed_new_samples) add("stratified K=32", false, n, 0, 32);
         for (std::uint64_t n : opt.speed_k16_samples) add("stratified K=16", false, n, 0, 16);
+        // --tolerance (whole slices; 16384-sample batches): old path and stratified.
+        for (double t : opt.speed_old_tolerances) add("nodes adaptive, --tolerance", true, 16384, 0, 0, t);
+        for (double t : opt.speed_new_tolerances) add("stratified K=32, --tolerance", false, 16384, 0, 32, t);
     }
     const int reps = opt.smoke ? 1 : opt.speed_reps;
     for (int rep = 0; rep < reps; ++rep)
@@ -404,7 +409,11 @@ BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& 
                           "normals_s", "histogram_s", "reduce_s", "increments", "increments_per_histogram_s"};
     for (const auto& c : configs) {
         const double w = median(c.wall);
-        out.curves.rows.push_back({c.method, std::to_string(c.last.samples_per_batch), fmt(w, 4),
+        const std::string samples = c.spec.tolerance > 0 ? std::to_string(c.last.samples_per_batch) + "x" +
+                                                               std::to_string(c.last.batches) + "/" +
+                                                               std::to_string(c.last.slices) + " tol " + fmt(c.spec.tolerance, 2)
+                                                         : std::to_string(c.last.samples_per_batch);
+        out.curves.rows.push_back({c.method, samples, fmt(w, 4),
                                    fmt(*std::min_element(c.wall.begin(), c.wall.end()), 4),
                                    fmt(*std::max_element(c.wall.begin(), c.wall.end()), 4), fmt(median(c.cpu), 4),
                                    fmt(c.max_error, 3), fmt(c.rms_error, 3), fmt(c.max_tight, 3), fmt(c.rms_tight, 3),
@@ -459,6 +468,41 @@ BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& 
             << fmt(double(c.increments) / std::max(1e-9, c.histogram) , 3) << "/s), host reduction " << fmt(c.reduce, 3)
             << " s, rest " << fmt(median(c.wall) - c.normals - c.histogram - c.reduce, 3) << " s (scheduler, set-up, result);"
             << " worst texel " << c.worst << "\n";
+    // Agreement of the LUTs, all sampled texels: the old default at its largest budget against each
+    // stratified configuration at its largest budget (independent points: seed 0 both, different sets).
+    const SpeedConfig* old_big = nullptr;
+    for (const auto& c : configs)
+        if (c.old_path && c.spec.azimuth_intervals == 0 && c.spec.tolerance == 0 &&
+            (!old_big || c.spec.samples > old_big->spec.samples))
+            old_big = &c;
+    std::map<std::string, const SpeedConfig*> new_big;
+    for (const auto& c : configs)
+        if (!c.old_path && (!new_big[c.method] || c.spec.samples > new_big[c.method]->spec.samples)) new_big[c.method] = &c;
+    if (old_big)
+        for (const auto& [method, nb] : new_big) {
+            const BakeResult &a = old_big->last, &b = nb->last;
+            std::size_t n = 0, over = 0;
+            double worst_z = 0, worst_diff = 0;
+            std::size_t worst_at = 0;
+            std::vector<double> zs;
+            for (std::size_t i = 0; i < a.value.size(); ++i) {
+                if (a.std_error[i] <= 0 || b.std_error[i] <= 0) continue;
+                const double se = std::sqrt(double(a.std_error[i]) * a.std_error[i] + double(b.std_error[i]) * b.std_error[i]);
+                const double diff = std::fabs(double(a.value[i]) - b.value[i]);
+                zs.push_back(diff / se);
+                ++n;
+                worst_diff = std::max(worst_diff, diff);
+                if (diff / se > worst_z) worst_z = diff / se, worst_at = i;
+            }
+            const double t = student_t_quantile(1 - 1e-3 / double(std::max<std::size_t>(n, 1)), int(base.replicates) - 1);
+            for (double z : zs) over += z > t;
+            const std::size_t texel = worst_at / a.channels, y = texel / a.width;
+            rep << "agreement: old default at " << old_big->spec.samples << " samples vs " << method << " at " << nb->spec.samples
+                << ": " << n << " sampled texels, max |diff| " << fmt(worst_diff, 2) << ", max z " << fmt(worst_z, 3)
+                << " (Bonferroni 99.9% t bound " << fmt(t, 3) << ", " << over << " texels above it; median z "
+                << fmt(median(zs), 2) << "); worst at channel " << worst_at % a.channels << " v " << texel % a.width
+                << " NdotL " << y % a.n_dot_l_count << " NdotV " << y / a.n_dot_l_count << "\n";
+        }
     out.report = rep.str();
     return out;
 }

@@ -59,6 +59,7 @@ struct Options {
     // The bake-speed benchmark's ladders (samples per slice) and repetitions.
     std::vector<std::uint64_t> speed_old_samples{4096, 16384, 65536}, speed_old_k8_samples{16384};
     std::vector<std::uint64_t> speed_new_samples{4096, 16384, 65536, 262144, 1048576}, speed_k16_samples{16384, 65536};
+    std::vector<double> speed_old_tolerances{}, speed_new_tolerances{};
     int speed_reps = 3;
     std::size_t speed_tight_texels = 32;            // texels of the tight reference (0: none)
     std::uint64_t speed_tight_samples = 1ull << 22;  // its samples per azimuth node

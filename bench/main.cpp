@@ -53,6 +53,8 @@ int main(int argc, char** argv) {
     app.add_option("--only", only, "run these benchmarks: build-time, throughput, error, bake, bake-speed")
         ->check(CLI::IsMember({"build-time", "throughput", "error", "bake", "bake-speed"}));
     ms::bench::Options speed;
+    app.add_option("--speed-old-tol", speed.speed_old_tolerances, "bake-speed: --tolerance values, old default")->delimiter(',');
+    app.add_option("--speed-new-tol", speed.speed_new_tolerances, "bake-speed: --tolerance values, stratified K=32")->delimiter(',');
     app.add_option("--speed-reps", speed.speed_reps, "bake-speed: interleaved repetitions");
     app.add_option("--speed-tight", speed.speed_tight_texels, "bake-speed: texels of the tight reference (0: none)");
     app.add_option("--speed-tight-samples", speed.speed_tight_samples, "bake-speed: its samples per azimuth node");

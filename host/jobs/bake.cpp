@@ -123,8 +123,9 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
             for (const auto& [k, n] : r.azimuth_rows_by_intervals) rows[std::to_string(k)] = n;
             m["azimuth_rows_by_intervals"] = rows;
         }
-        // max over sampled rows of |T_k/2 - T_k| (same points) at the intervals k the row used.
-        m["azimuth_quadrature_error"] = r.azimuth_quadrature_error;
+        // max over sampled rows of |T_k/2 - T_k| (same points) at the intervals k the row used; the
+        // stratified midpoint rule has no nested estimate (docs/bench/bake_time_to_error.md).
+        if (!r.azimuth_cells) m["azimuth_quadrature_error"] = r.azimuth_quadrature_error;
     } else {
         m["azimuth"] = spec.azimuth_degrees;
     }

@@ -56,6 +56,13 @@ struct Options {
     std::string out_dir;  // where CSVs go; empty: none written
     bool smoke = false;   // tiny sizes: a test that the code runs, not a measurement
     std::ostream* log = nullptr;
+    // The bake-speed benchmark's ladders (samples per slice) and repetitions.
+    std::vector<std::uint64_t> speed_old_samples{4096, 16384, 65536}, speed_old_k8_samples{16384};
+    std::vector<std::uint64_t> speed_new_samples{4096, 16384, 65536, 262144, 1048576}, speed_k16_samples{16384, 65536};
+    std::vector<double> speed_old_tolerances{}, speed_new_tolerances{};
+    int speed_reps = 3;
+    std::size_t speed_tight_texels = 32;            // texels of the tight reference (0: none)
+    std::uint64_t speed_tight_samples = 1ull << 22;  // its samples per azimuth node
 };
 
 // A result table: printed aligned, written as CSV.
@@ -106,5 +113,14 @@ struct BakeBenchResult {
     double bake_seconds = 0, bake_max_error = 0, naive_seconds_per_texel = 0, naive_extrapolated = 0, speedup = 0;
 };
 BakeBenchResult run_bake(const Options& opt, const std::vector<RefEntry>& reference, std::vector<ErrorPoint>* error_points);
+
+// Issue 14: time-to-error curves of the bake, the azimuth-node quadrature (old) against the
+// azimuth-stratified one (new), interleaved repetitions, both targets and a per-stage breakdown.
+struct BakeSpeedResult {
+    Table curves;
+    std::string report;
+    double speedup_1e3 = 0, seconds_1e4 = 0;
+};
+BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& reference);
 
 }  // namespace ms::bench

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -49,8 +50,18 @@ int main(int argc, char** argv) {
     std::string out_dir, device = "default", reference = ms::bench::default_reference_path(), make_reference;
     std::vector<std::string> only;
     app.add_flag("--all", all, "run every benchmark");
-    app.add_option("--only", only, "run these benchmarks: build-time, throughput, error, bake")
-        ->check(CLI::IsMember({"build-time", "throughput", "error", "bake"}));
+    app.add_option("--only", only, "run these benchmarks: build-time, throughput, error, bake, bake-speed")
+        ->check(CLI::IsMember({"build-time", "throughput", "error", "bake", "bake-speed"}));
+    ms::bench::Options speed;
+    app.add_option("--speed-old-tol", speed.speed_old_tolerances, "bake-speed: --tolerance values, old default")->delimiter(',');
+    app.add_option("--speed-new-tol", speed.speed_new_tolerances, "bake-speed: --tolerance values, stratified K=32")->delimiter(',');
+    app.add_option("--speed-reps", speed.speed_reps, "bake-speed: interleaved repetitions");
+    app.add_option("--speed-tight", speed.speed_tight_texels, "bake-speed: texels of the tight reference (0: none)");
+    app.add_option("--speed-tight-samples", speed.speed_tight_samples, "bake-speed: its samples per azimuth node");
+    app.add_option("--speed-old", speed.speed_old_samples, "bake-speed: samples per slice of the old default")->delimiter(',');
+    app.add_option("--speed-old-k8", speed.speed_old_k8_samples, "bake-speed: samples of the old --azimuth-intervals 8")->delimiter(',');
+    app.add_option("--speed-new", speed.speed_new_samples, "bake-speed: samples of stratified K=32")->delimiter(',');
+    app.add_option("--speed-k16", speed.speed_k16_samples, "bake-speed: samples of stratified K=16")->delimiter(',');
     app.add_option("--out", out_dir, "write the CSVs and the plot into this directory (must exist)")
         ->check(CLI::ExistingDirectory);
     app.add_option("--device", device, "OpenCL device: default|all|N|name");
@@ -78,7 +89,7 @@ int main(int argc, char** argv) {
             std::cerr << "nothing to run: give --all, --only NAME or --make-reference PATH (see --help)\n";
             return 2;
         }
-        ms::bench::Options opt;
+        ms::bench::Options opt = speed;
         opt.device = device;
         opt.out_dir = out_dir;
         opt.smoke = smoke;
@@ -108,6 +119,20 @@ int main(int argc, char** argv) {
             std::cout << "bake: fastest 64^3 x 4 bake at max error <= 1e-3: " << ms::bench::fmt(bb.bake_seconds, 4)
                       << " s (target 2 s); naive per-texel bake: " << ms::bench::fmt(bb.naive_extrapolated, 4)
                       << " s; speed-up " << ms::bench::fmt(bb.speedup, 4) << "x (target 10000x)\n";
+        }
+        // Not part of --all (several minutes): --only bake-speed.
+        if (std::find(only.begin(), only.end(), "bake-speed") != only.end()) {
+            const auto bs = ms::bench::run_bake_speed(opt, ref);
+            bs.curves.print(std::cout);
+            std::cout << bs.report;
+            if (!out_dir.empty()) {
+                bs.curves.write_csv(csv("bake_time_to_error.csv"));
+                std::ofstream(csv("bake_speed_report.txt")) << bs.report;
+                const std::string cmd = "/usr/bin/python3 '" + std::string(MICROSHADOW_BENCH_DIR) +
+                                        "/plot_bake_time_to_error.py' '" + csv("bake_time_to_error.csv") + "' '" +
+                                        csv("bake_time_to_error.png") + "'";
+                if (std::system(cmd.c_str()) != 0) throw std::runtime_error("plotting failed: " + cmd);
+            }
         }
         if (!points.empty()) {
             write_error_points(csv("error_vs_time.csv"), points);

@@ -17,10 +17,10 @@ namespace ms::cli {
 namespace {
 
 struct BakeArgs {
-    std::string layout = "seed-3d", out, preview, texel = "centres", azimuth = "mean";
+    std::string layout = "seed-3d", out, preview, texel = "centres", azimuth = "mean", azimuth_quadrature = "nodes";
     std::uint32_t size = 32, size_visibility = 0, size_n_dot_l = 0, size_n_dot_v = 0;
     std::vector<double> roughness, visibility_range, n_dot_l_range, n_dot_v_range;
-    std::uint32_t azimuth_intervals = 0, max_batches = 64, verify = 0;
+    std::uint32_t azimuth_intervals = 0, azimuth_cells = 32, max_batches = 64, verify = 0;
     double tolerance = 0;
     bool half = false;
     SamplingOptions sampling;
@@ -82,6 +82,14 @@ BakeSpec make_spec(const BakeArgs& a) {
     if (given(a.cmd, "--azimuth-intervals") && !s.azimuth_mean)
         throw std::invalid_argument("--azimuth-intervals applies to --azimuth mean only");
     s.azimuth_intervals = a.azimuth_intervals;
+    s.azimuth_quadrature = parse_azimuth_quadrature(a.azimuth_quadrature);
+    if ((given(a.cmd, "--azimuth-quadrature") || given(a.cmd, "--azimuth-cells")) && !s.azimuth_mean)
+        throw std::invalid_argument("--azimuth-quadrature and --azimuth-cells apply to --azimuth mean only");
+    if (given(a.cmd, "--azimuth-cells") && s.azimuth_quadrature != AzimuthQuadrature::stratified)
+        throw std::invalid_argument("--azimuth-cells applies to --azimuth-quadrature stratified only");
+    if (given(a.cmd, "--azimuth-intervals") && s.azimuth_quadrature == AzimuthQuadrature::stratified)
+        throw std::invalid_argument("--azimuth-intervals applies to --azimuth-quadrature nodes only");
+    s.azimuth_cells = a.azimuth_cells;
     const SamplingPlan plan = a.sampling.plan();
     s.term = a.sampling.term_options();
     s.sequence = plan.sequence;
@@ -111,6 +119,7 @@ BakeSpec make_spec(const BakeArgs& a) {
 // "azimuth nodes per row: 5 (7267 rows), 9 (5425 rows)" (adaptive bakes choose per row), or
 // "1 azimuth node" for a fixed angle.
 std::string azimuth_summary(const BakeResult& result) {
+    if (result.azimuth_cells) return std::to_string(result.azimuth_cells) + " azimuth cells (stratified)";
     if (result.azimuth_rows_by_intervals.empty()) return std::to_string(result.azimuth_nodes) + " azimuth node(s)";
     std::string s = "azimuth nodes per row:";
     const char* sep = " ";
@@ -210,6 +219,14 @@ void add_bake_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--azimuth-intervals", a->azimuth_intervals, "trapezoid intervals of --azimuth mean (default: measured)")
         ->transform(decimal_range(1, 256));
+    cmd->add_option("--azimuth-quadrature", a->azimuth_quadrature,
+                    "--azimuth mean by trapezoid nodes (every sample at every node) or stratified (each sample at one "
+                    "azimuth cell's midpoint: one histogram pass per row)")
+        ->check(CLI::IsMember({"nodes", "stratified"}))
+        ->capture_default_str();
+    cmd->add_option("--azimuth-cells", a->azimuth_cells, "cells of --azimuth-quadrature stratified (a power of two)")
+        ->transform(decimal_range(2, 256))
+        ->capture_default_str();
     cmd->add_option("--roughness", a->roughness, "custom layout: 1 to 4 roughness values in (0, 1] (channels R, G, B, A)")
         ->delimiter(',');
     cmd->add_option("--visibility-range", a->visibility_range, "custom layout: MIN,MAX of the visibility axis")->delimiter(',');

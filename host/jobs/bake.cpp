@@ -76,6 +76,7 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
     result.slices = plan.slices();
     result.samples_per_batch = plan.batch_samples;
     result.azimuth_nodes = std::uint32_t(plan.node_degrees.size());
+    result.azimuth_cells = plan.cells;
     for (std::uint32_t il = 0; il < plan.nl; ++il)
         for (std::uint32_t iv = 0; iv < plan.nv; ++iv) {
             const std::uint8_t s = plan.texel(il, iv);
@@ -89,6 +90,9 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
     for (const auto& r : integrand.reports()) {
         result.max_std_error = std::max(result.max_std_error, r.max_std_error);
         result.device_seconds += r.device_seconds;
+        result.normals_seconds += r.normals_seconds;
+        result.histogram_seconds += r.histogram_seconds;
+        result.reduce_seconds += r.reduce_seconds;
         result.batches += r.batches;
         max_batches_used = std::max<std::uint64_t>(max_batches_used, r.batches);
         result.sample_node_rows += r.histogram_updates;
@@ -107,7 +111,10 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     m["layout"] = to_string(spec.layout);
     if (spec.azimuth_mean) {
         m["azimuth"] = "mean";
-        if (spec.azimuth_intervals) {
+        if (r.azimuth_cells) {
+            m["azimuth_quadrature"] = "stratified: midpoint rule over cells of [0, 180] degrees, each cell's own samples";
+            m["azimuth_cells"] = r.azimuth_cells;
+        } else if (spec.azimuth_intervals) {
             m["azimuth_nodes"] = spec.azimuth_intervals + 1;
             m["azimuth_quadrature"] = "trapezoid on [0, 180] degrees";
         } else {
@@ -121,8 +128,9 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
             for (const auto& [k, n] : r.azimuth_rows_by_intervals) rows[std::to_string(k)] = n;
             m["azimuth_rows_by_intervals"] = rows;
         }
-        // max over sampled rows of |T_k/2 - T_k| (same points) at the intervals k the row used.
-        m["azimuth_quadrature_error"] = r.azimuth_quadrature_error;
+        // max over sampled rows of |T_k/2 - T_k| (same points) at the intervals k the row used; the
+        // stratified midpoint rule has no nested estimate (docs/bench/bake_time_to_error.md).
+        if (!r.azimuth_cells) m["azimuth_quadrature_error"] = r.azimuth_quadrature_error;
     } else {
         m["azimuth"] = spec.azimuth_degrees;
     }

@@ -51,12 +51,16 @@ struct BakeResult {
     std::uint64_t max_samples_per_slice = 0;  // samples of the most sampled slice (all replicates)
     std::uint64_t samples_per_batch = 0;
     std::uint32_t azimuth_nodes = 1;
+    std::uint32_t azimuth_cells = 0;      // stratified azimuth: cells per row (0: nodes or a fixed angle)
     bool tolerance_met = true;
     std::uint64_t rerun_chunks = 0;       // chunks rerun after a device failed
     std::vector<std::string> devices;     // labels of the devices used
     std::vector<std::string> failed_devices;
     double seconds = 0;
     double device_seconds = 0;            // summed kernel time of all chunks (wall time of the waits)
+    // The same split by stage, summed over slices (integrands/lut_slice SliceReport): point sets and
+    // normals kernel, histogram kernel and read-back, host reduction of the tallies.
+    double normals_seconds = 0, histogram_seconds = 0, reduce_seconds = 0;
     std::uint64_t sample_node_rows = 0;   // histogram updates performed: samples x rows x azimuth nodes
     // Azimuth quadrature estimate: max over sampled (slice, row) of |T_K/2 - T_K| at the K used (0 when
     // K is odd or a fixed angle), and how many (slice, row) pairs ended at each K (adaptive or fixed).

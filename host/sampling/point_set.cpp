@@ -25,6 +25,9 @@ float to_unit_float(std::uint32_t bits) { return float(bits >> 8) * (1.0f / 1677
 
 bool is_power_of_two(std::uint64_t x) { return x && !(x & (x - 1)); }
 
+// The per-replicate key every scramble seed of replicate r derives from.
+std::uint64_t replicate_key(std::uint64_t seed, std::uint32_t r) { return mix64(seed ^ mix64(r + 1)); }
+
 }  // namespace
 
 std::uint32_t reverse_bits(std::uint32_t x) {
@@ -78,7 +81,7 @@ PointSet make_point_set(const SamplingPlan& plan) {
     // Replicates are independent: generate them on all hardware threads (the output does not depend
     // on the thread count).
     auto generate = [&](std::uint32_t r) {
-        const std::uint64_t rep_key = mix64(plan.seed ^ mix64(r + 1));
+        const std::uint64_t rep_key = replicate_key(plan.seed, r);
         const std::uint32_t seed0 = std::uint32_t(mix64(rep_key ^ 0x51));
         const std::uint32_t seed1 = std::uint32_t(mix64(rep_key ^ 0xa3));
         float* u1 = ps.u1.data() + std::uint64_t(r) * n;
@@ -110,18 +113,60 @@ PointSet make_point_set(const SamplingPlan& plan) {
     return ps;
 }
 
-std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan) {
-    using Key = std::tuple<int, std::uint64_t, std::uint32_t, std::uint64_t>;
+std::uint32_t sobol_pascal(std::uint32_t i) {
+    // Direction numbers of Sobol's dimension 2 (primitive polynomial x + 1): v_0 = 1/2,
+    // v_j = v_{j-1} ^ (v_{j-1} >> 1); bit j of i selects v_j.
+    std::uint32_t v = 0x80000000u, x = 0;
+    for (; i; i >>= 1, v ^= v >> 1)
+        if (i & 1u) x ^= v;
+    return x;
+}
+
+PointSet make_cell_point_set(const SamplingPlan& plan, std::uint32_t cells) {
+    PointSet ps = make_point_set(plan);
+    const std::uint32_t n = ps.points_per_replicate;
+    if (!is_power_of_two(cells) || std::uint64_t(cells) * 16 > n)
+        throw std::invalid_argument("azimuth cells must be a power of two with 16 points per cell and replicate (" +
+                                    std::to_string(cells) + " cells, " + std::to_string(n) + " points per replicate)");
+    if (cells == 1 || plan.sequence != Sequence::sobol) return ps;  // random: index blocks are the cells
+    int k = 0;
+    while ((1u << k) < cells) ++k;
+    const std::uint32_t per_cell = n / cells;
+    std::vector<std::uint32_t> cell(n), next(cells);
+    std::vector<float> u1(n), u2(n);
+    for (std::uint32_t r = 0; r < ps.replicates; ++r) {
+        const std::uint32_t seed2 = std::uint32_t(mix64(replicate_key(plan.seed, r) ^ 0xc7));
+        for (std::uint32_t c = 0; c < cells; ++c) next[c] = c * per_cell;
+        float* a = ps.u1.data() + std::uint64_t(r) * n;
+        float* b = ps.u2.data() + std::uint64_t(r) * n;
+        for (std::uint32_t i = 0; i < n; ++i) {
+            const std::uint32_t c = owen_scramble(sobol_pascal(i), seed2) >> (32 - k);
+            // A (0,m,3)-net puts exactly n / cells points into every slab of u3: a full cell is a bug.
+            if (next[c] >= (c + 1) * per_cell) throw std::logic_error("make_cell_point_set: uneven cells");
+            u1[next[c]] = a[i];
+            u2[next[c]] = b[i];
+            ++next[c];
+        }
+        std::copy(u1.begin(), u1.end(), a);
+        std::copy(u2.begin(), u2.end(), b);
+    }
+    return ps;
+}
+
+std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan) { return shared_point_set(plan, 0); }
+
+std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan, std::uint32_t cells) {
+    using Key = std::tuple<int, std::uint64_t, std::uint32_t, std::uint64_t, std::uint32_t>;
     static std::mutex mutex;
     static std::list<std::pair<Key, std::shared_ptr<const PointSet>>> recent;  // most recent first
-    const Key key{int(plan.sequence), plan.samples, plan.replicates, plan.seed};
+    const Key key{int(plan.sequence), plan.samples, plan.replicates, plan.seed, cells};
     std::lock_guard<std::mutex> lock(mutex);
     for (auto it = recent.begin(); it != recent.end(); ++it)
         if (it->first == key) {
             recent.splice(recent.begin(), recent, it);
             return recent.front().second;
         }
-    auto points = std::make_shared<const PointSet>(make_point_set(plan));
+    auto points = std::make_shared<const PointSet>(cells ? make_cell_point_set(plan, cells) : make_point_set(plan));
     recent.emplace_front(key, points);
     // A handful of plans covers a bake's batches or a sweep's chunks; bound the memory.
     if (recent.size() > 4) recent.pop_back();

@@ -39,6 +39,24 @@ PointSet make_point_set(const SamplingPlan& plan);
 // again. Keeps the few most recently used plans; thread-safe.
 std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan);
 
+// Azimuth-stratified bakes (integrands/lut_slice, --azimuth-quadrature stratified): the points of
+// make_point_set(plan), each replicate reordered cell-major into `cells` cells of n / cells points
+// (cell c = points [c n / cells, (c + 1) n / cells) of the replicate, in increasing index i within a
+// cell). cells is a power of two <= n / 16. sobol: the cell is the top log2(cells) bits of a third
+// coordinate u3(i) = owen_scramble(sobol_pascal(i)) with its own independent scramble, so that
+// (i / n, radical_inverse(i), u3) is a scrambled (0,m,3)-net in base 2 (a (0,2)-sequence, Sobol's first two
+// dimensions, with i / n appended): the points of one cell are then themselves a scrambled
+// (0, m - log2(cells), 2)-net in (u1, u2), and the cells split the net evenly. random: cell c is the
+// block of indices [c n / cells, (c + 1) n / cells) (independent points: any split is as good).
+// Throws std::invalid_argument on a bad plan or cell count.
+PointSet make_cell_point_set(const SamplingPlan& plan, std::uint32_t cells);
+// Cached like shared_point_set (cells 0: shared_point_set(plan) itself).
+std::shared_ptr<const PointSet> shared_point_set(const SamplingPlan& plan, std::uint32_t cells);
+
+// The generator matrix of Sobol's second dimension (upper-triangular Pascal matrix mod 2) applied to
+// the bits of i, as a 0.32 fixed-point fraction; exposed for tests.
+std::uint32_t sobol_pascal(std::uint32_t i);
+
 // The building blocks, exposed for tests.
 std::uint32_t reverse_bits(std::uint32_t x);
 std::uint32_t owen_scramble(std::uint32_t x, std::uint32_t seed);

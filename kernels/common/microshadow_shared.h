@@ -77,7 +77,8 @@ typedef struct ms_bake_slice {
     ms_u32 directions; /* number of wo directions (float4 each: x, y, z, unused) */
     ms_u32 texels;     /* visibility texel count nv */
     ms_u32 ao_weighting;
-    ms_u32 pad0, pad1, pad2; /* 64 bytes */
+    ms_u32 cell_points; /* azimuth-stratified bakes: points per cell and replicate (0: every point, one per direction) */
+    ms_u32 pad1, pad2;  /* 64 bytes */
 } ms_bake_slice;
 
 /* The histogram kernel keeps this many interleaved copies of each histogram so that consecutive

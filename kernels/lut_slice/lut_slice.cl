@@ -21,6 +21,11 @@
  * work-item, which reads the normals in sixteen-lane blocks, bins them with vector arithmetic and
  * scatters into a per-work-item histogram in global scratch memory (private to the work-item, no atomics).
  *
+ * Azimuth-stratified bakes (p.cell_points > 0, host/integrands/lut_slice/azimuth_quadrature.hpp): each
+ * replicate's points are stored cell-major (cell c: points [c cell_points, (c + 1) cell_points)), a
+ * direction is one (row, cell) light at the cell's midpoint azimuth, wo.w holds its cell index, and its
+ * work-item bins only that cell's points: every sample is binned once per row instead of once per node.
+ *
  * Preamble (prepended by the host, device/runtime.cpp): common/microshadow_shared.h, real.cl,
  * sincos.cl, vndf.cl, cone.cl.
  */
@@ -44,7 +49,8 @@ __kernel void ms_bake_normals(const ms_bake_slice p, __global const float* u1, _
 }
 
 /*
- * Global id g = direction * replicates + replicate. Writes counts[g * (nv + 1) + j] = cone count of
+ * Global id g = direction * replicates + replicate (the direction's points: all of the replicate, or
+ * the cell wo[direction].w of it when p.cell_points > 0). Writes counts[g * (nv + 1) + j] = cone count of
  * texel j (j < nv) and counts[g * (nv + 1) + nv] = hemisphere count. scratch holds
  * MS_BAKE_SUBHISTOGRAMS * (nv + 2) uints per work-item.
  */
@@ -66,8 +72,9 @@ __kernel void ms_bake_histogram(const ms_bake_slice p, __global const float4* wo
     const real vis_min = p.vis_min, bin_scale = p.bin_scale, bin_offset = p.bin_offset;
     /* Consecutive lanes go to different sub-histograms (see MS_BAKE_SUBHISTOGRAMS). */
     const int16 lane_copy = (int16)(0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3, 0, 1, 2, 3) * (int)stride;
-    const uint first = replicate * p.points;
-    for (uint i = first; i < first + p.points; i += MS_LANES) {
+    const uint count = p.cell_points ? p.cell_points : p.points;
+    const uint first = replicate * p.points + (uint)lf.w * count;
+    for (uint i = first; i < first + count; i += MS_LANES) {
         const real16 mx = vload16(0, nx + i), my = vload16(0, ny + i), mz = vload16(0, nz + i);
         const real16 m_dot_l = fma(mx, l.x, fma(my, l.y, mz * l.z));
         const real16 t = fmin(mz, m_dot_l);

@@ -9,6 +9,15 @@
 // A texel's value is the node-weighted mean of the pooled ratios and its error the replicate spread of
 // the same mean (core/estimate.hpp's ReplicateRatioMean): the mean of the term over the azimuth, not a
 // ratio of means.
+//
+// Azimuth-stratified plans (cells > 0): a row has `cells` directions, cell c's light at the midpoint
+// azimuth 180 (c + 0.5) / cells degrees, and cell c's tallies count only the samples of that cell (a
+// disjoint 1/cells of each replicate's points, sampling/point_set.hpp's make_cell_point_set), so
+// direction = row * cells + c and every sample is binned once per row. A texel's value is the mean over
+// cells of the cell's pooled ratio, weight 1/cells each (the midpoint rule of the mean of ratios: the
+// term is smooth, even and periodic in the azimuth, so the rule converges geometrically in the cell
+// count), and its error bar the replicate spread of that mean, as for nodes. There is no nested check:
+// the quadrature is fixed by the cell count.
 #pragma once
 
 #include <cstdint>
@@ -29,6 +38,8 @@ struct SlicePlan {
     // uses the nested sub-grid of k intervals, k from k_start, doubled while the row's |T_k/2 - T_k|
     // exceeds refine_threshold + refine_z se and k < grid (adaptive), or k = grid (fixed).
     std::uint32_t grid = 0, k_start = 0;
+    // Stratified: cells per row (0: nodes or a fixed angle). Then grid = k_start = 0.
+    std::uint32_t cells = 0;
     double refine_threshold = 0, refine_z = 0;
     std::vector<double> node_degrees;
     std::vector<float> wo;  // float4 per direction (x, y, z, 0): what the kernel reads
@@ -38,6 +49,8 @@ struct SlicePlan {
     AtlasShape atlas() const { return {nv, nl, nvv, channels}; }
     std::uint64_t slices() const { return std::uint64_t(channels) * nvv; }
     std::size_t directions() const { return wo.size() / 4; }
+    // Directions of one row: grid + 1 nodes, or the cells.
+    std::uint32_t row_directions() const { return cells ? cells : grid + 1; }
     std::size_t tally_size() const { return directions() * replicates * (nv + 1); }
     std::uint8_t texel(std::uint32_t il, std::uint32_t iv) const { return status[std::size_t(il) * nv + iv]; }
     bool row_sampled(std::uint32_t il) const;
@@ -49,7 +62,8 @@ using SliceTallies = std::vector<double>;
 std::uint32_t row_node(const SlicePlan& plan, std::uint32_t k, std::uint32_t i);
 double row_weight(std::uint32_t k, std::uint32_t i);
 
-// The texel's node-weighted mean over the row's k-interval nodes, with its replicate error bar.
+// The texel's node-weighted mean over the row's k-interval nodes, with its replicate error bar
+// (stratified plans: the mean over the row's cells, k ignored).
 Estimate texel_mean(const SlicePlan& plan, const SliceTallies& acc, std::uint32_t il, std::uint32_t k, std::uint32_t iv);
 
 // Quadrature check of row il at k intervals (k even; 0 otherwise): per sampled texel d = T_k - T_k/2
@@ -58,8 +72,9 @@ Estimate texel_mean(const SlicePlan& plan, const SliceTallies& acc, std::uint32_
 double row_quadrature(const SlicePlan& plan, const SliceTallies& acc, std::uint32_t il, std::uint32_t k,
                       double threshold = 0, double z = 0, bool* significant = nullptr);
 
-// Values and std errors of a slice's texels, row-major (il * nv + iv), row il over its k[il] intervals;
-// exact texels by rule. Returns the largest std error of a sampled texel.
+// Values and std errors of a slice's texels, row-major (il * nv + iv), row il over its k[il] intervals
+// (stratified: over its cells, k ignored, by a loop that shares each cell's reciprocal denominators
+// across the row's texels; texel_mean is its reference); exact texels by rule. Returns the largest std error of a sampled texel.
 struct SliceValues {
     std::vector<float> value, std_error;
 };

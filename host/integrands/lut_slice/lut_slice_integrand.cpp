@@ -41,6 +41,7 @@ ms_bake_slice base_arguments(const SlicePlan& plan) {
     b.directions = std::uint32_t(plan.directions());
     b.texels = plan.nv;
     b.ao_weighting = plan.spec.term.ao_weighting == AoWeighting::cosine ? MS_AO_COSINE : MS_AO_UNIFORM;
+    b.cell_points = plan.cells ? plan.points / plan.cells : 0;
     return b;
 }
 
@@ -108,6 +109,8 @@ public:
             const std::size_t blocks = std::size_t(plan_.points) / MS_LANES * plan_.replicates;
             device_.queue().enqueueNDRangeKernel(normals_, cl::NullRange, cl::NDRange(ocl::round_up(blocks, normals_local_)),
                                                  cl::NDRange(normals_local_));
+            // Waited for here so that the slice report can tell the normals pass from the histograms.
+            device_.queue().finish();
             return 0;
         });
     }
@@ -156,7 +159,9 @@ private:
 // The oracle: every sampled texel of a direction tallied on its own by oracle::tally (weights kept,
 // cosines and libm trigonometry in double, the light direction in double), which shares no formula
 // with the histogram kernel. The hemisphere tally does not depend on the visibility, so a row's is
-// taken from its first sampled texel.
+// taken from its first sampled texel. Stratified plans: a (row, cell) direction is tallied at the cell's
+// midpoint azimuth on the cell's points only (a point set of n / cells points per replicate, copied out
+// of the cell-major batch).
 class OracleSliceTallier final : public SliceTallier {
 public:
     explicit OracleSliceTallier(const SlicePlan& plan) : plan_(plan) {}
@@ -164,16 +169,33 @@ public:
         channel_ = channel;
         ivv_ = ivv;
         points_ = &points;
+        cell_points_.clear();
+        if (!plan_.cells) return;
+        const std::uint32_t n = points.points_per_replicate, per_cell = n / plan_.cells;
+        for (std::uint32_t c = 0; c < plan_.cells; ++c) {
+            PointSet cell;
+            cell.sequence = points.sequence;
+            cell.replicates = points.replicates;
+            cell.points_per_replicate = per_cell;
+            cell.seed = points.seed;
+            for (std::uint32_t r = 0; r < points.replicates; ++r) {
+                const std::size_t from = std::size_t(r) * n + std::size_t(c) * per_cell;
+                cell.u1.insert(cell.u1.end(), points.u1.begin() + from, points.u1.begin() + from + per_cell);
+                cell.u2.insert(cell.u2.end(), points.u2.begin() + from, points.u2.begin() + from + per_cell);
+            }
+            cell_points_.push_back(std::move(cell));
+        }
     }
     void add_counts(const std::vector<std::uint32_t>& dirs, SliceTallies& acc) override {
-        const std::size_t R = plan_.replicates, stride = plan_.nv + 1, nodes = plan_.grid + 1;
+        const std::size_t R = plan_.replicates, stride = plan_.nv + 1, nodes = plan_.row_directions();
         for (std::uint32_t d : dirs) {
             const std::uint32_t il = std::uint32_t(d / nodes), node = std::uint32_t(d % nodes);
+            const PointSet& points = plan_.cells ? cell_points_[node] : *points_;
             bool hemisphere_done = false;
             for (std::uint32_t iv = 0; iv < plan_.nv; ++iv) {
                 if (plan_.texel(il, iv) != sampled) continue;
                 const Query q = texel_query(plan_.spec, channel_, iv, il, ivv_, plan_.node_degrees[node]);
-                const oracle::Tally t = oracle::tally(q, plan_.spec.term, *points_);
+                const oracle::Tally t = oracle::tally(q, plan_.spec.term, points);
                 for (std::size_t r = 0; r < R; ++r) {
                     double* row = &acc[(std::size_t(d) * R + r) * stride];
                     row[iv] += t.cone[r];
@@ -188,6 +210,7 @@ private:
     const SlicePlan& plan_;
     std::uint32_t channel_ = 0, ivv_ = 0;
     const PointSet* points_ = nullptr;
+    std::vector<PointSet> cell_points_;
 };
 
 class SliceWorker final : public schedule::Worker {
@@ -255,7 +278,7 @@ std::shared_ptr<const PointSet> LutSliceIntegrand::batch_points(std::uint32_t ba
     p.seed = batch_seed(plan_.spec.seed, batch);
     // shared_point_set keeps the few most recent sets: every slice starts with batch 0, and memory stays
     // bounded however many batches a tolerance asks for.
-    return shared_point_set(p);
+    return shared_point_set(p, plan_.cells);
 }
 
 void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
@@ -277,17 +300,25 @@ void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
             if (dirs.empty()) return;
             const auto start = std::chrono::steady_clock::now();
             tallier->add_counts(dirs, acc);
-            report.device_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-            report.histogram_updates += std::uint64_t(dirs.size()) * plan.batch_samples;
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            report.device_seconds += seconds;
+            report.histogram_seconds += seconds;
+            report.histogram_updates += std::uint64_t(dirs.size()) * plan.batch_samples / std::max(1u, plan.cells);
         };
         std::vector<std::uint32_t> dirs;
         for (std::uint32_t batch = 0;; ++batch) {
             throw_if_cancelled();
+            const auto batch_start = std::chrono::steady_clock::now();
             const auto points = batch_points(batch);
             tallier->begin_batch(channel, ivv, *points);
+            const double normals = std::chrono::duration<double>(std::chrono::steady_clock::now() - batch_start).count();
+            report.device_seconds += normals;
+            report.normals_seconds += normals;
             dirs.clear();
             for (std::uint32_t il = 0; il < plan.nl; ++il)
-                if (row_sampled[il])
+                if (row_sampled[il] && plan.cells)
+                    for (std::uint32_t c = 0; c < plan.cells; ++c) dirs.push_back(il * plan.cells + c);
+                else if (row_sampled[il])
                     for (std::uint32_t i = 0; i <= k[il]; ++i) dirs.push_back(il * (plan.grid + 1) + row_node(plan, k[il], i));
             run(dirs);
             // Adaptive azimuth (batch 0 only; later batches keep the rows' nodes): a row whose check is
@@ -313,7 +344,9 @@ void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
                 }
             }
             report.batches = batch + 1;
+            const auto reduce_start = std::chrono::steady_clock::now();
             report.max_std_error = reduce_slice(plan, acc, k, local);
+            report.reduce_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - reduce_start).count();
             const double tol = plan.spec.tolerance;
             if (tol <= 0 || report.max_std_error <= tol || report.batches >= plan.spec.max_batches) break;
         }
@@ -322,7 +355,9 @@ void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
     } else {
         reduce_slice(plan, acc, k, local);
     }
-    for (std::uint32_t il = 0; il < plan.nl; ++il) report.row_intervals.push_back(row_sampled[il] ? int(k[il]) : -1);
+    // Stratified rows have no intervals (BakeResult::azimuth_cells says what they used).
+    if (!plan.cells)
+        for (std::uint32_t il = 0; il < plan.nl; ++il) report.row_intervals.push_back(row_sampled[il] ? int(k[il]) : -1);
     // Each slice writes only its own texels, so workers on different places never touch the same floats.
     for (std::uint32_t il = 0; il < plan.nl; ++il)
         for (std::uint32_t iv = 0; iv < plan.nv; ++iv) {

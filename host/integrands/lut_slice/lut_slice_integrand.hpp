@@ -40,6 +40,9 @@ struct SliceReport {
     std::uint32_t batches = 0;
     std::uint64_t histogram_updates = 0;  // samples x directions binned
     double device_seconds = 0;
+    // Where the slice's wall time went (a breakdown for the benchmarks): begin_batch (point set, upload,
+    // normals kernel, waited for), add_counts (histogram kernel and read-back), reduce_slice on the host.
+    double normals_seconds = 0, histogram_seconds = 0, reduce_seconds = 0;
     std::vector<int> row_intervals;  // final k per row (-1 for rows without sampled texels)
     bool done = false;
 };

@@ -5,6 +5,8 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "sampling/point_set.hpp"
+
 namespace ms {
 
 const std::uint32_t kDefaultAzimuthIntervals = 16;
@@ -29,6 +31,14 @@ void check_axis(const Axis& a, double lo, double hi) {
 }
 
 }  // namespace
+
+std::string to_string(AzimuthQuadrature q) { return q == AzimuthQuadrature::stratified ? "stratified" : "nodes"; }
+
+AzimuthQuadrature parse_azimuth_quadrature(const std::string& s) {
+    if (s == "nodes") return AzimuthQuadrature::nodes;
+    if (s == "stratified") return AzimuthQuadrature::stratified;
+    throw std::invalid_argument("azimuth quadrature must be nodes or stratified, not '" + s + "'");
+}
 
 void validate(const LutSliceSpec& s) {
     check_axis(s.visibility, 0, 1);
@@ -55,6 +65,9 @@ void validate(const LutSliceSpec& s) {
     if (!std::isfinite(s.azimuth_refine_threshold) || s.azimuth_refine_threshold < 0 || !std::isfinite(s.azimuth_refine_z) ||
         s.azimuth_refine_z < 0)
         throw std::invalid_argument("azimuth refine threshold and z must be >= 0");
+    if (!pow2(s.azimuth_cells)) throw std::invalid_argument("azimuth cells must be a power of two in 2..256");
+    if (s.azimuth_quadrature == AzimuthQuadrature::stratified && s.azimuth_intervals)
+        throw std::invalid_argument("azimuth intervals apply to the nodes quadrature, not to stratified");
     if (s.replicates < 2 || s.replicates > 1024) throw std::invalid_argument("replicates must be in 2..1024");
     if (s.samples != 0 && (s.samples < 16 || s.samples > (std::uint64_t(1) << 30)))
         throw std::invalid_argument("samples must be in 16..2^30");
@@ -63,12 +76,27 @@ void validate(const LutSliceSpec& s) {
     if (s.max_batches < 1 || s.max_batches > 4096) throw std::invalid_argument("max batches must be in 1..4096");
 }
 
+std::uint32_t effective_azimuth_cells(const LutSliceSpec& spec) {
+    if (!spec.azimuth_mean || spec.azimuth_quadrature != AzimuthQuadrature::stratified) return 0;
+    const std::uint64_t points = round_up_samples(spec.samples ? spec.samples : kDefaultBatchSamples, spec.replicates) / spec.replicates;
+    std::uint32_t cells = spec.azimuth_cells;
+    while (cells > 1 && std::uint64_t(cells) * 16 > points) cells /= 2;
+    return cells;
+}
+
 void azimuth_nodes(const LutSliceSpec& spec, std::vector<double>& degrees, std::vector<double>& weights) {
     degrees.clear();
     weights.clear();
     if (!spec.azimuth_mean) {
         degrees.push_back(spec.azimuth_degrees);
         weights.push_back(1.0);
+        return;
+    }
+    if (const std::uint32_t cells = effective_azimuth_cells(spec)) {
+        for (std::uint32_t c = 0; c < cells; ++c) {
+            degrees.push_back(180.0 * (double(c) + 0.5) / double(cells));
+            weights.push_back(1.0 / double(cells));
+        }
         return;
     }
     const std::uint32_t k = spec.azimuth_intervals ? spec.azimuth_intervals : kDefaultAzimuthIntervals;

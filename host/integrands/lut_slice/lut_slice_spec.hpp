@@ -18,6 +18,15 @@
 
 namespace ms {
 
+// How `azimuth_mean` integrates over the relative azimuth. nodes: every sample of the slice at every
+// trapezoid node of a row (adaptive or fixed K, below). stratified: the azimuth as a third, independently
+// scrambled dimension of the points, cut into azimuth_cells cells of [0, 180] degrees; each sample is
+// binned once per row, at its cell's midpoint azimuth, and the texel is the mean over cells of the
+// cell's pooled ratio (the midpoint rule of the mean of ratios; azimuth_quadrature.hpp).
+enum class AzimuthQuadrature { nodes, stratified };
+std::string to_string(AzimuthQuadrature);
+AzimuthQuadrature parse_azimuth_quadrature(const std::string&);  // "nodes" | "stratified"; std::invalid_argument
+
 struct LutSliceSpec {
     // Axes, in file order: visibility (x), n_dot_l (rows within a slice), n_dot_v (slices).
     Axis visibility{"visibility", 0, 1, 32, TexelConvention::centres};
@@ -36,6 +45,10 @@ struct LutSliceSpec {
     std::uint32_t azimuth_intervals = 0;
     std::uint32_t azimuth_min_intervals = 4, azimuth_max_intervals = 32;
     double azimuth_refine_threshold = 1e-4, azimuth_refine_z = 3;
+    AzimuthQuadrature azimuth_quadrature = AzimuthQuadrature::nodes;
+    // Stratified: cells over [0, 180] degrees (a power of two, 2..256); a batch with fewer than 16 points
+    // per cell and replicate uses the largest count that has 16 (SlicePlan::cells records it).
+    std::uint32_t azimuth_cells = 32;
 
     TermOptions term;
     Sequence sequence = Sequence::sobol;
@@ -63,6 +76,10 @@ inline constexpr double kMinNdotV = 1e-4;
 // section 3). The row stores the limit instead, evaluated at this NdotL.
 inline constexpr double kMinNdotL = 1e-4;
 
+// The cells a stratified bake of this spec uses: azimuth_cells, halved while a cell would hold fewer
+// than 16 points per replicate in a batch; 0 for the nodes quadrature or a fixed angle.
+std::uint32_t effective_azimuth_cells(const LutSliceSpec& spec);
+
 // Throws std::invalid_argument naming the problem (sizes 1..4096, roughness in (0, 1], ranges, ...).
 void validate(const LutSliceSpec& spec);
 
@@ -71,7 +88,8 @@ Query texel_query(const LutSliceSpec& spec, std::uint32_t channel, std::uint32_t
                   double azimuth_degrees);
 // The azimuth nodes (degrees) and trapezoid weights (summing to 1) a fixed-K bake uses; for the adaptive
 // default (azimuth_intervals 0) the reference grid of kDefaultAzimuthIntervals, which the adaptive rows
-// approximate to within the recorded quadrature estimate (verify and the benchmarks use it).
+// approximate to within the recorded quadrature estimate (verify and the benchmarks use it). Stratified:
+// the midpoints of the azimuth_cells cells, weight 1 / cells each (the rule the bake estimates).
 void azimuth_nodes(const LutSliceSpec& spec, std::vector<double>& degrees, std::vector<double>& weights);
 
 }  // namespace ms

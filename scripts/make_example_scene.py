@@ -5,6 +5,9 @@ cosine-weighted AO and perceptual roughness as 16-bit PNGs. Deterministic: the s
 
     /usr/bin/python3 scripts/make_example_scene.py [--size N] [OUT_DIR]   # default examples/scene, 256
 
+Another OUT_DIR gets a copy of examples/scene/scene.toml too (the 1024 x 1024 benchmark of
+docs/scenes.md: --size 1024 /tmp/scene1024).
+
 examples/scene/scene.toml (committed) describes the images, the view and a low sun. Needs numpy only
 (PNG is written here with zlib)."""
 import argparse
@@ -91,6 +94,12 @@ def main():
     write_png16(os.path.join(args.out, "normal.png"), 0.5 * normal + 0.5)
     write_png16(os.path.join(args.out, "ao.png"), np.clip(ao, 0, 1))
     write_png16(os.path.join(args.out, "roughness.png"), roughness)
+    # Elsewhere (a benchmark at --size 1024), the description comes along.
+    toml = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples", "scene", "scene.toml")
+    target = os.path.join(args.out, "scene.toml")
+    if os.path.abspath(toml) != os.path.abspath(target) and os.path.exists(toml):
+        with open(toml, "rb") as f_in, open(target, "wb") as f_out:
+            f_out.write(f_in.read())
     print("wrote %s/{normal,ao,roughness}.png (%d x %d): AO %.3f..%.3f, roughness %.2f..%.2f" %
           (args.out, n, n, ao.min(), ao.max(), roughness.min(), roughness.max()))
 

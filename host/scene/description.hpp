@@ -93,7 +93,7 @@ struct SamplingSettings {
     std::uint64_t max_samples = 1 << 20;
     std::uint64_t seed = 0;
     Form form = Form::height_correlated;
-    double dedup_step = 0.25;           // the key grid step, as a fraction of tolerance x alpha (scene.hpp)
+    double dedup_step = 0.125;          // the key grid step, as a fraction of tolerance x alpha (scene.hpp)
 };
 
 struct SceneDescription {

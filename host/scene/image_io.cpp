@@ -153,7 +153,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
             if (c < 0)
                 throw SceneError(path + ": channel '" + name + "' not found (this " + std::to_string(p.bit_depth) +
                                  "-bit PNG has " + join(p.names) + ")");
-            Plane plane{path, name, p.width, p.height, {}};
+            Plane plane{path, name, p.width, p.height, {}, p.bit_depth == 16 ? 65535.0 : 255.0};
             plane.data.resize(std::size_t(p.width) * p.height);
             for (std::size_t i = 0; i < plane.data.size(); ++i) plane.data[i] = p.data[i * p.channels + std::size_t(c)];
             planes.push_back(std::move(plane));
@@ -185,7 +185,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
             const long w = long(dw.max.x) - dw.min.x + 1, hh = long(dw.max.y) - dw.min.y + 1;
             if (w <= 0 || hh <= 0 || w > 65536 || hh > 65536)
                 throw SceneError(path + ": data window of " + std::to_string(w) + " x " + std::to_string(hh) + " pixels");
-            Plane plane{path, name, std::uint32_t(w), std::uint32_t(hh), {}};
+            Plane plane{path, name, std::uint32_t(w), std::uint32_t(hh), {}, 1.0};
             plane.data.assign(std::size_t(w) * std::size_t(hh), 0.0f);
             Imf::FrameBuffer fb;
             char* base = reinterpret_cast<char*>(plane.data.data()) -

@@ -30,6 +30,9 @@ struct Plane {
     std::string file, channel;  // where it came from (for messages)
     std::uint32_t width = 0, height = 0;
     std::vector<float> data;    // row-major, top row first
+    // The largest stored code (PNG: 255 or 65535, EXR: 1): data * integer_scale is the stored integer,
+    // which is how object and material indices are read from PNG.
+    double integer_scale = 1;
     float at(std::size_t x, std::size_t y) const { return data[y * width + x]; }
 };
 

@@ -130,7 +130,7 @@ bool SceneInputs::in_mask(std::size_t i) const {
         case MaskKind::alpha: return m >= d_.mask.threshold;
         case MaskKind::background: return m != d_.mask.background;
         case MaskKind::object_index: {
-            const long id = std::lround(m);
+            const long id = std::lround(m * mask_[0].integer_scale);
             if (d_.mask.objects.empty()) return id != 0;
             return std::find(d_.mask.objects.begin(), d_.mask.objects.end(), id) != d_.mask.objects.end();
         }
@@ -203,7 +203,7 @@ PixelSurface SceneInputs::pixel(std::size_t i) const {
             p.anisotropic = p.alpha_x != p.alpha_y;
         }
     }
-    if (!material_.empty()) p.material = int(std::lround(material_[0].data[i]));
+    if (!material_.empty()) p.material = int(std::lround(material_[0].data[i] * material_[0].integer_scale));
     return p;
 }
 

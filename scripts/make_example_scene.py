@@ -3,7 +3,7 @@
 half and smooth on the right (as in part 2's figure), with its tangent-space normal map (+Y green),
 cosine-weighted AO and perceptual roughness as 16-bit PNGs. Deterministic: the same bytes every run.
 
-    /usr/bin/python3 scripts/make_example_scene.py [--size N] [OUT_DIR]   # default examples/scene, 256
+    /usr/bin/python3 scripts/make_example_scene.py [--size N] [--bits 8|16] [OUT_DIR]   # default examples/scene, 256
 
 Another OUT_DIR gets a copy of examples/scene/scene.toml too (the 1024 x 1024 benchmark of
 docs/scenes.md: --size 1024 /tmp/scene1024).
@@ -18,9 +18,10 @@ import zlib
 import numpy as np
 
 
-def write_png16(path, image):
-    """A 16-bit grey (H x W) or RGB (H x W x 3) PNG of values in [0, 1]."""
-    a = np.clip(np.round(np.asarray(image, dtype=np.float64) * 65535.0), 0, 65535).astype(">u2")
+def write_png16(path, image, bits=16):
+    """A 16-bit (or 8-bit) grey (H x W) or RGB (H x W x 3) PNG of values in [0, 1]."""
+    top = 65535.0 if bits == 16 else 255.0
+    a = np.clip(np.round(np.asarray(image, dtype=np.float64) * top), 0, top).astype(">u2" if bits == 16 else "u1")
     h, w = a.shape[:2]
     colour = 2 if a.ndim == 3 else 0
     rows = a.reshape(h, -1)
@@ -31,7 +32,7 @@ def write_png16(path, image):
 
     with open(path, "wb") as f:
         f.write(b"\x89PNG\r\n\x1a\n")
-        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 16, colour, 0, 0, 0)))
+        f.write(chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, bits, colour, 0, 0, 0)))
         f.write(chunk(b"IDAT", zlib.compress(raw, 9)))
         f.write(chunk(b"IEND", b""))
 
@@ -54,6 +55,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", nargs="?", default=os.path.join(os.path.dirname(__file__), "..", "examples", "scene"))
     parser.add_argument("--size", type=int, default=256)
+    parser.add_argument("--bits", type=int, choices=(8, 16), default=16, help="PNG bit depth (8: as many texture sets ship)")
     args = parser.parse_args()
     n = args.size
     rng = np.random.RandomState(20161)
@@ -91,9 +93,9 @@ def main():
     roughness = np.where(x < n // 2, 0.75 + 0.08 * grain, 0.30 + 0.05 * grain)
     roughness = np.clip(roughness, 0.05, 1.0)
     os.makedirs(args.out, exist_ok=True)
-    write_png16(os.path.join(args.out, "normal.png"), 0.5 * normal + 0.5)
-    write_png16(os.path.join(args.out, "ao.png"), np.clip(ao, 0, 1))
-    write_png16(os.path.join(args.out, "roughness.png"), roughness)
+    write_png16(os.path.join(args.out, "normal.png"), 0.5 * normal + 0.5, args.bits)
+    write_png16(os.path.join(args.out, "ao.png"), np.clip(ao, 0, 1), args.bits)
+    write_png16(os.path.join(args.out, "roughness.png"), roughness, args.bits)
     # Elsewhere (a benchmark at --size 1024), the description comes along.
     toml = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "examples", "scene", "scene.toml")
     target = os.path.join(args.out, "scene.toml")

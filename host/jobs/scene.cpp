@@ -476,7 +476,7 @@ void write_scene_outputs(const SceneResult& r, const std::string& dir, const jso
         write_png_rgb(out.temp_path(ref_png),
                       render_panels(r.width, r.height,
                                     {{"REFERENCE TERM", l.reference.data(), false, 0, 1, 1},
-                                     {"ERROR BOUND (99.9%)", bound.data(), false, 0, r.tolerance, 1}},
+                                     {"ERROR BOUND, 99.9 PER CENT", bound.data(), false, 0, r.tolerance, 1}},
                                     r.mask.data(), {"LIGHT " + upper(l.light) + ": THE GENERIC TERM BY VNDF SAMPLING"}));
         // Every comparator's weighted error on one shared scale.
         double shared = 0;

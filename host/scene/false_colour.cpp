@@ -44,7 +44,8 @@ RgbImage render_panels(std::uint32_t width, std::uint32_t height, const std::vec
     const int S = 2;
     const std::uint32_t line = kGlyphHeight * S + 6, gap = 10, bar_w = 14;
     const std::uint32_t bar_area = gap + bar_w + 10 + text_width("-0.00000", S) + gap;
-    const std::uint32_t cell = std::max<std::uint32_t>(pw, 0) + bar_area;
+    std::uint32_t cell = pw + bar_area;
+    for (const auto& p : panels) cell = std::max(cell, text_width(p.label, S) + gap);
     std::uint32_t w = gap + std::uint32_t(panels.size()) * cell;
     for (const auto& t : title) w = std::max(w, text_width(t, S) + 2 * gap);
     const std::uint32_t top = gap + std::uint32_t(title.size()) * line + line;
@@ -93,7 +94,7 @@ RgbImage render_panels(std::uint32_t width, std::uint32_t height, const std::vec
         }
     }
     if (f > 1)
-        draw_text(img, gap, h - line, "SHOWN AT 1/" + std::to_string(f) + " SIZE (BOX FILTER); GREY: MASKED", S, 150, 160, 190);
+        draw_text(img, gap, h - line, "SHOWN AT 1/" + std::to_string(f) + " SIZE (BOX FILTER), GREY: MASKED", S, 150, 160, 190);
     else
         draw_text(img, gap, h - line, "GREY: MASKED", S, 150, 160, 190);
     return img;

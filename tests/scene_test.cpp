@@ -234,7 +234,7 @@ analytic = []
         for (std::size_t i = 0; i < 20; ++i) {
             const double ref = result->lights[0].reference[i], se = result->lights[0].std_error[i];
             EXPECT_GT(se, 0);
-            EXPECT_LE(scene::kStudentT999R8 * se, r.tolerance);
+            EXPECT_LE(result->lights[0].t * se, r.tolerance);
             // Error bars of both, plus the key grid's quantisation (an eighth of the tolerance, see scene.hpp).
             EXPECT_NEAR(ref, e.term, scene::kStudentT999R8 * std::hypot(se, e.std_error) + r.tolerance / 8) << i;
         }

@@ -60,6 +60,7 @@ void run_scene_command(const SceneArgs& args) {
                                  {"min_samples", description.sampling.min_samples},
                                  {"max_samples", description.sampling.max_samples},
                                  {"seed", description.sampling.seed},
+                                 {"replicates", description.sampling.replicates},
                                  {"dedup_step", description.sampling.dedup_step},
                                  {"fast_math", args.fast_math}};
     scene::write_scene_outputs(result, args.out, provenance);

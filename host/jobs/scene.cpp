@@ -99,6 +99,16 @@ const char* kBandNames[4] = {"roughness 0-0.25", "roughness 0.25-0.5", "roughnes
 
 }  // namespace
 
+double student_t_999(std::uint32_t r) {
+    switch (r) {
+        case 8: return 5.408;   // 7 degrees of freedom
+        case 16: return 4.073;  // 15
+        case 32: return 3.633;  // 31
+        case 64: return 3.460;  // 63
+    }
+    throw std::invalid_argument("sampling.replicates must be 8, 16, 32 or 64 (got " + std::to_string(r) + ")");
+}
+
 DedupKey dedup_key(const Query& q, AoWeighting weighting, double step) {
     DedupKey k;
     k.ax = std::llround(std::log(q.alpha_x) / step);
@@ -277,8 +287,10 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         std::vector<std::uint32_t> todo(queries.size());
         for (std::size_t k = 0; k < todo.size(); ++k) todo[k] = std::uint32_t(k);
         SamplingPlan plan;
-        plan.samples = round_up_samples(d.sampling.min_samples, 8);
-        plan.replicates = 8;
+        plan.replicates = d.sampling.replicates;
+        plan.samples = round_up_samples(d.sampling.min_samples, plan.replicates);
+        const double t = student_t_999(plan.replicates);
+        li.t = t;
         plan.seed = d.sampling.seed;
         bool first_pass = true;
         while (!todo.empty()) {
@@ -303,14 +315,14 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
             std::vector<std::uint32_t> next;
             for (std::size_t j = 0; j < todo.size(); ++j) {
                 estimates[todo[j]] = est[j];
-                if (kStudentT999R8 * est[j].std_error > tol) next.push_back(todo[j]);
+                if (t * est[j].std_error > tol) next.push_back(todo[j]);
             }
             if (next.empty()) break;
-            if (plan.samples * 4 > d.sampling.max_samples) {
+            if (plan.samples * 2 > d.sampling.max_samples) {
                 c.tolerance_missed += next.size();
                 break;
             }
-            plan.samples *= 4;
+            plan.samples *= 2;
             todo.swap(next);
         }
         result.sampling_seconds += seconds_since(sampling_start);
@@ -328,7 +340,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                 const Estimate& e = estimates[pixel_key[i]];
                 li.reference[i] = float(e.term);
                 li.std_error[i] = float(e.std_error);
-                li.max_error_bound = std::max(li.max_error_bound, kStudentT999R8 * e.std_error);
+                li.max_error_bound = std::max(li.max_error_bound, li.t * e.std_error);
             }
             const PixelSurface p = inputs.pixel(i);
             const LightQuery q = light_query(p, light);
@@ -471,7 +483,7 @@ void write_scene_outputs(const SceneResult& r, const std::string& dir, const jso
     for (const auto& l : r.lights) {
         // Reference and its error bound.
         std::vector<float> bound(l.std_error.size());
-        for (std::size_t i = 0; i < bound.size(); ++i) bound[i] = float(kStudentT999R8 * l.std_error[i]);
+        for (std::size_t i = 0; i < bound.size(); ++i) bound[i] = float(l.t * l.std_error[i]);
         const std::size_t ref_png = out.add(path(l.light + "_reference.png"), true);
         write_png_rgb(out.temp_path(ref_png),
                       render_panels(r.width, r.height,

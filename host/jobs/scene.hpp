@@ -21,12 +21,12 @@
 // at most s / 2 = q E alpha / 2 then changes the term by about C q E / 2 = E / 16 for C = 1: much less
 // than the tolerance. The term's dependence on log alpha is of order 1, hence the step q E there. A test
 // (tests/scene_test.cpp) checks that images with and without deduplication, on the same points, agree
-// within E / 4 on a varied scene (roughness 0.1 - 1); measured: max E / 10, RMS E / 40 (q = 0.25 gave
-// max E / 3.9, so C is about 1.6: hence the default 0.125).
+// within E / 4 on a varied scene (roughness 0.1 - 1); measured: max E / 8.5, RMS E / 40 (q = 0.25 gave
+// max E / 3.9, so C is about 1.6 to 2: hence the default 0.125).
 //
 // Per-pixel tolerance: every key is sampled with min_samples, and keys whose error bound (Student t of
-// the R = 8 replicates at 99.9 %, t = 5.408, times the standard error) exceeds E are resampled with 4x
-// the samples, up to max_samples; keys still above are counted.
+// the R replicates at 99.9 %, student_t_999(R), times the standard error) exceeds E are resampled with
+// 2x the samples, up to max_samples; keys still above are counted. R = 16 by default (docs/scenes.md).
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -72,6 +72,7 @@ struct LightImages {
     std::vector<std::vector<float>> approximation, error;  // per comparator; error is weighted
     std::vector<std::vector<ErrorStats>> stats;            // [comparator][group]
     double max_error_bound = 0;                            // t x std error, over the pixels
+    double t = 5.408;                                      // the Student t factor used (student_t_999)
     double seconds = 0;
 };
 
@@ -89,6 +90,8 @@ struct SceneResult {
 
 // The error bound factor of the reference: Student t at 99.9 % (two-sided) with R - 1 = 7 degrees of freedom.
 inline constexpr double kStudentT999R8 = 5.408;
+// The same for R = 8, 16, 32 or 64 replicates (sampling.replicates); throws std::invalid_argument otherwise.
+double student_t_999(std::uint32_t replicates);
 
 SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const SceneRunOptions& options);
 

@@ -333,7 +333,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
     }
 
     if ((t = table_at(c, root, "sampling"))) {
-        reject_unknown(c, *t, "sampling.", {"tolerance", "min_samples", "max_samples", "seed", "form", "dedup_step"});
+        reject_unknown(c, *t, "sampling.", {"tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step"});
         auto& s = d.sampling;
         if (const toml::node* n = t->get("tolerance")) {
             s.tolerance = number(c, *n, "sampling.tolerance");
@@ -344,6 +344,11 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
         if (const toml::node* n = t->get("seed")) {
             if (!n->is_integer() || n->as_integer()->get() < 0) c.fail("sampling.seed", "must be an integer >= 0");
             s.seed = std::uint64_t(n->as_integer()->get());
+        }
+        if (const toml::node* n = t->get("replicates")) {
+            s.replicates = std::uint32_t(positive(c, *n, "sampling.replicates", 64));
+            if (s.replicates != 8 && s.replicates != 16 && s.replicates != 32 && s.replicates != 64)
+                c.fail("sampling.replicates", "must be 8, 16, 32 or 64");
         }
         if (const toml::node* n = t->get("form"))
             s.form = choice<Form>(c, *n, "sampling.form", {{"height-correlated", Form::height_correlated}, {"uncorrelated", Form::uncorrelated}});

@@ -92,6 +92,7 @@ struct SamplingSettings {
     std::uint64_t min_samples = 16384;  // first pass, all replicates
     std::uint64_t max_samples = 1 << 20;
     std::uint64_t seed = 0;
+    std::uint32_t replicates = 16;      // 8, 16, 32 or 64: the Student t factor of the bound shrinks with more
     Form form = Form::height_correlated;
     double dedup_step = 0.125;          // the key grid step, as a fraction of tolerance x alpha (scene.hpp)
 };

@@ -535,6 +535,11 @@ TEST_F(SceneTest, CommandLineWritesEverythingOrNothing) {
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("normal.spin: unknown key"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(path("out")));
+    // An --out that is a file: refused before any work.
+    write_text(path("file"), "x");
+    r = testing::run_shell(cli + " scene " + example + " --out " + path("file") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("is not a folder"), std::string::npos) << r.output;
     // The example scene, quickly (a loose tolerance, no LUT bakes).
     r = testing::run_shell(cli + " scene " + example + " --out " + path("out") + " --tolerance 0.02 --no-seed-luts --quiet 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;

@@ -1,5 +1,6 @@
 // microshadow scene: the reference term of every pixel of a scene description against the
 // approximations (host/jobs/scene.hpp; the format in docs/scenes.md).
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 
@@ -21,6 +22,11 @@ struct SceneArgs {
 };
 
 void run_scene_command(const SceneArgs& args) {
+    // A destination that cannot be a folder is refused before any work (the outputs are written together
+    // at the end, through one OutputSet).
+    std::error_code ec;
+    if (std::filesystem::exists(args.out, ec) && !std::filesystem::is_directory(args.out, ec))
+        throw std::invalid_argument(args.out + ": exists and is not a folder (--out names the output folder)");
     const scene::SceneDescription description = scene::load_scene(args.scene);
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
     std::unique_ptr<TermBackend> backend;

@@ -501,6 +501,52 @@ tolerance = 0.005
     EXPECT_GT(std::fabs(double(c.lights[0].reference[0]) - d.lights[0].reference[0]), 4 * c.tolerance);
 }
 
+TEST_F(SceneTest, PositionPassViewAndPerMaterialStatistics) {
+    // A position pass with a far camera equals one view direction; statistics per material follow the
+    // material index (8-bit PNG indices read as stored integers).
+    const int w = 6, h = 4;
+    std::vector<float> px(w * h), py(w * h), pz(w * h, 0.0f);
+    std::vector<double> material(w * h), rough(w * h);
+    for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x) {
+            px[y * w + x] = float((x + 0.5) / w);
+            py[y * w + x] = float(1 - (y + 0.5) / h);
+            material[y * w + x] = (x < 2 ? 1 : 2) / 255.0;
+            rough[y * w + x] = x < 2 ? 0.3 : 0.8;
+        }
+    write_exr_parts(path("p.exr"), w, h, {{"", {{"P.X", px}, {"P.Y", py}, {"P.Z", pz}}}});
+    write_png(path("m.png"), w, h, 1, material, 8);
+    write_png(path("r.png"), w, h, 1, rough);
+    const std::string common = R"(
+[normal]
+value = [0, 0, 1]
+[visibility]
+value = 0.7
+[roughness]
+file = "r.png"
+[material]
+file = "m.png"
+names = ["none", "plaster", "metal"]
+[[light]]
+direction = [0.3, 0.4, 0.6]
+[comparators]
+analytic = ["pz-analytic"]
+[sampling]
+tolerance = 0.005
+)";
+    write_text(path("dir.toml"), common + "[view]\ndirection = [0.2, -0.5, 0.8]\n");
+    write_text(path("pos.toml"), common + "[view]\nposition = \"p.exr\"\nposition_channels = [\"P.X\", \"P.Y\", \"P.Z\"]\n"
+                                          "camera = [2e6, -5e6, 8e6]\n");
+    const auto a = run(path("dir.toml")), b = run(path("pos.toml"));
+    for (int i = 0; i < w * h; ++i) EXPECT_NEAR(a.lights[0].reference[i], b.lights[0].reference[i], a.tolerance / 8) << i;
+    ASSERT_EQ(a.groups.size(), 7u);  // all, 4 roughness bands, 2 materials
+    EXPECT_EQ(a.groups[5], "material plaster");
+    EXPECT_EQ(a.groups[6], "material metal");
+    EXPECT_EQ(a.lights[0].stats[0][5].pixels, std::uint64_t(2 * h));
+    EXPECT_EQ(a.lights[0].stats[0][6].pixels, std::uint64_t(4 * h));
+    EXPECT_EQ(a.lights[0].stats[0][0].pixels, std::uint64_t(w * h));
+}
+
 TEST_F(SceneTest, KeyGridRoundTrips) {
     // The query at a key's grid point has the same key (the grid is a fixed point of its own rounding).
     std::mt19937_64 rng(3);

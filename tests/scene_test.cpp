@@ -547,6 +547,49 @@ tolerance = 0.005
     EXPECT_EQ(a.lights[0].stats[0][0].pixels, std::uint64_t(w * h));
 }
 
+TEST_F(SceneTest, ViewVectorsAndMaskKinds) {
+    const int w = 4, h = 2;
+    std::vector<float> vx(w * h, 0.2f), vy(w * h, -0.5f), vz(w * h, 0.8f), alpha(w * h), depth(w * h), rough(w * h, 0.5f);
+    for (int i = 0; i < w * h; ++i) {
+        alpha[i] = i % 2 ? 0.9f : 0.1f;                                   // shaded at odd pixels (threshold 0.5)
+        depth[i] = i < 3 ? std::numeric_limits<float>::infinity() : 2.0f;  // background: infinite depth
+    }
+    alpha[0] = std::numeric_limits<float>::quiet_NaN();
+    write_exr_parts(path("v.exr"), w, h, {{"", {{"V.x", vx}, {"V.y", vy}, {"V.z", vz}, {"alpha", alpha}, {"depth", depth}, {"rough", rough}}}});
+    const std::string common = R"(
+[normal]
+value = [0, 0, 1]
+[visibility]
+value = 0.7
+[roughness]
+file = "v.exr"
+channel = "rough"
+[[light]]
+direction = [0.3, 0.4, 0.6]
+[comparators]
+analytic = []
+[sampling]
+tolerance = 0.005
+)";
+    write_text(path("dir.toml"), common + "[view]\ndirection = [0.2, -0.5, 0.8]\n");
+    write_text(path("vec.toml"), common + "[view]\nfile = \"v.exr\"\nchannels = [\"V.x\", \"V.y\", \"V.z\"]\n");
+    const auto a = run(path("dir.toml")), b = run(path("vec.toml"));
+    for (int i = 0; i < w * h; ++i) EXPECT_EQ(a.lights[0].reference[i], b.lights[0].reference[i]) << i;
+    // A NaN in the mask itself is an error naming it; a finite alpha mask selects by threshold.
+    write_text(path("alpha.toml"), common + "[view]\ndirection = [0.2, -0.5, 0.8]\n[mask]\nfile = \"v.exr\"\nchannel = \"alpha\"\n");
+    EXPECT_NE(scene_error(path("alpha.toml")).find("channel 'alpha': pixel (0, 0): NaN in the mask"), std::string::npos) << scene_error(path("alpha.toml"));
+    alpha[0] = 0.0f;
+    write_exr_parts(path("v.exr"), w, h, {{"", {{"V.x", vx}, {"V.y", vy}, {"V.z", vz}, {"alpha", alpha}, {"depth", depth}, {"rough", rough}}}});
+    const auto c = run(path("alpha.toml"));
+    for (int i = 0; i < w * h; ++i) EXPECT_EQ(c.mask[i], i % 2 ? 1.0f : 0.0f) << i;
+    EXPECT_EQ(c.counts.masked, 4u);
+    // Background: shaded where the channel differs from `background` (infinite depth here).
+    write_text(path("bg.toml"), common + "[view]\ndirection = [0.2, -0.5, 0.8]\n[mask]\nfile = \"v.exr\"\nchannel = \"depth\"\n"
+                                         "kind = \"background\"\nbackground = inf\n");
+    const auto d = run(path("bg.toml"));
+    for (int i = 0; i < w * h; ++i) EXPECT_EQ(d.mask[i], i < 3 ? 0.0f : 1.0f) << i;
+}
+
 TEST_F(SceneTest, KeyGridRoundTrips) {
     // The query at a key's grid point has the same key (the grid is a fixed point of its own rounding).
     std::mt19937_64 rng(3);

@@ -231,7 +231,11 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
             d.mask.kind = choice<MaskKind>(c, *n, "mask.kind", {{"alpha", MaskKind::alpha}, {"background", MaskKind::background},
                                                                  {"object-index", MaskKind::object_index}});
         if (const toml::node* n = t->get("threshold")) d.mask.threshold = number(c, *n, "mask.threshold");
-        if (const toml::node* n = t->get("background")) d.mask.background = number(c, *n, "mask.background");
+        if (const toml::node* n = t->get("background")) {
+            // inf and -inf are legal here: a depth pass marks its background with infinity.
+            if (n->is_floating_point() && std::isinf(n->as_floating_point()->get())) d.mask.background = n->as_floating_point()->get();
+            else d.mask.background = number(c, *n, "mask.background");
+        }
         if (const toml::node* n = t->get("objects")) {
             if (!n->is_array()) c.fail("mask.objects", "must be a list of integers");
             for (const auto& e : *n->as_array()) {

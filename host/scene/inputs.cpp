@@ -89,8 +89,8 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
         return static_cast<const Plane*>(nullptr);
     };
     for (std::size_t i = 0; i < s.pixels(); ++i) {
-        if (!s.mask_.empty() && !std::isfinite(s.mask_[0].data[i]))
-            throw SceneError(where(s.mask_[0], i) + ": " + fmt(s.mask_[0].data[i]) + " is not a finite number");
+        if (!s.mask_.empty() && std::isnan(s.mask_[0].data[i]))  // infinity is a legal background (depth)
+            throw SceneError(where(s.mask_[0], i) + ": NaN in the mask");
         if (!s.in_mask(i)) continue;
         for (const auto* group : {&s.normal_, &s.visibility_, &s.roughness_, &s.anisotropy_, &s.tangent_, &s.material_,
                                   &s.view_, &s.position_})

@@ -48,15 +48,15 @@ RgbImage render_panels(std::uint32_t width, std::uint32_t height, const std::vec
     for (const auto& p : panels) cell = std::max(cell, text_width(p.label, S) + gap);
     std::uint32_t w = gap + std::uint32_t(panels.size()) * cell;
     for (const auto& t : title) w = std::max(w, text_width(t, S) + 2 * gap);
-    const std::uint32_t top = gap + std::uint32_t(title.size()) * line + line;
-    const std::uint32_t h = top + std::max(ph, 100u) + gap + line;
+    const std::uint32_t top = gap + std::uint32_t(title.size()) * line + line + 10;  // room for the bar's top label
+    const std::uint32_t h = top + std::max(ph, 100u) + gap + line + 8;
     RgbImage img(w, h, 30, 40, 70);
     const std::uint8_t fg = 235;
     for (std::size_t i = 0; i < title.size(); ++i) draw_text(img, gap, gap + std::int64_t(i) * line, title[i], S, fg, fg, fg);
     for (std::size_t k = 0; k < panels.size(); ++k) {
         const Panel& p = panels[k];
         const std::int64_t x0 = gap + std::int64_t(k) * cell, y0 = top;
-        draw_text(img, x0, top - line, p.label, S, fg, fg, fg);
+        draw_text(img, x0, top - line - 10, p.label, S, fg, fg, fg);
         auto colour = [&](double v, std::uint8_t rgb[3]) {
             if (p.diverging) diverging_colour(p.range > 0 ? 0.5 + 0.5 * v / p.range : 0.5, rgb);
             else sequential_colour(p.hi > p.lo ? (v - p.lo) / (p.hi - p.lo) : 0, rgb);

@@ -77,5 +77,6 @@ void add_bake_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_shader_command(CLI::App& app);  // issue 12 (cmd_shader.cpp)
+void add_scene_command(CLI::App& app);   // issue 11 (cmd_scene.cpp)
 
 }  // namespace ms::cli

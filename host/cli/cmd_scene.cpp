@@ -1,0 +1,114 @@
+// microshadow scene: the reference term of every pixel of a scene description against the
+// approximations (host/jobs/scene.hpp; the format in docs/scenes.md).
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+
+#include "cli/common.hpp"
+#include "cli/progress.hpp"
+#include "io/text.hpp"
+#include "jobs/scene.hpp"
+
+namespace ms::cli {
+
+namespace {
+
+struct SceneArgs {
+    std::string scene, out;
+    double tolerance = 0;
+    bool no_skip = false, no_seed_luts = false, quiet = false, fast_math = false;
+    std::vector<std::string> luts;
+    std::string backend = "opencl", device = "default";
+};
+
+void run_scene_command(const SceneArgs& args) {
+    // A destination that cannot be a folder is refused before any work (the outputs are written together
+    // at the end, through one OutputSet).
+    std::error_code ec;
+    if (std::filesystem::exists(args.out, ec) && !std::filesystem::is_directory(args.out, ec))
+        throw std::invalid_argument(args.out + ": exists and is not a folder (--out names the output folder)");
+    const scene::SceneDescription description = scene::load_scene(args.scene);
+    const scene::SceneInputs inputs = scene::SceneInputs::load(description);
+    std::unique_ptr<TermBackend> backend;
+    if (args.backend == "oracle") {
+        backend = make_oracle_backend();
+    } else {
+        OpenClBackendConfig config;
+        config.build.fast_math = args.fast_math;
+        backend = make_opencl_backend(ocl::select_devices(args.device), config);
+    }
+    backend->scheduler().set_fault_injection(fault_injection_from_environment());
+
+    scene::SceneRunOptions options;
+    options.skip = !args.no_skip;
+    options.tolerance = args.tolerance;
+    options.luts = args.luts;
+    options.bake_seed_luts = !args.no_seed_luts;
+    std::unique_ptr<Progress> progress;
+    std::string phase;
+    options.progress = [&](const std::string& p, std::size_t done, std::size_t total) {
+        if (p != phase) {
+            if (progress) progress->finish();
+            progress = std::make_unique<Progress>("scene: " + p, args.quiet);
+            phase = p;
+        }
+        progress->update(done, total);
+    };
+    const scene::SceneResult result = scene::run_scene(inputs, *backend, options);
+    if (progress) progress->finish();
+
+    nlohmann::json provenance = {{"program", "microshadow " MICROSHADOW_VERSION},
+                                 {"command_line", command_line()},
+                                 {"scene", json_safe(args.scene)},
+                                 {"skip", !args.no_skip},
+                                 {"form", to_string(description.sampling.form)},
+                                 {"ao_weighting", to_string(description.ao_weighting)},
+                                 {"min_samples", description.sampling.min_samples},
+                                 {"max_samples", description.sampling.max_samples},
+                                 {"seed", description.sampling.seed},
+                                 {"replicates", description.sampling.replicates},
+                                 {"dedup_step", description.sampling.dedup_step},
+                                 {"fast_math", args.fast_math}};
+    scene::write_scene_outputs(result, args.out, provenance);
+
+    if (!args.quiet) {
+        const auto& c = result.counts;
+        std::cerr << std::setprecision(3) << "scene: " << result.width << " x " << result.height << " pixels, "
+                  << result.lights.size() << " light(s): " << c.pixel_lights << " pixel-lights, skipped "
+                  << 100 * c.skipped_fraction() << " % (masked " << c.masked << ", view below horizon " << c.view_below_horizon
+                  << ", light below horizon " << c.light_below_horizon << ", zero region " << c.zero_region << ", v = 1 "
+                  << c.v_one << ", duplicates " << c.duplicates << "), " << c.sampled << " sampled";
+        if (c.tolerance_missed) std::cerr << " (" << c.tolerance_missed << " above the tolerance at the sample limit)";
+        std::cerr << "; " << result.seconds << " s (LUT bakes " << result.lut_seconds << " s, sampling "
+                  << result.sampling_seconds << " s) on " << result.backend << "\n";
+        for (const auto& l : result.lights)
+            for (std::size_t k = 0; k < result.comparators.size(); ++k) {
+                const auto& s = l.stats[k][0];
+                std::cerr << "scene: " << l.light << ": " << result.comparators[k] << ": weighted error max " << s.max
+                          << ", RMS " << s.rms << ", p99 " << s.p99 << "\n";
+            }
+        std::cerr << "scene: wrote " << args.out << "/report.md, scene.exr and the PNG images\n";
+    }
+}
+
+}  // namespace
+
+void add_scene_command(CLI::App& app) {
+    auto args = std::make_shared<SceneArgs>();
+    auto* cmd = app.add_subcommand("scene", "the term of every pixel of a scene against the approximations (docs/scenes.md)");
+    cmd->add_option("scene", args->scene, "scene description (TOML)")->required();
+    cmd->add_option("--out", args->out, "output folder: scene.exr, report.md/.json, PNG images (created if missing)")->required();
+    cmd->add_option("--tolerance", args->tolerance, "per-pixel error bound of the reference (overrides sampling.tolerance)")
+        ->check(real_range(1e-5, 0.5));
+    cmd->add_option("--lut", args->luts, "a LUT file to compare as well (repeatable)");
+    cmd->add_flag("--no-skip", args->no_skip, "send every unmasked pixel's own query to the integrand (no classification "
+                                              "here, no deduplication): the baseline that skipping is measured against");
+    cmd->add_flag("--no-seed-luts", args->no_seed_luts, "do not bake the seed's 3D and 2D LUTs as comparators");
+    cmd->add_option("--backend", args->backend, "opencl (default) or oracle")->check(CLI::IsMember({"opencl", "oracle"}));
+    cmd->add_option("--device", args->device, "OpenCL device: default, all, an index from `devices`, or part of a name");
+    cmd->add_flag("--fast-math", args->fast_math, "build the kernels with fast math");
+    cmd->add_flag("--quiet", args->quiet, "no progress or summary on stderr");
+    cmd->callback([args] { run_scene_command(*args); });
+}
+
+}  // namespace ms::cli

@@ -1,0 +1,134 @@
+// The scene description (TOML): which image files and channels hold a scene's per-pixel inputs, how
+// to read them, the view, the lights, and how the run samples and compares. The format, with every
+// key, is in docs/scenes.md; unknown keys are errors that name the key.
+//
+// Every per-pixel input is either read from an image ("file" + "channel" / "channels") or a constant
+// ("value"); at least one input must come from an image (it sets the scene's size). Paths are
+// relative to the description's folder.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+
+namespace ms::scene {
+
+struct ScalarSource {
+    std::string file, channel;  // file empty: constant
+    double value = 0;
+    bool from_image() const { return !file.empty(); }
+};
+
+struct VectorSource {
+    std::string file;
+    std::array<std::string, 3> channels;
+    Vec3 value;
+    bool from_image() const { return !file.empty(); }
+};
+
+enum class NormalSpace { world, tangent };
+// How stored numbers map to a component: unorm n = 2 c - 1 (PNG normal maps), signed n = c (EXR passes).
+enum class VectorEncoding { unorm, signed_ };
+enum class RoughnessKind { perceptual, alpha };
+enum class MaskKind { alpha, background, object_index };
+enum class ViewKind { direction, vectors, position };
+enum class LightType { directional, point };
+
+struct NormalInput {
+    VectorSource source;
+    NormalSpace space = NormalSpace::world;
+    bool green_down = false;  // tangent space: "-Y" (DirectX) green; "+Y" (OpenGL) is the default
+    VectorEncoding encoding = VectorEncoding::signed_;
+};
+
+struct MaskInput {
+    bool present = false;
+    ScalarSource source;
+    MaskKind kind = MaskKind::alpha;
+    double threshold = 0.5;           // alpha: shaded where value >= threshold
+    double background = 0;            // background: shaded where value != background
+    std::vector<long> objects;        // object_index: shaded where round(value) is listed (empty: != 0)
+};
+
+struct ViewInput {
+    ViewKind kind = ViewKind::direction;
+    Vec3 direction{0, 0, 1};          // direction: towards the viewer, world space
+    VectorSource vectors;             // vectors: per pixel, towards the viewer
+    VectorEncoding encoding = VectorEncoding::signed_;
+    VectorSource position;            // position: world-space position pass ...
+    Vec3 camera;                      // ... and the camera position
+};
+
+// The plane a texture set lies on: the frame of tangent-space normal maps (tangent T, bitangent
+// B = N x T, normal N), and world positions for point lights when there is no position pass:
+// pixel (x, y) sits at origin + u width T + (1 - v) height B, u = (x + 0.5) / W, v = (y + 0.5) / H
+// (image rows go down, +B goes up, as a +Y normal map's green does).
+struct Surface {
+    Vec3 normal{0, 0, 1}, tangent{1, 0, 0}, origin{0, 0, 0};
+    double width = 1, height = 1;
+};
+
+struct Light {
+    std::string name;
+    LightType type = LightType::directional;
+    Vec3 direction{0, 0, 1};  // directional: towards the light
+    Vec3 position;            // point
+    double intensity = 1;     // directional: irradiance at normal incidence; point: intensity (irradiance I / d^2)
+};
+
+struct Comparators {
+    std::vector<std::string> analytic;  // part 1's terms by name (empty list: none); default: all
+    bool seed_3d = true, seed_2d = true;
+    std::uint32_t lut_size = 32;
+    std::uint64_t lut_samples = 16384;
+    std::vector<std::string> luts;      // LUT files (paths resolved)
+};
+
+struct SamplingSettings {
+    double tolerance = 2e-3;            // per-pixel error bound (99.9 %, Student t of the replicates)
+    std::uint64_t min_samples = 16384;  // first pass, all replicates
+    std::uint64_t max_samples = 1 << 20;
+    std::uint64_t seed = 0;
+    std::uint32_t replicates = 16;      // 8, 16, 32 or 64: the Student t factor of the bound shrinks with more
+    Form form = Form::height_correlated;
+    double dedup_step = 0.125;          // the key grid step, as a fraction of tolerance x alpha (scene.hpp)
+};
+
+struct SceneDescription {
+    std::string source;     // the description's path (messages)
+    std::string base_dir;
+    std::string name = "scene";
+    NormalInput normal;
+    ScalarSource visibility;
+    AoWeighting ao_weighting = AoWeighting::cosine;
+    ScalarSource roughness;
+    RoughnessKind roughness_kind = RoughnessKind::perceptual;
+    ScalarSource anisotropy;            // default constant 0; alpha_x = alpha (1 + a), alpha_y = alpha (1 - a)
+    bool has_tangent = false;
+    VectorSource tangent;               // world-space tangent direction (anisotropic surfaces)
+    VectorEncoding tangent_encoding = VectorEncoding::signed_;
+    MaskInput mask;
+    ScalarSource material;              // optional material index per pixel (statistics per material)
+    bool has_material = false;
+    std::vector<std::string> material_names;
+    ViewInput view;
+    Surface surface;
+    std::vector<Light> lights;
+    Comparators comparators;
+    SamplingSettings sampling;
+};
+
+// Parses a description. Throws SceneError ("FILE: key: problem", or "FILE:LINE:COLUMN: TOML syntax").
+SceneDescription parse_scene(const std::string& text, const std::string& source_name, const std::string& base_dir);
+// Reads the file (io/input_file.hpp's checks) and parses it; paths resolve against its folder.
+SceneDescription load_scene(const std::string& path);
+
+std::string to_string(NormalSpace);
+std::string to_string(MaskKind);
+std::string to_string(ViewKind);
+std::string to_string(LightType);
+
+}  // namespace ms::scene

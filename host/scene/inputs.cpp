@@ -1,0 +1,259 @@
+#include "scene/inputs.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+
+namespace ms::scene {
+
+namespace {
+
+Vec3 sub(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Vec3 scale(Vec3 a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+Vec3 add(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+double length(Vec3 a) { return std::hypot(a.x, a.y, a.z); }
+Vec3 unit(Vec3 a) { return scale(a, 1.0 / length(a)); }
+
+std::string fmt(double v) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    return buf;
+}
+
+std::string where(const Plane& p, std::size_t i) {
+    return p.file + ": channel '" + p.channel + "': pixel (" + std::to_string(i % p.width) + ", " +
+           std::to_string(i / p.width) + ")";
+}
+
+std::string where3(const std::vector<Plane>& p, std::size_t i) {
+    return p[0].file + ": channels '" + p[0].channel + "', '" + p[1].channel + "', '" + p[2].channel + "': pixel (" +
+           std::to_string(i % p[0].width) + ", " + std::to_string(i / p[0].width) + ")";
+}
+
+}  // namespace
+
+SceneInputs SceneInputs::load(const SceneDescription& d) {
+    SceneInputs s;
+    s.d_ = d;
+    // Each file read once for all the channels asked of it.
+    auto read_scalar = [&](const ScalarSource& src) {
+        return src.from_image() ? read_channels(src.file, {src.channel}) : std::vector<Plane>{};
+    };
+    auto read_vector = [&](const VectorSource& src) {
+        return src.from_image() ? read_channels(src.file, {src.channels[0], src.channels[1], src.channels[2]})
+                                : std::vector<Plane>{};
+    };
+    s.normal_ = read_vector(d.normal.source);
+    s.visibility_ = read_scalar(d.visibility);
+    s.roughness_ = read_scalar(d.roughness);
+    s.anisotropy_ = read_scalar(d.anisotropy);
+    if (d.has_tangent) s.tangent_ = read_vector(d.tangent);
+    if (d.mask.present) s.mask_ = read_scalar(d.mask.source);
+    if (d.has_material) s.material_ = read_scalar(d.material);
+    if (d.view.kind == ViewKind::vectors) s.view_ = read_vector(d.view.vectors);
+    if (d.view.kind == ViewKind::position) s.position_ = read_vector(d.view.position);
+
+    for (const auto* group : {&s.normal_, &s.visibility_, &s.roughness_, &s.anisotropy_, &s.tangent_, &s.mask_,
+                              &s.material_, &s.view_, &s.position_})
+        for (const Plane& p : *group) {
+            if (s.size_source_.empty()) {
+                s.width_ = p.width;
+                s.height_ = p.height;
+                s.size_source_ = p.file + " (channel '" + p.channel + "')";
+            } else if (p.width != s.width_ || p.height != s.height_) {
+                throw SceneError(p.file + ": channel '" + p.channel + "' is " + std::to_string(p.width) + " x " +
+                                 std::to_string(p.height) + " pixels; the scene is " + std::to_string(s.width_) + " x " +
+                                 std::to_string(s.height_) + " (set by " + s.size_source_ + ")");
+            }
+        }
+    if (s.size_source_.empty())
+        throw SceneError(d.source + ": no input comes from an image, so the scene has no size (give at least one file)");
+
+    // Constants checked once, with the key that holds them.
+    auto check_constant = [&](bool image, double v, double lo, double hi, const std::string& key) {
+        if (!image && !(v >= lo && v <= hi))
+            throw SceneError(d.source + ": " + key + ": " + fmt(v) + " outside [" + fmt(lo) + ", " + fmt(hi) + "]");
+    };
+    check_constant(d.visibility.from_image(), d.visibility.value, 0, 1, "visibility.value");
+    check_constant(d.roughness.from_image(), d.roughness.value, d.roughness_kind == RoughnessKind::alpha ? 1e-300 : 0, 1,
+                   "roughness.value");
+    check_constant(d.anisotropy.from_image(), d.anisotropy.value, -1, 1, "anisotropy.value");
+
+    // Every shaded pixel checked before any work: the first problem is reported, with its pixel.
+    auto finite = [](const std::vector<Plane>& planes, std::size_t i) {
+        for (const Plane& p : planes)
+            if (!std::isfinite(p.data[i])) return &p;
+        return static_cast<const Plane*>(nullptr);
+    };
+    for (std::size_t i = 0; i < s.pixels(); ++i) {
+        if (!s.mask_.empty() && std::isnan(s.mask_[0].data[i]))  // infinity is a legal background (depth)
+            throw SceneError(where(s.mask_[0], i) + ": NaN in the mask");
+        if (!s.in_mask(i)) continue;
+        for (const auto* group : {&s.normal_, &s.visibility_, &s.roughness_, &s.anisotropy_, &s.tangent_, &s.material_,
+                                  &s.view_, &s.position_})
+            if (const Plane* bad = finite(*group, i))
+                throw SceneError(where(*bad, i) + ": " + fmt(bad->data[i]) + " is not a finite number");
+        if (!s.normal_.empty() && !(length(s.world_normal(i)) > 1e-6))
+            throw SceneError(where3(s.normal_, i) + ": zero-length normal");
+        if (!s.visibility_.empty()) {
+            const float v = s.visibility_[0].data[i];
+            if (!(v >= 0 && v <= 1)) throw SceneError(where(s.visibility_[0], i) + ": visibility " + fmt(v) + " outside [0, 1]");
+        }
+        if (!s.roughness_.empty()) {
+            const float r = s.roughness_[0].data[i];
+            if (!(r >= 0 && r <= 1)) throw SceneError(where(s.roughness_[0], i) + ": roughness " + fmt(r) + " outside [0, 1]");
+        }
+        if (!s.anisotropy_.empty()) {
+            const float a = s.anisotropy_[0].data[i];
+            if (!(a >= -1 && a <= 1)) throw SceneError(where(s.anisotropy_[0], i) + ": anisotropy " + fmt(a) + " outside [-1, 1]");
+        }
+        const PixelSurface p = s.pixel(i);
+        if (p.alpha_x != p.alpha_y && !p.anisotropic)
+            throw SceneError((s.tangent_.empty() ? d.source + ": tangent.value" : where3(s.tangent_, i)) +
+                             ": the tangent is zero or parallel to the normal at an anisotropic pixel (" +
+                             std::to_string(i % s.width_) + ", " + std::to_string(i / s.width_) + ")");
+        if (!s.view_.empty() && !(length({double(s.view_[0].data[i]), double(s.view_[1].data[i]), double(s.view_[2].data[i])}) > 1e-12))
+            throw SceneError(where3(s.view_, i) + ": zero-length view vector");
+        if (!s.position_.empty() && !(length(sub(d.view.camera, p.position)) > 0))
+            throw SceneError(where3(s.position_, i) + ": the position is the camera's");
+    }
+    return s;
+}
+
+bool SceneInputs::in_mask(std::size_t i) const {
+    if (mask_.empty()) return true;
+    const double m = mask_[0].data[i];
+    switch (d_.mask.kind) {
+        case MaskKind::alpha: return m >= d_.mask.threshold;
+        case MaskKind::background: return m != d_.mask.background;
+        case MaskKind::object_index: {
+            const long id = std::lround(m * mask_[0].integer_scale);
+            if (d_.mask.objects.empty()) return id != 0;
+            return std::find(d_.mask.objects.begin(), d_.mask.objects.end(), id) != d_.mask.objects.end();
+        }
+    }
+    return true;
+}
+
+Vec3 SceneInputs::world_normal(std::size_t i) const {
+    Vec3 n = d_.normal.source.value;
+    if (!normal_.empty()) {
+        n = {double(normal_[0].data[i]), double(normal_[1].data[i]), double(normal_[2].data[i])};
+        if (d_.normal.encoding == VectorEncoding::unorm) n = {2 * n.x - 1, 2 * n.y - 1, 2 * n.z - 1};
+    }
+    if (d_.normal.space == NormalSpace::tangent) {
+        if (d_.normal.green_down) n.y = -n.y;
+        const Vec3 N = unit(d_.surface.normal);
+        const Vec3 T = unit(sub(d_.surface.tangent, scale(N, dot(d_.surface.tangent, N))));
+        const Vec3 B = cross(N, T);
+        n = add(add(scale(T, n.x), scale(B, n.y)), scale(N, n.z));
+    }
+    return n;
+}
+
+PixelSurface SceneInputs::pixel(std::size_t i) const {
+    PixelSurface p;
+    p.shaded = in_mask(i);
+    if (!p.shaded) return p;
+    const Vec3 n = world_normal(i);
+    p.normal = length(n) > 0 ? unit(n) : Vec3{0, 0, 1};
+    // World position: the position pass, or the plane of the texture set.
+    if (!position_.empty()) {
+        p.position = {double(position_[0].data[i]), double(position_[1].data[i]), double(position_[2].data[i])};
+    } else {
+        const Vec3 N = unit(d_.surface.normal);
+        const Vec3 T = unit(sub(d_.surface.tangent, scale(N, dot(d_.surface.tangent, N))));
+        const Vec3 B = cross(N, T);
+        const double u = (double(i % width_) + 0.5) / width_, v = (double(i / width_) + 0.5) / height_;
+        p.position = add(d_.surface.origin, add(scale(T, u * d_.surface.width), scale(B, (1 - v) * d_.surface.height)));
+    }
+    switch (d_.view.kind) {
+        case ViewKind::direction: p.view = unit(d_.view.direction); break;
+        case ViewKind::vectors: {
+            Vec3 v{double(view_[0].data[i]), double(view_[1].data[i]), double(view_[2].data[i])};
+            if (d_.view.encoding == VectorEncoding::unorm) v = {2 * v.x - 1, 2 * v.y - 1, 2 * v.z - 1};
+            p.view = length(v) > 0 ? unit(v) : Vec3{0, 0, 1};
+            break;
+        }
+        case ViewKind::position: {
+            const Vec3 v = sub(d_.view.camera, p.position);
+            p.view = length(v) > 0 ? unit(v) : Vec3{0, 0, 1};
+            break;
+        }
+    }
+    p.visibility = scalar(visibility_, d_.visibility, i);
+    const double r = scalar(roughness_, d_.roughness, i);
+    const double alpha = d_.roughness_kind == RoughnessKind::perceptual ? r * r : r;
+    const double a = scalar(anisotropy_, d_.anisotropy, i);
+    p.alpha_x = std::max(kMinAlpha, alpha * (1 + a));
+    p.alpha_y = std::max(kMinAlpha, alpha * (1 - a));
+    p.roughness = std::pow(p.alpha_x * p.alpha_y, 0.25);
+    if (d_.has_tangent) {
+        Vec3 t = d_.tangent.value;
+        if (!tangent_.empty()) {
+            t = {double(tangent_[0].data[i]), double(tangent_[1].data[i]), double(tangent_[2].data[i])};
+            if (d_.tangent_encoding == VectorEncoding::unorm) t = {2 * t.x - 1, 2 * t.y - 1, 2 * t.z - 1};
+        }
+        const Vec3 tp = sub(t, scale(p.normal, dot(t, p.normal)));
+        if (length(tp) > 1e-9 * std::max(1.0, length(t))) {
+            p.tangent = unit(tp);
+            p.anisotropic = p.alpha_x != p.alpha_y;
+        }
+    }
+    if (!material_.empty()) p.material = int(std::lround(material_[0].data[i] * material_[0].integer_scale));
+    return p;
+}
+
+LightQuery light_query(const PixelSurface& p, const Light& light) {
+    LightQuery q;
+    if (!p.shaded) return q;
+    Vec3 L;
+    double intensity = light.intensity;
+    if (light.type == LightType::directional) {
+        L = unit(light.direction);
+    } else {
+        const Vec3 d = sub(light.position, p.position);
+        const double dist = length(d);
+        if (!(dist > 0)) {
+            q.status = PixelStatus::light_below_horizon;
+            return q;
+        }
+        L = scale(d, 1 / dist);
+        intensity /= dist * dist;
+    }
+    const Vec3 n = p.normal;
+    q.n_dot_v = dot(n, p.view);
+    q.n_dot_l = dot(n, L);
+    q.irradiance = std::max(0.0, q.n_dot_l) * intensity;
+    if (!(q.n_dot_v > 1e-6)) {
+        q.status = PixelStatus::view_below_horizon;
+        return q;
+    }
+    q.status = q.n_dot_l > 0 ? PixelStatus::shaded : PixelStatus::light_below_horizon;
+    const double cv = std::min(1.0, q.n_dot_v), cl = std::clamp(q.n_dot_l, -1.0, 1.0);
+    const double sv = std::sqrt(std::max(0.0, 1 - cv * cv)), sl = std::sqrt(std::max(0.0, 1 - cl * cl));
+    q.query.visibility = p.visibility;
+    q.query.alpha_x = p.alpha_x;
+    q.query.alpha_y = p.alpha_y;
+    if (p.anisotropic) {
+        const Vec3 x = p.tangent, y = cross(n, x);
+        q.query.wi = {dot(p.view, x), dot(p.view, y), cv};
+        q.query.wo = {dot(L, x), dot(L, y), cl};
+        return q;
+    }
+    // Isotropic: x along V's projection (or L's, when V is the normal); phi = relative azimuth in [0, pi].
+    const Vec3 vp = sub(p.view, scale(n, dot(p.view, n))), lp = sub(L, scale(n, dot(L, n)));
+    const double lv = length(vp), ll = length(lp);
+    double cos_phi = 1;
+    if (lv > 1e-12 && ll > 1e-12) cos_phi = std::clamp(dot(vp, lp) / (lv * ll), -1.0, 1.0);
+    q.azimuth = std::acos(cos_phi);
+    const double sin_phi = std::sin(q.azimuth);
+    q.query.wi = {sv, 0, cv};
+    q.query.wo = {sl * cos_phi, sl * sin_phi, cl};
+    return q;
+}
+
+}  // namespace ms::scene

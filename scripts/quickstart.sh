@@ -22,6 +22,9 @@ if [ "$job" = main ]; then
   "$build/microshadow" devices
   "$build/microshadow" bake --out out/microshadow_lut.exr --preview out/microshadow_lut.png --verify 64
   echo "wrote out/microshadow_lut.exr and out/microshadow_lut.png"
+  echo "next: '$build/microshadow help' lists the commands; docs/engine.md puts the LUT and its shader in an engine;"
+  echo "      '$build/microshadow bake --out lut.ktx2 --shader-glsl lut.glsl' bakes a KTX2 with matching GLSL;"
+  echo "      'bash scripts/quickstart.sh test' runs the test suite"
 else
   cd "$build"
   ctest --output-on-failure -j"$(nproc)"

@@ -242,6 +242,8 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--verify", a->verify, "recompute K random texels with the scalar oracle; fail if they disagree")
         ->transform(decimal_range(0, 100000));
     add_sampling_options(cmd, a->sampling);
+    // A bake's samples are per (roughness, NdotV) slice and batch, as its summary counts them.
+    cmd->get_option("--samples")->description("VNDF samples per slice and batch, all replicates together (rounded up to replicates x 2^k; default 65536)");
     cmd->callback([a] { run_bake(*a); });
 }
 

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
     cli::add_merge_command(app);
     cli::add_shader_command(app);  // issue 12
     cli::add_scene_command(app);   // issue 11
+    cli::add_help_command(app);
     cli::install_interrupt_handlers();
     try {
         app.parse(argc, argv);
@@ -31,8 +32,23 @@ int main(int argc, char** argv) {
         return app.exit(e);
     } catch (const CLI::CallForVersion& e) {
         return app.exit(e);
+    } catch (const CLI::ExtrasError& e) {
+        // A mistyped option or command: name the closest spelling the command line accepts.
+        app.exit(e);
+        for (int i = 1; i < argc; ++i) {
+            const std::string arg = argv[i];
+            if (arg.empty() || std::string(e.what()).find(arg) == std::string::npos) continue;
+            const std::string s = cli::suggestion(app, arg.substr(0, arg.find('=')));
+            if (!s.empty()) std::cerr << "microshadow: '" << arg << "' is not " << (arg[0] == '-' ? "an option" : "a command") << s << "\n";
+        }
+        return 2;
     } catch (const CLI::ParseError& e) {
         app.exit(e);
+        // "microshadow bkae": no subcommand was recognised; name the closest one.
+        if (argc > 1 && argv[1][0] != '-' && app.get_subcommands().empty()) {
+            const std::string s = cli::suggestion(app, argv[1]);
+            if (!s.empty()) std::cerr << "microshadow: '" << argv[1] << "' is not a command" << s << "\n";
+        }
         return 2;
     } catch (const Cancelled& e) {
         std::cerr << "microshadow: " << e.what() << "\n";

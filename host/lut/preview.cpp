@@ -1,5 +1,7 @@
 #include "lut/preview.hpp"
 
+#include "io/png_file.hpp"
+
 #include <png.h>
 
 #include <algorithm>
@@ -150,29 +152,7 @@ void write_lut_preview(const std::string& path, const LutPreviewInput& lut, std:
 
     check_writable_destination(path);
     AtomicPath atomic(path);
-    std::FILE* f = std::fopen(atomic.temp_path().c_str(), "wb");
-    if (!f) throw std::runtime_error("cannot open " + atomic.temp_path() + " for writing");
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw std::runtime_error("libpng: out of memory");
-    }
-    // libpng reports errors by longjmp; nothing with a destructor is created between here and the end.
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw std::runtime_error("libpng failed writing " + path);
-    }
-    png_init_io(png, f);
-    png_set_IHDR(png, info, width, height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                 PNG_FILTER_TYPE_DEFAULT);
-    png_write_info(png, info);
-    for (std::uint32_t y = 0; y < height; ++y) png_write_row(png, &image[std::size_t(y) * width * 3]);
-    png_write_end(png, info);
-    png_destroy_write_struct(&png, &info);
-    if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + path);
+    write_png(atomic.temp_path(), PngImage{width, height, 3, 8, image.data()});
     atomic.commit();
 }
 

@@ -1,5 +1,7 @@
 #include "scene/image_io.hpp"
 
+#include "io/png_file.hpp"
+
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -205,29 +207,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
 }
 
 void write_png_rgb(const std::string& path, const RgbImage& image) {
-    std::FILE* f = std::fopen(path.c_str(), "wb");
-    if (!f) throw std::runtime_error("cannot open " + path + " for writing");
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw std::runtime_error("libpng: out of memory");
-    }
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw std::runtime_error("libpng failed writing " + path);
-    }
-    png_init_io(png, f);
-    png_set_IHDR(png, info, image.width, image.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    png_write_info(png, info);
-    for (std::uint32_t y = 0; y < image.height; ++y)
-        png_write_row(png, const_cast<png_bytep>(&image.pixels[std::size_t(y) * image.width * 3]));
-    png_write_end(png, info);
-    png_destroy_write_struct(&png, &info);
-    if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + path);
+    write_png(path, PngImage{image.width, image.height, 3, 8, image.pixels.data()});
 }
 
 void write_exr(const std::string& path, std::uint32_t width, std::uint32_t height, const std::vector<ExrLayer>& layers,

@@ -1,5 +1,7 @@
 #include "lut/formats/png_atlas.hpp"
 
+#include "io/png_file.hpp"
+
 #include <png.h>
 
 #include <cstdio>
@@ -26,36 +28,8 @@ void write_png_atlas(const std::string& path, const LutFile& lut, PixelEncoding 
     }
 
     AtomicPath atomic(path);
-    std::FILE* f = std::fopen(atomic.temp_path().c_str(), "wb");
-    if (!f) throw std::runtime_error("cannot open " + atomic.temp_path() + " for writing");
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
-    png_infop info = png ? png_create_info_struct(png) : nullptr;
-    if (!png || !info) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw std::runtime_error("libpng: out of memory");
-    }
-    png_text text{};
-    // libpng reports errors by longjmp: everything with a destructor above is constructed already and
-    // not touched again until after the last libpng call.
-    if (setjmp(png_jmpbuf(png))) {
-        png_destroy_write_struct(&png, &info);
-        std::fclose(f);
-        throw std::runtime_error("libpng failed writing " + path);
-    }
-    png_init_io(png, f);
-    png_set_IHDR(png, info, lut.width, lut.height, row_bytes == std::size_t(lut.width) * 4 ? 8 : 16, PNG_COLOR_TYPE_RGB_ALPHA, PNG_INTERLACE_NONE,
-                 PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
-    text.compression = PNG_ITXT_COMPRESSION_NONE;
-    text.key = const_cast<char*>("microshadow");
-    text.text = const_cast<char*>(json.c_str());
-    text.itxt_length = json.size();
-    png_set_text(png, info, &text, 1);
-    png_write_info(png, info);
-    for (std::uint32_t y = 0; y < lut.height; ++y) png_write_row(png, &image[std::size_t(y) * row_bytes]);
-    png_write_end(png, info);
-    png_destroy_write_struct(&png, &info);
-    if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + path);
+    // The metadata rides along as an iTXt chunk, UTF-8 JSON under the key "microshadow".
+    write_png(atomic.temp_path(), PngImage{lut.width, lut.height, 4, int(bits), image.data()}, "microshadow", json);
     atomic.commit();
 }
 

@@ -74,5 +74,6 @@ void add_eval_command(CLI::App& app);
 void add_bake_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
+void add_ibl_command(CLI::App& app);
 
 }  // namespace ms::cli

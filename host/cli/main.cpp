@@ -20,6 +20,7 @@ int main(int argc, char** argv) {
     cli::add_bake_command(app);
     cli::add_sweep_command(app);
     cli::add_merge_command(app);
+    cli::add_ibl_command(app);
     cli::install_interrupt_handlers();
     try {
         app.parse(argc, argv);

@@ -89,8 +89,8 @@ const Published kThreeJs[] = {
     {5, 0, 0x38d1, 0x3539, -0.01398},
     {15, 0, 0x3ae1, 0x28ff, +0.00229},
     {4, 1, 0x3839, 0x35a4, -0.00576},   // r 0.28125, NdotV 0.09375: the worst of the second row
-    {7, 7, 0x3ac2, 0x27b7, -0.00093},   // r 0.46875, NdotV 0.46875
-    {15, 15, 0x3586, 0x049f, +0.00000}, // r 0.96875, NdotV 0.96875
+    {7, 7, 0x3ac2, 0x27b7, -0.00004},   // r 0.46875, NdotV 0.46875
+    {15, 15, 0x3586, 0x049f, +0.00002}, // r 0.96875, NdotV 0.96875
 };
 
 TEST(IblDfgPublished, ThreeJsTableIsOffAtGrazingNdotV) {

@@ -90,7 +90,7 @@ TEST(IblSh, AnalyticFunctions) {
 }
 
 // A constant environment: Y00 only, and the SH irradiance is exactly pi times the radiance at every
-// normal (the texel solid angles are exact, so the discrete projection is exact too).
+// normal (each texel's basis integrals are exact, so the projection of a piecewise-constant image is).
 TEST(IblSh, ConstantEnvironmentIsExact) {
     const env::Image img = equirect(64, [](const env::Dir&) { return std::array<double, 3>{0.25, 1.0, 3.0}; });
     const IrradianceResult r = compute_irradiance(img, 8);
@@ -100,13 +100,13 @@ TEST(IblSh, ConstantEnvironmentIsExact) {
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(r.sh[k][c], 0, 1e-12) << k;
     for (const env::Dir& n : {env::Dir{0, 1, 0}, env::Dir{0.6, 0, 0.8}, env::Dir{0, -1, 0}})
         for (int c = 0; c < 3; ++c) EXPECT_NEAR(env::sh_irradiance(r.sh, n)[c], kPi * img.at(0, 0, c), 1e-12);
-    EXPECT_LT(r.max_relative_sh_error, 1e-6);  // brute force at 26 normals agrees (texel-centre cosines)
+    EXPECT_LT(r.max_relative_sh_error, 3e-3);  // brute force at 26 normals: texel-centre cosines cut the horizon (64 x 32)
     // The irradiance cubemap holds E / pi = the radiance on every face texel.
     for (int f = 0; f < 6; ++f) {
         std::uint32_t ox, oy;
         cross_face_origin(f, 8, ox, oy);
         for (std::uint32_t y = 0; y < 8; ++y)
-            for (std::uint32_t x = 0; x < 8; ++x) EXPECT_NEAR(r.irradiance_cross.at(ox + x, oy + y, 2), 3.0, 1e-6);
+            for (std::uint32_t x = 0; x < 8; ++x) EXPECT_NEAR(r.irradiance_cross.at(ox + x, oy + y, 2), 3.0, 2e-6);
     }
 }
 
@@ -174,7 +174,8 @@ TEST(IblShCli, WritesCoefficientsAndIrradianceCross) {
     const auto meta = nlohmann::json::parse(in);
     EXPECT_EQ(meta.at("radiance_sh").size(), 9u);
     // Irradiance SH of 1 + y: E = pi + (2 pi / 3) n_y, so the Y1-1 coefficient of E is (2 pi / 3) sqrt(4 pi / 3).
-    EXPECT_NEAR(meta.at("irradiance_sh")[1][0].get<double>(), 2 * kPi / 3 * std::sqrt(4 * kPi / 3), 1e-3);
+    // (64 x 32 texels sampled at their centres: 1e-3 relative.)
+    EXPECT_NEAR(meta.at("irradiance_sh")[1][0].get<double>(), 2 * kPi / 3 * std::sqrt(4 * kPi / 3), 5e-3);
     const env::Image irr = env::read_exr_rgb(dir + "/irr.exr");
     EXPECT_EQ(irr.width, 16u);
     EXPECT_EQ(irr.height, 12u);

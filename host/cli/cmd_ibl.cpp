@@ -1,7 +1,9 @@
 // microshadow ibl: the image-based-lighting integrals of the split-sum approximation.
 //   ibl dfg --out dfg.exr [--size N] ...        the DFG LUT (scale, bias, E) by VNDF sampling, or the quadrature oracle
+//   ibl prefilter ENV --out DIR                 GGX-prefiltered cubemap mips (cmgen roughness mapping), SH irradiance, previews
 //   ibl sh ENV --out sh.json [--irradiance F]  order-2 SH of an environment (9 coefficients per channel) and its
 //                                              irradiance cubemap faces through the clamped-cosine convolution
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -14,6 +16,9 @@
 #include "io/atomic_file.hpp"
 #include "jobs/ibl_dfg.hpp"
 #include "jobs/ibl_env.hpp"
+#include "jobs/ibl_prefilter.hpp"
+
+#include <filesystem>
 
 namespace ms::cli {
 
@@ -119,6 +124,80 @@ void run_sh(const ShArgs& a) {
                   << r.max_relative_sh_error << "\n";
 }
 
+struct PrefilterArgs {
+    std::string env, out, mapping = "cmgen";
+    std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32;
+    std::uint64_t samples = 256, seed = 0;
+    double lod_bias = 1.0, exposure = 1.0;
+    bool no_fis = false, quiet = false;
+    unsigned threads = 0;
+};
+
+void run_prefilter(const PrefilterArgs& a) {
+    namespace fs = std::filesystem;
+    if (fs::exists(a.out) && !fs::is_directory(a.out)) throw std::invalid_argument("--out " + a.out + " exists and is not a directory");
+    if (a.size && (a.size & (a.size - 1))) throw std::invalid_argument("--size must be a power of two");
+    PrefilterSpec spec;
+    spec.mapping = env::parse_roughness_mapping(a.mapping);
+    spec.levels = a.levels;
+    spec.plan.replicates = a.replicates;
+    spec.plan.samples = round_up_samples(a.samples, a.replicates);
+    spec.plan.seed = a.seed;
+    spec.options.filtered = !a.no_fis;
+    spec.options.lod_bias = a.lod_bias;
+    spec.threads = a.threads;
+    spec.source = a.env;
+    spec.command_line = command_line();
+
+    const env::Image image = env::read_environment_image(a.env);
+    env::Cubemap source = env::cubemap_from_image(image, a.size);
+    if (source.size & (source.size - 1)) throw std::invalid_argument("the cross's face size must be a power of two");
+    if (a.size && source.size != a.size) source = env::mip_chain(source).at(std::size_t(std::log2(double(source.size) / a.size)));
+    if (spec.levels && (source.size >> (spec.levels - 1)) == 0)
+        throw std::invalid_argument("--levels " + std::to_string(spec.levels) + " is too many for faces of " + std::to_string(source.size));
+    fs::create_directories(a.out);
+
+    Progress progress("ibl prefilter", a.quiet);
+    PrefilterCallbacks cb;
+    cb.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
+    const PrefilterResult result = prefilter_cubemap(source, spec, cb);
+    progress.finish();
+    nlohmann::json meta = prefilter_metadata(spec, result);
+    PrefilterVerification check;
+    if (a.verify > 0) {
+        check = verify_prefilter(source, result, spec, a.verify);
+        meta["verify"] = {{"texels", check.checked}, {"rms_relative", check.rms_relative}, {"max_relative", check.max_relative},
+                          {"worst_z", check.worst_z}, {"worst", check.worst_texel}};
+    }
+    const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
+    nlohmann::json irr_meta = irradiance_metadata(irr, a.env, command_line());
+    write_prefilter_files(a.out, result, meta);
+    write_prefilter_preview(a.out + "/specular_preview.png", result, a.exposure);
+    env::write_exr(a.out + "/irradiance.exr", irr.irradiance_cross, irr_meta);
+    env::write_png_preview(a.out + "/irradiance_preview.png", irr.irradiance_cross, a.exposure);
+    {
+        AtomicFile sh(a.out + "/sh.json");
+        sh.stream() << irr_meta.dump(2) << "\n";
+        sh.commit();
+    }
+    {
+        nlohmann::json all = {{"specular", meta}, {"irradiance", irr_meta}};
+        AtomicFile f(a.out + "/ibl.json");
+        f.stream() << all.dump(2) << "\n";
+        f.commit();
+    }
+    if (!a.quiet) {
+        std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
+                  << to_string(spec.mapping) << " roughness), " << spec.plan.samples << " samples per texel, "
+                  << (spec.options.filtered ? "filtered" : "unfiltered") << " importance sampling, " << result.seconds << " s; "
+                  << "max relative std error " << result.max_relative_std_error << "\n";
+        std::cerr << "ibl sh: irradiance SH vs brute force: max relative difference " << irr.max_relative_sh_error << "\n";
+        if (a.verify > 0)
+            std::cerr << "verify: " << check.checked << " texels against the brute-force oracle: relative RMS " << check.rms_relative
+                      << ", max " << check.max_relative << " (" << check.worst_texel << ")\n";
+    }
+}
+
 }  // namespace
 
 void add_ibl_command(CLI::App& app) {
@@ -166,6 +245,28 @@ void add_ibl_command(CLI::App& app) {
     sh->add_option("--preview", s->preview, "PNG of the irradiance cross (Reinhard tone map, sRGB)");
     sh->add_flag("--quiet", s->quiet, "no summary");
     sh->callback([s] { run_sh(*s); });
+
+    auto p = std::make_shared<PrefilterArgs>();
+    auto* pf = ibl->add_subcommand("prefilter", "GGX-prefiltered specular cubemap mip chain (+ SH irradiance) of an environment, into a directory");
+    pf->add_option("ENV", p->env, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr")->required();
+    pf->add_option("--out", p->out, "output directory (created)")->required();
+    pf->add_option("--size", p->size, "base face size (power of two; default: from the source)")->transform(decimal_range(1, 4096));
+    pf->add_option("--levels", p->levels, "mips (default: down to 4 x 4)")->transform(decimal_range(1, 13));
+    pf->add_option("--mapping", p->mapping, "roughness per mip: cmgen (r = 1 - sqrt(1 - m / (levels - 1))) or linear")
+        ->check(CLI::IsMember({"cmgen", "linear"}))
+        ->capture_default_str();
+    pf->add_option("--samples", p->samples, "GGX samples per texel (all replicates)")->transform(decimal_range(16, 1u << 20))->capture_default_str();
+    pf->add_option("--replicates", p->replicates, "independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
+    pf->add_option("--seed", p->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
+    pf->add_flag("--no-fis", p->no_fis, "read every sample from the full-resolution source (brute-force importance sampling)");
+    pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias")->capture_default_str();
+    pf->add_option("--threads", p->threads, "CPU threads (0: all)")->transform(decimal_range(0, 1024));
+    pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
+        ->transform(decimal_range(0, 100000));
+    pf->add_option("--irradiance-size", p->irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
+    pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
+    pf->add_flag("--quiet", p->quiet, "no progress or summary");
+    pf->callback([p] { run_prefilter(*p); });
 }
 
 }  // namespace ms::cli

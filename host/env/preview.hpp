@@ -24,6 +24,8 @@ std::uint32_t text_width(const std::string& s, std::uint32_t scale = 2);
 
 void write_png(const std::string& path, const Canvas& canvas);
 
+// An HDR image (first three channels) tone-mapped onto a canvas: x * exposure, Reinhard, sRGB.
+Canvas tone_map(const Image& image, double exposure = 1.0);
 // An HDR image (first three channels) as PNG: x * exposure, Reinhard x / (1 + x), sRGB encoded.
 void write_png_preview(const std::string& path, const Image& image, double exposure = 1.0);
 

@@ -9,6 +9,7 @@
 #include <array>
 #include <functional>
 
+#include "env/cubemap.hpp"
 #include "env/image.hpp"
 #include "env/sphere.hpp"
 
@@ -19,9 +20,13 @@ using Sh9 = std::array<std::array<double, 3>, 9>;  // [k][channel]
 std::array<double, 9> sh_basis(const Dir& d);
 extern const std::array<double, 3> kClampedCosine;  // A_0, A_1, A_2
 
-// Projection of an equirectangular image: each texel's value times its exact solid angle (so a
-// constant environment projects exactly onto Y00).
+// Projection of an equirectangular image as a piecewise-constant function: each texel's value times
+// the exact integral of each basis function over the texel (closed forms), so a constant environment
+// projects exactly onto Y00 and nothing leaks into the other bands.
+std::array<double, 9> equirect_texel_sh_integrals(std::uint32_t x, std::uint32_t y, std::uint32_t width, std::uint32_t height);
 Sh9 sh_project_equirect(const Image& equirect);
+// Projection of a cubemap (exact texel solid angles).
+Sh9 sh_project_cubemap(const Cubemap& cube);
 // Projection of a function by a product rule (Gauss-Legendre in cos theta, uniform in phi) of n x 2n
 // nodes, exact for band-limited functions of degree < n (tests use analytic functions).
 Sh9 sh_project_function(const std::function<std::array<double, 3>(const Dir&)>& f, int n = 16);
@@ -34,5 +39,6 @@ std::array<double, 3> sh_evaluate(const Sh9& sh, const Dir& d);
 // Irradiance of an equirectangular image by brute force (every texel, exact solid angles): the oracle
 // of the SH route for low-frequency environments.
 std::array<double, 3> irradiance_brute_force(const Image& equirect, const Dir& n);
+std::array<double, 3> irradiance_brute_force(const Cubemap& cube, const Dir& n);
 
 }  // namespace ms::env

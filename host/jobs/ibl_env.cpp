@@ -22,12 +22,11 @@ void cross_face_origin(int face, std::uint32_t n, std::uint32_t& x, std::uint32_
     throw std::invalid_argument("cross_face_origin: face 0..5");
 }
 
-IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t face_size) {
-    if (equirect.width != 2 * equirect.height)
-        throw std::invalid_argument("environment: an equirectangular image is twice as wide as high (this one is " +
-                                    std::to_string(equirect.width) + " x " + std::to_string(equirect.height) + ")");
+namespace {
+template <class Source>
+IrradianceResult irradiance_of(const Source& src, const env::Sh9& sh, std::uint32_t face_size) {
     IrradianceResult r;
-    r.sh = env::sh_project_equirect(equirect);
+    r.sh = sh;
     // SH against brute force at 26 normals.
     double worst = 0, scale = 0;
     for (int i = -1; i <= 1; ++i)
@@ -37,7 +36,7 @@ IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t fa
                 const double len = std::sqrt(double(i * i + j * j + k * k));
                 const env::Dir n{i / len, j / len, k / len};
                 const auto a = env::sh_irradiance(r.sh, n);
-                const auto b = env::irradiance_brute_force(equirect, n);
+                const auto b = env::irradiance_brute_force(src, n);
                 for (int c = 0; c < 3; ++c) {
                     worst = std::max(worst, std::abs(a[c] - b[c]));
                     scale = std::max(scale, std::abs(b[c]));
@@ -60,6 +59,18 @@ IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t fa
         }
     }
     return r;
+}
+}  // namespace
+
+IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t face_size) {
+    if (equirect.width != 2 * equirect.height)
+        throw std::invalid_argument("environment: an equirectangular image is twice as wide as high (this one is " +
+                                    std::to_string(equirect.width) + " x " + std::to_string(equirect.height) + ")");
+    return irradiance_of(equirect, env::sh_project_equirect(equirect), face_size);
+}
+
+IrradianceResult compute_irradiance(const env::Cubemap& cube, std::uint32_t face_size) {
+    return irradiance_of(cube, env::sh_project_cubemap(cube), face_size);
 }
 
 nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string& source, const std::string& command_line) {

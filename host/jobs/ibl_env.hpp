@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "env/cubemap.hpp"
 #include "env/image.hpp"
 #include "env/sh.hpp"
 
@@ -25,6 +26,7 @@ struct IrradianceResult {
 void cross_face_origin(int face, std::uint32_t n, std::uint32_t& x, std::uint32_t& y);
 
 IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t face_size);
+IrradianceResult compute_irradiance(const env::Cubemap& cube, std::uint32_t face_size);
 nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string& source, const std::string& command_line);
 
 }  // namespace ms

@@ -126,9 +126,9 @@ void run_sh(const ShArgs& a) {
 
 struct PrefilterArgs {
     std::string env, out, mapping = "cmgen";
-    std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32;
+    std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
     std::uint64_t samples = 256, seed = 0;
-    double lod_bias = 1.0, exposure = 1.0;
+    double lod_bias = 0.0, exposure = 1.0;
     bool no_fis = false, quiet = false;
     unsigned threads = 0;
 };
@@ -185,6 +185,14 @@ void run_prefilter(const PrefilterArgs& a) {
         AtomicFile f(a.out + "/ibl.json");
         f.stream() << all.dump(2) << "\n";
         f.commit();
+    }
+    if (a.dfg_size > 0) {
+        DfgBakeSpec dspec;
+        dspec.n_dot_v.count = dspec.roughness.count = a.dfg_size;
+        dspec.command_line = command_line();
+        const DfgBakeResult dfg = bake_dfg(dspec);
+        write_dfg_preview(a.out + "/dfg_preview.png", dfg, dspec);
+        write_dfg_lut(a.out + "/dfg.exr", dfg, dfg_metadata(dspec, dfg));
     }
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
@@ -264,6 +272,8 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
         ->transform(decimal_range(0, 100000));
     pf->add_option("--irradiance-size", p->irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
+    pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.exr")
+        ->transform(decimal_range(0, 4096));
     pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
     pf->add_flag("--quiet", p->quiet, "no progress or summary");
     pf->callback([p] { run_prefilter(*p); });

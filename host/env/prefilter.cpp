@@ -47,7 +47,7 @@ PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir&
     const double alpha = roughness * roughness, a2 = alpha * alpha;
     const Frame f = frame_of(n);
     const std::uint32_t R = points.replicates, np = points.points_per_replicate;
-    const double omega_p = 4 * kPi / (6.0 * double(chain[0].size) * chain[0].size);
+    const double omega_p = 4.0 / (double(chain[0].size) * chain[0].size);  // a texel at a face's centre
     const double total = double(points.total());
     std::vector<double> num[3], den(R, 0.0);
     for (auto& v : num) v.assign(R, 0.0);
@@ -65,8 +65,15 @@ PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir&
                         lx * f.t.z + ly * f.b.z + n_dot_l * n.z};
             double lod = 0;
             if (options.filtered) {
+                // Omega_p: the solid angle of a full-resolution texel where l lands, (2/n)^2 / (1 + s^2 + t^2)^(3/2)
+                // on its face (1.9x the mean at a face's centre, 0.37x at its corners).
+                int face;
+                double fs, ft;
+                cube_face_st(l, face, fs, ft);
+                const double q = 1 + fs * fs + ft * ft;
+                const double omega_l = omega_p / (q * std::sqrt(q));
                 const double pdf = ggx_d(c, alpha) / 4;
-                lod = std::max(0.0, 0.5 * std::log2(1 / (total * pdf) / omega_p) + options.lod_bias);
+                lod = std::max(0.0, 0.5 * std::log2(1 / (total * pdf) / omega_l) + options.lod_bias);
             }
             const auto v = sample_trilinear(chain, l, lod);
             for (int k = 0; k < 3; ++k) num[k][r] += v[k] * n_dot_l;
@@ -90,9 +97,11 @@ std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double 
         return {v[0], v[1], v[2]};
     }
     const double alpha = roughness * roughness;
-    // Texels whose direction is within this angle of n are subdivided 8 x 8 (with bilinear reads).
+    // While the lobe is narrow against a texel (alpha < 8 texel angles), texels whose direction is within
+    // 6 (alpha + texel) of n are subdivided 8 x 8 (with bilinear reads) so D is resolved; wider lobes vary
+    // by (texel / alpha)^2 / 24 < 1e-3 over a texel and take one value each.
     const double texel_angle = 2.0 / size;  // ~ the angular size of a texel at a face centre (radians)
-    const double near_cos = std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle)));
+    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
     for (int face = 0; face < 6; ++face)
         for (std::uint32_t y = 0; y < size; ++y)
             for (std::uint32_t x = 0; x < size; ++x) {

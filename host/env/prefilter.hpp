@@ -6,7 +6,8 @@
 // pdf(l) = D(h) / 4; the ratio sum L (n.l) / sum (n.l) over replicates gives the value and its error bar.
 // Filtered importance sampling (Krivanek & Colbert 2008) reads each sample from the source mip whose
 // texels cover the sample's share of the sphere: lod = 1/2 log2(Omega_s / Omega_p) + bias, Omega_s =
-// 1 / (N pdf), Omega_p = 4 pi / (6 n0^2); with filtered = false every sample reads the full-resolution
+// 1 / (N pdf), Omega_p the solid angle of a full-resolution texel where the sample lands (K & C use the
+// mean 4 pi / (6 n0^2)); with filtered = false every sample reads the full-resolution
 // source (bilinear), the brute-force importance sampling it is compared against.
 // The oracle sums every source texel with its exact solid angle (texels near the lobe subdivided 8 x 8 with
 // bilinear reads, so the lobe of a small roughness is resolved): deterministic, O(texels) per direction.
@@ -30,7 +31,7 @@ double mip_roughness(std::uint32_t mip, std::uint32_t levels, RoughnessMapping m
 
 struct PrefilterOptions {
     bool filtered = true;
-    double lod_bias = 1.0;  // Krivanek & Colbert's +1
+    double lod_bias = 0.0;  // Krivanek & Colbert add +1; 0 measured better against the oracle (docs/ibl.md)
 };
 
 struct PrefilterValue {

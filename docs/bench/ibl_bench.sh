@@ -42,15 +42,22 @@ dfg)
 prefilter)
     env=${IBL_BENCH_ENV:-/usr/share/blender/datafiles/studiolights/world/forest.exr}
     [ -f "$env" ] || { echo "no $env: run scripts/install-example-data.sh" >&2; exit 2; }
-    echo "method,samples_per_texel,seconds,texels,rms_relative_error,max_relative_error,verified_texels" > "$OUT/ibl_prefilter.csv"
+    csv="$OUT/ibl_prefilter${IBL_BENCH_TAG:+_$IBL_BENCH_TAG}.csv"  # IBL_BENCH_ENV=... IBL_BENCH_TAG=studio: another environment
+    echo "method,samples_per_texel,seconds,cpu_seconds,texels,rms_relative_error,max_relative_error,verified_texels" > "$csv"
     run() {  # method samples extra-args...
         local method=$1 samples=$2; shift 2
         "$BIN" ibl prefilter "$env" --out "$tmp/p" --size 512 --samples "$samples" --verify 48 --quiet "$@"
         local j="$tmp/p/ibl.json"
-        echo "$method,$samples,$(json "$j" "m['specular']['seconds']"),$(json "$j" "sum(6*(512>>k)**2 for k in range(1,len(m['specular']['roughness'])))"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$OUT/ibl_prefilter.csv"
+        echo "$method,$samples,$(json "$j" "m['specular']['seconds']"),$(json "$j" "m['specular']['cpu_seconds']"),$(json "$j" "sum(6*(512>>k)**2 for k in range(1,len(m['specular']['roughness'])))"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$csv"
     }
-    for s in 32 64 128 256; do run filtered $s; done
-    for s in 256 1024 4096; do run brute-force $s --no-fis; done ;;
+    if [ -n "${IBL_BENCH_QUICK:-}" ]; then
+        for s in 64 256; do run filtered $s; done
+        for s in 256 1024; do run brute-force $s --no-fis; done
+    else
+        for s in 64 256 1024; do run filtered $s; done
+        run filtered-bias1 256 --lod-bias 1
+        for s in 256 1024 4096; do run brute-force $s --no-fis; done
+    fi ;;
 *) echo "unknown part $part" >&2; exit 2 ;;
 esac
 done

@@ -12,6 +12,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include <time.h>
+
 #include "core/cancel.hpp"
 #include "env/preview.hpp"
 
@@ -49,8 +51,11 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
     std::mutex mutex;
     std::exception_ptr error;
     std::vector<double> worst(1, 0.0);
+    std::atomic<long long> cpu_ns{0};
     auto work = [&] {
         double local_worst = 0;
+        timespec t0{}, t1{};
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
         try {
             for (;;) {
                 const std::size_t i = next++;
@@ -75,6 +80,8 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
             if (!error) error = std::current_exception();
             next = rows.size();
         }
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
+        cpu_ns += (t1.tv_sec - t0.tv_sec) * 1000000000LL + (t1.tv_nsec - t0.tv_nsec);
         std::lock_guard<std::mutex> lock(mutex);
         worst[0] = std::max(worst[0], local_worst);
     };
@@ -97,6 +104,7 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
     for (std::uint32_t m = 1; m < levels; ++m) r.texels += 6ull * (size >> m) * (size >> m);
     r.samples = r.texels * spec.plan.samples;
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    r.cpu_seconds = double(cpu_ns.load()) * 1e-9;
     return r;
 }
 
@@ -159,6 +167,7 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["seed"] = spec.plan.seed;
     m["max_relative_std_error"] = result.max_relative_std_error;
     m["seconds"] = result.seconds;
+    m["cpu_seconds"] = result.cpu_seconds;  // summed over the threads: stable on a shared machine
     m["device"] = "CPU threads (C++ double)";
     m["version"] = MICROSHADOW_VERSION;
     m["command_line"] = spec.command_line;

@@ -31,6 +31,7 @@ struct PrefilterResult {
     std::vector<double> roughness;
     double max_relative_std_error = 0;  // over texels with a non-zero value, the largest se / value
     double seconds = 0;
+    double cpu_seconds = 0;  // CPU time of the worker threads, summed
     std::uint64_t texels = 0, samples = 0;
 };
 

@@ -125,7 +125,7 @@ void run_sh(const ShArgs& a) {
 }
 
 struct PrefilterArgs {
-    std::string env, out, mapping = "cmgen";
+    std::string env, out, mapping = "cmgen", device;
     std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
     std::uint64_t samples = 256, seed = 0;
     double lod_bias = 0.0, exposure = 1.0;
@@ -146,6 +146,7 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.options.filtered = !a.no_fis;
     spec.options.lod_bias = a.lod_bias;
     spec.threads = a.threads;
+    spec.device = a.device;
     spec.source = a.env;
     spec.command_line = command_line();
 
@@ -268,6 +269,7 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--seed", p->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
     pf->add_flag("--no-fis", p->no_fis, "read every sample from the full-resolution source (brute-force importance sampling)");
     pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias")->capture_default_str();
+    pf->add_option("--device", p->device, "run the kernel on OpenCL devices (default, all, N, name); without it, C++ on CPU threads");
     pf->add_option("--threads", p->threads, "CPU threads (0: all)")->transform(decimal_range(0, 1024));
     pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
         ->transform(decimal_range(0, 100000));

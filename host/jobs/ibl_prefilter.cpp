@@ -16,8 +16,65 @@
 
 #include "core/cancel.hpp"
 #include "env/preview.hpp"
+#include "integrands/prefilter/prefilter_integrand.hpp"
+#include "schedule/scheduler.hpp"
 
 namespace ms {
+
+prefilter::SourceChain pack_chain(const std::vector<env::Cubemap>& chain) {
+    prefilter::SourceChain c;
+    c.size0 = chain[0].size;
+    std::uint32_t offset = 0;
+    for (const auto& level : chain) {
+        c.offset.push_back(offset);
+        for (int f = 0; f < 6; ++f) c.rgb.insert(c.rgb.end(), level.faces[f].data.begin(), level.faces[f].data.end());
+        offset += 6 * level.size * level.size;
+    }
+    return c;
+}
+
+namespace {
+// The chain on OpenCL devices through the scheduler (one item per 256 output texels).
+void prefilter_on_devices(const std::vector<env::Cubemap>& chain, const PrefilterSpec& spec, const PointSet& points,
+                          PrefilterResult& r, const PrefilterCallbacks& cb, double& worst) {
+    const prefilter::SourceChain packed = pack_chain(chain);
+    std::vector<prefilter::Target> targets;
+    for (std::size_t m = 1; m < r.mips.size(); ++m) {
+        const std::uint32_t n = r.mips[m].size;
+        for (int f = 0; f < 6; ++f)
+            for (std::uint32_t y = 0; y < n; ++y)
+                for (std::uint32_t x = 0; x < n; ++x) {
+                    const env::Dir d = env::cube_direction(f, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
+                    targets.push_back({d.x, d.y, d.z, r.roughness[m]});
+                }
+    }
+    prefilter::RoutineConfig config;
+    config.filtered = spec.options.filtered;
+    config.lod_bias = spec.options.lod_bias;
+    prefilter::PrefilterIntegrand integrand(packed, targets, 256, points, config, [&](const prefilter::Target& t) {
+        const env::PrefilterValue v = env::prefilter_direction(chain, {t.x, t.y, t.z}, t.roughness, points, spec.options);
+        return prefilter::Value{v.value, v.std_error};
+    });
+    schedule::Scheduler scheduler(schedule::Backend::opencl(ocl::select_devices(spec.device)));
+    schedule::RunCallbacks rcb;
+    rcb.progress = cb.progress;
+    scheduler.run(integrand, {}, rcb);
+    std::size_t k = 0;
+    for (std::size_t m = 1; m < r.mips.size(); ++m) {
+        const std::uint32_t n = r.mips[m].size;
+        for (int f = 0; f < 6; ++f)
+            for (std::uint32_t y = 0; y < n; ++y)
+                for (std::uint32_t x = 0; x < n; ++x, ++k) {
+                    const auto& v = integrand.values()[k];
+                    float* t = r.mips[m].texel(f, x, y);
+                    for (int c = 0; c < 3; ++c) {
+                        t[c] = float(v.value[c]);
+                        if (v.value[c] > 0) worst = std::max(worst, v.std_error[c] / v.value[c]);
+                    }
+                }
+    }
+}
+}  // namespace
 
 std::uint32_t default_levels(std::uint32_t size) {
     std::uint32_t levels = 1;
@@ -46,6 +103,16 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
         r.roughness.push_back(env::mip_roughness(m, levels, spec.mapping));
         for (int f = 0; f < 6; ++f)
             for (std::uint32_t y = 0; y < (size >> m); ++y) rows.push_back({m, f, y});
+    }
+    if (!spec.device.empty()) {
+        double worst = 0;
+        prefilter_on_devices(chain, spec, points, r, cb, worst);
+        r.max_relative_std_error = worst;
+        for (std::uint32_t m = 1; m < levels; ++m) r.texels += 6ull * (size >> m) * (size >> m);
+        r.samples = r.texels * spec.plan.samples;
+        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        r.cpu_seconds = 0;  // the device's time is in seconds
+        return r;
     }
     std::atomic<std::size_t> next{0}, done{0};
     std::mutex mutex;
@@ -168,7 +235,7 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["max_relative_std_error"] = result.max_relative_std_error;
     m["seconds"] = result.seconds;
     m["cpu_seconds"] = result.cpu_seconds;  // summed over the threads: stable on a shared machine
-    m["device"] = "CPU threads (C++ double)";
+    m["device"] = spec.device.empty() ? "CPU threads (C++ double)" : "opencl: " + spec.device + " (kernels/prefilter/prefilter.cl, float)";
     m["version"] = MICROSHADOW_VERSION;
     m["command_line"] = spec.command_line;
     return m;

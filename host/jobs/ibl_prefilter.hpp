@@ -23,6 +23,7 @@ struct PrefilterSpec {
     SamplingPlan plan{Sequence::sobol, 256, 4, 0};  // samples per texel, all replicates
     env::PrefilterOptions options;
     unsigned threads = 0;  // 0: every hardware thread
+    std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
     std::string source, command_line;  // provenance
 };
 
@@ -40,6 +41,9 @@ struct PrefilterCallbacks {
 };
 
 std::uint32_t default_levels(std::uint32_t size);
+// The chain packed for the kernel routine (level-major, faces, rows, RGB).
+namespace prefilter { struct SourceChain; }
+prefilter::SourceChain pack_chain(const std::vector<env::Cubemap>& chain);
 PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpec& spec, const PrefilterCallbacks& cb = {});
 
 // K random texels of mips >= 1 against the oracle: relative RMS and max error over texels and channels

@@ -9,7 +9,8 @@
 #            mip chain (8 levels, 512 .. 4, cmgen roughness), filtered importance sampling against brute-force
 #            importance sampling of the full-resolution source, each at several sample counts: seconds and the
 #            RMS / max error relative to the brute-force oracle on the same 48 random texels (--verify 48)
-#            -> docs/bench/ibl_prefilter.csv
+#            -> docs/bench/ibl_prefilter.csv; IBL_BENCH_OPENCL=1 IBL_BENCH_TAG=opencl runs the kernel instead
+#            (kernels/prefilter/prefilter.cl), IBL_BENCH_ENV=... IBL_BENCH_TAG=name another environment
 set -euo pipefail
 BIN=${MICROSHADOW:-build/microshadow}
 OUT=docs/bench
@@ -50,7 +51,11 @@ prefilter)
         local j="$tmp/p/ibl.json"
         echo "$method,$samples,$(json "$j" "m['specular']['seconds']"),$(json "$j" "m['specular']['cpu_seconds']"),$(json "$j" "sum(6*(512>>k)**2 for k in range(1,len(m['specular']['roughness'])))"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$csv"
     }
-    if [ -n "${IBL_BENCH_QUICK:-}" ]; then
+    if [ -n "${IBL_BENCH_OPENCL:-}" ]; then  # the kernel on the default OpenCL device (wall seconds; no CPU time)
+        "$BIN" ibl prefilter "$env" --out "$tmp/w" --size 16 --samples 64 --device default --quiet  # kernel cache
+        for s in 64 256 1024; do run filtered-opencl $s --device default; done
+        for s in 1024 4096; do run brute-force-opencl $s --no-fis --device default; done
+    elif [ -n "${IBL_BENCH_QUICK:-}" ]; then
         for s in 64 256; do run filtered $s; done
         for s in 256 1024; do run brute-force $s --no-fis; done
     else

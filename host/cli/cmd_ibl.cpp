@@ -10,6 +10,7 @@
 
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
+#include "env/cubemap.hpp"
 #include "env/image.hpp"
 #include "env/preview.hpp"
 #include "env/sh.hpp"
@@ -111,7 +112,10 @@ void run_sh(const ShArgs& a) {
     if (!a.irradiance.empty()) check_writable_destination(a.irradiance);
     if (!a.preview.empty()) check_writable_destination(a.preview);
     const env::Image image = env::read_environment_image(a.env);
-    const IrradianceResult r = compute_irradiance(image, a.irradiance.empty() ? 0 : a.face_size);
+    // Equirectangular images are projected texel by texel (exact texel integrals); crosses as cubemaps.
+    const std::uint32_t faces = a.irradiance.empty() ? 0 : a.face_size;
+    const IrradianceResult r = image.width == 2 * image.height ? compute_irradiance(image, faces)
+                                                               : compute_irradiance(env::cubemap_from_image(image), faces);
     nlohmann::json meta = irradiance_metadata(r, a.env, command_line());
     AtomicFile json(a.out);
     json.stream() << meta.dump(2) << "\n";
@@ -246,8 +250,8 @@ void add_ibl_command(CLI::App& app) {
     dfg->callback([d] { run_dfg(*d); });
 
     auto s = std::make_shared<ShArgs>();
-    auto* sh = ibl->add_subcommand("sh", "order-2 spherical harmonics (9 per channel) and irradiance of an equirectangular environment");
-    sh->add_option("ENV", s->env, "equirectangular environment (.exr or Radiance .hdr)")->required();
+    auto* sh = ibl->add_subcommand("sh", "order-2 spherical harmonics (9 per channel) and irradiance of an environment");
+    sh->add_option("ENV", s->env, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr")->required();
     sh->add_option("--out", s->out, "output JSON: coefficients, convolved irradiance coefficients, provenance")->required();
     sh->add_option("--irradiance", s->irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
     sh->add_option("--face-size", s->face_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 #include "cli_runner.hpp"
 #include "core/estimate.hpp"
@@ -203,6 +205,16 @@ TEST_F(IblDfgBake, CliWritesTheExrWithMetadataAndPreview) {
     // Row y = roughness, x = NdotV: at the smallest roughness the scale grows with NdotV.
     EXPECT_LT(img.at(0, 0, 0), img.at(7, 0, 0));
     EXPECT_TRUE(std::filesystem::exists(png));
+    // The C header: the same texels, the metadata in a comment.
+    const auto hdr = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --out " + path("dfg.h") + " --size 8 --samples 4096 --quiet 2>&1");
+    ASSERT_EQ(hdr.exit_code, 0) << hdr.output;
+    std::ifstream h(path("dfg.h"));
+    const std::string text((std::istreambuf_iterator<char>(h)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("\"layout\": \"dfg\""), std::string::npos);
+    EXPECT_NE(text.find("static const float microshadow_dfg[MICROSHADOW_DFG_HEIGHT][MICROSHADOW_DFG_WIDTH][3]"), std::string::npos);
+    char first[32];
+    std::snprintf(first, sizeof first, "{%.9gf", img.at(0, 0, 0));
+    EXPECT_NE(text.find(first), std::string::npos) << first;  // same seed, same bits
     // KTX2 is not written yet: refused with a message, nothing written.
     const auto ktx = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --out " + path("dfg.ktx2") +
                                " --size 4 --samples 1024 --quiet 2>&1");

@@ -3,12 +3,14 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 
 #include "core/estimate.hpp"
 #include "env/image.hpp"
+#include "io/atomic_file.hpp"
 
 namespace ms {
 
@@ -122,13 +124,40 @@ std::string extension(const std::string& path) {
 
 void check_dfg_lut_format(const std::string& path) {
     const std::string ext = extension(path);
-    if (ext == ".exr") return;
+    if (ext == ".exr" || ext == ".h") return;
     // Hook for the KTX2 / DDS writers (another branch): accept ".ktx2" / ".dds" here and dispatch in write_dfg_lut.
-    throw std::invalid_argument("DFG LUT " + path + ": only .exr is written so far (the KTX2 and DDS writers are pending)");
+    throw std::invalid_argument("DFG LUT " + path + ": .exr or .h (C header) so far; the KTX2 and DDS writers are pending");
 }
 
 void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half) {
     check_dfg_lut_format(path);
+    if (extension(path) == ".h") {
+        // A C/C++ header: the metadata as a comment, then float texels [roughness][NdotV][scale, bias, E],
+        // printed with 9 significant digits (float round trip).
+        AtomicFile file(path);
+        std::ostream& out = file.stream();
+        std::string meta = metadata.dump(2);
+        for (std::size_t p = meta.find("*/"); p != std::string::npos; p = meta.find("*/", p)) meta.replace(p, 2, "* /");
+        out << "/* microshadow DFG LUT (generated; do not edit)\n" << meta << "\n*/\n";
+        out << "#pragma once\n\n";
+        out << "#define MICROSHADOW_DFG_WIDTH " << result.width << "  /* NdotV */\n";
+        out << "#define MICROSHADOW_DFG_HEIGHT " << result.height << "  /* roughness */\n\n";
+        out << "static const float microshadow_dfg[MICROSHADOW_DFG_HEIGHT][MICROSHADOW_DFG_WIDTH][3] = {\n";
+        char buf[96];
+        for (std::uint32_t y = 0; y < result.height; ++y) {
+            out << "  {";
+            for (std::uint32_t x = 0; x < result.width; ++x) {
+                const auto& v = result.at(x, y);
+                std::snprintf(buf, sizeof buf, "{%.9gf, %.9gf, %.9gf}%s", float(v.scale.term), float(v.bias.term),
+                              float(v.albedo.term), x + 1 < result.width ? ", " : "");
+                out << buf;
+            }
+            out << "}" << (y + 1 < result.height ? "," : "") << "\n";
+        }
+        out << "};\n";
+        file.commit();
+        return;
+    }
     if (extension(path) == ".exr") {
         env::Image img(result.width, result.height, {"R", "G", "B"});
         for (std::uint32_t y = 0; y < result.height; ++y)

@@ -60,7 +60,8 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callback
 
 nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result);
 
-// Writes the LUT: OpenEXR (".exr"; FLOAT or HALF, R G B = scale bias E). Other extensions are refused
+// Writes the LUT: OpenEXR (".exr"; FLOAT or HALF, R G B = scale bias E) or a C header (".h": the metadata as a
+// comment, float microshadow_dfg[height][width][3]). Other extensions are refused
 // with a message naming the KTX2/DDS writers as pending (the hook: write_dfg_lut dispatches on the
 // extension; a KTX2 writer slots in beside the EXR one).
 void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work

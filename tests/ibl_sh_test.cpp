@@ -114,14 +114,19 @@ TEST(IblSh, ConstantEnvironmentIsExact) {
 // irradiance against brute force over the texels; they differ only by the discretisation of the image.
 TEST(IblSh, LowFrequencyEnvironmentAgainstBruteForce) {
     const env::Image img = equirect(256, [](const env::Dir& d) {
-        return std::array<double, 3>{1 + 0.8 * d.y, 0.5 + 0.3 * d.x * d.z, 2 + d.z};
+        return std::array<double, 3>{1 + 0.8 * d.y + 0.3 * d.x, 0.5 + 0.3 * d.x * d.z + 0.2 * d.x * d.y + 0.1 * (d.x * d.x - d.y * d.y),
+                                     2 + d.z + 0.4 * d.y * d.z};
     });
     const env::Sh9 sh = env::sh_project_equirect(img);
-    for (const env::Dir& n : {env::Dir{0, 1, 0}, env::Dir{0.6, 0, 0.8}, env::Dir{0, -0.6, 0.8}, env::Dir{-1, 0, 0}}) {
+    for (const env::Dir& n : {env::Dir{0, 1, 0}, env::Dir{0.6, 0, 0.8}, env::Dir{0, -0.6, 0.8}, env::Dir{-1, 0, 0},
+                              env::Dir{0.48, 0.6, 0.64}, env::Dir{-0.6, 0.64, -0.48}}) {
         const auto a = env::sh_irradiance(sh, n);
         const auto b = env::irradiance_brute_force(img, n);
-        // Exact values: E = pi (1 + (2/3) 0.8 n_y), pi (0.5 + (1/4) 0.3 n_x n_z), pi (2 + (2/3) n_z).
-        const double exact[3] = {kPi * (1 + 2.0 / 3 * 0.8 * n.y), kPi * (0.5 + 0.25 * 0.3 * n.x * n.z), kPi * (2 + 2.0 / 3 * n.z)};
+        // Exact values (l = 1 terms scale by 2/3, the traceless l = 2 terms by 1/4): every basis function of
+        // the equirectangular projection's closed forms is exercised.
+        const double exact[3] = {kPi * (1 + 2.0 / 3 * (0.8 * n.y + 0.3 * n.x)),
+                                 kPi * (0.5 + 0.25 * (0.3 * n.x * n.z + 0.2 * n.x * n.y + 0.1 * (n.x * n.x - n.y * n.y))),
+                                 kPi * (2 + 2.0 / 3 * n.z + 0.25 * 0.4 * n.y * n.z)};
         for (int c = 0; c < 3; ++c) {
             EXPECT_NEAR(a[c], exact[c], 2e-4 * exact[c]) << c;  // SH: exact up to the image's float storage
             EXPECT_NEAR(b[c], exact[c], 2e-3 * exact[c]) << c;  // brute force: the horizon cut through texels

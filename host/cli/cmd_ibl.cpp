@@ -157,6 +157,8 @@ void run_prefilter(const PrefilterArgs& a) {
     const env::Image image = env::read_environment_image(a.env);
     env::Cubemap source = env::cubemap_from_image(image, a.size);
     if (source.size & (source.size - 1)) throw std::invalid_argument("the cross's face size must be a power of two");
+    if (a.size > source.size)
+        throw std::invalid_argument("--size " + std::to_string(a.size) + " is larger than the cross's faces (" + std::to_string(source.size) + ")");
     if (a.size && source.size != a.size) source = env::mip_chain(source).at(std::size_t(std::log2(double(source.size) / a.size)));
     if (spec.levels && (source.size >> (spec.levels - 1)) == 0)
         throw std::invalid_argument("--levels " + std::to_string(spec.levels) + " is too many for faces of " + std::to_string(source.size));

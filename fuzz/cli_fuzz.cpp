@@ -27,6 +27,7 @@ void build_app(CLI::App& app) {
     ms::cli::add_merge_command(app);
     ms::cli::add_shader_command(app);
     ms::cli::add_scene_command(app);
+    ms::cli::add_ibl_command(app);
     ms::cli::add_help_command(app);
 }
 

@@ -60,7 +60,8 @@ void add_help_command(CLI::App& app) {
 
 std::string suggestion(CLI::App& app, const std::string& word) {
     std::string best;
-    std::size_t best_distance = 4;  // more than 3 edits away is not a typo of it
+    // A typo is a few edits of a word, and fewer than half its letters ("1" is not a typo of "ibl").
+    std::size_t best_distance = std::min<std::size_t>(4, word.size() / 2 + 1);
     for (const std::string& w : known_words(app)) {
         const std::size_t d = edit_distance(word, w);
         if (d < best_distance) best = w, best_distance = d;

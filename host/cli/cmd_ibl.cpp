@@ -1,0 +1,290 @@
+// microshadow ibl: the image-based-lighting integrals of the split-sum approximation.
+//   ibl dfg --out dfg.exr [--size N] ...        the DFG LUT (scale, bias, E) by VNDF sampling, or the quadrature oracle
+//   ibl prefilter ENV --out DIR                 GGX-prefiltered cubemap mips (cmgen roughness mapping), SH irradiance, previews
+//   ibl sh ENV --out sh.json [--irradiance F]  order-2 SH of an environment (9 coefficients per channel) and its
+//                                              irradiance cubemap faces through the clamped-cosine convolution
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+
+#include "cli/common.hpp"
+#include "cli/progress.hpp"
+#include "env/cubemap.hpp"
+#include "env/image.hpp"
+#include "env/preview.hpp"
+#include "env/sh.hpp"
+#include "io/atomic_file.hpp"
+#include "jobs/ibl_dfg.hpp"
+#include "jobs/ibl_env.hpp"
+#include "jobs/ibl_prefilter.hpp"
+
+#include <filesystem>
+
+namespace ms::cli {
+
+namespace {
+
+struct DfgArgs {
+    std::string out, preview, compare, texel = "centres", backend = "opencl", device = "default";
+    int warp = 3;
+    std::uint32_t size = 64, size_n_dot_v = 0, size_roughness = 0, replicates = 8, verify = 0;
+    std::uint64_t samples = 65536, seed = 0;
+    bool half = false, fast_math = false, double_kernels = false, quiet = false;
+    unsigned threads = 0;
+};
+
+void run_dfg(const DfgArgs& a) {
+    DfgBakeSpec spec;
+    spec.n_dot_v.count = a.size_n_dot_v ? a.size_n_dot_v : a.size;
+    spec.roughness.count = a.size_roughness ? a.size_roughness : a.size;
+    spec.n_dot_v.texel = spec.roughness.texel = parse_texel_convention(a.texel);
+    spec.plan.replicates = a.replicates;
+    spec.plan.seed = a.seed;
+    spec.plan.samples = round_up_samples(a.samples, a.replicates);
+    if (spec.plan.samples != a.samples && !a.quiet)
+        std::cerr << "note: --samples " << a.samples << " rounded up to " << spec.plan.samples << "\n";
+    if (spec.plan.samples / a.replicates > (1u << 24)) throw std::invalid_argument("--samples: at most 2^24 per replicate");
+    spec.oracle = a.backend == "oracle";
+    spec.oracle_threads = a.threads;
+    spec.device = a.device;
+    spec.routine.warp = a.warp;
+    spec.routine.build.fast_math = a.fast_math;
+    spec.routine.build.double_precision = a.double_kernels;
+    if (spec.oracle && (a.fast_math || a.double_kernels))
+        throw std::invalid_argument("--fast-math and --double-kernels build kernels; the oracle has none");
+    spec.command_line = command_line();
+    validate(spec);
+    check_dfg_lut_format(a.out);
+    check_writable_destination(a.out);
+    if (!a.preview.empty()) check_writable_destination(a.preview);
+
+    Progress progress("ibl dfg", a.quiet);
+    DfgBakeCallbacks cb;
+    cb.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
+    const DfgBakeResult result = bake_dfg(spec, cb);
+    progress.finish();
+    nlohmann::json meta = dfg_metadata(spec, result);
+    DfgVerification check;
+    if (a.verify > 0) {
+        check = verify_dfg(spec, result, a.verify);
+        meta["verify"] = {{"texels", check.checked}, {"failed", check.failed}, {"worst_z", check.worst_z},
+                          {"threshold", check.threshold}, {"worst_abs_diff", check.worst_abs_diff}};
+        if (check.failed > 0) {
+            std::ostringstream s;
+            s << "verification failed: " << check.failed << " of " << check.checked
+              << " texels differ from the quadrature oracle beyond their error bars (worst z " << std::setprecision(3)
+              << check.worst_z << " > " << check.threshold << "; " << check.worst_texel << "); nothing was written";
+            throw std::runtime_error(s.str());
+        }
+    }
+    DfgComparison cmp;
+    if (!a.compare.empty()) {
+        cmp = compare_dfg(result, a.compare);
+        meta["compare"] = {{"reference", a.compare},
+                           {"max_abs", {cmp.max_abs[0], cmp.max_abs[1], cmp.max_abs[2]}},
+                           {"rms", {cmp.rms[0], cmp.rms[1], cmp.rms[2]}}};
+    }
+    if (!a.preview.empty()) write_dfg_preview(a.preview, result, spec);
+    write_dfg_lut(a.out, result, meta, a.half);
+    if (!a.quiet) {
+        std::cerr << std::setprecision(3) << "ibl dfg: " << result.width << " x " << result.height << " (NdotV x roughness), "
+                  << (spec.oracle ? "quadrature" : std::to_string(spec.plan.samples) + " samples per texel")
+                  << ", max std error " << result.max_std_error << ", " << result.seconds << " s on " << result.backend << "\n";
+        if (!a.compare.empty())
+            std::cerr << "compare: max |diff| scale " << cmp.max_abs[0] << " bias " << cmp.max_abs[1] << " E " << cmp.max_abs[2]
+                      << " (worst texel " << cmp.worst_x << ", " << cmp.worst_y << "); rms " << cmp.rms[0] << " " << cmp.rms[1]
+                      << " " << cmp.rms[2] << "; bake " << result.seconds << " s\n";
+        if (a.verify > 0)
+            std::cerr << "verify: " << check.checked << " texels against the quadrature oracle, worst z " << check.worst_z
+                      << " (limit " << check.threshold << "), worst |diff| " << check.worst_abs_diff << "\n";
+    }
+}
+
+struct ShArgs {
+    std::string env, out, irradiance, preview;
+    std::uint32_t face_size = 32;
+    bool quiet = false;
+};
+
+void run_sh(const ShArgs& a) {
+    check_writable_destination(a.out);
+    if (!a.irradiance.empty()) check_writable_destination(a.irradiance);
+    if (!a.preview.empty()) check_writable_destination(a.preview);
+    const env::Image image = env::read_environment_image(a.env);
+    // Equirectangular images are projected texel by texel (exact texel integrals); crosses as cubemaps.
+    const std::uint32_t faces = a.irradiance.empty() ? 0 : a.face_size;
+    const IrradianceResult r = image.width == 2 * image.height ? compute_irradiance(image, faces)
+                                                               : compute_irradiance(env::cubemap_from_image(image), faces);
+    nlohmann::json meta = irradiance_metadata(r, a.env, command_line());
+    AtomicFile json(a.out);
+    json.stream() << meta.dump(2) << "\n";
+    if (!a.irradiance.empty()) env::write_exr(a.irradiance, r.irradiance_cross, meta);
+    if (!a.preview.empty()) env::write_png_preview(a.preview, r.irradiance_cross, 1.0);
+    json.commit();
+    if (!a.quiet)
+        std::cerr << "ibl sh: " << image.width << " x " << image.height << " environment, 9 coefficients per channel; "
+                  << "irradiance SH vs brute force at 26 normals: max relative difference " << std::setprecision(3)
+                  << r.max_relative_sh_error << "\n";
+}
+
+struct PrefilterArgs {
+    std::string env, out, mapping = "cmgen", device;
+    std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
+    std::uint64_t samples = 256, seed = 0;
+    double lod_bias = 0.0, exposure = 1.0;
+    bool no_fis = false, quiet = false;
+    unsigned threads = 0;
+};
+
+void run_prefilter(const PrefilterArgs& a) {
+    namespace fs = std::filesystem;
+    if (fs::exists(a.out) && !fs::is_directory(a.out)) throw std::invalid_argument("--out " + a.out + " exists and is not a directory");
+    if (a.size && (a.size & (a.size - 1))) throw std::invalid_argument("--size must be a power of two");
+    PrefilterSpec spec;
+    spec.mapping = env::parse_roughness_mapping(a.mapping);
+    spec.levels = a.levels;
+    spec.plan.replicates = a.replicates;
+    spec.plan.samples = round_up_samples(a.samples, a.replicates);
+    spec.plan.seed = a.seed;
+    spec.options.filtered = !a.no_fis;
+    spec.options.lod_bias = a.lod_bias;
+    spec.threads = a.threads;
+    spec.device = a.device;
+    spec.source = a.env;
+    spec.command_line = command_line();
+
+    const env::Image image = env::read_environment_image(a.env);
+    env::Cubemap source = env::cubemap_from_image(image, a.size);
+    if (source.size & (source.size - 1)) throw std::invalid_argument("the cross's face size must be a power of two");
+    if (a.size > source.size)
+        throw std::invalid_argument("--size " + std::to_string(a.size) + " is larger than the cross's faces (" + std::to_string(source.size) + ")");
+    if (a.size && source.size != a.size) source = env::mip_chain(source).at(std::size_t(std::log2(double(source.size) / a.size)));
+    if (spec.levels && (source.size >> (spec.levels - 1)) == 0)
+        throw std::invalid_argument("--levels " + std::to_string(spec.levels) + " is too many for faces of " + std::to_string(source.size));
+    fs::create_directories(a.out);
+
+    Progress progress("ibl prefilter", a.quiet);
+    PrefilterCallbacks cb;
+    cb.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
+    const PrefilterResult result = prefilter_cubemap(source, spec, cb);
+    progress.finish();
+    nlohmann::json meta = prefilter_metadata(spec, result);
+    PrefilterVerification check;
+    if (a.verify > 0) {
+        check = verify_prefilter(source, result, spec, a.verify);
+        meta["verify"] = {{"texels", check.checked}, {"rms_relative", check.rms_relative}, {"max_relative", check.max_relative},
+                          {"worst_z", check.worst_z}, {"worst", check.worst_texel}};
+    }
+    const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
+    nlohmann::json irr_meta = irradiance_metadata(irr, a.env, command_line());
+    write_prefilter_files(a.out, result, meta);
+    write_prefilter_preview(a.out + "/specular_preview.png", result, a.exposure);
+    env::write_exr(a.out + "/irradiance.exr", irr.irradiance_cross, irr_meta);
+    env::write_png_preview(a.out + "/irradiance_preview.png", irr.irradiance_cross, a.exposure);
+    {
+        AtomicFile sh(a.out + "/sh.json");
+        sh.stream() << irr_meta.dump(2) << "\n";
+        sh.commit();
+    }
+    {
+        nlohmann::json all = {{"specular", meta}, {"irradiance", irr_meta}};
+        AtomicFile f(a.out + "/ibl.json");
+        f.stream() << all.dump(2) << "\n";
+        f.commit();
+    }
+    if (a.dfg_size > 0) {
+        DfgBakeSpec dspec;
+        dspec.n_dot_v.count = dspec.roughness.count = a.dfg_size;
+        dspec.command_line = command_line();
+        const DfgBakeResult dfg = bake_dfg(dspec);
+        write_dfg_preview(a.out + "/dfg_preview.png", dfg, dspec);
+        write_dfg_lut(a.out + "/dfg.exr", dfg, dfg_metadata(dspec, dfg));
+    }
+    if (!a.quiet) {
+        std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
+                  << to_string(spec.mapping) << " roughness), " << spec.plan.samples << " samples per texel, "
+                  << (spec.options.filtered ? "filtered" : "unfiltered") << " importance sampling, " << result.seconds << " s; "
+                  << "max relative std error " << result.max_relative_std_error << "\n";
+        std::cerr << "ibl sh: irradiance SH vs brute force: max relative difference " << irr.max_relative_sh_error << "\n";
+        if (a.verify > 0)
+            std::cerr << "verify: " << check.checked << " texels against the brute-force oracle: relative RMS " << check.rms_relative
+                      << ", max " << check.max_relative << " (" << check.worst_texel << ")\n";
+    }
+}
+
+}  // namespace
+
+void add_ibl_command(CLI::App& app) {
+    auto* ibl = app.add_subcommand("ibl", "image-based lighting: the split-sum DFG LUT and environment irradiance");
+    ibl->require_subcommand(1);
+
+    auto d = std::make_shared<DfgArgs>();
+    auto* dfg = ibl->add_subcommand("dfg", "bake the DFG LUT (x = NdotV, y = roughness; R, G, B = scale, bias, E) to OpenEXR");
+    dfg->add_option("--out", d->out, "output .exr (KTX2/DDS: pending)")->required();
+    dfg->add_option("--size", d->size, "texels on both axes")->transform(decimal_range(1, 4096))->capture_default_str();
+    dfg->add_option("--size-n-dot-v", d->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
+    dfg->add_option("--size-roughness", d->size_roughness, "texels on the roughness axis")->transform(decimal_range(1, 4096));
+    dfg->add_option("--texel", d->texel, "centres (i + 0.5) / n or endpoints i / (n - 1)")
+        ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
+        ->capture_default_str();
+    dfg->add_option("--samples", d->samples, "VNDF samples per texel (all replicates)")
+        ->transform(decimal_range(16, std::uint64_t(1) << 28))
+        ->capture_default_str();
+    dfg->add_option("--replicates", d->replicates, "independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
+    dfg->add_option("--seed", d->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
+    dfg->add_option("--backend", d->backend, "opencl (VNDF sampling) or oracle (the quadrature)")
+        ->check(CLI::IsMember({"opencl", "oracle"}))
+        ->capture_default_str();
+    dfg->add_option("--device", d->device, "default, all, an index or part of a name")->capture_default_str();
+    dfg->add_option("--threads", d->threads, "oracle threads (0: all)")->transform(decimal_range(0, 1024));
+    dfg->add_option("--verify", d->verify, "recompute K random texels with the quadrature oracle; fail on a disagreement")
+        ->transform(decimal_range(0, 100000));
+    dfg->add_option("--preview", d->preview, "also write a PNG of the three channels with axes");
+    dfg->add_option("--compare", d->compare, "report max and RMS differences from a reference LUT of the same size (e.g. --backend oracle's)");
+    dfg->add_option("--warp", d->warp, "sample warp towards the VNDF cap's rim: 1 (none), 2, 3")
+        ->check(CLI::Range(1, 3))
+        ->capture_default_str();
+    dfg->add_flag("--half", d->half, "16-bit half floats");
+    dfg->add_flag("--fast-math", d->fast_math, "build the kernel with -cl-fast-relaxed-math (recorded)");
+    dfg->add_flag("--double-kernels", d->double_kernels, "run the kernel in double (cl_khr_fp64 devices)");
+    dfg->add_flag("--quiet", d->quiet, "no progress or summary");
+    dfg->callback([d] { run_dfg(*d); });
+
+    auto s = std::make_shared<ShArgs>();
+    auto* sh = ibl->add_subcommand("sh", "order-2 spherical harmonics (9 per channel) and irradiance of an environment");
+    sh->add_option("ENV", s->env, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr")->required();
+    sh->add_option("--out", s->out, "output JSON: coefficients, convolved irradiance coefficients, provenance")->required();
+    sh->add_option("--irradiance", s->irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
+    sh->add_option("--face-size", s->face_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
+    sh->add_option("--preview", s->preview, "PNG of the irradiance cross (Reinhard tone map, sRGB)");
+    sh->add_flag("--quiet", s->quiet, "no summary");
+    sh->callback([s] { run_sh(*s); });
+
+    auto p = std::make_shared<PrefilterArgs>();
+    auto* pf = ibl->add_subcommand("prefilter", "GGX-prefiltered specular cubemap mip chain (+ SH irradiance) of an environment, into a directory");
+    pf->add_option("ENV", p->env, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr")->required();
+    pf->add_option("--out", p->out, "output directory (created)")->required();
+    pf->add_option("--size", p->size, "base face size (power of two; default: from the source)")->transform(decimal_range(1, 4096));
+    pf->add_option("--levels", p->levels, "mips (default: down to 4 x 4)")->transform(decimal_range(1, 13));
+    pf->add_option("--mapping", p->mapping, "roughness per mip: cmgen (r = 1 - sqrt(1 - m / (levels - 1))) or linear")
+        ->check(CLI::IsMember({"cmgen", "linear"}))
+        ->capture_default_str();
+    pf->add_option("--samples", p->samples, "GGX samples per texel (all replicates)")->transform(decimal_range(16, 1u << 20))->capture_default_str();
+    pf->add_option("--replicates", p->replicates, "independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
+    pf->add_option("--seed", p->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
+    pf->add_flag("--no-fis", p->no_fis, "read every sample from the full-resolution source (brute-force importance sampling)");
+    pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias")->capture_default_str();
+    pf->add_option("--device", p->device, "run the kernel on OpenCL devices (default, all, N, name); without it, C++ on CPU threads");
+    pf->add_option("--threads", p->threads, "CPU threads (0: all)")->transform(decimal_range(0, 1024));
+    pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
+        ->transform(decimal_range(0, 100000));
+    pf->add_option("--irradiance-size", p->irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
+    pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.exr")
+        ->transform(decimal_range(0, 4096));
+    pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
+    pf->add_flag("--quiet", p->quiet, "no progress or summary");
+    pf->callback([p] { run_prefilter(*p); });
+}
+
+}  // namespace ms::cli

@@ -1,0 +1,200 @@
+#include "env/preview.hpp"
+
+#include "io/png_file.hpp"
+
+#include <png.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <stdexcept>
+
+#include "io/atomic_file.hpp"
+
+namespace ms::env {
+
+namespace {
+
+// 5 x 7 glyphs, one string of 7 rows of 5 pixels each ('#' on).
+const std::map<char, const char*>& font() {
+    static const std::map<char, const char*> f = {
+        {'0', ".###.#...##..###.#.###..##...#.###."},
+        {'1', "..#...##....#....#....#....#...###."},
+        {'2', ".###.#...#....#...#...#...#...#####"},
+        {'3', "####.....#....#.###.....#....#####."},
+        {'4', "...#...##..#.#.#..#.#####...#....#."},
+        {'5', "######....####.....#....##...#.###."},
+        {'6', "..##..#...#....####.#...##...#.###."},
+        {'7', "#####....#...#...#...#....#....#..."},
+        {'8', ".###.#...##...#.###.#...##...#.###."},
+        {'9', ".###.#...##...#.####....#...#..##.."},
+        {'.', "..........................##...##.."},
+        {'-', "...............#####..............."},
+        {'=', "..........#####.....#####.........."},
+        {' ', "..................................."},
+        {'(', "...#...#...#....#....#.....#.....#."},
+        {')', ".#.....#.....#....#....#...#...#..."},
+        {',', ".....................##....#...#..."},
+        {':', "......##...##........##...##......."},
+        {'/', ".........#...#...#...#...#........."},
+        {'^', "..#...#.#.#...#...................."},
+        {'+', ".......#....#..#####..#....#......."},
+        {'x', "..........#...#.#.#...#...#.#.#...#"},
+        {'a', "...........###.....#.#####...#.####"},
+        {'b', "#....#....####.#...##...##...#####."},
+        {'c', "...........###.#....#....#...#.###."},
+        {'d', "....#....#.#####...##...##...#.####"},
+        {'e', "...........###.#...#######.....###."},
+        {'f', "..##..#..#.#...###...#....#....#..."},
+        {'g', "......#####...##...#.####....#.###."},
+        {'h', "#....#....#.##.##..##...##...##...#"},
+        {'i', "..#........##....#....#....#...###."},
+        {'k', "#....#....#..#.#.#..##...#.#..#..#."},
+        {'l', ".##....#....#....#....#....#...###."},
+        {'m', "..........##.#.#.#.##.#.##...##...#"},
+        {'n', "..........#.##.##..##...##...##...#"},
+        {'o', "...........###.#...##...##...#.###."},
+        {'p', "..........####.#...#####.#....#...."},
+        {'q', "...........#####...#.####....#....#"},
+        {'r', "..........#.##.##..##....#....#...."},
+        {'s', "...........#####.....###.....#####."},
+        {'t', ".#....#...###...#....#....#..#..##."},
+        {'u', "..........#...##...##...##..##.##.#"},
+        {'v', "..........#...##...##...#.#.#...#.."},
+        {'w', "..........#...##...##.#.##.#.#.#.#."},
+        {'y', "..........#...##...#.####....#.###."},
+        {'z', "..........#####...#...#...#...#####"},
+        {'A', ".###.#...##...#######...##...##...#"},
+        {'B', "####.#...##...#####.#...##...#####."},
+        {'C', ".###.#...##....#....#....#...#.###."},
+        {'D', "####.#...##...##...##...##...#####."},
+        {'E', "######....#....####.#....#....#####"},
+        {'F', "######....#....####.#....#....#...."},
+        {'G', ".###.#...##....#.####...##...#.####"},
+        {'H', "#...##...##...#######...##...##...#"},
+        {'I', ".###...#....#....#....#....#...###."},
+        {'K', "#...##..#.#.#..##...#.#..#..#.#...#"},
+        {'L', "#....#....#....#....#....#....#####"},
+        {'M', "#...###.###.#.##.#.##...##...##...#"},
+        {'N', "#...##...###..##.#.##..###...##...#"},
+        {'O', ".###.#...##...##...##...##...#.###."},
+        {'P', "####.#...##...#####.#....#....#...."},
+        {'R', "####.#...##...#####.#.#..#..#.#...#"},
+        {'S', ".#####....#.....###.....#....#####."},
+        {'T', "#####..#....#....#....#....#....#.."},
+        {'U', "#...##...##...##...##...##...#.###."},
+        {'V', "#...##...##...##...##...#.#.#...#.."},
+        {'X', "#...##...#.#.#...#...#.#.#...##...#"},
+        {'Y', "#...##...#.#.#...#....#....#....#.."},
+        {'Z', "#####....#...#...#...#...#....#####"},
+    };
+    return f;
+}
+
+std::uint8_t srgb8(double linear) {
+    const double c = std::clamp(linear, 0.0, 1.0);
+    const double s = c <= 0.0031308 ? 12.92 * c : 1.055 * std::pow(c, 1 / 2.4) - 0.055;
+    return std::uint8_t(std::lround(255 * s));
+}
+
+}  // namespace
+
+void Canvas::set(std::int64_t x, std::int64_t y, std::uint8_t r, std::uint8_t g, std::uint8_t b) {
+    if (x < 0 || y < 0 || x >= std::int64_t(width) || y >= std::int64_t(height)) return;
+    std::uint8_t* p = &rgb[(std::size_t(y) * width + std::size_t(x)) * 3];
+    p[0] = r, p[1] = g, p[2] = b;
+}
+
+std::uint32_t text_width(const std::string& s, std::uint32_t scale) { return std::uint32_t(s.size()) * 6 * scale; }
+
+std::uint32_t Canvas::text(std::int64_t x, std::int64_t y, const std::string& s, std::uint32_t scale, std::uint8_t grey) {
+    const auto& f = font();
+    for (std::size_t i = 0; i < s.size(); ++i) {
+        auto it = f.find(s[i]);
+        if (it == f.end()) it = f.find(' ');
+        const std::string g = it->second;
+        for (int row = 0; row < 7; ++row)
+            for (int col = 0; col < 5; ++col) {
+                const std::size_t k = std::size_t(row) * 5 + col;
+                if (k < g.size() && g[k] == '#')
+                    for (std::uint32_t dy = 0; dy < scale; ++dy)
+                        for (std::uint32_t dx = 0; dx < scale; ++dx)
+                            set(x + std::int64_t((i * 6 + col) * scale + dx), y + std::int64_t(row * scale + dy), grey, grey, grey);
+            }
+    }
+    return text_width(s, scale);
+}
+
+void Canvas::line(std::int64_t x0, std::int64_t y0, std::int64_t x1, std::int64_t y1, std::uint8_t grey) {
+    const std::int64_t n = std::max(std::abs(x1 - x0), std::abs(y1 - y0));
+    for (std::int64_t i = 0; i <= n; ++i) {
+        const double t = n == 0 ? 0 : double(i) / n;
+        set(std::llround(x0 + t * (x1 - x0)), std::llround(y0 + t * (y1 - y0)), grey, grey, grey);
+    }
+}
+
+void write_png(const std::string& path, const Canvas& c) {
+    check_writable_destination(path);
+    AtomicPath atomic(path);
+    ms::write_png(atomic.temp_path(), PngImage{c.width, c.height, 3, 8, c.rgb.data()});
+    atomic.commit();
+}
+
+void write_png_preview(const std::string& path, const Image& img, double exposure) { write_png(path, tone_map(img, exposure)); }
+
+Canvas tone_map(const Image& img, double exposure) {
+    if (img.channels < 3) throw std::invalid_argument("tone_map: need RGB");
+    Canvas c(img.width, img.height, 0);
+    for (std::uint32_t y = 0; y < img.height; ++y)
+        for (std::uint32_t x = 0; x < img.width; ++x) {
+            std::uint8_t v[3];
+            for (int k = 0; k < 3; ++k) {
+                const double l = std::max(0.0, double(img.at(x, y, k))) * exposure;
+                v[k] = srgb8(std::isfinite(l) ? l / (1 + l) : 1.0);
+            }
+            c.set(x, y, v[0], v[1], v[2]);
+        }
+    return c;
+}
+
+void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles, const std::string& x_label,
+                    const std::string& y_label, const std::string& caption) {
+    if (tiles.empty()) throw std::invalid_argument("write_plot_png: no tiles");
+    const std::uint32_t tw = tiles[0].width, th = tiles[0].height;
+    const std::uint32_t zoom = std::max(1u, 256 / std::max(tw, th));
+    const std::uint32_t pw = tw * zoom, ph = th * zoom;
+    const std::uint32_t left = 110, top = 50, gap = 110, bottom = 80;
+    const std::uint32_t width = left + std::uint32_t(tiles.size()) * (pw + gap), height = top + ph + bottom;
+    Canvas c(width, height, 255);
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+        const PlotTile& tile = tiles[t];
+        const std::int64_t x0 = left + std::int64_t(t) * (pw + gap), y0 = top;
+        c.text(x0 + (pw - text_width(tile.title)) / 2, 18, tile.title);
+        for (std::uint32_t y = 0; y < ph; ++y)
+            for (std::uint32_t x = 0; x < pw; ++x) {
+                const float v = tile.values[std::size_t(y / zoom) * tile.width + x / zoom];
+                const std::uint8_t g = std::uint8_t(std::lround(255.0 * std::clamp(std::isfinite(v) ? double(v) : 0.0, 0.0, 1.0)));
+                c.set(x0 + x, y0 + y, g, g, g);
+            }
+        // Frame, ticks (0, 0.5, 1) and tick labels.
+        c.line(x0 - 1, y0 - 1, x0 + pw, y0 - 1);
+        c.line(x0 - 1, y0 + ph, x0 + pw, y0 + ph);
+        c.line(x0 - 1, y0 - 1, x0 - 1, y0 + ph);
+        c.line(x0 + pw, y0 - 1, x0 + pw, y0 + ph);
+        const char* labels[3] = {"0", "0.5", "1"};
+        for (int k = 0; k < 3; ++k) {
+            const std::int64_t xt = x0 + std::int64_t(k * (pw - 1) / 2), yt = y0 + std::int64_t(k * (ph - 1) / 2);
+            c.line(xt, y0 + ph, xt, y0 + ph + 6);
+            c.text(xt - text_width(labels[k]) / 2, y0 + ph + 10, labels[k]);
+            c.line(x0 - 7, yt, x0 - 1, yt);
+            c.text(x0 - 10 - text_width(labels[k]), yt - 7, labels[k]);
+        }
+        c.text(x0 + (pw - text_width(x_label)) / 2, y0 + ph + 32, x_label);
+        c.text(x0 - 14 - std::int64_t(text_width(y_label, 1)), y0 + ph / 4 - 3, y_label, 1);
+    }
+    c.text(left, height - 20, caption, 1, 80);
+    write_png(path, c);
+}
+
+}  // namespace ms::env

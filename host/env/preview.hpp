@@ -1,0 +1,42 @@
+// PNG previews a person can read: HDR images tone-mapped (Reinhard, sRGB), and labelled plots of
+// [0, 1] data (LUT tiles with axes and titles, drawn with a built-in 5 x 7 pixel font).
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "env/image.hpp"
+
+namespace ms::env {
+
+// An 8-bit RGB canvas.
+struct Canvas {
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::uint8_t> rgb;
+    Canvas(std::uint32_t w, std::uint32_t h, std::uint8_t grey = 255) : width(w), height(h), rgb(std::size_t(w) * h * 3, grey) {}
+    void set(std::int64_t x, std::int64_t y, std::uint8_t r, std::uint8_t g, std::uint8_t b);
+    // Text at (x, y) top-left, scale s (pixels per font pixel); returns the width drawn.
+    std::uint32_t text(std::int64_t x, std::int64_t y, const std::string& s, std::uint32_t scale = 2, std::uint8_t grey = 0);
+    void line(std::int64_t x0, std::int64_t y0, std::int64_t x1, std::int64_t y1, std::uint8_t grey = 0);
+};
+std::uint32_t text_width(const std::string& s, std::uint32_t scale = 2);
+
+void write_png(const std::string& path, const Canvas& canvas);
+
+// An HDR image (first three channels) tone-mapped onto a canvas: x * exposure, Reinhard, sRGB.
+Canvas tone_map(const Image& image, double exposure = 1.0);
+// An HDR image (first three channels) as PNG: x * exposure, Reinhard x / (1 + x), sRGB encoded.
+void write_png_preview(const std::string& path, const Image& image, double exposure = 1.0);
+
+// One tile of a labelled plot: a w x h grid of values in [0, 1] (grey), title above, x axis label
+// below, y axis label to the left, ticks at 0, 0.5 and 1 of both axes (y increasing downwards).
+struct PlotTile {
+    std::string title;
+    std::uint32_t width = 0, height = 0;
+    std::vector<float> values;  // values[y * width + x]
+};
+void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles, const std::string& x_label,
+                    const std::string& y_label, const std::string& caption);
+
+}  // namespace ms::env

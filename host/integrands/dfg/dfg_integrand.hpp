@@ -1,0 +1,71 @@
+// The split-sum DFG integrals (scale, bias, and their sum, the single-scattering albedo E that the
+// multiple-scattering energy compensation needs) as an integrand: items are runs of (NdotV, alpha)
+// points; the kernel routine is kernels/dfg/dfg.cl (VNDF sampling, per-replicate sums reduced on the
+// host in double, error bars from the replicates), the oracle dfg_quadrature.hpp (deterministic, its
+// error estimate from two orders).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#include "core/types.hpp"
+#include "device/runtime.hpp"
+#include "sampling/point_set.hpp"
+#include "schedule/integrand.hpp"
+
+namespace ms::dfg {
+
+struct DfgPoint {
+    double n_dot_v = 1;  // in (0, 1]
+    double alpha = 0.25; // GGX alpha = roughness^2, in (0, 1]
+};
+
+// One point's values. std_error: the replicate standard error (device, a Student-t quantity with R - 1
+// degrees of freedom) or the quadrature's error estimate (oracle).
+struct DfgValue {
+    Estimate scale, bias, albedo;  // albedo = scale + bias (E with F = 1)
+};
+
+struct DfgRoutineConfig {
+    ocl::BuildConfig build;
+    std::size_t local_size = 32;
+    std::uint32_t max_points_per_work_item = 4096;  // bounds each lane's float sum (256 terms)
+    int quadrature_order = 12;
+    int warp = 3;  // MS_DFG_WARP of kernels/dfg/dfg.cl: 1 (none), 2 or 3
+};
+
+class DfgIntegrand final : public schedule::Integrand {
+public:
+    // points_per_item: how many points one work item holds (a LUT row).
+    DfgIntegrand(std::vector<DfgPoint> points, std::size_t points_per_item, const SamplingPlan& plan,
+                 DfgRoutineConfig config = {});
+    std::string name() const override { return "the split-sum DFG integrals"; }
+    std::uint64_t work_items() const override { return (points_.size() + per_item_ - 1) / per_item_; }
+    std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
+    std::unique_ptr<schedule::Worker> oracle_worker() override;
+
+    const std::vector<DfgPoint>& points() const { return points_; }
+    const std::vector<DfgValue>& values() const { return values_; }
+    std::vector<DfgValue> take_values() { return std::move(values_); }
+    const SamplingPlan& plan() const { return plan_; }
+    std::size_t points_per_item() const { return per_item_; }
+
+private:
+    friend class DeviceWorker;
+    friend class OracleWorker;
+    const PointSet& point_set();
+    std::vector<DfgPoint> points_;
+    std::size_t per_item_;
+    SamplingPlan plan_;
+    DfgRoutineConfig config_;
+    std::vector<DfgValue> values_;
+    std::shared_ptr<const PointSet> point_set_;
+    std::mutex mutex_;
+};
+
+// Checks a point (NdotV in (0, 1], alpha in (0, 1]); throws std::invalid_argument.
+void validate(const DfgPoint& p);
+
+}  // namespace ms::dfg

@@ -1,0 +1,117 @@
+#include "integrands/prefilter/prefilter_integrand.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+#include "core/cancel.hpp"
+#include "core/estimate.hpp"
+
+namespace ms::prefilter {
+
+PrefilterIntegrand::PrefilterIntegrand(const SourceChain& chain, std::vector<Target> targets, std::size_t per_item,
+                                       const PointSet& points, RoutineConfig config, CpuEstimate cpu)
+    : chain_(chain), targets_(std::move(targets)), per_item_(std::max<std::size_t>(1, per_item)), points_(points),
+      config_(std::move(config)), cpu_(std::move(cpu)) {
+    for (const auto& t : targets_)
+        if (!(t.roughness > 0)) throw std::invalid_argument("prefilter: roughness must be > 0 (roughness 0 is the source)");
+    values_.resize(targets_.size());
+}
+
+class PrefilterDeviceWorker final : public schedule::Worker {
+public:
+    PrefilterDeviceWorker(PrefilterIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
+        ocl::require_build_support(device_.info(), owner_.config_.build);
+        const SourceChain& c = owner_.chain_;
+        const PointSet& p = owner_.points_;
+        ocl::checked([&] {
+            chain_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, c.rgb.size() * sizeof(float),
+                                const_cast<float*>(c.rgb.data()));
+            offset_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, c.offset.size() * sizeof(cl_uint),
+                                 const_cast<std::uint32_t*>(c.offset.data()));
+            u1_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, p.u1.size() * sizeof(float),
+                             const_cast<float*>(p.u1.data()));
+            u2_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, p.u2.size() * sizeof(float),
+                             const_cast<float*>(p.u2.data()));
+            return 0;
+        });
+    }
+    void run(std::uint64_t id) override {
+        throw_if_cancelled();
+        const std::size_t first = id * owner_.per_item_;
+        const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
+        const std::uint32_t R = owner_.points_.replicates;
+        std::vector<cl_float4> packed(count);
+        for (std::size_t i = 0; i < count; ++i) {
+            const Target& t = owner_.targets_[first + i];
+            packed[i] = {{float(t.x), float(t.y), float(t.z), float(t.roughness)}};
+        }
+        const std::size_t items = count * R;
+        std::vector<float> sums(items * 4);
+        ocl::checked([&] {
+            cl::Kernel kernel = device_.kernel("prefilter/prefilter.cl", "ms_prefilter", owner_.config_.build);
+            const std::size_t local = ocl::local_size(kernel, device_.info(), owner_.config_.local_size);
+            cl::Buffer tbuf(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, packed.size() * sizeof(cl_float4),
+                            packed.data());
+            cl::Buffer obuf(device_.context(), CL_MEM_WRITE_ONLY, sums.size() * sizeof(float));
+            int a = 0;
+            kernel.setArg(a++, chain_);
+            kernel.setArg(a++, offset_);
+            kernel.setArg(a++, cl_uint(owner_.chain_.offset.size()));
+            kernel.setArg(a++, cl_uint(owner_.chain_.size0));
+            kernel.setArg(a++, tbuf);
+            kernel.setArg(a++, cl_uint(count));
+            kernel.setArg(a++, u1_);
+            kernel.setArg(a++, u2_);
+            kernel.setArg(a++, cl_uint(owner_.points_.points_per_replicate));
+            kernel.setArg(a++, cl_uint(R));
+            kernel.setArg(a++, cl_float(float(owner_.points_.total())));
+            kernel.setArg(a++, cl_float(float(owner_.config_.lod_bias)));
+            kernel.setArg(a++, cl_int(owner_.config_.filtered ? 1 : 0));
+            kernel.setArg(a++, obuf);
+            device_.queue().enqueueNDRangeKernel(kernel, cl::NullRange, cl::NDRange(ocl::round_up(items, local)), cl::NDRange(local));
+            device_.queue().enqueueReadBuffer(obuf, CL_TRUE, 0, sums.size() * sizeof(float), sums.data());
+            return 0;
+        });
+        std::vector<double> num(R), den(R);
+        for (std::size_t i = 0; i < count; ++i) {
+            Value& v = owner_.values_[first + i];
+            for (std::uint32_t r = 0; r < R; ++r) den[r] = sums[(i * R + r) * 4 + 3];
+            for (int c = 0; c < 3; ++c) {
+                for (std::uint32_t r = 0; r < R; ++r) num[r] = sums[(i * R + r) * 4 + c];
+                const Estimate e = reduce_replicates(num.data(), den.data(), R);
+                v.value[c] = e.term;
+                v.std_error[c] = e.std_error;
+            }
+        }
+    }
+
+private:
+    PrefilterIntegrand& owner_;
+    ocl::Device& device_;
+    cl::Buffer chain_, offset_, u1_, u2_;
+};
+
+class PrefilterCpuWorker final : public schedule::Worker {
+public:
+    explicit PrefilterCpuWorker(PrefilterIntegrand& owner) : owner_(owner) {
+        if (!owner_.cpu_) throw std::invalid_argument("prefilter: no CPU estimator given for the oracle backend");
+    }
+    void run(std::uint64_t id) override {
+        const std::size_t first = id * owner_.per_item_;
+        const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
+        for (std::size_t i = 0; i < count; ++i) {
+            throw_if_cancelled();
+            owner_.values_[first + i] = owner_.cpu_(owner_.targets_[first + i]);
+        }
+    }
+
+private:
+    PrefilterIntegrand& owner_;
+};
+
+std::unique_ptr<schedule::Worker> PrefilterIntegrand::device_worker(ocl::Device& device) {
+    return std::make_unique<PrefilterDeviceWorker>(*this, device);
+}
+std::unique_ptr<schedule::Worker> PrefilterIntegrand::oracle_worker() { return std::make_unique<PrefilterCpuWorker>(*this); }
+
+}  // namespace ms::prefilter

@@ -1,0 +1,94 @@
+// The DFG LUT bake (split-sum scale and bias, and the single-scattering albedo E = scale + bias that
+// the multiple-scattering energy compensation 1 + F0 (1/E - 1) needs) as a job over the DFG integrand
+// (host/integrands/dfg/) and the scheduler, its file metadata, and its verification against the oracle.
+//
+// Layout (the conventions of the micro-shadowing LUTs): width = NdotV (x, left to right), height =
+// roughness (y, increasing downwards), texel centres (i + 0.5) / n by default, endpoints i / (n - 1) on
+// request (NdotV = 0 is then evaluated at kMinNdotV, roughness 0 by its exact limit: no microfacets,
+// scale = 1 - (1 - v)^5, bias = (1 - v)^5). alpha = roughness^2. Channels R = scale, G = bias, B = E.
+// three.js's DFGLUTData.js stores the transpose (x = roughness, y = NdotV) with two channels.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+#include "grid/axis.hpp"
+#include "integrands/dfg/dfg_integrand.hpp"
+#include "schedule/scheduler.hpp"
+
+namespace ms {
+
+constexpr double kMinNdotV = 1e-4;
+
+struct DfgBakeSpec {
+    Axis n_dot_v{"n_dot_v", 0, 1, 64};
+    Axis roughness{"roughness", 0, 1, 64};
+    SamplingPlan plan{Sequence::sobol, 65536, 8, 0};
+    dfg::DfgRoutineConfig routine;
+    std::string device = "default";
+    bool oracle = false;  // the quadrature on oracle threads
+    unsigned oracle_threads = 0;
+    std::string command_line;  // provenance
+};
+
+struct DfgBakeResult {
+    std::uint32_t width = 0, height = 0;  // NdotV count, roughness count
+    std::vector<dfg::DfgValue> values;    // values[y * width + x]
+    std::vector<std::uint8_t> exact;      // 1 where the texel is an exact limit (roughness 0)
+    double max_std_error = 0;             // over sampled texels and the three channels
+    double seconds = 0;
+    std::string backend;
+    const dfg::DfgValue& at(std::uint32_t x, std::uint32_t y) const { return values[std::size_t(y) * width + x]; }
+};
+
+struct DfgBakeCallbacks {
+    std::function<void(std::uint64_t done, std::uint64_t total)> progress;
+};
+
+void validate(const DfgBakeSpec& spec);
+schedule::Backend dfg_backend(const DfgBakeSpec& spec);
+// The texel's parameters after the clamps above.
+dfg::DfgPoint dfg_texel_point(const DfgBakeSpec& spec, std::uint32_t x, std::uint32_t y);
+
+DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, const DfgBakeCallbacks& callbacks = {});
+DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callbacks = {});
+
+nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result);
+
+// Writes the LUT: OpenEXR (".exr"; FLOAT or HALF, R G B = scale bias E) or a C header (".h": the metadata as a
+// comment, float microshadow_dfg[height][width][3]). Other extensions are refused
+// with a message naming the KTX2/DDS writers as pending (the hook: write_dfg_lut dispatches on the
+// extension; a KTX2 writer slots in beside the EXR one).
+void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work
+void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half = false);
+
+// Re-checks k random sampled texels with the quadrature oracle: a texel fails when
+// |lut - oracle| > t * std_error + oracle error + 1e-6 (float rounding) in any channel, with t the
+// Student-t quantile at 1 - 0.001 / (3k) (Bonferroni over texels and channels).
+struct DfgVerification {
+    std::uint32_t checked = 0, failed = 0;
+    double worst_z = 0, threshold = 0, worst_abs_diff = 0;
+    std::string worst_texel;
+};
+DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed = 1);
+
+}  // namespace ms
+
+namespace ms {
+// Differences from a reference LUT of the same size (e.g. the quadrature's, --backend oracle): max and
+// RMS |result - reference| over all texels, per channel (scale, bias, E), and where the worst one is.
+struct DfgComparison {
+    double max_abs[3] = {0, 0, 0}, rms[3] = {0, 0, 0};
+    double max_all = 0;
+    std::uint32_t worst_x = 0, worst_y = 0;
+};
+DfgComparison compare_dfg(const DfgBakeResult& result, const std::string& reference_exr);
+
+// A PNG of the three channels (scale, bias, E) with axes (NdotV across, roughness down) and titles.
+void write_dfg_preview(const std::string& path, const DfgBakeResult& result, const DfgBakeSpec& spec);
+}  // namespace ms

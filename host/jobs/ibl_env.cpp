@@ -1,0 +1,101 @@
+#include "jobs/ibl_env.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace ms {
+
+namespace {
+constexpr double kPi = 3.14159265358979323846;
+}
+
+void cross_face_origin(int face, std::uint32_t n, std::uint32_t& x, std::uint32_t& y) {
+    switch (face) {
+        case 0: x = 2 * n, y = n; return;  // +X
+        case 1: x = 0, y = n; return;      // -X
+        case 2: x = n, y = 0; return;      // +Y
+        case 3: x = n, y = 2 * n; return;  // -Y
+        case 4: x = n, y = n; return;      // +Z
+        case 5: x = 3 * n, y = n; return;  // -Z
+    }
+    throw std::invalid_argument("cross_face_origin: face 0..5");
+}
+
+namespace {
+template <class Source>
+IrradianceResult irradiance_of(const Source& src, const env::Sh9& sh, std::uint32_t face_size) {
+    IrradianceResult r;
+    r.sh = sh;
+    // SH against brute force at 26 normals.
+    double worst = 0, scale = 0;
+    for (int i = -1; i <= 1; ++i)
+        for (int j = -1; j <= 1; ++j)
+            for (int k = -1; k <= 1; ++k) {
+                if (i == 0 && j == 0 && k == 0) continue;
+                const double len = std::sqrt(double(i * i + j * j + k * k));
+                const env::Dir n{i / len, j / len, k / len};
+                const auto a = env::sh_irradiance(r.sh, n);
+                const auto b = env::irradiance_brute_force(src, n);
+                for (int c = 0; c < 3; ++c) {
+                    worst = std::max(worst, std::abs(a[c] - b[c]));
+                    scale = std::max(scale, std::abs(b[c]));
+                }
+            }
+    r.max_relative_sh_error = scale > 0 ? worst / scale : worst;
+    r.face_size = face_size;
+    if (face_size > 0) {
+        const std::uint32_t n = face_size;
+        r.irradiance_cross = env::Image(4 * n, 3 * n, {"R", "G", "B"});
+        for (int f = 0; f < 6; ++f) {
+            std::uint32_t ox, oy;
+            cross_face_origin(f, n, ox, oy);
+            for (std::uint32_t y = 0; y < n; ++y)
+                for (std::uint32_t x = 0; x < n; ++x) {
+                    const env::Dir d = env::cube_direction(f, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
+                    const auto e = env::sh_irradiance(r.sh, d);
+                    for (int c = 0; c < 3; ++c) r.irradiance_cross.at(ox + x, oy + y, c) = float(std::max(0.0, e[c]) / kPi);
+                }
+        }
+    }
+    return r;
+}
+}  // namespace
+
+IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t face_size) {
+    if (equirect.width != 2 * equirect.height)
+        throw std::invalid_argument("environment: an equirectangular image is twice as wide as high (this one is " +
+                                    std::to_string(equirect.width) + " x " + std::to_string(equirect.height) + ")");
+    return irradiance_of(equirect, env::sh_project_equirect(equirect), face_size);
+}
+
+IrradianceResult compute_irradiance(const env::Cubemap& cube, std::uint32_t face_size) {
+    return irradiance_of(cube, env::sh_project_cubemap(cube), face_size);
+}
+
+nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string& source, const std::string& command_line) {
+    nlohmann::json m;
+    m["layout"] = "sh9";
+    m["source"] = source;
+    m["mapping"] = "equirectangular, +Y up, image centre = -Z: dir = (sin t sin p, cos t, -sin t cos p)";
+    m["basis"] = "real SH, k = l(l+1)+m: Y00, Y1-1 (y), Y10 (z), Y11 (x), Y2-2 (xy), Y2-1 (yz), Y20 (3z^2-1), Y21 (xz), Y22 (x^2-y^2)";
+    nlohmann::json coeffs = nlohmann::json::array(), irr = nlohmann::json::array();
+    for (int k = 0; k < 9; ++k) {
+        const double a = env::kClampedCosine[k == 0 ? 0 : k < 4 ? 1 : 2];
+        coeffs.push_back({r.sh[k][0], r.sh[k][1], r.sh[k][2]});
+        irr.push_back({a * r.sh[k][0], a * r.sh[k][1], a * r.sh[k][2]});
+    }
+    m["radiance_sh"] = coeffs;
+    m["irradiance_sh"] = irr;  // E(n) = sum_k irradiance_sh[k] Y_k(n)
+    m["clamped_cosine"] = {env::kClampedCosine[0], env::kClampedCosine[1], env::kClampedCosine[2]};
+    m["max_relative_sh_error"] = r.max_relative_sh_error;
+    if (r.face_size > 0) {
+        m["irradiance_cubemap"] = "E / pi per texel, horizontal cross: +Y above +Z; -X +Z +X -Z; -Y below +Z (OpenGL face orientation)";
+        m["face_size"] = r.face_size;
+    }
+    m["version"] = MICROSHADOW_VERSION;
+    m["command_line"] = command_line;
+    return m;
+}
+
+}  // namespace ms

@@ -1,0 +1,32 @@
+// Environment jobs of `microshadow ibl`: order-2 SH and the irradiance cubemap of an equirectangular
+// environment (host/env/ holds the mappings, SH and file formats).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <string>
+
+#include "env/cubemap.hpp"
+#include "env/image.hpp"
+#include "env/sh.hpp"
+
+namespace ms {
+
+struct IrradianceResult {
+    env::Sh9 sh{};                 // radiance coefficients L_lm
+    env::Image irradiance_cross;   // E / pi on a horizontal cross (4n x 3n; empty when face_size = 0)
+    std::uint32_t face_size = 0;
+    // SH irradiance against brute-force irradiance of the same image at 26 normals (cube faces, edges,
+    // corners): max |E_sh - E_bf| / max E_bf over channels. Order 2 keeps 0.6% or better of a smooth sky
+    // (Ramamoorthi & Hanrahan) but not of a sun; this number says which case a file is.
+    double max_relative_sh_error = 0;
+};
+
+// Horizontal cross layout: row 0 holds +Y above +Z, row 1 -X +Z +X -Z, row 2 -Y below +Z.
+void cross_face_origin(int face, std::uint32_t n, std::uint32_t& x, std::uint32_t& y);
+
+IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t face_size);
+IrradianceResult compute_irradiance(const env::Cubemap& cube, std::uint32_t face_size);
+nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string& source, const std::string& command_line);
+
+}  // namespace ms

@@ -1,0 +1,67 @@
+// The GGX-prefiltered specular cubemap (split-sum's radiance half): a mip chain whose mip m holds the
+// environment prefiltered at roughness mip_roughness(m) (cmgen's mapping by default), by filtered
+// importance sampling (host/env/prefilter.hpp) on CPU threads, with --verify against the brute-force
+// oracle on random texels, and the files of `microshadow ibl prefilter`.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+#include "env/cubemap.hpp"
+#include "env/prefilter.hpp"
+
+namespace ms {
+
+struct PrefilterSpec {
+    std::uint32_t levels = 0;  // 0: down to 4 x 4 faces (log2(size) - 1 levels)
+    env::RoughnessMapping mapping = env::RoughnessMapping::cmgen;
+    SamplingPlan plan{Sequence::sobol, 256, 4, 0};  // samples per texel, all replicates
+    env::PrefilterOptions options;
+    unsigned threads = 0;  // 0: every hardware thread
+    std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
+    std::string source, command_line;  // provenance
+};
+
+struct PrefilterResult {
+    std::vector<env::Cubemap> mips;  // mip 0 = the source (roughness 0)
+    std::vector<double> roughness;
+    double max_relative_std_error = 0;  // over texels with a non-zero value, the largest se / value
+    double seconds = 0;
+    double cpu_seconds = 0;  // CPU time of the worker threads, summed
+    std::uint64_t texels = 0, samples = 0;
+};
+
+struct PrefilterCallbacks {
+    std::function<void(std::uint64_t done, std::uint64_t total)> progress;
+};
+
+std::uint32_t default_levels(std::uint32_t size);
+// The chain packed for the kernel routine (level-major, faces, rows, RGB).
+namespace prefilter { struct SourceChain; }
+prefilter::SourceChain pack_chain(const std::vector<env::Cubemap>& chain);
+PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpec& spec, const PrefilterCallbacks& cb = {});
+
+// K random texels of mips >= 1 against the oracle: relative RMS and max error over texels and channels
+// (relative to the oracle's luminance-like mean of the three channels), and each texel's |z| with the
+// replicate std error (meaningful for filtered = false only: filtering trades bias for variance).
+struct PrefilterVerification {
+    std::uint32_t checked = 0;
+    double rms_relative = 0, max_relative = 0, worst_z = 0;
+    std::string worst_texel;
+};
+PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, const PrefilterSpec& spec,
+                                       std::uint32_t k, std::uint64_t seed = 1, const std::vector<env::Cubemap>* source_chain = nullptr);
+
+nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResult& result);
+
+// Files: DIR/specular_m<m>.exr (horizontal cross per mip, metadata with the mip's roughness) and a preview
+// PNG of the whole chain unfolded (crosses side by side, each mip magnified to the base size, Reinhard).
+void write_prefilter_files(const std::string& dir, const PrefilterResult& result, const nlohmann::json& metadata);
+void write_prefilter_preview(const std::string& path, const PrefilterResult& result, double exposure = 1.0);
+
+}  // namespace ms

@@ -1,5 +1,7 @@
 #include "jobs/sweep/spec.hpp"
 
+#include "grid/axis.hpp"
+
 #include <toml++/toml.h>
 
 #include <algorithm>
@@ -188,25 +190,17 @@ std::vector<double> generate_range(const Range& r, const std::string& key) {
                         "; use a single value or count = 1");
     if (r.scale == Scale::log && (r.start <= 0 || r.stop <= 0))
         throw SpecError(key + ": a log range needs start > 0 and stop > 0");
-    std::vector<double> out(r.count);
-    if (r.count == 1) {
-        out[0] = r.start;
-        return out;
-    }
-    const double n = double(r.count - 1);
-    for (std::uint64_t i = 0; i < r.count; ++i) {
-        const double t = double(i) / n;
-        // Lerp in the form that hits both ends exactly: (1 - t) a + t b.
-        if (r.scale == Scale::linear) {
-            out[i] = (1 - t) * r.start + t * r.stop;
-        } else {
-            out[i] = std::exp((1 - t) * std::log(r.start) + t * std::log(r.stop));
-        }
-    }
-    // exp(log(x)) need not round-trip; pin the ends to the values the user wrote.
-    out.front() = r.start;
-    out.back() = r.stop;
-    return out;
+    if (r.count > kMaxAxisCount) throw SpecError(key + ": more than " + std::to_string(kMaxAxisCount) + " values");
+    // The values are an Axis's samples with the endpoints convention (grid/axis.hpp: both ends exact,
+    // the lerp (1 - t) a + t b, log spacing pinned at the ends), the one axis type bakes and lookups use.
+    Axis axis;
+    axis.name = key;
+    axis.min = r.start;
+    axis.max = r.stop;
+    axis.count = std::uint32_t(r.count);
+    axis.texel = TexelConvention::endpoints;
+    axis.spacing = r.scale == Scale::log ? Spacing::log : Spacing::linear;
+    return axis.values();
 }
 
 Spec parse_spec(const std::string& text, const std::string& source_name, const std::string& base_dir) {

@@ -248,7 +248,7 @@ TEST_F(IblFormats, PrefilteredCubemapKtx2AndDdsReadBackEqualToTheExrFaces) {
     const std::string args = " --levels 3 --samples 64 --irradiance-size 4 --threads 2 --quiet 2>&1";
     for (const char* format : {"exr", "ktx2", "dds"}) {
         const auto res = ms::testing::run_shell(cli() + " ibl prefilter " + path("sky.exr") + " --out " + path(std::string("out_") + format) +
-                                                " --format " + format + args);
+                                                " --format " + format + (std::string(format) == "exr" ? "" : " --dfg-size 4") + args);
         ASSERT_EQ(res.exit_code, 0) << res.output;
     }
     // The EXR crosses: face f of mip m at its offset in the cross.
@@ -260,6 +260,8 @@ TEST_F(IblFormats, PrefilteredCubemapKtx2AndDdsReadBackEqualToTheExrFaces) {
         return crosses[m].at(ox + x, oy + y, c);
     };
     EXPECT_FALSE(std::filesystem::exists(path("out_ktx2/specular_m0.exr")));
+    EXPECT_TRUE(std::filesystem::exists(path("out_ktx2/dfg.ktx2")));  // --dfg-size follows --format
+    EXPECT_TRUE(std::filesystem::exists(path("out_dds/dfg.dds")));
 
     // KTX2 cubemap (KTX 2.0: faceCount 6, pixelDepth 0, layerCount 0, levelCount = mips, every mip in the
     // level index; each level's faces +X -X +Y -Y +Z -Z, rows top first).

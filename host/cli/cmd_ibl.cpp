@@ -202,7 +202,7 @@ void run_prefilter(const PrefilterArgs& a) {
         dspec.command_line = command_line();
         const DfgBakeResult dfg = bake_dfg(dspec);
         write_dfg_preview(a.out + "/dfg_preview.png", dfg, dspec);
-        write_dfg_lut(a.out + "/dfg.exr", dfg, dfg_metadata(dspec, dfg));
+        write_dfg_lut(a.out + "/dfg." + a.format, dfg, dfg_metadata(dspec, dfg));  // --format ktx2 / dds: float32
     }
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
@@ -289,7 +289,7 @@ void add_ibl_command(CLI::App& app) {
         ->check(CLI::IsMember({"float16", "float32"}))
         ->capture_default_str();
     pf->add_option("--irradiance-size", p->irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
-    pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.exr")
+    pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (exr, ktx2 or dds)")
         ->transform(decimal_range(0, 4096));
     pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
     pf->add_flag("--quiet", p->quiet, "no progress or summary");

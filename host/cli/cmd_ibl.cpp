@@ -1,5 +1,5 @@
 // microshadow ibl: the image-based-lighting integrals of the split-sum approximation.
-//   ibl dfg --out dfg.exr [--size N] ...        the DFG LUT (scale, bias, E) by VNDF sampling, or the quadrature oracle
+//   ibl dfg --out dfg.exr|.ktx2|.dds|.h [--size N] ...        the DFG LUT (scale, bias, E) by VNDF sampling, or the quadrature oracle
 //   ibl prefilter ENV --out DIR                 GGX-prefiltered cubemap mips (cmgen roughness mapping), SH irradiance, previews
 //   ibl sh ENV --out sh.json [--irradiance F]  order-2 SH of an environment (9 coefficients per channel) and its
 //                                              irradiance cubemap faces through the clamped-cosine convolution
@@ -129,7 +129,7 @@ void run_sh(const ShArgs& a) {
 }
 
 struct PrefilterArgs {
-    std::string env, out, mapping = "cmgen", device;
+    std::string env, out, mapping = "cmgen", device, format = "exr", encoding = "float16";
     std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
     std::uint64_t samples = 256, seed = 0;
     double lod_bias = 0.0, exposure = 1.0;
@@ -178,7 +178,10 @@ void run_prefilter(const PrefilterArgs& a) {
     }
     const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
     nlohmann::json irr_meta = irradiance_metadata(irr, a.env, command_line());
-    write_prefilter_files(a.out, result, meta);
+    if (a.format == "exr")
+        write_prefilter_files(a.out, result, meta);
+    else
+        write_prefilter_cubemap(a.out + "/specular." + a.format, result, meta, a.format, a.encoding);
     write_prefilter_preview(a.out + "/specular_preview.png", result, a.exposure);
     env::write_exr(a.out + "/irradiance.exr", irr.irradiance_cross, irr_meta);
     env::write_png_preview(a.out + "/irradiance_preview.png", irr.irradiance_cross, a.exposure);
@@ -199,7 +202,7 @@ void run_prefilter(const PrefilterArgs& a) {
         dspec.command_line = command_line();
         const DfgBakeResult dfg = bake_dfg(dspec);
         write_dfg_preview(a.out + "/dfg_preview.png", dfg, dspec);
-        write_dfg_lut(a.out + "/dfg.exr", dfg, dfg_metadata(dspec, dfg));
+        write_dfg_lut(a.out + "/dfg." + a.format, dfg, dfg_metadata(dspec, dfg));  // --format ktx2 / dds: float32
     }
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
@@ -220,8 +223,8 @@ void add_ibl_command(CLI::App& app) {
     ibl->require_subcommand(1);
 
     auto d = std::make_shared<DfgArgs>();
-    auto* dfg = ibl->add_subcommand("dfg", "bake the DFG LUT (x = NdotV, y = roughness; R, G, B = scale, bias, E) to OpenEXR");
-    dfg->add_option("--out", d->out, "output .exr (KTX2/DDS: pending)")->required();
+    auto* dfg = ibl->add_subcommand("dfg", "bake the DFG LUT (x = NdotV, y = roughness; R, G, B = scale, bias, E) to OpenEXR, KTX2 or DDS");
+    dfg->add_option("--out", d->out, "output .exr, .ktx2, .dds (RGBA: A repeats E; metadata in <file>.json) or .h (C header)")->required();
     dfg->add_option("--size", d->size, "texels on both axes")->transform(decimal_range(1, 4096))->capture_default_str();
     dfg->add_option("--size-n-dot-v", d->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
     dfg->add_option("--size-roughness", d->size_roughness, "texels on the roughness axis")->transform(decimal_range(1, 4096));
@@ -279,8 +282,14 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--threads", p->threads, "CPU threads (0: all)")->transform(decimal_range(0, 1024));
     pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
         ->transform(decimal_range(0, 100000));
+    pf->add_option("--format", p->format, "specular chain: exr (DIR/specular_m<m>.exr crosses), ktx2 or dds (DIR/specular.<format>: one cubemap with every mip, RGBA, A = 1)")
+        ->check(CLI::IsMember({"exr", "ktx2", "dds"}))
+        ->capture_default_str();
+    pf->add_option("--encoding", p->encoding, "ktx2 / dds texels: float16 (RGBA16F) or float32")
+        ->check(CLI::IsMember({"float16", "float32"}))
+        ->capture_default_str();
     pf->add_option("--irradiance-size", p->irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
-    pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.exr")
+    pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (exr, ktx2 or dds)")
         ->transform(decimal_range(0, 4096));
     pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
     pf->add_flag("--quiet", p->quiet, "no progress or summary");

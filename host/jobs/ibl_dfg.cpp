@@ -11,6 +11,7 @@
 #include "core/estimate.hpp"
 #include "env/image.hpp"
 #include "io/atomic_file.hpp"
+#include "lut/formats/texture.hpp"
 
 namespace ms {
 
@@ -124,9 +125,8 @@ std::string extension(const std::string& path) {
 
 void check_dfg_lut_format(const std::string& path) {
     const std::string ext = extension(path);
-    if (ext == ".exr" || ext == ".h") return;
-    // Hook for the KTX2 / DDS writers (another branch): accept ".ktx2" / ".dds" here and dispatch in write_dfg_lut.
-    throw std::invalid_argument("DFG LUT " + path + ": .exr or .h (C header) so far; the KTX2 and DDS writers are pending");
+    if (ext == ".exr" || ext == ".h" || ext == ".ktx2" || ext == ".dds") return;
+    throw std::invalid_argument("DFG LUT " + path + ": the extension picks the format: .exr, .ktx2, .dds or .h (C header)");
 }
 
 void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half) {
@@ -170,6 +170,37 @@ void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const n
         env::write_exr(path, img, metadata, half);
         return;
     }
+    // KTX2 / DDS (lut/formats/texture.hpp): a 2D RGBA texture, x = NdotV, y = roughness, R G B = scale
+    // bias E, A = E (the writers' padding: the last channel repeated).
+    const bool ktx2 = extension(path) == ".ktx2";
+    const lutfmt::PixelEncoding encoding = half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32;
+    lutfmt::TextureData t;
+    t.width = result.width;
+    t.height = result.height;
+    t.channels = 3;
+    t.levels.emplace_back();
+    std::vector<float>& data = t.levels[0];
+    data.reserve(std::size_t(result.width) * result.height * 3);
+    for (std::uint32_t y = 0; y < result.height; ++y)
+        for (std::uint32_t x = 0; x < result.width; ++x) {
+            const auto& v = result.at(x, y);
+            data.push_back(float(v.scale.term));
+            data.push_back(float(v.bias.term));
+            data.push_back(float(v.albedo.term));
+        }
+    t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
+    t.metadata["file_format"] = ktx2 ? "ktx2-2d" : "dds-2d";
+    t.metadata["texture_channels"] = 4;
+    t.metadata["padded_channels"] = {"A"};
+    t.metadata["padding"] = "A repeats B (E = scale + bias); read R G B";
+    if (ktx2) t.metadata["ktx2_orientation"] = "rd";
+    // The sampling term of the error budget: the largest per-texel replicate standard error.
+    if (!t.metadata.contains("max_error") && t.metadata.contains("max_std_error")) t.metadata["max_error"] = t.metadata["max_std_error"];
+    lutfmt::add_error_budget(t.metadata, data, encoding);
+    if (ktx2)
+        lutfmt::write_ktx2_texture(path, t, encoding);
+    else
+        lutfmt::write_dds_texture(path, t, encoding);
 }
 
 DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed) {

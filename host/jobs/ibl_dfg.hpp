@@ -60,10 +60,11 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callback
 
 nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result);
 
-// Writes the LUT: OpenEXR (".exr"; FLOAT or HALF, R G B = scale bias E) or a C header (".h": the metadata as a
-// comment, float microshadow_dfg[height][width][3]). Other extensions are refused
-// with a message naming the KTX2/DDS writers as pending (the hook: write_dfg_lut dispatches on the
-// extension; a KTX2 writer slots in beside the EXR one).
+// Writes the LUT, the format by the extension: OpenEXR (".exr"; FLOAT or HALF, R G B = scale bias E), KTX2
+// (".ktx2") or DDS (".dds", metadata in "<file>.json"): a 2D RGBA texture, x = NdotV, y = roughness, R G B =
+// scale bias E, A = E (padding), float32 or float16 with `half` (lut/formats/texture.hpp; the metadata
+// gains the error budget with the float16 rounding), or a C header (".h": the metadata as a
+// comment, float microshadow_dfg[height][width][3]). Other extensions are refused.
 void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work
 void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half = false);
 

@@ -17,6 +17,7 @@
 #include "core/cancel.hpp"
 #include "env/preview.hpp"
 #include "integrands/prefilter/prefilter_integrand.hpp"
+#include "lut/formats/texture.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms {
@@ -248,6 +249,46 @@ void write_prefilter_files(const std::string& dir, const PrefilterResult& result
         meta["mip_roughness"] = result.roughness[m];
         env::write_exr(dir + "/specular_m" + std::to_string(m) + ".exr", env::cross_image(result.mips[m]), meta);
     }
+}
+
+void write_prefilter_cubemap(const std::string& path, const PrefilterResult& result, const nlohmann::json& metadata,
+                             const std::string& format, const std::string& encoding_name) {
+    if (format != "ktx2" && format != "dds") throw std::invalid_argument("cubemap format " + format + ": ktx2 or dds");
+    const lutfmt::PixelEncoding encoding = lutfmt::parse_pixel_encoding(encoding_name);
+    if (encoding != lutfmt::PixelEncoding::float16 && encoding != lutfmt::PixelEncoding::float32)
+        throw std::invalid_argument("cubemap encoding " + encoding_name + ": float16 or float32 (unorm clips radiance above 1)");
+    if (result.mips.empty()) throw std::invalid_argument("cubemap: no mips");
+    lutfmt::TextureData t;
+    t.width = t.height = result.mips[0].size;
+    t.faces = 6;
+    t.channels = 3;
+    t.alpha = 1.0f;
+    double max_abs = 0, max_rel = 0;
+    for (std::size_t m = 0; m < result.mips.size(); ++m) {
+        if (result.mips[m].size != lutfmt::level_size(t.width, std::uint32_t(m)))
+            throw std::invalid_argument("cubemap: mip " + std::to_string(m) + " is not half the size of the one above");
+        std::vector<float> level;
+        for (int f = 0; f < 6; ++f) level.insert(level.end(), result.mips[m].faces[f].data.begin(), result.mips[m].faces[f].data.end());
+        if (encoding == lutfmt::PixelEncoding::float16)
+            for (float v : level) {
+                const double err = std::abs(double(lutfmt::half_to_float(lutfmt::float_to_half(v))) - v);
+                max_abs = std::max(max_abs, err);
+                if (v != 0) max_rel = std::max(max_rel, err / std::abs(double(v)));
+            }
+        t.levels.push_back(std::move(level));
+    }
+    t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
+    t.metadata["file_format"] = format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
+    t.metadata["mip_roughness"] = result.roughness;
+    t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    t.metadata["texture_channels"] = 4;
+    t.metadata["padding"] = "A = 1 (RGB radiance)";
+    t.metadata["encoding"] = lutfmt::to_string(encoding);
+    t.metadata["quantisation"] = {{"kind", lutfmt::quantisation_kind(encoding)}, {"max_abs", max_abs}, {"max_relative", max_rel}};
+    if (format == "ktx2")
+        lutfmt::write_ktx2_texture(path, t, encoding);
+    else
+        lutfmt::write_dds_texture(path, t, encoding);
 }
 
 void write_prefilter_preview(const std::string& path, const PrefilterResult& result, double exposure) {

@@ -62,6 +62,13 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
 // Files: DIR/specular_m<m>.exr (horizontal cross per mip, metadata with the mip's roughness) and a preview
 // PNG of the whole chain unfolded (crosses side by side, each mip magnified to the base size, Reinhard).
 void write_prefilter_files(const std::string& dir, const PrefilterResult& result, const nlohmann::json& metadata);
+// The whole mip chain as one cubemap file (lut/formats/texture.hpp): KTX2 (faceCount 6, levelCount = mips, faces
+// +X -X +Y -Y +Z -Z) or DDS (DDSCAPS2_CUBEMAP_ALLFACES, DX10 miscFlag TEXTURECUBE, dwMipMapCount = mips; metadata
+// in "<file>.json"), RGBA with A = 1, float16 (default) or float32. The metadata gains "mip_roughness" (one per
+// mip), "encoding" and "quantisation" (measured max absolute and relative rounding error over the RGB data).
+// format: "ktx2" or "dds"; encoding: float16 or float32 (unorm would clip radiance), else std::invalid_argument.
+void write_prefilter_cubemap(const std::string& path, const PrefilterResult& result, const nlohmann::json& metadata,
+                             const std::string& format, const std::string& encoding = "float16");
 void write_prefilter_preview(const std::string& path, const PrefilterResult& result, double exposure = 1.0);
 
 }  // namespace ms

@@ -36,7 +36,7 @@ constexpr std::uint32_t kVkR8G8B8A8Unorm = 37, kVkR16G16B16A16Unorm = 91, kVkR16
                         kVkR32G32B32A32Sfloat = 109;
 std::uint32_t vk_format(PixelEncoding);
 
-// Writes atomically. Throws std::invalid_argument (bad LUT) or std::runtime_error (I/O), naming the file.
+// The LUT as a TextureData (texture.hpp, which writes the file). Writes atomically. Throws std::invalid_argument (bad LUT) or std::runtime_error (I/O), naming the file.
 void write_ktx2(const std::string& path, const LutFile& lut, PixelEncoding encoding);
 
 }  // namespace ms::lutfmt

@@ -1,0 +1,63 @@
+// The lowest layer of the KTX2 and DDS writers: a texture given as plain float data, with no LUT
+// semantics (no axes, no roughness channels, no error budget). The LUT writers (ktx2.hpp, dds.hpp)
+// build their metadata and call these; the IBL outputs (DFG LUT, prefiltered cubemaps) call them directly.
+//
+// What it can describe: a 2D texture (depth 1), a 3D texture (depth > 1) or a cubemap (faces 6,
+// width = height, depth 1), each with 1 or more mip levels (level p is max(1, width >> p) x
+// max(1, height >> p) x max(1, depth >> p)). Texels are `channels` (1-4) floats each, x fastest, then
+// y, then z; a cubemap level holds its 6 faces one after the other in the order +X, -X, +Y, -Y, +Z, -Z
+// (KTX 2.0 "faceCount"; DDS "cubic environment maps"), each face with its top-left texel first (KTX2
+// orientation "rd").
+//
+// RGBA padding (both formats store 4 components): channels beyond `channels` repeat the last channel,
+// as the LUT writers pad, unless `alpha` is set: then A = *alpha (RGB data -> A = 1 for radiance);
+// alpha may be set only with channels = 3.
+//
+// KTX2 file layout (KTX 2.0 specification, "File Structure", "Level Index", "Mip Level Array"):
+// header with faceCount = faces, levelCount = levels, pixelDepth 0 unless a 3D texture; a level index
+// with every level, base level first; the level data in the file from the smallest level to the
+// base level, each level at a multiple of lcm(bytes per texel, 4) (mipPadding), each level's images in
+// the order face, z, y, x. DFD and key/value data as ktx2.hpp describes ("microshadow" = metadata JSON).
+//
+// DDS layout (Microsoft "DDS_HEADER", "DDS_HEADER_DXT10", "Cubic environment maps"): dwMipMapCount =
+// levels, DDSCAPS_MIPMAP | DDSCAPS_COMPLEX for mips, DDSCAPS2_CUBEMAP | DDSCAPS2_CUBEMAP_ALLFACES and
+// DX10 miscFlag D3D10_RESOURCE_MISC_TEXTURECUBE (arraySize 1 = one cube) for a cubemap; the data face
+// by face, each face with its whole mip chain (base level first). The metadata goes beside the file
+// as `<file>.json` (with "dds_dxgi_format" added), written first.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "lut/formats/encoding.hpp"
+
+namespace ms::lutfmt {
+
+struct TextureData {
+    std::uint32_t width = 0, height = 0, depth = 1;
+    std::uint32_t faces = 1;    // 1, or 6 for a cubemap
+    std::uint32_t channels = 4; // floats per texel in `levels`, 1-4
+    std::optional<float> alpha; // A when the data have 3 channels and A is not a data channel
+    // levels[p]: level p's texels (all faces), channels floats per texel.
+    std::vector<std::vector<float>> levels;
+    nlohmann::json metadata = nlohmann::json::object();  // recorded verbatim ("microshadow" key / sidecar)
+    std::string ktx2_orientation;  // KTXorientation; empty: "rd" (2D, cubemap) or "rdi" (3D)
+};
+
+// Level p's size along an axis of base size n.
+inline std::uint32_t level_size(std::uint32_t n, std::uint32_t p) { return n >> p ? n >> p : 1; }
+
+// Checks sizes and data lengths; std::invalid_argument naming the field.
+void check_texture(const TextureData& t);
+// Level p's texels as RGBA (the padding above), faces one after the other.
+std::vector<float> rgba_level(const TextureData& t, std::size_t p);
+
+// Write atomically. std::invalid_argument (bad texture) or std::runtime_error (I/O), naming the file.
+void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);
+void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);
+
+}  // namespace ms::lutfmt

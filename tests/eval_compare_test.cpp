@@ -17,6 +17,7 @@
 #include "jobs/sweep/runner.hpp"
 #include "jobs/sweep/spec.hpp"
 #include "lut/exr_lut.hpp"
+#include "lut/lookup.hpp"
 
 namespace {
 

@@ -207,6 +207,13 @@ TEST_F(EvalCompareTest, BadComparatorsAreRefusedBeforeAnyWork) {
     refused("--compare " + lut.string() + " --compare " + lut.string(), "duplicate column name 'lut'");
     refused("--compare term=" + lut.string(), "duplicate column name 'term'");
     refused("--compare activision --compare activision_error=" + lut.string(), "duplicate column name 'activision_error'");
+
+    // Activision's roughness needs alpha_x alpha_y < 2: such a query is refused before the term is computed.
+    std::ofstream(in) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.5,0.16,0.16,0,0,1,0,0,1\n"
+                         "0.5,1.5,1.5,0,0,1,0,0,1\n";
+    refused("--compare activision-adjusted", "query 2: --compare activision-adjusted");
+    const auto ok = run("eval -q --in " + in + " --out " + out + " --backend oracle --samples 256 --compare activision");
+    EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 
 }  // namespace

@@ -57,8 +57,12 @@ std::size_t edit_distance(const std::string& a, const std::string& b) {
     return row[b.size()];
 }
 
+// Not an analytic term's name: a path (a '/' or '.'), or an existing file.
 bool looks_like_file(const std::string& s) {
-    return s.find('/') != std::string::npos || s.find('.') != std::string::npos;
+    for (auto t : analytic::kAllAnalyticTerms)
+        if (to_string(t) == s) return false;
+    std::error_code ec;
+    return s.find('/') != std::string::npos || s.find('.') != std::string::npos || std::filesystem::exists(s, ec);
 }
 
 }  // namespace

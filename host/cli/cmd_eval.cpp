@@ -10,6 +10,7 @@
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "io/text.hpp"
+#include "jobs/compare.hpp"
 
 namespace ms::cli {
 
@@ -18,12 +19,32 @@ namespace {
 struct EvalArgs {
     std::string in, out;
     SamplingOptions sampling;
+    std::vector<std::string> compare;  // --compare NAME | FILE | NAME=FILE
 };
 
 void run_eval(const EvalArgs& args) {
     const TermOptions term = args.sampling.term_options();
     const SamplingPlan plan = args.sampling.plan();
+    // Comparators first: a bad name, an unreadable LUT or a clashing column stops before any work.
+    std::vector<std::string> taken(kQueryColumns.begin(), kQueryColumns.end());
+    taken.insert(taken.end(), {"term", "std_error"});
+    const std::vector<compare::Comparator> comparators = compare::parse_comparators(args.compare, taken);
     const std::vector<Query> queries = read_query_csv(args.in);
+    // Comparator values (cheap) before the term, so a query a comparator cannot take is refused first.
+    std::vector<std::vector<double>> compared(comparators.size(), std::vector<double>(queries.size()));
+    std::vector<double> n_dot_l(queries.size());
+    for (std::size_t i = 0; i < queries.size() && !comparators.empty(); ++i) {
+        const compare::ComparatorInputs in = compare::inputs_of(queries[i], term.ao_weighting);
+        n_dot_l[i] = in.n_dot_l;
+        for (std::size_t k = 0; k < comparators.size(); ++k) {
+            try {
+                compared[k][i] = comparators[k](in);
+            } catch (const std::domain_error& e) {
+                throw std::invalid_argument(args.in + ": query " + std::to_string(i + 1) + ": --compare " +
+                                            comparators[k].name() + ": " + e.what());
+            }
+        }
+    }
     // Both outputs checked before computing, written together or not at all. `--out -` writes the
     // CSV to standard output and no sidecar: its provenance has no file to sit beside.
     OutputSet outputs;
@@ -40,13 +61,22 @@ void run_eval(const EvalArgs& args) {
 
     auto& out = outputs.stream(csv_out);
     for (const auto& c : kQueryColumns) out << c << ",";
-    out << "term,std_error\n";
+    out << "term,std_error";
+    for (const auto& c : comparators) out << "," << c.name() << "," << c.name() << "_error";
+    out << "\n";
+    std::vector<compare::ErrorSummary> errors(comparators.size());
     double max_error = 0;
     for (std::size_t i = 0; i < queries.size(); ++i) {
         const Query& q = queries[i];
         for (double v : {q.visibility, q.alpha_x, q.alpha_y, q.wi.x, q.wi.y, q.wi.z, q.wo.x, q.wo.y, q.wo.z})
             out << format_number(v) << ",";
-        out << format_number(results[i].term) << "," << format_number(results[i].std_error) << "\n";
+        out << format_number(results[i].term) << "," << format_number(results[i].std_error);
+        for (std::size_t k = 0; k < comparators.size(); ++k) {
+            const double e = compared[k][i] - results[i].term;
+            errors[k].add(e, n_dot_l[i]);
+            out << "," << format_number(compared[k][i]) << "," << format_number(e);
+        }
+        out << "\n";
         max_error = std::max(max_error, results[i].std_error);
     }
 
@@ -66,6 +96,18 @@ void run_eval(const EvalArgs& args) {
                            {"exact_zero", stats.exact_zero},
                            {"exact_one", stats.exact_one},
                            {"max_std_error", max_error}};
+    if (!comparators.empty()) {
+        nlohmann::json list = nlohmann::json::array();
+        for (std::size_t k = 0; k < comparators.size(); ++k) {
+            nlohmann::json c = comparators[k].provenance();
+            c["max_abs_error"] = errors[k].max_abs;
+            c["rms_error"] = errors[k].rms();
+            c["n_dot_l_weighted_rms_error"] = errors[k].weighted_rms();
+            list.push_back(c);
+        }
+        meta["comparators"] = list;
+        meta["comparator_roughness"] = "(alpha_x alpha_y)^(1/4)";
+    }
     if (sidecar) outputs.stream(json_out) << dump_json(meta, 2) << "\n";
     outputs.commit();
 
@@ -74,6 +116,11 @@ void run_eval(const EvalArgs& args) {
                   << " exact 0 in the zero region, " << stats.exact_one << " exact 1 at v = 1), " << plan.samples
                   << " samples each, max std error " << std::setprecision(3) << max_error << ", "
                   << std::setprecision(3) << stats.seconds << " s on " << backend->name() << "\n";
+    if (!args.sampling.quiet)
+        for (std::size_t k = 0; k < comparators.size(); ++k)
+            std::cerr << "eval: " << comparators[k].name() << " - term: max |error| " << std::setprecision(4)
+                      << errors[k].max_abs << ", RMS " << errors[k].rms() << ", N.L-weighted RMS "
+                      << errors[k].weighted_rms() << "\n";
 }
 
 }  // namespace
@@ -82,8 +129,14 @@ void add_eval_command(CLI::App& app) {
     auto args = std::make_shared<EvalArgs>();
     auto* cmd = app.add_subcommand("eval", "evaluate the generic term for the queries of a CSV file");
     cmd->add_option("--in", args->in, "query CSV: " "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z")->required();
-    cmd->add_option("--out", args->out, "result CSV: the input columns plus term,std_error, and its provenance in OUT.json "
+    cmd->add_option("--out", args->out, "result CSV: the input columns plus term,std_error (and the --compare columns), and its provenance in OUT.json "
                                        "(a symlink is followed; '-' writes the CSV to standard output, without the .json)")->required();
+    cmd->add_option("--compare", args->compare,
+                    "add a comparator column and its error column <name>_error = comparator - term (repeatable): "
+                    "one of part 1's analytic terms (reference-step, naughty-dog, naughty-dog-ao-fresnel, activision, "
+                    "activision-adjusted, pz-analytic), a baked LUT file (.exr, column named after the file stem) or "
+                    "NAME=FILE; each reads visibility, NdotL = wo_z, NdotV = wi_z (normalised) and the "
+                    "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do");
     add_sampling_options(cmd, args->sampling);
     cmd->callback([args] { run_eval(*args); });
 }

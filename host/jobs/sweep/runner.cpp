@@ -22,6 +22,7 @@
 #include "io/csv.hpp"
 #include "io/input_file.hpp"
 #include "io/text.hpp"
+#include "jobs/compare.hpp"
 #include "lut/lookup.hpp"
 #include "jobs/sweep/points.hpp"
 
@@ -179,12 +180,6 @@ std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
     return hex(h);
 }
 
-// Roughness for Activision's adjusted term: its own non-standard roughness of the point's
-// isotropic-equivalent alpha (see points.hpp).
-double activision_roughness(const Point& p) {
-    return analytic::activision_roughness_from_alpha(p.roughness * p.roughness);
-}
-
 class ChunkComputer {
 public:
     ChunkComputer(const Spec& spec, const RunConfig& config)
@@ -216,16 +211,11 @@ public:
             for (double v : {p.roughness, p.alpha_x, p.alpha_y, p.n_dot_v, p.phi_i, p.phi_o, p.delta_phi, p.n_dot_l,
                              p.visibility, est[k].term, est[k].std_error})
                 line += "," + format_number(v);
-            analytic::AnalyticInputs in;
-            in.visibility = p.visibility;
-            in.n_dot_l = p.n_dot_l;
-            in.n_dot_v = p.n_dot_v;
-            in.ao_weighting = p.weighting;
-            const bool needs_act = std::find(spec_.analytic.begin(), spec_.analytic.end(),
-                                             analytic::AnalyticTerm::activision_adjusted) != spec_.analytic.end();
-            in.roughness = needs_act ? activision_roughness(p) : 0.5;
-            for (auto t : spec_.analytic) line += "," + format_number(analytic::evaluate(t, in));
-            for (const auto& l : luts_) line += "," + format_number((*l)(p.visibility, p.n_dot_l, p.n_dot_v, p.roughness));
+            // The comparators as eval --compare computes them (jobs/compare.hpp): Activision's adjusted
+            // term reads its own roughness of the point's isotropic-equivalent alpha (see points.hpp).
+            const compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
+            for (auto t : spec_.analytic) line += "," + format_number(compare::analytic_value(t, in));
+            for (const auto& l : luts_) line += "," + format_number(compare::lut_value(*l, in));
             out += line + "\n";
         }
         return out;

@@ -1,0 +1,167 @@
+#include "jobs/compare.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <set>
+#include <stdexcept>
+
+#include "core/query.hpp"
+
+namespace ms::compare {
+
+double isotropic_roughness(double alpha_x, double alpha_y) { return std::sqrt(std::sqrt(alpha_x * alpha_y)); }
+
+ComparatorInputs inputs_of(const Query& q, AoWeighting weighting) {
+    const Query n = normalised(q);
+    ComparatorInputs in;
+    in.visibility = q.visibility;
+    in.n_dot_l = n.wo.z;
+    in.n_dot_v = n.wi.z;
+    in.roughness = isotropic_roughness(q.alpha_x, q.alpha_y);
+    in.weighting = weighting;
+    return in;
+}
+
+double analytic_value(analytic::AnalyticTerm t, const ComparatorInputs& c) {
+    analytic::AnalyticInputs in;
+    in.visibility = c.visibility;
+    in.n_dot_l = c.n_dot_l;
+    in.n_dot_v = c.n_dot_v;
+    in.ao_weighting = c.weighting;
+    // Activision's own non-standard roughness of the GGX alpha; the other terms ignore roughness.
+    in.roughness = t == analytic::AnalyticTerm::activision_adjusted
+                       ? analytic::activision_roughness_from_alpha(c.roughness * c.roughness)
+                       : 0.5;
+    return analytic::evaluate(t, in);
+}
+
+double lut_value(const sweep::LutLookup& lut, const ComparatorInputs& in) {
+    return lut(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+}
+
+namespace {
+
+std::size_t edit_distance(const std::string& a, const std::string& b) {
+    std::vector<std::size_t> row(b.size() + 1);
+    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= a.size(); ++i) {
+        std::size_t diagonal = row[0];
+        row[0] = i;
+        for (std::size_t j = 1; j <= b.size(); ++j) {
+            const std::size_t up = row[j];
+            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+            diagonal = up;
+        }
+    }
+    return row[b.size()];
+}
+
+// Not an analytic term's name: a path (a '/' or '.'), or an existing file.
+bool looks_like_file(const std::string& s) {
+    for (auto t : analytic::kAllAnalyticTerms)
+        if (to_string(t) == s) return false;
+    std::error_code ec;
+    return s.find('/') != std::string::npos || s.find('.') != std::string::npos || std::filesystem::exists(s, ec);
+}
+
+}  // namespace
+
+std::string analytic_term_names() {
+    std::string s;
+    for (auto t : analytic::kAllAnalyticTerms) s += (s.empty() ? "" : ", ") + to_string(t);
+    return s;
+}
+
+std::string closest_analytic_term(const std::string& word) {
+    std::string best;
+    // As the CLI's option suggestions: a few edits, and fewer than half the word's letters.
+    std::size_t best_distance = std::min<std::size_t>(4, word.size() / 2 + 1);
+    for (auto t : analytic::kAllAnalyticTerms) {
+        const std::string name = to_string(t);
+        const std::size_t d = edit_distance(word, name);
+        if (d < best_distance) best = name, best_distance = d;
+    }
+    return best;
+}
+
+Comparator Comparator::parse(const std::string& argument) {
+    Comparator c;
+    std::string name, file;
+    const auto eq = argument.find('=');
+    if (eq != std::string::npos) {
+        name = argument.substr(0, eq);
+        file = argument.substr(eq + 1);
+        if (name.empty() || file.empty())
+            throw std::invalid_argument("--compare " + argument + ": expected NAME, FILE or NAME=FILE");
+    } else if (looks_like_file(argument)) {
+        file = argument;
+        name = std::filesystem::path(file).stem().string();
+    } else {
+        name = argument;
+    }
+    c.name_ = name;
+    if (file.empty()) {
+        for (auto t : analytic::kAllAnalyticTerms)
+            if (to_string(t) == name) {
+                c.term_ = t;
+                return c;
+            }
+        const std::string close = closest_analytic_term(name);
+        throw std::invalid_argument("--compare: no analytic term '" + name + "' (valid: " + analytic_term_names() +
+                                    "; or a LUT file, or NAME=FILE)" + (close.empty() ? "" : "; did you mean " + close + "?"));
+    }
+    if (name.empty()) throw std::invalid_argument("--compare " + argument + ": the file stem gives no column name; use NAME=FILE");
+    if (name.find(',') != std::string::npos || name.find('"') != std::string::npos || name.find('\n') != std::string::npos)
+        throw std::invalid_argument("--compare " + argument + ": column name '" + name + "' holds a comma, quote or line break");
+    c.file_ = file;
+    try {
+        c.lut_ = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(std::string("--compare: ") + e.what());
+    }
+    return c;
+}
+
+double Comparator::operator()(const ComparatorInputs& in) const {
+    return lut_ ? lut_value(*lut_, in) : analytic_value(term_, in);
+}
+
+nlohmann::json Comparator::provenance() const {
+    if (!lut_) return {{"name", name_}, {"kind", "analytic"}, {"term", to_string(term_)}};
+    nlohmann::json j = {{"name", name_}, {"kind", "lut"}, {"file", file_}};
+    const auto& meta = lut_->file().metadata;
+    for (const char* key : {"version", "command_line"})
+        if (meta.is_object() && meta.contains(key)) j[key] = meta[key];
+    return j;
+}
+
+std::vector<Comparator> parse_comparators(const std::vector<std::string>& arguments,
+                                          const std::vector<std::string>& taken) {
+    std::vector<Comparator> out;
+    std::set<std::string> names(taken.begin(), taken.end());
+    auto claim = [&](const std::string& n) {
+        if (!names.insert(n).second)
+            throw std::invalid_argument("--compare: duplicate column name '" + n + "'; name it with NAME=FILE");
+    };
+    for (const auto& a : arguments) {
+        out.push_back(Comparator::parse(a));
+        claim(out.back().name());
+        claim(out.back().name() + "_error");
+    }
+    return out;
+}
+
+void ErrorSummary::add(double e, double n_dot_l) {
+    ++count;
+    max_abs = std::max(max_abs, std::abs(e));
+    sum_sq += e * e;
+    const double w = std::max(n_dot_l, 0.0);
+    weighted_sq += w * e * e;
+    weight += w;
+}
+
+double ErrorSummary::rms() const { return count ? std::sqrt(sum_sq / double(count)) : 0; }
+double ErrorSummary::weighted_rms() const { return weight > 0 ? std::sqrt(weighted_sq / weight) : 0; }
+
+}  // namespace ms::compare

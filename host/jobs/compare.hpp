@@ -1,0 +1,85 @@
+// Comparators of the generic term: part 1's analytic terms (analytic/part1_terms.hpp) and baked LUTs
+// read through sweep::LutLookup, evaluated at (visibility, NdotL, NdotV, roughness). Sweeps
+// (jobs/sweep/runner.cpp) and `microshadow eval --compare` both compute their columns here.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "analytic/part1_terms.hpp"
+#include "core/query.hpp"
+#include "core/types.hpp"
+#include "lut/lookup.hpp"
+
+namespace ms::compare {
+
+// What every comparator reads. roughness is the perceptual roughness (alpha = roughness^2); for an
+// anisotropic query the isotropic equivalent (see isotropic_roughness).
+struct ComparatorInputs {
+    double visibility = 1;
+    double n_dot_l = 1;
+    double n_dot_v = 1;
+    double roughness = 0.5;
+    AoWeighting weighting = AoWeighting::cosine;
+};
+
+// The isotropic-equivalent roughness of (alpha_x, alpha_y): (alpha_x alpha_y)^(1/4), the square root
+// of the geometric-mean alpha (it keeps the area of the slope distribution's footprint).
+double isotropic_roughness(double alpha_x, double alpha_y);
+
+// The comparator inputs of an eval query: NdotV = wi_z and NdotL = wo_z of the normalised
+// directions, roughness = isotropic_roughness(alpha_x, alpha_y).
+ComparatorInputs inputs_of(const Query& q, AoWeighting weighting);
+
+// Part 1's term `t` at `in`. Activision's adjusted term reads its own non-standard roughness of the
+// GGX alpha roughness^2 (analytic::activision_roughness_from_alpha; std::domain_error for alpha
+// outside (0, sqrt 2)); the other terms ignore roughness.
+double analytic_value(analytic::AnalyticTerm t, const ComparatorInputs& in);
+
+// A LUT's renderer-style lookup at `in` (the LUT knows no AO weighting: it was baked with one).
+double lut_value(const sweep::LutLookup& lut, const ComparatorInputs& in);
+
+// One comparator column of `eval --compare`.
+class Comparator {
+public:
+    // NAME (an analytic term), FILE (a LUT, the column named after the file stem) or NAME=FILE.
+    // Throws std::invalid_argument: an unknown name (listing the valid ones, with "did you mean" when
+    // one is close) or an unreadable LUT (read_lut's message).
+    static Comparator parse(const std::string& argument);
+
+    const std::string& name() const { return name_; }
+    bool is_lut() const { return lut_ != nullptr; }
+    double operator()(const ComparatorInputs& in) const;
+    // {name, kind, term} or {name, kind, file, version, command_line} (the LUT metadata's, when present).
+    nlohmann::json provenance() const;
+
+private:
+    std::string name_;
+    analytic::AnalyticTerm term_ = analytic::AnalyticTerm::reference_step;
+    std::string file_;
+    std::shared_ptr<const sweep::LutLookup> lut_;
+};
+
+// Every argument parsed, in order; column names must be unique and differ from `taken` (the other
+// columns of the output, including each comparator's "<name>_error"). Throws std::invalid_argument.
+std::vector<Comparator> parse_comparators(const std::vector<std::string>& arguments,
+                                          const std::vector<std::string>& taken);
+
+// The analytic term names, comma-separated, and the closest one to `word` ("" when none is close).
+std::string analytic_term_names();
+std::string closest_analytic_term(const std::string& word);
+
+// Error statistics of one comparator against the term: max |e|, RMS and the NdotL-weighted RMS
+// sqrt(sum w e^2 / sum w) with w = max(NdotL, 0) (0 when every weight is 0).
+struct ErrorSummary {
+    std::size_t count = 0;
+    double max_abs = 0, sum_sq = 0, weighted_sq = 0, weight = 0;
+    void add(double error, double n_dot_l);
+    double rms() const;
+    double weighted_rms() const;
+};
+
+}  // namespace ms::compare

@@ -4,26 +4,11 @@
 #include <vector>
 
 #include "cli/common.hpp"
+#include "io/text.hpp"
 
 namespace ms::cli {
 
 namespace {
-
-// Levenshtein distance: the number of single-character edits between two words.
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-            diagonal = up;
-        }
-    }
-    return row[b.size()];
-}
 
 // Every spelling the command line accepts: subcommand names and their long options.
 std::vector<std::string> known_words(CLI::App& app) {

@@ -23,4 +23,7 @@ std::string json_safe(std::string_view s);
 std::string dump_json(const nlohmann::json& j, int indent = -1);
 std::string shell_quote(std::string_view arg);
 
+// Levenshtein distance (single-character edits between two words), for "did you mean" suggestions.
+std::size_t edit_distance(const std::string& a, const std::string& b);
+
 }  // namespace ms

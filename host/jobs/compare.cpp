@@ -1,5 +1,7 @@
 #include "jobs/compare.hpp"
 
+#include "io/text.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -41,21 +43,6 @@ double lut_value(const sweep::LutLookup& lut, const ComparatorInputs& in) {
 }
 
 namespace {
-
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-    std::vector<std::size_t> row(b.size() + 1);
-    for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-    for (std::size_t i = 1; i <= a.size(); ++i) {
-        std::size_t diagonal = row[0];
-        row[0] = i;
-        for (std::size_t j = 1; j <= b.size(); ++j) {
-            const std::size_t up = row[j];
-            row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-            diagonal = up;
-        }
-    }
-    return row[b.size()];
-}
 
 // Not an analytic term's name: a path (a '/' or '.'), or an existing file.
 bool looks_like_file(const std::string& s) {

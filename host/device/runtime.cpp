@@ -320,7 +320,7 @@ std::string build_options(const BuildConfig& config) {
 const std::vector<std::string>& preamble_files() {
     // Order matters: layout first, then the working precision every later file uses.
     static const std::vector<std::string> files = {"common/microshadow_shared.h", "common/real.cl", "common/sincos.cl",
-                                                   "common/vndf.cl", "common/cone.cl"};
+                                                   "common/vndf.cl", "common/cone.cl", "common/work_items.cl"};
     return files;
 }
 
@@ -359,6 +359,17 @@ std::size_t local_size(const cl::Kernel& kernel, const DeviceInfo& device, std::
 void require_build_support(const DeviceInfo& device, const BuildConfig& config) {
     if (config.double_precision && !device.fp64)
         throw std::invalid_argument("--double-kernels needs cl_khr_fp64, which " + device.label() + " does not have");
+}
+
+PointBuffers upload_points(Device& device, const std::vector<float>& u1, const std::vector<float>& u2) {
+    return checked([&] {
+        PointBuffers b;
+        b.u1 = cl::Buffer(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, u1.size() * sizeof(float),
+                          const_cast<float*>(u1.data()));
+        b.u2 = cl::Buffer(device.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, u2.size() * sizeof(float),
+                          const_cast<float*>(u2.data()));
+        return b;
+    });
 }
 
 Device::Device(DeviceInfo info) : info_(std::move(info)) {

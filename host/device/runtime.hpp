@@ -86,6 +86,13 @@ inline std::size_t round_up(std::size_t n, std::size_t multiple) { return (n + m
 // without cl_khr_fp64), naming the device, instead of a build log full of errors.
 void require_build_support(const DeviceInfo& device, const BuildConfig& config);
 
+// A point set's two coordinate arrays as read-only device buffers (every sampling routine uploads one).
+struct PointBuffers {
+    cl::Buffer u1, u2;
+};
+class Device;
+PointBuffers upload_points(Device& device, const std::vector<float>& u1, const std::vector<float>& u2);
+
 // A device with its own context and in-order queue. Programs are built once per (source hash,
 // options) and cached; build times are recorded so benchmarks can report them apart from run time.
 class Device {

@@ -36,7 +36,7 @@
 
 /*
  * texels[t] = (alpha, NdotV, sqrt(1 - NdotV^2), unused), NdotV in (0, 1].
- * Global id g = (texel * replicates + replicate) * chunks + chunk; sums[g * 32 + k]: k < 16 the lanes of
+ * Global id g = (texel * replicates + replicate) * chunks + chunk (common/work_items.cl); sums[g * 32 + k]: k < 16 the lanes of
  * scale, k >= 16 the lanes of bias.
  */
 __kernel void ms_dfg_tally(__global const float4* texels, uint texel_count,
@@ -46,13 +46,8 @@ __kernel void ms_dfg_tally(__global const float4* texels, uint texel_count,
 {
     const uint g = get_global_id(0);
     if (g >= texel_count * replicates * chunks) return;
-    const uint chunk = g % chunks;
-    const uint replicate = (g / chunks) % replicates;
-    const uint texel = g / (chunks * replicates);
-    const uint per_chunk = points_per_replicate / chunks;
-    const uint first = replicate * points_per_replicate + chunk * per_chunk;
-
-    const float4 p = texels[texel];
+    const ms_work_item w = ms_work_item_of(g, replicates, chunks, points_per_replicate);
+    const float4 p = texels[w.item];
     const real alpha = p.x, cv = p.y, sv = p.z;
     const real a2 = alpha * alpha;
     const real3 view = (real3)(sv, MS_R(0.0), cv);
@@ -62,7 +57,7 @@ __kernel void ms_dfg_tally(__global const float4* texels, uint texel_count,
     const real one_lv = MS_R(1.0) + lambda_v;
 
     real16 scale = MS_R(0.0), bias = MS_R(0.0);
-    for (uint i = first; i < first + per_chunk; i += MS_LANES) {
+    for (uint i = w.first; i < w.first + w.count; i += MS_LANES) {
         const real16 rim = MS_R(1.0) - convert_real16(vload16(0, u2 + i)); /* 1 - s, in (0, 1] */
 #if MS_DFG_WARP == 1
         const real16 warped = rim, jacobian = MS_R(1.0);

@@ -24,7 +24,7 @@
  * integer quadrant selection and compares squared quantities instead of normalising.
  */
 /* Preamble (prepended by the host, device/runtime.cpp): common/microshadow_shared.h, real.cl, sincos.cl,
- * vndf.cl, cone.cl. */
+ * vndf.cl, cone.cl, work_items.cl. */
 
 /*
  * Tally one query over `count` points (a multiple of MS_LANES) starting at `first`.
@@ -65,10 +65,7 @@ inline ms_tally tally_points(const ms_query q, __global const float* u1, __globa
     return result;
 }
 
-/*
- * Global id g = (query * replicates + replicate) * chunks + chunk. Each replicate's points are split
- * into `chunks` equal chunks so small batches still fill a device; the host sums chunk tallies.
- */
+/* Global id g = (query * replicates + replicate) * chunks + chunk (common/work_items.cl). */
 __kernel void ms_tally_queries(__global const ms_query* queries, uint query_count,
                                __global const float* u1, __global const float* u2,
                                uint points_per_replicate, uint replicates, uint chunks,
@@ -76,10 +73,6 @@ __kernel void ms_tally_queries(__global const ms_query* queries, uint query_coun
 {
     const uint g = get_global_id(0);
     if (g >= query_count * replicates * chunks) return;
-    const uint chunk = g % chunks;
-    const uint replicate = (g / chunks) % replicates;
-    const uint query = g / (chunks * replicates);
-    const uint per_chunk = points_per_replicate / chunks;
-    const uint first = replicate * points_per_replicate + chunk * per_chunk;
-    tallies[g] = tally_points(queries[query], u1, u2, first, per_chunk);
+    const ms_work_item w = ms_work_item_of(g, replicates, chunks, points_per_replicate);
+    tallies[g] = tally_points(queries[w.item], u1, u2, w.first, w.count);
 }

@@ -35,13 +35,9 @@ public:
     DeviceWorker(DfgIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
         ocl::require_build_support(device_.info(), owner_.config_.build);
         const PointSet& pts = owner_.point_set();
-        ocl::checked([&] {
-            u1_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, pts.u1.size() * sizeof(float),
-                             const_cast<float*>(pts.u1.data()));
-            u2_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, pts.u2.size() * sizeof(float),
-                             const_cast<float*>(pts.u2.data()));
-            return 0;
-        });
+        const ocl::PointBuffers b = ocl::upload_points(device_, pts.u1, pts.u2);
+        u1_ = b.u1;
+        u2_ = b.u2;
     }
 
     void run(std::uint64_t id) override {

@@ -93,10 +93,9 @@ public:
             // Keep one uploaded point set: a bake walks batches 0, 1, ... per slice, and every upload is
             // small next to the slice's histogram work (a map of every batch grew without bound).
             if (uploaded_ != &points || uploaded_seed_ != points.seed) {
-                u1_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u1.size() * sizeof(float),
-                                 const_cast<float*>(points.u1.data()));
-                u2_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u2.size() * sizeof(float),
-                                 const_cast<float*>(points.u2.data()));
+                const ocl::PointBuffers b = ocl::upload_points(device_, points.u1, points.u2);
+                u1_ = b.u1;
+                u2_ = b.u2;
                 uploaded_ = &points;
                 uploaded_seed_ = points.seed;
             }

@@ -28,12 +28,11 @@ public:
                                 const_cast<float*>(c.rgb.data()));
             offset_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, c.offset.size() * sizeof(cl_uint),
                                  const_cast<std::uint32_t*>(c.offset.data()));
-            u1_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, p.u1.size() * sizeof(float),
-                             const_cast<float*>(p.u1.data()));
-            u2_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, p.u2.size() * sizeof(float),
-                             const_cast<float*>(p.u2.data()));
             return 0;
         });
+        const ocl::PointBuffers b = ocl::upload_points(device_, p.u1, p.u2);
+        u1_ = b.u1;
+        u2_ = b.u2;
     }
     void run(std::uint64_t id) override {
         throw_if_cancelled();

@@ -45,13 +45,9 @@ private:
         if (uploaded_ == &points && seed_ == points.seed && total_ == points.total() && replicates_ == points.replicates &&
             sequence_ == points.sequence)
             return;
-        ocl::checked([&] {
-            u1_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u1.size() * sizeof(float),
-                             const_cast<float*>(points.u1.data()));
-            u2_ = cl::Buffer(device_.context(), CL_MEM_READ_ONLY | CL_MEM_COPY_HOST_PTR, points.u2.size() * sizeof(float),
-                             const_cast<float*>(points.u2.data()));
-            return 0;
-        });
+        const ocl::PointBuffers b = ocl::upload_points(device_, points.u1, points.u2);
+        u1_ = b.u1;
+        u2_ = b.u2;
         uploaded_ = &points;
         seed_ = points.seed;
         total_ = points.total();

@@ -113,14 +113,16 @@ void run_sh(const ShArgs& a) {
     if (!a.preview.empty()) check_writable_destination(a.preview);
     const env::Image image = env::read_environment_image(a.env);
     // Equirectangular images are projected texel by texel (exact texel integrals); crosses as cubemaps.
-    const std::uint32_t faces = a.irradiance.empty() ? 0 : a.face_size;
+    // The cross is needed for the EXR and for the preview alike.
+    const std::uint32_t faces = a.irradiance.empty() && a.preview.empty() ? 0 : a.face_size;
     const IrradianceResult r = image.width == 2 * image.height ? compute_irradiance(image, faces)
                                                                : compute_irradiance(env::cubemap_from_image(image), faces);
     nlohmann::json meta = irradiance_metadata(r, a.env, command_line());
     AtomicFile json(a.out);
     json.stream() << meta.dump(2) << "\n";
     if (!a.irradiance.empty()) env::write_exr(a.irradiance, r.irradiance_cross, meta);
-    if (!a.preview.empty()) env::write_png_preview(a.preview, r.irradiance_cross, 1.0);
+    if (!a.preview.empty()) env::write_png_preview(a.preview, r.irradiance_cross, 1.0,
+                                                     "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)");
     json.commit();
     if (!a.quiet)
         std::cerr << "ibl sh: " << image.width << " x " << image.height << " environment, 9 coefficients per channel; "
@@ -184,7 +186,8 @@ void run_prefilter(const PrefilterArgs& a) {
         write_prefilter_cubemap(a.out + "/specular." + a.format, result, meta, a.format, a.encoding);
     write_prefilter_preview(a.out + "/specular_preview.png", result, a.exposure);
     env::write_exr(a.out + "/irradiance.exr", irr.irradiance_cross, irr_meta);
-    env::write_png_preview(a.out + "/irradiance_preview.png", irr.irradiance_cross, a.exposure);
+    env::write_png_preview(a.out + "/irradiance_preview.png", irr.irradiance_cross, a.exposure,
+                           "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)");
     {
         AtomicFile sh(a.out + "/sh.json");
         sh.stream() << irr_meta.dump(2) << "\n";

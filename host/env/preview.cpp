@@ -141,7 +141,25 @@ void write_png(const std::string& path, const Canvas& c) {
     atomic.commit();
 }
 
-void write_png_preview(const std::string& path, const Image& img, double exposure) { write_png(path, tone_map(img, exposure)); }
+void write_png_preview(const std::string& path, const Image& img, double exposure, const std::string& caption) {
+    const Canvas mapped = tone_map(img, exposure);
+    if (caption.empty() && img.width >= 384) {
+        write_png(path, mapped);
+        return;
+    }
+    // Small images (a 32-texel irradiance cross is 128 x 96) are magnified by whole texels to at least
+    // 384 pixels across, so a person sees the faces; the caption goes on a dark strip below.
+    const std::uint32_t zoom = std::max(1u, (384 + img.width - 1) / img.width);
+    const std::uint32_t w = std::max(img.width * zoom, caption.empty() ? 0u : text_width(caption, 1) + 16);
+    Canvas c(w, img.height * zoom + (caption.empty() ? 0 : 24), 30);
+    for (std::uint32_t y = 0; y < img.height * zoom; ++y)
+        for (std::uint32_t x = 0; x < img.width * zoom; ++x) {
+            const std::uint8_t* p = &mapped.rgb[(std::size_t(y / zoom) * img.width + x / zoom) * 3];
+            c.set(x, y, p[0], p[1], p[2]);
+        }
+    if (!caption.empty()) c.text(8, img.height * zoom + 8, caption, 1, 220);
+    write_png(path, c);
+}
 
 Canvas tone_map(const Image& img, double exposure) {
     if (img.channels < 3) throw std::invalid_argument("tone_map: need RGB");
@@ -164,8 +182,10 @@ void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles,
     const std::uint32_t tw = tiles[0].width, th = tiles[0].height;
     const std::uint32_t zoom = std::max(1u, 256 / std::max(tw, th));
     const std::uint32_t pw = tw * zoom, ph = th * zoom;
-    const std::uint32_t left = 110, top = 50, gap = 110, bottom = 80;
-    const std::uint32_t width = left + std::uint32_t(tiles.size()) * (pw + gap), height = top + ph + bottom;
+    // The y label sits above the tick labels, right-aligned to the axis, at the size of the other text.
+    const std::uint32_t left = std::max(110u, text_width(y_label) + 24), top = 56, gap = left, bottom = 80;
+    const std::uint32_t bar = 70;  // the grey scale's colour bar at the right
+    const std::uint32_t width = left + std::uint32_t(tiles.size()) * (pw + gap) + bar, height = top + ph + bottom;
     Canvas c(width, height, 255);
     for (std::size_t t = 0; t < tiles.size(); ++t) {
         const PlotTile& tile = tiles[t];
@@ -191,8 +211,20 @@ void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles,
             c.text(x0 - 10 - text_width(labels[k]), yt - 7, labels[k]);
         }
         c.text(x0 + (pw - text_width(x_label)) / 2, y0 + ph + 32, x_label);
-        c.text(x0 - 14 - std::int64_t(text_width(y_label, 1)), y0 + ph / 4 - 3, y_label, 1);
+        c.text(x0 - 10 - std::int64_t(text_width(y_label)), y0 - 22, y_label);
     }
+    // Colour bar: 0 (black, bottom) to 1 (white, top), ticks at 0, 0.5, 1.
+    const std::int64_t bx = left + std::int64_t(tiles.size()) * (pw + gap) - gap + 30;  // right of the last tile
+    for (std::uint32_t y = 0; y < ph; ++y) {
+        const std::uint8_t g = std::uint8_t(std::lround(255.0 * (1.0 - double(y) / double(ph - 1))));
+        for (std::int64_t x = 0; x < 16; ++x) c.set(bx + x, top + y, g, g, g);
+    }
+    c.line(bx - 1, top - 1, bx + 16, top - 1);
+    c.line(bx - 1, top + ph, bx + 16, top + ph);
+    c.line(bx - 1, top - 1, bx - 1, top + ph);
+    c.line(bx + 16, top - 1, bx + 16, top + ph);
+    const char* bar_labels[3] = {"1", "0.5", "0"};
+    for (int k = 0; k < 3; ++k) c.text(bx + 22, top + std::int64_t(k * (ph - 1) / 2) - 7, bar_labels[k]);
     c.text(left, height - 20, caption, 1, 80);
     write_png(path, c);
 }

@@ -27,7 +27,8 @@ void write_png(const std::string& path, const Canvas& canvas);
 // An HDR image (first three channels) tone-mapped onto a canvas: x * exposure, Reinhard, sRGB.
 Canvas tone_map(const Image& image, double exposure = 1.0);
 // An HDR image (first three channels) as PNG: x * exposure, Reinhard x / (1 + x), sRGB encoded.
-void write_png_preview(const std::string& path, const Image& image, double exposure = 1.0);
+// Images narrower than 384 pixels are magnified by whole texels; a caption, if any, goes below.
+void write_png_preview(const std::string& path, const Image& image, double exposure = 1.0, const std::string& caption = "");
 
 // One tile of a labelled plot: a w x h grid of values in [0, 1] (grey), title above, x axis label
 // below, y axis label to the left, ticks at 0, 0.5 and 1 of both axes (y increasing downwards).

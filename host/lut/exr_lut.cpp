@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
@@ -28,7 +29,10 @@ const char* const kAxisNames[3] = {"visibility", "n_dot_l", "n_dot_v"};
 // Largest axis count and texel count a LUT file may claim before anything is allocated: above any
 // bake worth sampling (2^28 texels is a 645^3 LUT, 4 GiB of floats at 4 channels), below what would
 // overflow or exhaust memory when a hostile file's numbers are multiplied.
-constexpr std::uint64_t kMaxAxisCount = 65536, kMaxTexels = std::uint64_t(1) << 28;
+// Values (texels x channels) a LUT file may hold: 2^26 floats, 256 MB, a 256^3 x 4 atlas. The reader
+// allocates them before reading, so a 4 KB crafted file claiming 2^28 texels x 4 channels asked for
+// 4 GB (fuzz_lut_file ran out of memory).
+constexpr std::uint64_t kMaxAxisCount = 65536, kMaxValues = std::uint64_t(1) << 26;
 
 nlohmann::json axis_json(const LutAxis& a) {
     return {{"name", a.name}, {"min", a.min}, {"max", a.max}, {"count", a.count}, {"texel", to_string(a.texel)}};
@@ -159,7 +163,22 @@ std::uint32_t axis_count(const nlohmann::json& j, const std::string& field) {
 LutFile read_lut(const std::string& path) {
     LutFile lut;
     try {
+        // OpenEXR sizes its tables from the header's data window when the file is opened, before any
+        // check here can run: crafted headers drove fuzz_lut_file past 2 GB. A bake is at most 4096
+        // texels wide, and no LUT within kMaxValues is taller than 2^20 rows, so larger images are refused
+        // on open. The limits are OpenEXR's process-wide settings: set for this open only, so scene and
+        // environment images keep theirs.
+        struct OpenLimits {
+            OpenLimits() { set(4096, 1 << 20); }
+            ~OpenLimits() { set(0, 0); }  // 0: unlimited, OpenEXR's default
+            static void set(int w, int h) {
+                Imf::Header::setMaxImageSize(w, h);
+                Imf::Header::setMaxTileSize(w, h);
+            }
+        };
+        std::optional<OpenLimits> limits(std::in_place);
         Imf::InputFile file(path.c_str());
+        limits.reset();
         const Imf::Header& header = file.header();
         const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
         if (!attr) throw std::runtime_error("no \"microshadow\" header attribute: not a microshadow LUT");
@@ -205,9 +224,10 @@ LutFile read_lut(const std::string& path) {
             lut.channels.push_back(ch);
         }
         const std::uint64_t want_w = lut.axes[0].count, want_h = std::uint64_t(lut.axes[1].count) * lut.axes[2].count;
-        if (want_w * want_h > kMaxTexels)
-            throw std::runtime_error("metadata axes claim " + std::to_string(want_w * want_h) + " texels, more than the limit " +
-                                     std::to_string(kMaxTexels));
+        if (want_w * want_h * lut.channels.size() > kMaxValues)
+            throw std::runtime_error("metadata axes claim " + std::to_string(want_w * want_h) + " texels x " +
+                                     std::to_string(lut.channels.size()) + " channels, more than the limit of " +
+                                     std::to_string(kMaxValues) + " values");
         const Imath::Box2i dw = header.dataWindow();
         const std::int64_t w = std::int64_t(dw.max.x) - dw.min.x + 1, h = std::int64_t(dw.max.y) - dw.min.y + 1;
         if (w != std::int64_t(want_w) || h != std::int64_t(want_h))

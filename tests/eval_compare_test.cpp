@@ -12,6 +12,7 @@
 
 #include "cli_runner.hpp"
 #include "io/csv.hpp"
+#include "jobs/compare.hpp"
 #include "jobs/eval.hpp"
 #include "jobs/sweep/points.hpp"
 #include "jobs/sweep/runner.hpp"
@@ -214,6 +215,35 @@ TEST_F(EvalCompareTest, BadComparatorsAreRefusedBeforeAnyWork) {
     refused("--compare activision-adjusted", "query 2: --compare activision-adjusted");
     const auto ok = run("eval -q --in " + in + " --out " + out + " --backend oracle --samples 256 --compare activision");
     EXPECT_EQ(ok.exit_code, 0) << ok.output;
+}
+
+}  // namespace
+
+namespace {
+
+// The relative azimuth every azimuth-keeping representation reads: the angle between the tangent-plane
+// projections of wi and wo, folded to [0, pi], independent of the frame's rotation about the normal and
+// of the directions' lengths.
+TEST(ComparatorInputs, RelativeAzimuthIsTheAngleBetweenTheProjections) {
+    const double pi = 3.14159265358979323846;
+    for (double phi_i : {0.0, 0.7, 2.5, -1.9}) {
+        for (double dphi : {0.0, 0.3, pi / 2, 2.0, pi, 4.0}) {
+            ms::Query q;
+            q.visibility = 0.8;
+            q.alpha_x = q.alpha_y = 0.25;
+            q.wi = {0.6 * std::cos(phi_i), 0.6 * std::sin(phi_i), 0.8};
+            // wo scaled by 3: comparators see normalised directions.
+            q.wo = {3 * 0.28 * std::cos(phi_i + dphi), 3 * 0.28 * std::sin(phi_i + dphi), 3 * 0.96};
+            const auto in = ms::compare::inputs_of(q, ms::AoWeighting::cosine);
+            const double expected = std::fabs(std::remainder(dphi, 2 * pi));
+            EXPECT_NEAR(in.relative_azimuth, expected, 1e-12) << "phi_i " << phi_i << " dphi " << dphi;
+            EXPECT_NEAR(in.n_dot_l, 0.96, 1e-12);
+        }
+    }
+    ms::Query normal_view;  // wi along the normal: no azimuth to speak of
+    normal_view.wi = {0, 0, 1};
+    normal_view.wo = {0.6, 0, 0.8};
+    EXPECT_EQ(ms::compare::inputs_of(normal_view, ms::AoWeighting::cosine).relative_azimuth, 0.0);
 }
 
 }  // namespace

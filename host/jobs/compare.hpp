@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -24,6 +25,19 @@ struct ComparatorInputs {
     double n_dot_v = 1;
     double roughness = 0.5;
     AoWeighting weighting = AoWeighting::cosine;
+    // The relative azimuth between the projections of V and L on the surface, in radians in [0, pi]
+    // (0: L on V's side, pi: opposite). Part 2's LUTs and part 1's terms ignore it; representations
+    // that keep the azimuth read it. 0 when either direction is along the normal.
+    double relative_azimuth = 0;
+};
+
+// What a comparator costs a renderer per light: texture memory, filtered fetches and an ALU estimate
+// (arithmetic instructions of its shader after the fetches, counted from the generated code).
+struct ComparatorCost {
+    std::uint64_t bytes = 0;
+    unsigned fetches_per_light = 0;
+    unsigned alu_per_light = 0;
+    std::string storage;  // e.g. "3D texture 32x32x32 RGBA16F"
 };
 
 // The isotropic-equivalent roughness of (alpha_x, alpha_y): (alpha_x alpha_y)^(1/4), the square root
@@ -31,7 +45,8 @@ struct ComparatorInputs {
 double isotropic_roughness(double alpha_x, double alpha_y);
 
 // The comparator inputs of an eval query: NdotV = wi_z and NdotL = wo_z of the normalised
-// directions, roughness = isotropic_roughness(alpha_x, alpha_y).
+// directions, roughness = isotropic_roughness(alpha_x, alpha_y), relative_azimuth = the angle between
+// the tangent-plane projections of wi and wo.
 ComparatorInputs inputs_of(const Query& q, AoWeighting weighting);
 
 // Part 1's term `t` at `in`. Activision's adjusted term reads its own non-standard roughness of the

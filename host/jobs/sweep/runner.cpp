@@ -213,7 +213,10 @@ public:
                 line += "," + format_number(v);
             // The comparators as eval --compare computes them (jobs/compare.hpp): Activision's adjusted
             // term reads its own roughness of the point's isotropic-equivalent alpha (see points.hpp).
-            const compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
+            compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
+            // delta_phi in degrees, folded to [0, 180] (the term is even and 360-periodic in it).
+            const double folded = std::fabs(std::remainder(p.delta_phi, 360.0));
+            in.relative_azimuth = folded * (3.14159265358979323846 / 180.0);
             for (auto t : spec_.analytic) line += "," + format_number(compare::analytic_value(t, in));
             for (const auto& l : luts_) line += "," + format_number(compare::lut_value(*l, in));
             out += line + "\n";

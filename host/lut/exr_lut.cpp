@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/exr_preflight.hpp"
 #include "lut/formats/encoding.hpp"
 
 namespace ms {
@@ -176,6 +177,19 @@ LutFile read_lut(const std::string& path) {
                 Imf::Header::setMaxTileSize(w, h);
             }
         };
+        // OpenEXR 3.1 also allocates what a header's attributes and offset tables claim before it
+        // knows the file holds them (fuzz_lut_file: 1.7 GB asked by a 4 KB file): the preflight proves
+        // every claim fits in the file, and the image (and a tile) is bounded before OpenEXR decodes it.
+        const exr::FileSummary summary = exr::preflight(path);
+        if (summary.parts.size() != 1) throw std::runtime_error("a multi-part file: a LUT is one part");
+        const exr::PartSummary& part = summary.parts.front();
+        if (part.type != "scanlineimage" && part.type != "tiledimage")
+            throw std::runtime_error("a " + part.type + " part: a LUT is a flat (scan-line or tiled) image");
+        const auto values = [&](std::int64_t w, std::int64_t h) { return std::uint64_t(w) * std::uint64_t(h) * std::max(part.channels, 1u); };
+        if (values(part.width, part.height) > kMaxValues || values(part.tile_width, part.tile_height) > kMaxValues)
+            throw std::runtime_error("a " + std::to_string(part.width) + " x " + std::to_string(part.height) + " image of " +
+                                     std::to_string(part.channels) + " channels is more than the limit of " +
+                                     std::to_string(kMaxValues) + " values");
         std::optional<OpenLimits> limits(std::in_place);
         Imf::InputFile file(path.c_str());
         limits.reset();

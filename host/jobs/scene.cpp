@@ -346,8 +346,14 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                 for (std::size_t j = 0; j < todo.size(); ++j) {
                     estimates[todo[j]] = est[j];
                     const double bound = t * est[j].std_error;
-                    if (!(bound > tol)) continue;
+                    // A query that stops here (exact answers by the integrand count 0 samples).
+                    const bool sampled_here = est[j].std_error > 0 || !(est[j].term == 0 || est[j].term == 1);
+                    if (!(bound > tol)) {
+                        if (sampled_here) c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
+                        continue;
+                    }
                     if (plan.samples * 2 > d.sampling.max_samples) {
+                        c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
                         ++c.tolerance_missed;
                         continue;
                     }
@@ -439,7 +445,10 @@ json scene_report(const SceneResult& r) {
     j["work"] = {{"pixel_lights", c.pixel_lights}, {"masked", c.masked}, {"view_below_horizon", c.view_below_horizon},
                  {"light_below_horizon", c.light_below_horizon}, {"zero_region", c.zero_region}, {"v_one", c.v_one},
                  {"duplicates", c.duplicates}, {"sampled", c.sampled}, {"skipped_fraction", c.skipped_fraction()},
-                 {"samples_drawn", c.samples_drawn}, {"tolerance_missed", c.tolerance_missed}};
+                 {"samples_drawn", c.samples_drawn}, {"samples_final", c.samples_final}, {"tolerance_missed", c.tolerance_missed}};
+    json passes = json::object();
+    for (const auto& [samples, queries] : c.final_pass_queries) passes[std::to_string(samples)] = queries;
+    j["work"]["final_pass_queries"] = passes;
     j["comparators"] = r.comparators;
     j["groups"] = r.groups;
     for (const auto& l : r.lights) {

@@ -4,13 +4,16 @@
 #include <sstream>
 
 #include "jobs/bake.hpp"
+#include "jobs/scene_bake.hpp"  // issue 11: bake --scene
 #include "jobs/verify.hpp"
 #include "cli/bake_outputs.hpp"  // issue 12: file formats, preview checks, shaders
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
+#include "io/text.hpp"
 #include "lut/exr_lut.hpp"
 #include "lut/preview.hpp"
+#include "scene/description.hpp"
 
 namespace ms::cli {
 
@@ -26,6 +29,10 @@ struct BakeArgs {
     SamplingOptions sampling;
     BakeOutputArgs outputs;  // issue 12: --format --encoding --shader-glsl --shader-hlsl (cli/bake_outputs.hpp)
     CLI::App* cmd = nullptr;
+    // issue 11: bake what a scene needs (jobs/scene_bake.hpp)
+    std::string scene, scene_report, scene_layout = "fit";
+    bool no_scene_compare = false;
+    double scene_error = 0.01;
 };
 
 // The oracle bake of a 16^3 x 4 layout at the default samples takes about a minute on 2 cores; larger
@@ -130,7 +137,70 @@ std::string azimuth_summary(const BakeResult& result) {
     return s;
 }
 
+// --- issue 11: bake --scene (the scene's domain decides the bake; jobs/scene_bake.hpp) ---
+void run_scene_bake_command(const BakeArgs& args) {
+    for (const char* o : {"--preview", "--verify", "--half", "--format", "--encoding", "--shader-glsl", "--shader-hlsl", "--ao-weighting", "--form"})
+        if (args.cmd->get_option(o)->count() > 0) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
+    if (args.out.size() < 4 || args.out.substr(args.out.size() - 4) != ".exr")
+        throw std::invalid_argument("--scene writes an OpenEXR LUT (its coverage record is in the metadata): --out must end in .exr");
+    if (args.scene_report.empty()) throw std::invalid_argument("--scene needs --scene-report DIR (histograms and the report)");
+    BakeSpec base = make_spec(args);
+    const scene::SceneDescription description = scene::load_scene(args.scene);
+    // The scene's AO weighting decides the cone, and its form the term: the LUT must be baked with them.
+    base.term.ao_weighting = description.ao_weighting;
+    base.term.form = description.sampling.form;
+    check_writable_destination(args.out);
+    const scene::SceneInputs inputs = scene::SceneInputs::load(description);
+    std::unique_ptr<TermBackend> backend;
+    if (base.oracle) {
+        backend = make_oracle_backend(base.oracle_threads);
+    } else {
+        OpenClBackendConfig config;
+        config.build = base.build;
+        backend = make_opencl_backend(ocl::select_devices(base.device), config);
+    }
+    scene::SceneBakeOptions options;
+    options.fit = args.scene_layout == "fit";
+    options.compare = !args.no_scene_compare;
+    options.serve_error = args.scene_error;
+    std::unique_ptr<Progress> progress;
+    std::string phase;
+    options.progress = [&](const std::string& p, std::size_t done, std::size_t total) {
+        if (p != phase) {
+            if (progress) progress->finish();
+            progress = std::make_unique<Progress>("bake --scene: " + p, args.sampling.quiet);
+            phase = p;
+        }
+        progress->update(done, total);
+    };
+    const std::vector<scene::LightDomain> domain = scene::scene_domain(inputs);
+    const scene::SceneBakeResult result = scene::run_scene_bake(inputs, domain, base, *backend, options);
+    if (progress) progress->finish();
+    const nlohmann::json provenance = {{"program", "microshadow " MICROSHADOW_VERSION},
+                                       {"command_line", command_line()},
+                                       {"scene", json_safe(args.scene)}};
+    scene::write_scene_bake_outputs(result, domain, args.out, args.scene_report, provenance);
+    if (!args.sampling.quiet) {
+        const auto& p = result.plan;
+        std::cerr << std::setprecision(3) << "bake --scene: baked " << p.baked_texels << " of " << p.texels << " texels ("
+                  << p.baked_rows << " of " << p.rows << " rows, " << p.baked_slices << " of " << p.slices << " slices, "
+                  << p.channels_touched.size() << " of " << p.spec.roughness.size() << " channels) in " << result.bake.seconds << " s";
+        if (result.full_seconds > 0)
+            std::cerr << "; full bake of the same layout " << result.full_seconds << " s (ratio " << result.bake.seconds / result.full_seconds << ")";
+        std::cerr << "\n";
+        for (const auto& e : result.errors)
+            std::cerr << "bake --scene: " << e.light << ": weighted error on " << e.scene_lut.lookups << " sampled lookups: scene LUT max "
+                      << e.scene_lut.max << " RMS " << e.scene_lut.rms << ", default LUT max " << e.default_lut.max << " RMS "
+                      << e.default_lut.rms << " (reference bound " << e.reference_bound << ")\n";
+        if (!result.errors.empty())
+            std::cerr << "bake --scene: the default LUT " << (result.default_serves ? "serves" : "does not serve") << " this scene within "
+                      << result.serve_error << "\n";
+        std::cerr << "bake --scene: wrote " << args.out << " and " << args.scene_report << "/report.md\n";
+    }
+}
+
 void run_bake(const BakeArgs& args) {
+    if (!args.scene.empty()) return run_scene_bake_command(args);  // issue 11
     const BakeSpec spec = make_spec(args);
     // --- issue 12: output format by extension or --format; preview and shader paths (before the bake) ---
     const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
@@ -241,6 +311,16 @@ void add_bake_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--verify", a->verify, "recompute K random texels with the scalar oracle; fail if they disagree")
         ->transform(decimal_range(0, 100000));
+    // issue 11: bake what a scene needs
+    cmd->add_option("--scene", a->scene, "bake only what this scene description's lookups touch (docs/scenes.md)");
+    cmd->add_option("--scene-report", a->scene_report, "with --scene: folder for the histograms and the report (created if missing)");
+    cmd->add_option("--scene-layout", a->scene_layout, "with --scene: fit (axes and channels fitted to the scene) or layout (--layout's)")
+        ->check(CLI::IsMember({"fit", "layout"}))
+        ->capture_default_str();
+    cmd->add_flag("--no-scene-compare", a->no_scene_compare, "with --scene: skip the full bake, the default LUT and the reference");
+    cmd->add_option("--scene-error", a->scene_error, "with --scene: the weighted error within which the default LUT serves the scene")
+        ->check(real_range(1e-6, 1.0))
+        ->capture_default_str();
     add_sampling_options(cmd, a->sampling);
     // A bake's samples are per (roughness, NdotV) slice and batch, as its summary counts them.
     cmd->get_option("--samples")->description("VNDF samples per slice and batch, all replicates together (rounded up to replicates x 2^k; default 65536)");

@@ -224,6 +224,13 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
     term_options.ao_weighting = w;
     constexpr std::uint32_t kNoKey = 0xffffffffu, kExact = 0xfffffffeu;
 
+    // Tiles: pixels are classified, keyed, sampled and written `tile` at a time, so the working memory
+    // (the key table, the distinct queries, their estimates and the integrand's tallies) is bounded by
+    // the tile, not the image. Held for the whole run: the input planes and the output layers (written
+    // at the end), and per pixel one byte of roughness band and two of material group (for the 99th
+    // percentiles, taken from the error layers at the end). Deduplication finds repeats within a tile.
+    const std::size_t tile = d.sampling.tile_pixels ? std::size_t(d.sampling.tile_pixels) : std::max<std::size_t>(n, 1);
+    constexpr std::uint8_t kUnlit = 0xff;
     for (const Light& light : d.lights) {
         const auto light_start = std::chrono::steady_clock::now();
         LightImages li;
@@ -231,162 +238,190 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         li.reference.assign(n, 0.0f);
         li.std_error.assign(n, 0.0f);
         li.weight.assign(n, 0.0f);
-        std::vector<std::uint32_t> pixel_key(n, kNoKey);
-        std::unordered_map<DedupKey, std::uint32_t, KeyHash> keys;
-        std::vector<Query> queries;
+        li.approximation.assign(comparators.size(), std::vector<float>(n, 0.0f));
+        li.error.assign(comparators.size(), std::vector<float>(n, 0.0f));
         SkipCounts& c = result.counts;
-
-        // Classify every pixel (exact answers in double), key the rest.
-        for (std::size_t i = 0; i < n; ++i) {
-            ++c.pixel_lights;
-            const PixelSurface p = inputs.pixel(i);
-            const LightQuery q = light_query(p, light);
-            li.weight[i] = float(q.irradiance);
-            if (q.status == PixelStatus::masked) {
-                ++c.masked;
-                continue;
-            }
-            if (q.status == PixelStatus::view_below_horizon) {
-                ++c.view_below_horizon;
-                continue;
-            }
-            if (options.skip) {
-                if (q.status == PixelStatus::light_below_horizon) {
-                    ++c.light_below_horizon;
-                    pixel_key[i] = kExact;
-                    continue;
-                }
-                if (in_zero_region(cone_cos_theta(p.visibility, w), q.n_dot_l)) {
-                    ++c.zero_region;
-                    pixel_key[i] = kExact;
-                    continue;
-                }
-                if (p.visibility == 1) {
-                    ++c.v_one;
-                    li.reference[i] = 1;
-                    pixel_key[i] = kExact;
-                    continue;
-                }
-            }
-            if (step > 0) {
-                const DedupKey k = dedup_key(q.query, w, step);
-                const auto [it, inserted] = keys.emplace(k, std::uint32_t(queries.size()));
-                if (inserted) queries.push_back(dedup_query(k, w, step));
-                else ++c.duplicates;
-                pixel_key[i] = it->second;
-            } else {
-                pixel_key[i] = std::uint32_t(queries.size());
-                queries.push_back(q.query);
-            }
-        }
-        keys.clear();
-
-        // Sample each distinct query; a query whose bound B exceeds the tolerance E after N samples is
-        // resampled with the smallest power-of-two multiple of N, at least 2 N, above N (B / E)^(4/3): the
-        // samples the bound needs if the error falls as N^(-3/4) (scrambled nets on this integrand fall
-        // faster than Monte Carlo's N^(-1/2)), up to max_samples. Measured on the example scene: 3.25e9
-        // samples, against 3.59e9 doubling each pass and 4.06e9 predicting at the Monte Carlo rate.
-        const auto sampling_start = std::chrono::steady_clock::now();
-        std::vector<Estimate> estimates(queries.size());
         SamplingPlan plan;
         plan.replicates = d.sampling.replicates;
         plan.seed = d.sampling.seed;
         const double t = student_t_999(plan.replicates);
         li.t = t;
         const std::uint64_t first = round_up_samples(d.sampling.min_samples, plan.replicates);
-        std::map<std::uint64_t, std::vector<std::uint32_t>> pending;  // samples -> queries
-        if (!queries.empty()) {
-            auto& all = pending[first];
-            all.resize(queries.size());
-            for (std::size_t k = 0; k < all.size(); ++k) all[k] = std::uint32_t(k);
-        }
-        while (!pending.empty()) {
-            plan.samples = pending.begin()->first;
-            const std::vector<std::uint32_t> todo = std::move(pending.begin()->second);
-            pending.erase(pending.begin());
-            std::vector<Query> batch;
-            batch.reserve(todo.size());
-            for (auto k : todo) batch.push_back(queries[k]);
-            EvalStats stats;
-            const std::string phase = light.name + ": " + std::to_string(plan.samples) + " samples";
-            const auto est = evaluate_each(backend, batch, std::vector<TermOptions>(batch.size(), term_options), plan, &stats,
-                                           [&](std::size_t done, std::size_t total) { progress(phase, done, total); });
-            c.samples_drawn += std::uint64_t(stats.sampled) * plan.samples;
-            if (plan.samples == first) {
-                // Without skipping, the integrand's own exact answers (zero region and a light below the
-                // horizon: exact 0; v = 1) are what was not sampled.
-                if (!options.skip) {
-                    c.zero_region += stats.exact_zero;
-                    c.v_one += stats.exact_one;
-                }
-                c.sampled += stats.sampled;
-            }
-            for (std::size_t j = 0; j < todo.size(); ++j) {
-                estimates[todo[j]] = est[j];
-                const double bound = t * est[j].std_error;
-                if (!(bound > tol)) continue;
-                if (plan.samples * 2 > d.sampling.max_samples) {
-                    ++c.tolerance_missed;
-                    continue;
-                }
-                const double want = double(plan.samples) * std::pow(bound / tol, 4.0 / 3.0);
-                std::uint64_t next = plan.samples * 2;
-                while (double(next) < want && next * 2 <= d.sampling.max_samples) next *= 2;
-                pending[next].push_back(todo[j]);
-            }
-        }
-        result.sampling_seconds += seconds_since(sampling_start);
-
-        // Per-pixel reference, comparators and weighted errors.
-        li.approximation.assign(comparators.size(), std::vector<float>(n, 0.0f));
-        li.error.assign(comparators.size(), std::vector<float>(n, 0.0f));
-        std::vector<std::vector<std::vector<float>>> abs_errors(comparators.size(), std::vector<std::vector<float>>(result.groups.size()));
         std::vector<std::vector<ErrorStats>> stats(comparators.size(), std::vector<ErrorStats>(result.groups.size()));
         std::vector<std::vector<double>> sum_sq(comparators.size(), std::vector<double>(result.groups.size())),
             sum_sq_term(comparators.size(), std::vector<double>(result.groups.size()));
-        for (std::size_t i = 0; i < n; ++i) {
-            if (pixel_key[i] == kNoKey) continue;
-            if (pixel_key[i] != kExact) {
-                const Estimate& e = estimates[pixel_key[i]];
-                li.reference[i] = float(e.term);
-                li.std_error[i] = float(e.std_error);
-                li.max_error_bound = std::max(li.max_error_bound, li.t * e.std_error);
-            }
-            const PixelSurface p = inputs.pixel(i);
-            const LightQuery q = light_query(p, light);
-            const bool lit = q.status == PixelStatus::shaded;
-            std::size_t groups[3] = {0, std::size_t(1 + band_of(p.roughness)), 0};
-            std::size_t group_count = 2;
-            if (d.has_material) groups[group_count++] = material_group[p.material];
-            for (std::size_t k = 0; k < comparators.size(); ++k) {
-                const double a = comparator_value(comparators[k], p, q, w);
-                const double diff = a - double(li.reference[i]);
-                li.approximation[k][i] = float(a);
-                li.error[k][i] = float(diff * q.irradiance);
-                if (!lit) continue;
-                const double we = std::fabs(diff * q.irradiance);
-                for (std::size_t g = 0; g < group_count; ++g) {
-                    ErrorStats& s = stats[k][groups[g]];
-                    ++s.pixels;
-                    s.max = std::max(s.max, we);
-                    s.max_term = std::max(s.max_term, std::fabs(diff));
-                    sum_sq[k][groups[g]] += we * we;
-                    sum_sq_term[k][groups[g]] += diff * diff;
-                    abs_errors[k][groups[g]].push_back(float(we));
+        std::vector<std::uint8_t> pixel_band(n, kUnlit);
+        std::vector<std::uint16_t> pixel_material(d.has_material ? n : 0, 0);
+
+        for (std::size_t tile_start = 0; tile_start < n; tile_start += tile) {
+            const std::size_t tile_end = std::min(n, tile_start + tile);
+            std::vector<std::uint32_t> pixel_key(tile_end - tile_start, kNoKey);
+            std::unordered_map<DedupKey, std::uint32_t, KeyHash> keys;
+            std::vector<Query> queries;
+
+            // Classify every pixel of the tile (exact answers in double), key the rest.
+            for (std::size_t i = tile_start; i < tile_end; ++i) {
+                std::uint32_t& key = pixel_key[i - tile_start];
+                ++c.pixel_lights;
+                const PixelSurface p = inputs.pixel(i);
+                const LightQuery q = light_query(p, light);
+                li.weight[i] = float(q.irradiance);
+                if (q.status == PixelStatus::masked) {
+                    ++c.masked;
+                    continue;
+                }
+                if (q.status == PixelStatus::view_below_horizon) {
+                    ++c.view_below_horizon;
+                    continue;
+                }
+                if (options.skip) {
+                    if (q.status == PixelStatus::light_below_horizon) {
+                        ++c.light_below_horizon;
+                        key = kExact;
+                        continue;
+                    }
+                    if (in_zero_region(cone_cos_theta(p.visibility, w), q.n_dot_l)) {
+                        ++c.zero_region;
+                        key = kExact;
+                        continue;
+                    }
+                    if (p.visibility == 1) {
+                        ++c.v_one;
+                        li.reference[i] = 1;
+                        key = kExact;
+                        continue;
+                    }
+                }
+                if (step > 0) {
+                    const DedupKey k = dedup_key(q.query, w, step);
+                    const auto [it, inserted] = keys.emplace(k, std::uint32_t(queries.size()));
+                    if (inserted) queries.push_back(dedup_query(k, w, step));
+                    else ++c.duplicates;
+                    key = it->second;
+                } else {
+                    key = std::uint32_t(queries.size());
+                    queries.push_back(q.query);
                 }
             }
+            keys = {};
+
+            // Sample each distinct query; a query whose bound B exceeds the tolerance E after N samples is
+            // resampled with the smallest power-of-two multiple of N, at least 2 N, above N (B / E)^(4/3): the
+            // samples the bound needs if the error falls as N^(-3/4) (scrambled nets on this integrand fall
+            // faster than Monte Carlo's N^(-1/2)), up to max_samples. Measured on the example scene: 3.25e9
+            // samples, against 3.59e9 doubling each pass and 4.06e9 predicting at the Monte Carlo rate.
+            const auto sampling_start = std::chrono::steady_clock::now();
+            std::vector<Estimate> estimates(queries.size());
+            std::map<std::uint64_t, std::vector<std::uint32_t>> pending;  // samples -> queries
+            if (!queries.empty()) {
+                auto& all = pending[first];
+                all.resize(queries.size());
+                for (std::size_t k = 0; k < all.size(); ++k) all[k] = std::uint32_t(k);
+            }
+            while (!pending.empty()) {
+                plan.samples = pending.begin()->first;
+                const std::vector<std::uint32_t> todo = std::move(pending.begin()->second);
+                pending.erase(pending.begin());
+                std::vector<Query> batch;
+                batch.reserve(todo.size());
+                for (auto k : todo) batch.push_back(queries[k]);
+                EvalStats eval_stats;
+                // Progress in pixels: the first pass moves through the tile (later passes are fewer queries).
+                const bool first_pass = plan.samples == first;
+                const auto est = evaluate_each(backend, batch, std::vector<TermOptions>(batch.size(), term_options), plan, &eval_stats,
+                                               [&](std::size_t done, std::size_t total) {
+                                                   if (first_pass && total)
+                                                       progress(light.name, tile_start + (tile_end - tile_start) * done / total, n);
+                                               });
+                c.samples_drawn += std::uint64_t(eval_stats.sampled) * plan.samples;
+                if (plan.samples == first) {
+                    // Without skipping, the integrand's own exact answers (zero region and a light below the
+                    // horizon: exact 0; v = 1) are what was not sampled.
+                    if (!options.skip) {
+                        c.zero_region += eval_stats.exact_zero;
+                        c.v_one += eval_stats.exact_one;
+                    }
+                    c.sampled += eval_stats.sampled;
+                }
+                for (std::size_t j = 0; j < todo.size(); ++j) {
+                    estimates[todo[j]] = est[j];
+                    const double bound = t * est[j].std_error;
+                    // A query that stops here (exact answers by the integrand count 0 samples).
+                    const bool sampled_here = est[j].std_error > 0 || !(est[j].term == 0 || est[j].term == 1);
+                    if (!(bound > tol)) {
+                        if (sampled_here) c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
+                        continue;
+                    }
+                    if (plan.samples * 2 > d.sampling.max_samples) {
+                        c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
+                        ++c.tolerance_missed;
+                        continue;
+                    }
+                    const double want = double(plan.samples) * std::pow(bound / tol, 4.0 / 3.0);
+                    std::uint64_t next = plan.samples * 2;
+                    while (double(next) < want && next * 2 <= d.sampling.max_samples) next *= 2;
+                    pending[next].push_back(todo[j]);
+                }
+            }
+            result.sampling_seconds += seconds_since(sampling_start);
+
+            // Per-pixel reference, comparators and weighted errors of the tile.
+            for (std::size_t i = tile_start; i < tile_end; ++i) {
+                const std::uint32_t key = pixel_key[i - tile_start];
+                if (key == kNoKey) continue;
+                if (key != kExact) {
+                    const Estimate& e = estimates[key];
+                    li.reference[i] = float(e.term);
+                    li.std_error[i] = float(e.std_error);
+                    li.max_error_bound = std::max(li.max_error_bound, li.t * e.std_error);
+                }
+                const PixelSurface p = inputs.pixel(i);
+                const LightQuery q = light_query(p, light);
+                const bool lit = q.status == PixelStatus::shaded;
+                std::size_t groups[3] = {0, std::size_t(1 + band_of(p.roughness)), 0};
+                std::size_t group_count = 2;
+                if (d.has_material) groups[group_count++] = material_group[p.material];
+                if (lit) {
+                    pixel_band[i] = std::uint8_t(groups[1]);
+                    if (d.has_material) pixel_material[i] = std::uint16_t(groups[2]);
+                }
+                for (std::size_t k = 0; k < comparators.size(); ++k) {
+                    const double a = comparator_value(comparators[k], p, q, w);
+                    const double diff = a - double(li.reference[i]);
+                    li.approximation[k][i] = float(a);
+                    li.error[k][i] = float(diff * q.irradiance);
+                    if (!lit) continue;
+                    const double we = std::fabs(diff * q.irradiance);
+                    for (std::size_t g = 0; g < group_count; ++g) {
+                        ErrorStats& s = stats[k][groups[g]];
+                        ++s.pixels;
+                        s.max = std::max(s.max, we);
+                        s.max_term = std::max(s.max_term, std::fabs(diff));
+                        sum_sq[k][groups[g]] += we * we;
+                        sum_sq_term[k][groups[g]] += diff * diff;
+                    }
+                }
+            }
+            progress(light.name, tile_end, n);
         }
+        // RMS, and the 99th percentiles from the error layers (|float(x)| = float(|x|): the same values the
+        // statistics saw), one group at a time through one scratch vector.
+        std::vector<float> scratch;
         for (std::size_t k = 0; k < comparators.size(); ++k)
             for (std::size_t g = 0; g < result.groups.size(); ++g) {
                 ErrorStats& s = stats[k][g];
                 if (!s.pixels) continue;
                 s.rms = std::sqrt(sum_sq[k][g] / double(s.pixels));
                 s.rms_term = std::sqrt(sum_sq_term[k][g] / double(s.pixels));
-                auto& v = abs_errors[k][g];
-                const std::size_t at = std::min(v.size() - 1, std::size_t(std::ceil(0.99 * double(v.size()))) - 1);
-                std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(at), v.end());
-                s.p99 = v[at];
-                std::vector<float>().swap(v);
+                scratch.clear();
+                for (std::size_t i = 0; i < n; ++i) {
+                    if (pixel_band[i] == kUnlit) continue;
+                    if (g == 0 || pixel_band[i] == g || (d.has_material && pixel_material[i] == g))
+                        scratch.push_back(std::fabs(li.error[k][i]));
+                }
+                const std::size_t at = std::min(scratch.size() - 1, std::size_t(std::ceil(0.99 * double(scratch.size()))) - 1);
+                std::nth_element(scratch.begin(), scratch.begin() + std::ptrdiff_t(at), scratch.end());
+                s.p99 = scratch[at];
             }
         li.stats = std::move(stats);
         li.seconds = seconds_since(light_start);
@@ -410,7 +445,10 @@ json scene_report(const SceneResult& r) {
     j["work"] = {{"pixel_lights", c.pixel_lights}, {"masked", c.masked}, {"view_below_horizon", c.view_below_horizon},
                  {"light_below_horizon", c.light_below_horizon}, {"zero_region", c.zero_region}, {"v_one", c.v_one},
                  {"duplicates", c.duplicates}, {"sampled", c.sampled}, {"skipped_fraction", c.skipped_fraction()},
-                 {"samples_drawn", c.samples_drawn}, {"tolerance_missed", c.tolerance_missed}};
+                 {"samples_drawn", c.samples_drawn}, {"samples_final", c.samples_final}, {"tolerance_missed", c.tolerance_missed}};
+    json passes = json::object();
+    for (const auto& [samples, queries] : c.final_pass_queries) passes[std::to_string(samples)] = queries;
+    j["work"]["final_pass_queries"] = passes;
     j["comparators"] = r.comparators;
     j["groups"] = r.groups;
     for (const auto& l : r.lights) {

@@ -34,6 +34,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -57,6 +58,9 @@ struct SkipCounts {
     std::uint64_t duplicates = 0;       // pixels answered by another pixel's key
     std::uint64_t sampled = 0;          // distinct queries sampled
     std::uint64_t samples_drawn = 0;    // VNDF samples over every pass
+    std::uint64_t samples_final = 0;    // the samples of each query's last pass: what a perfect prediction of
+                                        // the count each query needs would draw (the passes are not nested)
+    std::map<std::uint64_t, std::uint64_t> final_pass_queries;  // samples of the last pass -> sampled queries that stopped there
     std::uint64_t tolerance_missed = 0; // sampled queries whose bound stayed above the tolerance
     double skipped_fraction() const { return pixel_lights ? 1.0 - double(sampled) / double(pixel_lights) : 0; }
 };

@@ -159,6 +159,30 @@ std::uint32_t axis_count(const nlohmann::json& j, const std::string& field) {
     return std::uint32_t(v);
 }
 
+// The coverage record of a partial bake, {"unbaked": "NaN", "rows": [[channel, n_dot_v index, first
+// row, end row], ...], ...}, as one flag per (NdotV slice, channel, NdotL row): index (ivv * channels +
+// c) * rows + il. Empty when the file has no record (every texel baked).
+std::vector<std::uint8_t> coverage_rows(const nlohmann::json& meta, const std::vector<LutAxis>& axes, std::size_t channels) {
+    if (!meta.contains("coverage")) return {};
+    const auto& cov = meta.at("coverage");
+    if (!cov.is_object() || cov.value("unbaked", "") != "NaN" || !cov.contains("rows") || !cov.at("rows").is_array())
+        throw std::runtime_error("metadata coverage must be {\"unbaked\": \"NaN\", \"rows\": [[channel, n_dot_v, first, end], ...]}");
+    const std::uint32_t rows = axes[1].count, slices = axes[2].count;
+    std::vector<std::uint8_t> baked(std::size_t(rows) * slices * channels, 0);
+    for (const auto& run : cov.at("rows")) {
+        if (!run.is_array() || run.size() != 4) throw std::runtime_error("metadata coverage.rows: entries are [channel, n_dot_v, first, end]");
+        std::uint64_t f[4];
+        for (int k = 0; k < 4; ++k) {
+            if (!run[k].is_number_unsigned()) throw std::runtime_error("metadata coverage.rows: " + run.dump() + " is not 4 indices");
+            f[k] = run[k].get<std::uint64_t>();
+        }
+        if (f[0] >= channels || f[1] >= slices || f[2] >= f[3] || f[3] > rows)
+            throw std::runtime_error("metadata coverage.rows: " + run.dump() + " is outside the axes");
+        for (std::uint64_t il = f[2]; il < f[3]; ++il) baked[(f[1] * channels + f[0]) * rows + il] = 1;
+    }
+    return baked;
+}
+
 }  // namespace
 
 LutFile read_lut(const std::string& path) {
@@ -264,10 +288,24 @@ LutFile read_lut(const std::string& path) {
             fb.insert(exr_names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * lut.width));
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
+        // A partial bake (`bake --scene`) records the rows it baked; every other texel must be NaN, so that
+        // a lookup touching it is refused (lookup.cpp) instead of blending a stale value.
+        const std::vector<std::uint8_t> baked = coverage_rows(lut.metadata, lut.axes, nc);
+        const std::uint32_t rows = lut.axes[1].count;
         // Every texel is a fraction of facets: NaN, infinity or a value outside [0, 1] is corruption that
         // a lookup would otherwise blend silently into its results.
         for (std::size_t i = 0; i < lut.data.size(); ++i) {
             const float v = lut.data[i];
+            if (!baked.empty()) {
+                const std::size_t texel = i / nc, c = i % nc, y = texel / lut.width;
+                if (!baked[(y / rows * nc + c) * rows + y % rows]) {
+                    if (!std::isnan(v))
+                        throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) +
+                                                 ") of channel " + exr_names[c] + " is " + std::to_string(v) +
+                                                 " where the coverage record says unbaked (must be NaN)");
+                    continue;
+                }
+            }
             if (!(v >= 0.0f && v <= 1.0f)) {
                 const std::size_t texel = i / nc, c = i % nc;
                 throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(texel / lut.width) +

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
+#include <string>
 
 namespace ms::sweep {
 
@@ -48,6 +49,17 @@ LutLookup LutLookup::open(const std::string& path) {
 }
 
 double LutLookup::operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const {
+    const double value = blend(visibility, n_dot_l, n_dot_v, roughness);
+    // Only a partial bake's unbaked texels are NaN (read_lut checks them against the file's coverage
+    // record): a lookup whose filter footprint touches one is refused, never answered.
+    if (std::isnan(value))
+        throw std::domain_error("LUT lookup at visibility " + std::to_string(visibility) + ", NdotL " + std::to_string(n_dot_l) +
+                                ", NdotV " + std::to_string(n_dot_v) + ", roughness " + std::to_string(roughness) +
+                                " touches texels this partial bake did not bake (see \"coverage\" in its metadata)");
+    return value;
+}
+
+double LutLookup::blend(double visibility, double n_dot_l, double n_dot_v, double roughness) const {
     const Tap tv = tap(lut_.visibility(), visibility);
     const Tap tl = tap(lut_.n_dot_l(), n_dot_l);
     const Tap tz = tap(lut_.n_dot_v(), n_dot_v);  // one slice (2D LUT): always slice 0

@@ -27,10 +27,12 @@ public:
     // Reads the file (io/exr_lut.hpp's read_lut) and checks it can be sampled. Throws std::runtime_error.
     static LutLookup open(const std::string& path);
 
+    // Throws std::domain_error where the lookup touches a texel a partial bake left unbaked (NaN).
     double operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     const LutFile& file() const { return lut_; }
 
 private:
+    double blend(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     LutFile lut_;
     std::vector<std::uint32_t> order_;  // channel indices by increasing roughness
 };

@@ -337,7 +337,8 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
     }
 
     if ((t = table_at(c, root, "sampling"))) {
-        reject_unknown(c, *t, "sampling.", {"tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step"});
+        reject_unknown(c, *t, "sampling.", {"tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step",
+                                             "tile_pixels"});
         auto& s = d.sampling;
         if (const toml::node* n = t->get("tolerance")) {
             s.tolerance = number(c, *n, "sampling.tolerance");
@@ -359,6 +360,10 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
         if (const toml::node* n = t->get("dedup_step")) {
             s.dedup_step = number(c, *n, "sampling.dedup_step");
             if (!(s.dedup_step >= 0 && s.dedup_step <= 4)) c.fail("sampling.dedup_step", "must be in [0, 4] (0: no deduplication)");
+        }
+        if (const toml::node* n = t->get("tile_pixels")) {
+            if (!n->is_integer() || n->as_integer()->get() < 0) c.fail("sampling.tile_pixels", "must be an integer >= 0 (0: the whole image at once)");
+            s.tile_pixels = std::uint64_t(n->as_integer()->get());
         }
         if (s.max_samples < s.min_samples) c.fail("sampling.max_samples", "must be >= min_samples");
     }

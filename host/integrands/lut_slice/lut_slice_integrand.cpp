@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <limits>
 #include <stdexcept>
 
 #include "core/cancel.hpp"
@@ -290,7 +291,20 @@ void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
     // Intervals per NdotL row: every row starts at k_start; rows with no sampled texel need no tallies.
     std::vector<std::uint32_t> k(plan.nl, plan.k_start);
     std::vector<std::uint8_t> row_sampled(plan.nl, 0);
-    for (std::uint32_t il = 0; il < plan.nl; ++il) row_sampled[il] = plan.row_sampled(il);
+    // A partial bake (spec.baked_rows) samples only its rows; the others are marked NaN below.
+    bool any_row_baked = false;
+    for (std::uint32_t il = 0; il < plan.nl; ++il) any_row_baked |= plan.spec.row_baked(id, il);
+    if (!any_row_baked) {
+        for (std::uint32_t il = 0; il < plan.nl; ++il)
+            for (std::uint32_t iv = 0; iv < plan.nv; ++iv) {
+                const std::size_t at = plan.atlas().index(channel, iv, il, ivv);
+                value_[at] = std_error_[at] = std::numeric_limits<float>::quiet_NaN();
+            }
+        report.done = true;
+        reports_[id] = std::move(report);
+        return;
+    }
+    for (std::uint32_t il = 0; il < plan.nl; ++il) row_sampled[il] = plan.row_sampled(il) && plan.spec.row_baked(id, il);
     SliceValues local;
     local.value.assign(std::size_t(plan.nl) * plan.nv, 0.0f);
     local.std_error.assign(local.value.size(), 0.0f);
@@ -358,12 +372,15 @@ void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
     if (!plan.cells)
         for (std::uint32_t il = 0; il < plan.nl; ++il) report.row_intervals.push_back(row_sampled[il] ? int(k[il]) : -1);
     // Each slice writes only its own texels, so workers on different places never touch the same floats.
-    for (std::uint32_t il = 0; il < plan.nl; ++il)
+    // Rows a partial bake leaves out hold NaN, never a value (their tallies are empty).
+    for (std::uint32_t il = 0; il < plan.nl; ++il) {
+        const bool baked = plan.spec.row_baked(id, il);
         for (std::uint32_t iv = 0; iv < plan.nv; ++iv) {
             const std::size_t at = plan.atlas().index(channel, iv, il, ivv);
-            value_[at] = local.value[std::size_t(il) * plan.nv + iv];
-            std_error_[at] = local.std_error[std::size_t(il) * plan.nv + iv];
+            value_[at] = baked ? local.value[std::size_t(il) * plan.nv + iv] : std::numeric_limits<float>::quiet_NaN();
+            std_error_[at] = baked ? local.std_error[std::size_t(il) * plan.nv + iv] : std::numeric_limits<float>::quiet_NaN();
         }
+    }
     report.done = true;
     reports_[id] = std::move(report);
 }

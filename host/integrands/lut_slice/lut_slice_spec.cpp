@@ -74,6 +74,9 @@ void validate(const LutSliceSpec& s) {
     if (!std::isfinite(s.tolerance) || s.tolerance < 0) throw std::invalid_argument("tolerance must be >= 0");
     if (s.tolerance > 0 && s.tolerance < 1e-7) throw std::invalid_argument("tolerance below 1e-7 is below float resolution");
     if (s.max_batches < 1 || s.max_batches > 4096) throw std::invalid_argument("max batches must be in 1..4096");
+    if (!s.baked_rows.empty() &&
+        s.baked_rows.size() != std::uint64_t(s.n_dot_l.count) * s.n_dot_v.count * s.roughness.size())
+        throw std::invalid_argument("baked rows: need one flag per (channel, NdotV slice, NdotL row)");
 }
 
 std::uint32_t effective_azimuth_cells(const LutSliceSpec& spec) {

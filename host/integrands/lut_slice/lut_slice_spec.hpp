@@ -62,6 +62,17 @@ struct LutSliceSpec {
     std::uint32_t max_batches = 64;
 
     ocl::BuildConfig build;  // the kernel routine's build (the oracle ignores it)
+
+    // Which NdotL rows to bake (a partial bake: `microshadow bake --scene`, jobs/scene_bake.hpp). Empty
+    // (the default): every row of every slice, as every bake before it. Otherwise one flag per (slice,
+    // row), index slice * n_dot_l.count + row with slice = NdotV index * channels + channel (the
+    // integrand's work-item order); rows flagged 0 are not sampled and hold NaN (value and std error),
+    // and a slice with no row flagged costs nothing. Rows are the unit because every texel of a row
+    // comes from the same histogram: part of a row costs as much as all of it.
+    std::vector<std::uint8_t> baked_rows;
+    bool row_baked(std::uint64_t slice, std::uint32_t row) const {
+        return baked_rows.empty() || baked_rows[slice * n_dot_l.count + row] != 0;
+    }
 };
 
 // Defaults chosen by measurement (docs/lab-notes/bake-defaults.md).

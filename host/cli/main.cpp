@@ -23,6 +23,7 @@ int main(int argc, char** argv) {
     cli::add_shader_command(app);  // issue 12
     cli::add_scene_command(app);   // issue 11
     cli::add_ibl_command(app);     // issue 13
+    cli::add_design_command(app);  // issue 15
     cli::add_help_command(app);
     cli::install_interrupt_handlers();
     try {

@@ -67,10 +67,10 @@ void run_repr_bake(const ReprBakeArgs& a) {
         if (!a.sampling.quiet) {
             std::cerr << "repr bake: roughness nodes chosen by error:";
             for (double r : bake.grid.roughness) std::cerr << " " << r;
-            std::cerr << " (worst N.L-weighted RMS of the roughness blend at the other nodes " << worst << ")\n";
+            std::cerr << " (N.L-weighted RMS of the roughness blend over the dense nodes " << worst << ")\n";
         }
         bake.metadata["roughness_chosen_from"] = a.roughness;
-        bake.metadata["roughness_blend_worst_rms"] = worst;
+        bake.metadata["roughness_blend_rms"] = worst;
     }
     const auto rep = repr::build_representation(a.kind, bake);
     const std::string name = std::filesystem::path(a.out).filename().string();

@@ -131,13 +131,14 @@ std::unique_ptr<Representation> open_representation(const std::string& path);
 // True when the file is an OpenEXR whose "microshadow" metadata has "kind": "representation".
 bool is_representation_file(const std::string& path);
 
-// Greedy roughness placement: from the bake's roughness nodes (a dense reference, sorted), keep
-// `count` (>= 2) including the first and last, adding at each step the node that most lowers the
-// largest RMS (over texels and azimuth nodes, weighted by NdotL) of linear interpolation across
-// roughness at the dense nodes not kept. Returns indices into bake.grid.roughness, increasing, and the
-// final worst RMS in *worst_rms.
+// Roughness nodes chosen by error: from the bake's roughness nodes (a dense reference, increasing), keep
+// `count` (>= 2) including the first and last, minimising the N.L-weighted RMS, over every texel, azimuth
+// node and dense node, of the linear blend across roughness between the kept nodes (the error a lookup
+// makes at the dense nodes it does not keep). Every subset when C(dense - 2, count - 2) <= 20000, else
+// greedy insertion refined by single-node exchanges. Returns indices into bake.grid.roughness,
+// increasing, and that RMS in *rms.
 std::vector<std::uint32_t> choose_roughness_nodes(const AzimuthBake& bake, std::uint32_t count,
-                                                  double* worst_rms = nullptr);
+                                                  double* rms = nullptr);
 
 // Lets compare::Comparator::parse open representation files (jobs cannot include repr). Idempotent.
 void install_comparators();

@@ -36,20 +36,27 @@ enum class ShaderLanguage { glsl, hlsl };
 //   NdotV: linear u = NdotV, or sqrt u = sqrt(NdotV) (HDRP's FGD table): more texels at grazing views.
 //   NdotL: linear u = NdotL, or shadow_edge u = (NdotL - l0(v)) / (1 - l0(v)) with
 //          l0(v) = max(0, edge(v)), edge(v) = 1 - 2v (cosine AO) or 2 (1 - v)^2 - 1 (uniform AO): the
-//          provable zero region NdotL <= edge(v) holds no texel.
+//          provable zero region NdotL <= edge(v) holds no texel; or sqrt_top u = 1 - sqrt(1 - NdotL):
+//          texels dense near NdotL = 1, where the term is smooth in the light's angle, not in its cosine.
+//   visibility: linear u = v, or sqrt_top u = 1 - sqrt(1 - v): texels dense near v = 1, where the term
+//          rises to exactly 1 and is smooth in sqrt(1 - v) (the cosine AO cone's cos theta), not in v.
 enum class NdotVWarp { linear, sqrt };
-enum class NdotLWarp { linear, shadow_edge };
+enum class NdotLWarp { linear, shadow_edge, sqrt_top };
+enum class VisibilityWarp { linear, sqrt_top };
 struct Warps {
     NdotVWarp n_dot_v = NdotVWarp::linear;
     NdotLWarp n_dot_l = NdotLWarp::linear;
+    VisibilityWarp visibility = VisibilityWarp::linear;
 };
 std::string to_string(NdotVWarp);
 std::string to_string(NdotLWarp);
+std::string to_string(VisibilityWarp);
 NdotVWarp parse_n_dot_v_warp(const std::string&);  // "linear" | "sqrt"; std::invalid_argument
-NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge"; std::invalid_argument
+NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top"; std::invalid_argument
+VisibilityWarp parse_visibility_warp(const std::string&);  // "linear" | "sqrt-top"; std::invalid_argument
 
 // The texel grid every representation is baked on: visibility, NdotL and NdotV texel centres in
-// warped coordinates (visibility is never warped) and the roughness nodes.
+// warped coordinates and the roughness nodes.
 struct ReprGrid {
     std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16;
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
@@ -64,6 +71,7 @@ struct ReprGrid {
     // point in the zero region is <= 0 (the lookup returns 0 there before reading any texel).
     double n_dot_l_u(double visibility, double n_dot_l) const;
     double n_dot_v_u(double n_dot_v) const;
+    double visibility_u(double visibility) const;
 };
 
 // The term per texel and azimuth node: nodes phi_k = pi k / (K - 1), k = 0..K-1 (endpoints included).

@@ -27,20 +27,24 @@ ms::TermBackend& backend() {
     return *b;
 }
 
-repr::ReprGrid small_grid(bool warped) {
+// Grid 0 linear, 1 sqrt(NdotV) and shadow-edge NdotL, 2 sqrt-top visibility and NdotL.
+constexpr int kGrids = 3;
+const char* const kGridNames[kGrids] = {"linear", "sqrt-NdotV shadow-edge", "sqrt-top"};
+repr::ReprGrid small_grid(int variant) {
     repr::ReprGrid g;
     g.visibility = 5, g.n_dot_l = 4, g.n_dot_v = 3, g.roughness = {0.35, 0.75};
-    if (warped) g.warps = {repr::NdotVWarp::sqrt, repr::NdotLWarp::shadow_edge};
+    if (variant == 1) g.warps = {repr::NdotVWarp::sqrt, repr::NdotLWarp::shadow_edge, repr::VisibilityWarp::linear};
+    if (variant == 2) g.warps = {repr::NdotVWarp::linear, repr::NdotLWarp::sqrt_top, repr::VisibilityWarp::sqrt_top};
     return g;
 }
 
 // One small bake per grid, shared by the tests (4096 samples a query, 7 azimuth nodes: 30 degrees apart).
-const repr::AzimuthBake& small_bake(bool warped) {
-    static std::unique_ptr<repr::AzimuthBake> bakes[2];
-    auto& b = bakes[warped];
+const repr::AzimuthBake& small_bake(int variant) {
+    static std::unique_ptr<repr::AzimuthBake> bakes[kGrids];
+    auto& b = bakes[variant];
     if (!b) {
         repr::AzimuthBakeSpec spec;
-        spec.grid = small_grid(warped);
+        spec.grid = small_grid(variant);
         spec.azimuth_nodes = 7;
         spec.plan.samples = 4096;
         spec.plan.seed = 5;
@@ -75,7 +79,7 @@ std::vector<ms::Estimate> reference(const std::vector<Query>& queries, std::uint
 double t_quantile(std::size_t checks) { return ms::student_t_quantile(1 - 0.001 / double(checks), 7); }
 
 TEST(ReprBakeTest, AgreesWithTheFixedAzimuthLutBakeAtTheSameNodes) {
-    const auto& b = small_bake(false);
+    const auto& b = small_bake(0);
     const auto& g = b.grid;
     std::size_t checks = 0, sampled = 0;
     std::vector<std::tuple<double, double, double>> diffs;  // |d|, se_a, se_b
@@ -138,17 +142,17 @@ void check_texel_centres(const repr::Representation& rep, const repr::AzimuthBak
 }
 
 TEST(ReprLookupTest, AzimuthAxisAtTexelCentresReadsItsTexelAndMatchesTheReference) {
-    for (bool warped : {false, true}) {
-        SCOPED_TRACE(warped ? "warped" : "linear");
-        const auto& b = small_bake(warped);
+    for (int variant = 0; variant < kGrids; ++variant) {
+        SCOPED_TRACE(kGridNames[variant]);
+        const auto& b = small_bake(variant);
         check_texel_centres(*repr::build_azimuth_axis(b), b, true, 0);
     }
 }
 
 TEST(ReprLookupTest, HarmonicsAtTexelCentresMatchTheReferenceWithinTheTruncation) {
-    for (bool warped : {false, true}) {
-        SCOPED_TRACE(warped ? "warped" : "linear");
-        const auto& b = small_bake(warped);
+    for (int variant = 0; variant < kGrids; ++variant) {
+        SCOPED_TRACE(kGridNames[variant]);
+        const auto& b = small_bake(variant);
         const auto rep = repr::build_azimuth_harmonics(b);
         const auto* tex = dynamic_cast<const repr::TextureRepresentation*>(rep.get());
         ASSERT_NE(tex, nullptr);
@@ -180,12 +184,18 @@ void check_between_centres(const repr::Representation& rep, const repr::AzimuthB
         // Continuous texel coordinates inside [0, n - 1] (no clamping region) per axis.
         const double tv = u(rng) * (g.visibility - 1), tl = u(rng) * (g.n_dot_l - 1), tz = u(rng) * (g.n_dot_v - 1);
         const double tk = u(rng) * (b.azimuth_nodes - 1);
-        const double v = (tv + 0.5) / g.visibility, ul = (tl + 0.5) / g.n_dot_l, uz = (tz + 0.5) / g.n_dot_v;
+        // The parameters at those coordinates: the inverse warps, written out here (grid.cpp's own
+        // inverses are what is under test).
+        const double uv = (tv + 0.5) / g.visibility, ul = (tl + 0.5) / g.n_dot_l, uz = (tz + 0.5) / g.n_dot_v;
+        auto top_inverse = [](double x) { return 1 - (1 - x) * (1 - x); };
+        const double v = g.warps.visibility == repr::VisibilityWarp::sqrt_top ? top_inverse(uv) : uv;
         const double nv = g.warps.n_dot_v == repr::NdotVWarp::sqrt ? uz * uz : uz;
         double nl = ul;
         if (g.warps.n_dot_l == repr::NdotLWarp::shadow_edge) {
             const double l0 = std::max(0.0, 1 - 2 * v);
             nl = l0 + ul * (1 - l0);
+        } else if (g.warps.n_dot_l == repr::NdotLWarp::sqrt_top) {
+            nl = top_inverse(ul);
         }
         const double phi = tk * M_PI / (b.azimuth_nodes - 1);
         const int c[4] = {int(tk), int(tv), int(tl), int(tz)};
@@ -214,13 +224,13 @@ void check_between_centres(const repr::Representation& rep, const repr::AzimuthB
         EXPECT_LE(std::abs(looked_up[i] - ref[i].term), limit) << i;
         worst_ratio = std::max(worst_ratio, std::abs(looked_up[i] - ref[i].term) / limit);
     }
-    RecordProperty("worst_error_over_bound", std::to_string(worst_ratio));
+    ::testing::Test::RecordProperty("worst_error_over_bound", std::to_string(worst_ratio));
 }
 
 TEST(ReprLookupTest, BetweenTexelCentresWithinTheBakeErrorPlusTheMeasuredInterpolationBound) {
-    for (bool warped : {false, true}) {
-        SCOPED_TRACE(warped ? "warped" : "linear");
-        const auto& b = small_bake(warped);
+    for (int variant = 0; variant < kGrids; ++variant) {
+        SCOPED_TRACE(kGridNames[variant]);
+        const auto& b = small_bake(variant);
         check_between_centres(*repr::build_azimuth_axis(b), b, true, 0);
         const auto h = repr::build_azimuth_harmonics(b);
         const double truncation =
@@ -235,7 +245,7 @@ protected:
 };
 
 TEST_F(ReprFileTest, FilesRoundTripAndOpenAsComparators) {
-    const auto& b = small_bake(true);
+    const auto& b = small_bake(1);
     repr::install_comparators();
     std::mt19937 rng(9);
     std::uniform_real_distribution<double> u(0, 1);
@@ -268,11 +278,12 @@ TEST_F(ReprFileTest, FilesRoundTripAndOpenAsComparators) {
     EXPECT_THROW(repr::open_representation(path("bad.exr")), std::runtime_error);
 }
 
-TEST(ReprRoughnessTest, GreedyPlacementFindsAKink) {
+TEST(ReprRoughnessTest, PlacementFindsAKink) {
     // Values |r - 0.55| + texel noise-free offsets: piecewise linear in roughness with its kink at the
     // 6th of 11 nodes 0.1, 0.19, ..., 1.0, so 3 nodes {first, kink, last} interpolate it exactly.
     repr::AzimuthBake b;
     b.grid.visibility = 2, b.grid.n_dot_l = 2, b.grid.n_dot_v = 2;
+    b.grid.roughness.clear();
     for (int i = 0; i < 11; ++i) b.grid.roughness.push_back(0.1 + 0.09 * i);
     b.azimuth_nodes = 2;
     const std::size_t block = 2 * 2 * 2 * 2;

@@ -19,7 +19,7 @@ struct ReprBakeArgs {
     std::string kind, out, shader_glsl, shader_hlsl;
     std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16, azimuth_nodes = 9, roughness_count = 0;
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
-    std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear";
+    std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear", visibility_warp = "linear";
     bool half = false;
     SamplingOptions sampling;
 };
@@ -40,6 +40,7 @@ void run_repr_bake(const ReprBakeArgs& a) {
     spec.grid.roughness = a.roughness;
     spec.grid.warps.n_dot_v = repr::parse_n_dot_v_warp(a.n_dot_v_warp);
     spec.grid.warps.n_dot_l = repr::parse_n_dot_l_warp(a.n_dot_l_warp);
+    spec.grid.warps.visibility = repr::parse_visibility_warp(a.visibility_warp);
     spec.term = a.sampling.term_options();
     spec.grid.weighting = spec.term.ao_weighting;
     spec.azimuth_nodes = a.azimuth_nodes;
@@ -67,10 +68,10 @@ void run_repr_bake(const ReprBakeArgs& a) {
         if (!a.sampling.quiet) {
             std::cerr << "repr bake: roughness nodes chosen by error:";
             for (double r : bake.grid.roughness) std::cerr << " " << r;
-            std::cerr << " (worst N.L-weighted RMS of the roughness blend at the other nodes " << worst << ")\n";
+            std::cerr << " (N.L-weighted RMS of the roughness blend over the dense nodes " << worst << ")\n";
         }
         bake.metadata["roughness_chosen_from"] = a.roughness;
-        bake.metadata["roughness_blend_worst_rms"] = worst;
+        bake.metadata["roughness_blend_rms"] = worst;
     }
     const auto rep = repr::build_representation(a.kind, bake);
     const std::string name = std::filesystem::path(a.out).filename().string();
@@ -117,8 +118,11 @@ void add_repr_command(CLI::App& app) {
         ->transform(decimal_range(2, 64));
     bake->add_option("--n-dot-v-warp", a->n_dot_v_warp, "linear or sqrt (texels uniform in sqrt(NdotV))")
         ->check(CLI::IsMember({"linear", "sqrt"}))->capture_default_str();
-    bake->add_option("--n-dot-l-warp", a->n_dot_l_warp, "linear or shadow-edge (NdotL measured from the zero region's edge)")
-        ->check(CLI::IsMember({"linear", "shadow-edge"}))->capture_default_str();
+    bake->add_option("--n-dot-l-warp", a->n_dot_l_warp,
+                     "linear, shadow-edge (NdotL measured from the zero region's edge) or sqrt-top (u = 1 - sqrt(1 - NdotL))")
+        ->check(CLI::IsMember({"linear", "shadow-edge", "sqrt-top"}))->capture_default_str();
+    bake->add_option("--visibility-warp", a->visibility_warp, "linear or sqrt-top (u = 1 - sqrt(1 - v): texels dense near v = 1)")
+        ->check(CLI::IsMember({"linear", "sqrt-top"}))->capture_default_str();
     bake->add_flag("--half", a->half, "store HALF channels (what an engine uploads)");
     bake->add_option("--shader-glsl", a->shader_glsl, "also write the GLSL sampling code");
     bake->add_option("--shader-hlsl", a->shader_hlsl, "also write the HLSL sampling code");

@@ -26,7 +26,7 @@ public:
     std::string kind() const override { return "azimuth-axis"; }
     std::string name() const override {
         std::ostringstream o;
-        o << "azimuth as an axis: " << grid_.visibility << " visibility x " << grid_.n_dot_l << " NdotL ("
+        o << "azimuth as an axis: " << grid_.visibility << " visibility (" << to_string(grid_.warps.visibility) << ") x " << grid_.n_dot_l << " NdotL ("
           << to_string(grid_.warps.n_dot_l) << ") x " << grid_.n_dot_v << " NdotV (" << to_string(grid_.warps.n_dot_v) << ") x "
           << azimuth_nodes_ << " azimuth nodes, roughness";
         for (double r : grid_.roughness) o << " " << r;

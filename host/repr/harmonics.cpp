@@ -32,7 +32,7 @@ public:
     std::string kind() const override { return "azimuth-harmonics"; }
     std::string name() const override {
         std::ostringstream o;
-        o << "azimuth harmonics a0..a3: " << grid_.visibility << " visibility x " << grid_.n_dot_l << " NdotL ("
+        o << "azimuth harmonics a0..a3: " << grid_.visibility << " visibility (" << to_string(grid_.warps.visibility) << ") x " << grid_.n_dot_l << " NdotL ("
           << to_string(grid_.warps.n_dot_l) << ") x " << grid_.n_dot_v << " NdotV (" << to_string(grid_.warps.n_dot_v)
           << ") x " << grid_.roughness.size() << " roughness slabs:";
         for (double r : grid_.roughness) o << " " << r;

@@ -19,6 +19,7 @@ nlohmann::json grid_to_json(const ReprGrid& g) {
     return {{"visibility", g.visibility},          {"n_dot_l", g.n_dot_l},
             {"n_dot_v", g.n_dot_v},                {"roughness", g.roughness},
             {"n_dot_v_warp", to_string(g.warps.n_dot_v)}, {"n_dot_l_warp", to_string(g.warps.n_dot_l)},
+            {"visibility_warp", to_string(g.warps.visibility)},
             {"ao_weighting", to_string(g.weighting)}};
 }
 
@@ -50,6 +51,8 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
     try {
         g.warps.n_dot_v = parse_n_dot_v_warp(j.at("n_dot_v_warp").get<std::string>());
         g.warps.n_dot_l = parse_n_dot_l_warp(j.at("n_dot_l_warp").get<std::string>());
+        // Absent in files written before the visibility warp existed: those are linear.
+        g.warps.visibility = parse_visibility_warp(j.value("visibility_warp", std::string("linear")));
         g.weighting = parse_ao_weighting(j.at("ao_weighting").get<std::string>());
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("metadata grid: ") + e.what());

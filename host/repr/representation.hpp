@@ -36,20 +36,27 @@ enum class ShaderLanguage { glsl, hlsl };
 //   NdotV: linear u = NdotV, or sqrt u = sqrt(NdotV) (HDRP's FGD table): more texels at grazing views.
 //   NdotL: linear u = NdotL, or shadow_edge u = (NdotL - l0(v)) / (1 - l0(v)) with
 //          l0(v) = max(0, edge(v)), edge(v) = 1 - 2v (cosine AO) or 2 (1 - v)^2 - 1 (uniform AO): the
-//          provable zero region NdotL <= edge(v) holds no texel.
+//          provable zero region NdotL <= edge(v) holds no texel; or sqrt_top u = 1 - sqrt(1 - NdotL):
+//          texels dense near NdotL = 1, where the term is smooth in the light's angle, not in its cosine.
+//   visibility: linear u = v, or sqrt_top u = 1 - sqrt(1 - v): texels dense near v = 1, where the term
+//          rises to exactly 1 and is smooth in sqrt(1 - v) (the cosine AO cone's cos theta), not in v.
 enum class NdotVWarp { linear, sqrt };
-enum class NdotLWarp { linear, shadow_edge };
+enum class NdotLWarp { linear, shadow_edge, sqrt_top };
+enum class VisibilityWarp { linear, sqrt_top };
 struct Warps {
     NdotVWarp n_dot_v = NdotVWarp::linear;
     NdotLWarp n_dot_l = NdotLWarp::linear;
+    VisibilityWarp visibility = VisibilityWarp::linear;
 };
 std::string to_string(NdotVWarp);
 std::string to_string(NdotLWarp);
+std::string to_string(VisibilityWarp);
 NdotVWarp parse_n_dot_v_warp(const std::string&);  // "linear" | "sqrt"; std::invalid_argument
-NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge"; std::invalid_argument
+NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top"; std::invalid_argument
+VisibilityWarp parse_visibility_warp(const std::string&);  // "linear" | "sqrt-top"; std::invalid_argument
 
 // The texel grid every representation is baked on: visibility, NdotL and NdotV texel centres in
-// warped coordinates (visibility is never warped) and the roughness nodes.
+// warped coordinates and the roughness nodes.
 struct ReprGrid {
     std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16;
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
@@ -64,6 +71,7 @@ struct ReprGrid {
     // point in the zero region is <= 0 (the lookup returns 0 there before reading any texel).
     double n_dot_l_u(double visibility, double n_dot_l) const;
     double n_dot_v_u(double n_dot_v) const;
+    double visibility_u(double visibility) const;
 };
 
 // The term per texel and azimuth node: nodes phi_k = pi k / (K - 1), k = 0..K-1 (endpoints included).
@@ -131,13 +139,14 @@ std::unique_ptr<Representation> open_representation(const std::string& path);
 // True when the file is an OpenEXR whose "microshadow" metadata has "kind": "representation".
 bool is_representation_file(const std::string& path);
 
-// Greedy roughness placement: from the bake's roughness nodes (a dense reference, sorted), keep
-// `count` (>= 2) including the first and last, adding at each step the node that most lowers the
-// largest RMS (over texels and azimuth nodes, weighted by NdotL) of linear interpolation across
-// roughness at the dense nodes not kept. Returns indices into bake.grid.roughness, increasing, and the
-// final worst RMS in *worst_rms.
+// Roughness nodes chosen by error: from the bake's roughness nodes (a dense reference, increasing), keep
+// `count` (>= 2) including the first and last, minimising the N.L-weighted RMS, over every texel, azimuth
+// node and dense node, of the linear blend across roughness between the kept nodes (the error a lookup
+// makes at the dense nodes it does not keep). Every subset when C(dense - 2, count - 2) <= 20000, else
+// greedy insertion refined by single-node exchanges. Returns indices into bake.grid.roughness,
+// increasing, and that RMS in *rms.
 std::vector<std::uint32_t> choose_roughness_nodes(const AzimuthBake& bake, std::uint32_t count,
-                                                  double* worst_rms = nullptr);
+                                                  double* rms = nullptr);
 
 // Lets compare::Comparator::parse open representation files (jobs cannot include repr). Idempotent.
 void install_comparators();

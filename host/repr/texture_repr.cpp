@@ -62,7 +62,7 @@ bool TextureRepresentation::zero_region(double v, double l) const {
 }
 
 double TextureRepresentation::visibility_texel(double v) const {
-    return std::clamp(v * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
+    return std::clamp(grid_.visibility_u(v) * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
 }
 double TextureRepresentation::n_dot_l_texel(double v, double l) const {
     return std::clamp(grid_.n_dot_l_u(v, l) * grid_.n_dot_l - 0.5, 0.0, double(grid_.n_dot_l - 1));
@@ -148,8 +148,10 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
       << "// " << name() << ".\n"
       << "// Texture: 3D, " << texture_.width << " x " << texture_.height << " x " << texture_.depth
       << " RGBA (RGBA16F in an engine); upload one level, no mips; sampler: linear, clamp-to-edge, level 0.\n"
-      << "// Axes (texel centres at (i + 0.5) / n of the warped coordinate): visibility; NdotL "
-      << (grid_.warps.n_dot_l == NdotLWarp::shadow_edge ? "from the shadow edge, u = (NdotL - l0(v)) / (1 - l0(v))" : "linear")
+      << "// Axes (texel centres at (i + 0.5) / n of the warped coordinate): visibility "
+      << (grid_.warps.visibility == VisibilityWarp::sqrt_top ? "u = 1 - sqrt(1 - v)" : "linear") << "; NdotL "
+      << (grid_.warps.n_dot_l == NdotLWarp::shadow_edge ? "from the shadow edge, u = (NdotL - l0(v)) / (1 - l0(v))"
+          : grid_.warps.n_dot_l == NdotLWarp::sqrt_top ? "u = 1 - sqrt(1 - NdotL)" : "linear")
       << "; NdotV " << (grid_.warps.n_dot_v == NdotVWarp::sqrt ? "u = sqrt(NdotV)" : "linear") << ".\n"
       << "// cos_phi: cosine of the relative azimuth of L and V (their projections on the surface,\n"
       << "// normalised; 1 when either is along the normal). Anisotropic GGX: roughness = (alpha_x alpha_y)^(1/4).\n\n";
@@ -167,9 +169,13 @@ std::string TextureRepresentation::shader_coordinates() const {
     const auto L = shader_literal;
     std::ostringstream o;
     o << "    // Texel coordinates within a block, clamped to [0, n - 1] as host/repr/texture_repr.cpp does.\n";
-    o << "    float tv = clamp(visibility * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
+    if (grid_.warps.visibility == VisibilityWarp::sqrt_top) o << "    float uv = 1.0 - sqrt(max(1.0 - visibility, 0.0));\n";
+    else o << "    float uv = visibility;\n";
+    o << "    float tv = clamp(uv * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
     if (grid_.warps.n_dot_l == NdotLWarp::linear) {
         o << "    float ul = n_dot_l;\n";
+    } else if (grid_.warps.n_dot_l == NdotLWarp::sqrt_top) {
+        o << "    float ul = 1.0 - sqrt(max(1.0 - n_dot_l, 0.0));\n";
     } else {
         o << "    // NdotL from the shadow edge l0(v): no texel lies in the zero region (l0 < 1 outside it).\n";
         if (grid_.weighting == AoWeighting::cosine) o << "    float l0 = max(1.0 - 2.0 * visibility, 0.0);\n";

@@ -25,6 +25,7 @@
 #include "jobs/design.hpp"
 #include "jobs/design_closed_form.hpp"
 #include "jobs/reference_set.hpp"
+#include "repr/representation.hpp"
 
 extern char** environ;
 
@@ -36,7 +37,7 @@ namespace fs = std::filesystem;
 
 struct DesignArgs {
     std::string reference, fit_reference, cache = "out/design-cache", out, choose;
-    std::vector<std::string> luts, closed_forms;
+    std::vector<std::string> luts, reprs, closed_forms;
     std::vector<unsigned> fit_orders = {1, 2, 3};
     std::string max_bytes = "unlimited";
     unsigned max_fetches = UINT32_MAX, max_alu = UINT32_MAX;
@@ -120,6 +121,43 @@ void run_plot(const std::vector<std::string>& args, bool quiet) {
     throw ExitError(code, "plotting failed: " + shown + " (the tables are written)");
 }
 
+// A representation file (repr/representation.hpp) as a candidate: its own cost model, lookup and
+// provenance; bake() writes its texture (HALF, as an engine uploads it) and its GLSL/HLSL.
+design::Candidate representation_candidate(const std::string& name, const std::string& file) {
+    std::shared_ptr<const repr::Representation> r;
+    try {
+        r = repr::open_representation(file);
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(std::string("--repr ") + file + ": " + e.what());
+    }
+    design::Candidate c;
+    c.name = name;
+    c.kind = r->kind();
+    c.cost = r->cost();
+    // ALU counted from its GLSL like every other candidate (the representation's own estimate differs).
+    c.cost.alu_per_light = design::count_alu(r->shader(repr::ShaderLanguage::glsl, file));
+    c.value = [r](const compare::ComparatorInputs& in) { return (*r)(in); };
+    c.provenance = r->provenance();
+    c.provenance["name"] = name;
+    c.provenance["file"] = json_safe(file);
+    c.bake = [r](OutputSet& outputs, const std::string& prefix) {
+        const std::string source = fs::path(prefix + ".exr").filename().string();
+        r->write(outputs.temp_path(outputs.add(prefix + ".exr", true)), /*half=*/true);
+        outputs.stream(outputs.add(prefix + ".glsl")) << r->shader(repr::ShaderLanguage::glsl, source);
+        outputs.stream(outputs.add(prefix + ".hlsl")) << r->shader(repr::ShaderLanguage::hlsl, source);
+    };
+    return c;
+}
+
+// NAME=FILE or FILE (named after its stem).
+std::pair<std::string, std::string> named_file(const std::string& option, const std::string& text) {
+    const auto eq = text.find('=');
+    const std::string file = eq == std::string::npos ? text : text.substr(eq + 1);
+    const std::string name = eq == std::string::npos ? fs::path(text).stem().string() : text.substr(0, eq);
+    if (name.empty() || file.empty()) throw std::invalid_argument(option + " " + text + ": expected FILE or NAME=FILE");
+    return {name, file};
+}
+
 std::string fixed(double v, int digits = 4) {
     std::ostringstream s;
     s << std::setprecision(digits) << v;
@@ -172,14 +210,15 @@ void run_design(const DesignArgs& args) {
     const design::ReferenceDefinition peek = design::parse_reference_spec_file(args.reference);
     if (!args.no_analytic) candidates = design::analytic_candidates(peek.options.ao_weighting);
     for (const auto& l : args.luts) {
-        const auto eq = l.find('=');
-        const std::string file = eq == std::string::npos ? l : l.substr(eq + 1);
-        const std::string name = eq == std::string::npos ? fs::path(l).stem().string() : l.substr(0, eq);
-        if (name.empty() || file.empty()) throw std::invalid_argument("--lut " + l + ": expected FILE or NAME=FILE");
+        const auto [name, file] = named_file("--lut", l);
         candidates.push_back(design::lut_candidate(name, file));
     }
+    for (const auto& l : args.reprs) {
+        const auto [name, file] = named_file("--repr", l);
+        candidates.push_back(representation_candidate(name, file));
+    }
     for (const auto& f : args.closed_forms) candidates.push_back(design::closed_form_candidate(fit::read_closed_form(f), f));
-    if (candidates.empty() && !has_fit) throw std::invalid_argument("no candidates (--no-analytic without --lut, --closed-form or --fit-reference)");
+    if (candidates.empty() && !has_fit) throw std::invalid_argument("no candidates (--no-analytic without --lut, --repr, --closed-form or --fit-reference)");
 
     // Outputs checked before any work.
     OutputSet outputs;
@@ -331,6 +370,7 @@ void add_design_command(CLI::App& app) {
                     "cached by the hash of its definition")->required();
     cmd->add_option("--cache", args->cache, "folder of cached reference sets (resumable chunks while computing)")->capture_default_str();
     cmd->add_option("--lut", args->luts, "a baked LUT (.exr) as a candidate, FILE or NAME=FILE (repeatable)");
+    cmd->add_option("--repr", args->reprs, "a representation file (`microshadow repr bake`) as a candidate, FILE or NAME=FILE (repeatable)");
     cmd->add_option("--closed-form", args->closed_forms, "a fitted closed form (JSON written by design) as a candidate (repeatable)");
     cmd->add_option("--fit-reference", args->fit_reference,
                     "fit the closed form to this reference spec (use other points than --reference) at each --fit-orders");

@@ -7,6 +7,7 @@
 #include "core/cancel.hpp"
 #include "io/csv.hpp"
 #include "device/error.hpp"
+#include "repr/representation.hpp"
 
 int main(int argc, char** argv) {
     using namespace ms;
@@ -23,6 +24,9 @@ int main(int argc, char** argv) {
     cli::add_shader_command(app);  // issue 12
     cli::add_scene_command(app);   // issue 11
     cli::add_ibl_command(app);     // issue 13
+    cli::add_design_command(app);  // issue 15
+    cli::add_repr_command(app);    // issue 15
+    repr::install_comparators();   // eval --compare FILE opens representation files
     cli::add_help_command(app);
     cli::install_interrupt_handlers();
     try {

@@ -48,6 +48,11 @@ double lut_value(const sweep::LutLookup& lut, const ComparatorInputs& in) {
 
 namespace {
 
+FileComparatorOpener& file_comparator_opener() {
+    static FileComparatorOpener opener;
+    return opener;
+}
+
 // Not an analytic term's name: a path (a '/' or '.'), or an existing file.
 bool looks_like_file(const std::string& s) {
     for (auto t : analytic::kAllAnalyticTerms)
@@ -57,6 +62,8 @@ bool looks_like_file(const std::string& s) {
 }
 
 }  // namespace
+
+void set_file_comparator_opener(FileComparatorOpener opener) { file_comparator_opener() = std::move(opener); }
 
 std::string analytic_term_names() {
     std::string s;
@@ -107,6 +114,8 @@ Comparator Comparator::parse(const std::string& argument) {
         throw std::invalid_argument("--compare " + argument + ": column name '" + name + "' holds a comma, quote or line break");
     c.file_ = file;
     try {
+        if (const auto& open = file_comparator_opener())
+            if ((c.file_comparator_ = open(file))) return c;
         c.lut_ = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
     } catch (const std::exception& e) {
         throw std::invalid_argument(std::string("--compare: ") + e.what());
@@ -114,11 +123,23 @@ Comparator Comparator::parse(const std::string& argument) {
     return c;
 }
 
+std::optional<ComparatorCost> Comparator::cost() const {
+    if (file_comparator_) return file_comparator_->cost();
+    return std::nullopt;
+}
+
 double Comparator::operator()(const ComparatorInputs& in) const {
+    if (file_comparator_) return (*file_comparator_)(in);
     return lut_ ? lut_value(*lut_, in) : analytic_value(term_, in);
 }
 
 nlohmann::json Comparator::provenance() const {
+    if (file_comparator_) {
+        nlohmann::json j = file_comparator_->provenance();
+        j["name"] = name_;
+        j["file"] = file_;
+        return j;
+    }
     if (!lut_) return {{"name", name_}, {"kind", "analytic"}, {"term", to_string(term_)}};
     nlohmann::json j = {{"name", name_}, {"kind", "lut"}, {"file", file_}};
     const auto& meta = lut_->file().metadata;

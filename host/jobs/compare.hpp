@@ -6,7 +6,9 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -40,6 +42,21 @@ struct ComparatorCost {
     std::string storage;  // e.g. "3D texture 32x32x32 RGBA16F"
 };
 
+// A comparator read from a file that is not a part 2 LUT: host/repr/'s representations (which keep the
+// relative azimuth). jobs cannot include repr (that layer sits above it), so repr installs an opener
+// here (repr::install_comparators(); the CLI calls it at start-up) and Comparator::parse asks it first.
+class FileComparator {
+public:
+    virtual ~FileComparator() = default;
+    virtual std::string name() const = 0;
+    virtual ComparatorCost cost() const = 0;
+    virtual double operator()(const ComparatorInputs& in) const = 0;
+    virtual nlohmann::json provenance() const = 0;
+};
+// Returns null when `path` is not a file of its kinds; throws std::runtime_error for one it cannot read.
+using FileComparatorOpener = std::function<std::shared_ptr<const FileComparator>(const std::string& path)>;
+void set_file_comparator_opener(FileComparatorOpener opener);
+
 // The isotropic-equivalent roughness of (alpha_x, alpha_y): (alpha_x alpha_y)^(1/4), the square root
 // of the geometric-mean alpha (it keeps the area of the slope distribution's footprint).
 double isotropic_roughness(double alpha_x, double alpha_y);
@@ -67,6 +84,9 @@ public:
 
     const std::string& name() const { return name_; }
     bool is_lut() const { return lut_ != nullptr; }
+    bool is_representation() const { return file_comparator_ != nullptr; }
+    // A representation's cost (its own model); none for LUTs and analytic terms.
+    std::optional<ComparatorCost> cost() const;
     double operator()(const ComparatorInputs& in) const;
     // {name, kind, term} or {name, kind, file, version, command_line} (the LUT metadata's, when present).
     nlohmann::json provenance() const;
@@ -76,6 +96,7 @@ private:
     analytic::AnalyticTerm term_ = analytic::AnalyticTerm::reference_step;
     std::string file_;
     std::shared_ptr<const sweep::LutLookup> lut_;
+    std::shared_ptr<const FileComparator> file_comparator_;
 };
 
 // Every argument parsed, in order; column names must be unique and differ from `taken` (the other

@@ -1,0 +1,159 @@
+// microshadow repr: representations that keep the relative azimuth (host/repr/representation.hpp,
+// docs/representations.md). `repr bake` bakes the term at K azimuth nodes per texel and builds one
+// representation (file, shaders); `repr shader` regenerates the sampling code of a file; `repr info`
+// prints its layout and cost.
+#include <filesystem>
+#include <iostream>
+#include <sstream>
+
+#include "cli/common.hpp"
+#include "cli/progress.hpp"
+#include "io/atomic_file.hpp"
+#include "repr/representation.hpp"
+
+namespace ms::cli {
+
+namespace {
+
+struct ReprBakeArgs {
+    std::string kind, out, shader_glsl, shader_hlsl;
+    std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16, azimuth_nodes = 9, roughness_count = 0;
+    std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
+    std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear", visibility_warp = "linear";
+    bool half = false;
+    SamplingOptions sampling;
+};
+
+std::string cost_line(const repr::Representation& r) {
+    const auto c = r.cost();
+    std::ostringstream o;
+    o << c.storage << ", " << c.bytes << " bytes (" << c.bytes / 1024.0 << " KiB), " << c.fetches_per_light
+      << " fetches and about " << c.alu_per_light << " ALU operations per light";
+    return o.str();
+}
+
+void run_repr_bake(const ReprBakeArgs& a) {
+    repr::AzimuthBakeSpec spec;
+    spec.grid.visibility = a.visibility;
+    spec.grid.n_dot_l = a.n_dot_l;
+    spec.grid.n_dot_v = a.n_dot_v;
+    spec.grid.roughness = a.roughness;
+    spec.grid.warps.n_dot_v = repr::parse_n_dot_v_warp(a.n_dot_v_warp);
+    spec.grid.warps.n_dot_l = repr::parse_n_dot_l_warp(a.n_dot_l_warp);
+    spec.grid.warps.visibility = repr::parse_visibility_warp(a.visibility_warp);
+    spec.term = a.sampling.term_options();
+    spec.grid.weighting = spec.term.ao_weighting;
+    spec.azimuth_nodes = a.azimuth_nodes;
+    spec.plan = a.sampling.plan();
+    spec.command_line = command_line();
+    if (a.roughness_count && (a.roughness_count < 2 || a.roughness_count > a.roughness.size()))
+        throw std::invalid_argument("--roughness-count must be between 2 and the number of --roughness values");
+    if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
+        throw std::invalid_argument("azimuth-axis holds 1 to 4 roughness nodes (RGBA): use --roughness-count 4");
+    if (std::filesystem::path(a.out).extension() != ".exr") throw std::invalid_argument("--out must be an .exr file: " + a.out);
+    // Every output checked before the bake; all appear together or none.
+    OutputSet outputs;
+    const std::size_t exr = outputs.add(a.out, true);
+    const std::size_t glsl = a.shader_glsl.empty() ? 0 : outputs.add(a.shader_glsl);
+    const std::size_t hlsl = a.shader_hlsl.empty() ? 0 : outputs.add(a.shader_hlsl);
+    auto backend = a.sampling.make_backend();
+
+    Progress progress("repr bake", a.sampling.quiet);
+    repr::AzimuthBake bake = repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); });
+    progress.finish();
+    if (a.roughness_count) {
+        double worst = 0;
+        const auto keep = repr::choose_roughness_nodes(bake, a.roughness_count, &worst);
+        bake = bake.with_roughness(keep);
+        if (!a.sampling.quiet) {
+            std::cerr << "repr bake: roughness nodes chosen by error:";
+            for (double r : bake.grid.roughness) std::cerr << " " << r;
+            std::cerr << " (N.L-weighted RMS of the roughness blend over the dense nodes " << worst << ")\n";
+        }
+        bake.metadata["roughness_chosen_from"] = a.roughness;
+        bake.metadata["roughness_blend_rms"] = worst;
+    }
+    const auto rep = repr::build_representation(a.kind, bake);
+    const std::string name = std::filesystem::path(a.out).filename().string();
+    rep->write(outputs.temp_path(exr), a.half);
+    if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
+    if (!a.shader_hlsl.empty()) outputs.stream(hlsl) << rep->shader(repr::ShaderLanguage::hlsl, name);
+    outputs.commit();
+    if (!a.sampling.quiet)
+        std::cerr << "repr bake: " << rep->name() << "\n  " << cost_line(*rep) << "\n  " << bake.metadata.value("queries", 0)
+                  << " texel x node queries in " << bake.metadata.value("seconds", 0.0) << " s, max std error "
+                  << bake.metadata.value("max_std_error", 0.0) << "\n";
+}
+
+struct ReprFileArgs {
+    std::string file, lang = "glsl", out;
+};
+
+std::unique_ptr<repr::Representation> open_or_bad_input(const std::string& path) {
+    try {
+        return repr::open_representation(path);
+    } catch (const std::runtime_error& e) {
+        throw std::invalid_argument(e.what());  // a bad input file: exit status 2
+    }
+}
+
+}  // namespace
+
+void add_repr_command(CLI::App& app) {
+    auto* repr_cmd = app.add_subcommand("repr", "representations that keep the relative azimuth: bake, shader, info");
+    repr_cmd->require_subcommand(1);
+
+    auto a = std::make_shared<ReprBakeArgs>();
+    auto* bake = repr_cmd->add_subcommand("bake", "bake the term at K azimuth nodes per texel and build a representation");
+    bake->add_option("--kind", a->kind, "azimuth-axis or azimuth-harmonics")->required()->check(CLI::IsMember(repr::representation_kinds()));
+    bake->add_option("--out", a->out, "the representation file (.exr)")->required();
+    bake->add_option("--visibility-count", a->visibility, "visibility texels")->transform(decimal_range(2, 256))->capture_default_str();
+    bake->add_option("--n-dot-l-count", a->n_dot_l, "NdotL texels")->transform(decimal_range(2, 256))->capture_default_str();
+    bake->add_option("--n-dot-v-count", a->n_dot_v, "NdotV texels")->transform(decimal_range(2, 256))->capture_default_str();
+    bake->add_option("--azimuth-nodes", a->azimuth_nodes, "azimuth nodes over [0, 180] degrees, ends included")
+        ->transform(decimal_range(2, 64))->capture_default_str();
+    bake->add_option("--roughness", a->roughness, "roughness nodes (increasing), or the dense reference with --roughness-count")
+        ->delimiter(',')->capture_default_str();
+    bake->add_option("--roughness-count", a->roughness_count, "keep this many of --roughness, chosen greedily by error")
+        ->transform(decimal_range(2, 64));
+    bake->add_option("--n-dot-v-warp", a->n_dot_v_warp, "linear or sqrt (texels uniform in sqrt(NdotV))")
+        ->check(CLI::IsMember({"linear", "sqrt"}))->capture_default_str();
+    bake->add_option("--n-dot-l-warp", a->n_dot_l_warp,
+                     "linear, shadow-edge (NdotL measured from the zero region's edge) or sqrt-top (u = 1 - sqrt(1 - NdotL))")
+        ->check(CLI::IsMember({"linear", "shadow-edge", "sqrt-top"}))->capture_default_str();
+    bake->add_option("--visibility-warp", a->visibility_warp, "linear or sqrt-top (u = 1 - sqrt(1 - v): texels dense near v = 1)")
+        ->check(CLI::IsMember({"linear", "sqrt-top"}))->capture_default_str();
+    bake->add_flag("--half", a->half, "store HALF channels (what an engine uploads)");
+    bake->add_option("--shader-glsl", a->shader_glsl, "also write the GLSL sampling code");
+    bake->add_option("--shader-hlsl", a->shader_hlsl, "also write the HLSL sampling code");
+    add_sampling_options(bake, a->sampling);
+    bake->callback([a] { run_repr_bake(*a); });
+
+    auto s = std::make_shared<ReprFileArgs>();
+    auto* shader = repr_cmd->add_subcommand("shader", "write the GLSL or HLSL that samples a representation file");
+    shader->add_option("file", s->file, "a file written by `microshadow repr bake`")->required();
+    shader->add_option("--lang", s->lang, "glsl or hlsl")->check(CLI::IsMember({"glsl", "hlsl"}))->capture_default_str();
+    shader->add_option("--out", s->out, "output file (default: standard output)");
+    shader->callback([s] {
+        const auto rep = open_or_bad_input(s->file);
+        const auto text = rep->shader(s->lang == "glsl" ? repr::ShaderLanguage::glsl : repr::ShaderLanguage::hlsl,
+                                      std::filesystem::path(s->file).filename().string());
+        if (s->out.empty()) {
+            std::cout << text;
+            return;
+        }
+        OutputSet outputs;
+        outputs.stream(outputs.add(s->out)) << text;
+        outputs.commit();
+    });
+
+    auto i = std::make_shared<ReprFileArgs>();
+    auto* info = repr_cmd->add_subcommand("info", "print a representation file's layout, cost and provenance");
+    info->add_option("file", i->file, "a file written by `microshadow repr bake`")->required();
+    info->callback([i] {
+        const auto rep = open_or_bad_input(i->file);
+        std::cout << rep->name() << "\n" << cost_line(*rep) << "\n" << rep->provenance().dump(2) << "\n";
+    });
+}
+
+}  // namespace ms::cli

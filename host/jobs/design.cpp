@@ -1,0 +1,285 @@
+#include "jobs/design.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <numeric>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+#include <tuple>
+
+#include "io/csv.hpp"
+#include "io/text.hpp"
+#include "lut/shader/shader_gen.hpp"
+
+namespace ms::design {
+
+compare::ComparatorInputs inputs_of(const ReferencePoint& p, AoWeighting weighting) {
+    compare::ComparatorInputs in;
+    in.visibility = p.visibility;
+    in.n_dot_l = p.n_dot_l;
+    in.n_dot_v = p.n_dot_v;
+    in.roughness = p.roughness;
+    in.weighting = weighting;
+    in.relative_azimuth = p.relative_azimuth;
+    return in;
+}
+
+Metrics error_metrics(const std::vector<double>& errors, const std::vector<double>& weights) {
+    if (errors.size() != weights.size()) throw std::invalid_argument("error_metrics: one weight per error");
+    Metrics m;
+    std::vector<std::pair<double, double>> by_size;  // (|e|, w) of the points that count
+    double sum_w = 0, sum_we2 = 0;
+    for (std::size_t i = 0; i < errors.size(); ++i) {
+        if (!(weights[i] > 0)) continue;
+        const double a = std::fabs(errors[i]);
+        ++m.points;
+        sum_w += weights[i];
+        sum_we2 += weights[i] * errors[i] * errors[i];
+        m.max_abs = std::max(m.max_abs, a);
+        by_size.emplace_back(a, weights[i]);
+    }
+    if (m.points == 0) return m;
+    m.weighted_rms = std::sqrt(sum_we2 / sum_w);
+    // The weighted 99th percentile: the smallest |e| whose cumulative weight reaches 99 % of the total.
+    std::sort(by_size.begin(), by_size.end());
+    double cumulative = 0;
+    m.weighted_p99 = by_size.back().first;
+    for (const auto& [a, w] : by_size) {
+        cumulative += w;
+        if (cumulative >= 0.99 * sum_w) {
+            m.weighted_p99 = a;
+            break;
+        }
+    }
+    return m;
+}
+
+Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set) {
+    std::vector<double> errors(set.points.size()), weights(set.points.size());
+    for (std::size_t i = 0; i < set.points.size(); ++i) {
+        const ReferencePoint& p = set.points[i];
+        weights[i] = p.weight * std::max(p.n_dot_l, 0.0);
+        try {
+            errors[i] = c.value(inputs_of(p, set.definition.options.ao_weighting)) - set.values[i].term;
+        } catch (const std::domain_error& e) {
+            throw std::invalid_argument("candidate " + c.name + " cannot take reference point " + std::to_string(i + 1) +
+                                        " (roughness " + format_number(p.roughness) + "): " + e.what());
+        }
+    }
+    return error_metrics(errors, weights);
+}
+
+std::vector<std::size_t> pareto_front(const std::vector<Candidate>& candidates, const std::vector<Metrics>& metrics) {
+    auto no_worse = [&](std::size_t a, std::size_t b) {  // a is at least as good as b everywhere
+        const auto &ca = candidates[a].cost, &cb = candidates[b].cost;
+        return metrics[a].weighted_rms <= metrics[b].weighted_rms && ca.bytes <= cb.bytes &&
+               ca.fetches_per_light <= cb.fetches_per_light && ca.alu_per_light <= cb.alu_per_light;
+    };
+    auto better = [&](std::size_t a, std::size_t b) {
+        const auto &ca = candidates[a].cost, &cb = candidates[b].cost;
+        return metrics[a].weighted_rms < metrics[b].weighted_rms || ca.bytes < cb.bytes ||
+               ca.fetches_per_light < cb.fetches_per_light || ca.alu_per_light < cb.alu_per_light;
+    };
+    std::vector<std::size_t> front;
+    for (std::size_t b = 0; b < candidates.size(); ++b) {
+        bool dominated = false;
+        for (std::size_t a = 0; a < candidates.size() && !dominated; ++a)
+            dominated = a != b && no_worse(a, b) && better(a, b);
+        if (!dominated) front.push_back(b);
+    }
+    return front;
+}
+
+std::size_t choose(const std::vector<Candidate>& candidates, const std::vector<Metrics>& metrics, const Budget& budget) {
+    std::size_t best = candidates.size();
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+        if (!budget.fits(candidates[i].cost)) continue;
+        if (best == candidates.size()) {
+            best = i;
+            continue;
+        }
+        const auto key = [&](std::size_t k) {
+            return std::make_tuple(metrics[k].weighted_rms, candidates[k].cost.bytes, candidates[k].cost.alu_per_light);
+        };
+        if (key(i) < key(best)) best = i;
+    }
+    if (best == candidates.size()) {
+        std::size_t cheapest = 0;
+        for (std::size_t i = 1; i < candidates.size(); ++i)
+            if (candidates[i].cost.bytes < candidates[cheapest].cost.bytes) cheapest = i;
+        std::string why = "no candidate fits the budget";
+        if (!candidates.empty())
+            why += " (the smallest, " + candidates[cheapest].name + ", needs " +
+                   std::to_string(candidates[cheapest].cost.bytes) + " bytes, " +
+                   std::to_string(candidates[cheapest].cost.fetches_per_light) + " fetches and " +
+                   std::to_string(candidates[cheapest].cost.alu_per_light) + " ALU per light)";
+        throw std::invalid_argument(why);
+    }
+    return best;
+}
+
+unsigned count_alu(const std::string& src) {
+    static const std::set<std::string> one = {"sqrt", "inversesqrt", "exp",   "exp2",  "log",  "log2",      "abs",
+                                              "min",  "max",         "clamp", "mix",   "step", "smoothstep", "fract",
+                                              "floor", "ceil",       "fma",   "dot",   "sign", "saturate",  "rcp",
+                                              "length", "normalize", "sin",   "cos",   "lerp", "frac",      "rsqrt"};
+    unsigned count = 0;
+    std::size_t i = 0;
+    const std::size_t n = src.size();
+    char previous = ' ';  // last significant character class: 'a' operand end, 'o' operator, ' ' none
+    while (i < n) {
+        const char c = src[i];
+        if (c == '/' && i + 1 < n && src[i + 1] == '/') {  // comment to the end of the line
+            while (i < n && src[i] != '\n') ++i;
+            continue;
+        }
+        if (c == '#' && (i == 0 || src[i - 1] == '\n')) {  // preprocessor line
+            while (i < n && src[i] != '\n') ++i;
+            continue;
+        }
+        if (std::isspace(static_cast<unsigned char>(c))) {
+            ++i;
+            continue;
+        }
+        if (std::isdigit(static_cast<unsigned char>(c)) || (c == '.' && i + 1 < n && std::isdigit(static_cast<unsigned char>(src[i + 1])))) {
+            // A literal, its exponent sign included (1e-05 is one literal, not a subtraction).
+            while (i < n && (std::isalnum(static_cast<unsigned char>(src[i])) || src[i] == '.' ||
+                             ((src[i] == '-' || src[i] == '+') && (src[i - 1] == 'e' || src[i - 1] == 'E'))))
+                ++i;
+            previous = 'a';
+            continue;
+        }
+        if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+            std::size_t j = i;
+            while (j < n && (std::isalnum(static_cast<unsigned char>(src[j])) || src[j] == '_')) ++j;
+            const std::string word = src.substr(i, j - i);
+            std::size_t k = j;
+            while (k < n && std::isspace(static_cast<unsigned char>(src[k]))) ++k;
+            if (k < n && src[k] == '(') {
+                if (word == "pow") count += 3;
+                else if (one.count(word)) count += 1;
+                previous = 'o';  // a call: what follows is its '('
+            } else {
+                previous = (word == "return") ? 'o' : 'a';
+            }
+            i = j;
+            continue;
+        }
+        const std::string two = src.substr(i, 2);
+        if (two == "+=" || two == "-=" || two == "*=" || two == "/=" || two == "<=" || two == ">=" || two == "==" ||
+            two == "!=" || two == "&&" || two == "||") {
+            ++count;
+            previous = 'o';
+            i += 2;
+            continue;
+        }
+        if (c == '+' || c == '-' || c == '*' || c == '/') {
+            if (previous == 'a') ++count;  // binary; a unary sign is a free source modifier
+            previous = 'o';
+        } else if (c == '<' || c == '>' || c == '?') {
+            ++count;
+            previous = 'o';
+        } else if (c == ')' || c == ']') {
+            previous = 'a';
+        } else {
+            previous = 'o';
+        }
+        ++i;
+    }
+    return count;
+}
+
+std::string analytic_glsl(analytic::AnalyticTerm term) {
+    using analytic::AnalyticTerm;
+    // Part 1's formulas (host/analytic/part1_terms.cpp) as a shader writes them, cosine AO
+    // (cos_t = sqrt(1 - v)); `roughness` of activision-adjusted is its own (gloss = 1 - roughness).
+    const std::string head = "float ms_part1(float v, float n_dot_l, float n_dot_v, float roughness) {\n";
+    switch (term) {
+        case AnalyticTerm::reference_step:
+            return head + "    return n_dot_l >= sqrt(1.0 - v) ? 1.0 : 0.0;\n}\n";
+        case AnalyticTerm::naughty_dog:
+            return head + "    return clamp(n_dot_l + 2.0 * v * v - 1.0, 0.0, 1.0);\n}\n";
+        case AnalyticTerm::naughty_dog_ao_fresnel:
+            return head + "    float w = mix(1.0, v, clamp(n_dot_v, 0.0, 1.0));\n"
+                          "    return clamp(n_dot_l + 2.0 * w * w - 1.0, 0.0, 1.0);\n}\n";
+        case AnalyticTerm::activision:
+            return head + "    if (v == 1.0) return 1.0;\n"
+                          "    float s = clamp(n_dot_l / sqrt(1.0 - v), 0.0, 1.0);\n    return s * s;\n}\n";
+        case AnalyticTerm::activision_adjusted:
+            return head + "    float g = clamp((1.0 - roughness) * 1.5, 0.0, 1.0);\n"
+                          "    float g2 = g * g, g4 = g2 * g2, g8 = g4 * g4;\n"
+                          "    float o = (1.0 - n_dot_v) * (1.0 - n_dot_v);\n"
+                          "    float c = max(mix(0.0, sqrt(1.0 - v), (1.0 - g8) * (1.0 - o * o)), 0.001);\n"
+                          "    float s = clamp(n_dot_l / c, 0.0, 1.0);\n    return s * s;\n}\n";
+        case AnalyticTerm::pz_analytic:
+            return head + "    if (fract(v) == 0.0) return v;\n"
+                          "    float v2 = v * v;\n"
+                          "    float c = sqrt(1.0 - v2 * v2 * v);\n"
+                          "    return pow(clamp(n_dot_l / c, 0.0, 1.0), 0.75 / v);\n}\n";
+    }
+    throw std::invalid_argument("analytic_glsl: invalid term");
+}
+
+std::vector<Candidate> analytic_candidates(AoWeighting weighting) {
+    std::vector<Candidate> out;
+    for (auto t : analytic::kAllAnalyticTerms) {
+        Candidate c;
+        c.name = analytic::to_string(t);
+        c.kind = "analytic";
+        c.cost.alu_per_light = count_alu(analytic_glsl(t));
+        c.cost.storage = "none (part 1's formula)";
+        c.value = [t, weighting](const compare::ComparatorInputs& in) {
+            compare::ComparatorInputs w = in;
+            w.weighting = weighting;
+            return compare::analytic_value(t, w);
+        };
+        c.provenance = {{"name", c.name}, {"kind", "analytic"}, {"term", c.name}};
+        out.push_back(std::move(c));
+    }
+    return out;
+}
+
+Candidate lut_candidate(const std::string& name, const std::string& file) {
+    std::shared_ptr<const sweep::LutLookup> lut;
+    try {
+        lut = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(std::string("--lut ") + file + ": " + e.what());
+    }
+    const LutFile& f = lut->file();
+    Candidate c;
+    c.name = name;
+    c.kind = "lut";
+    // Channels as a texture holds them: R16F, RG16F, or RGBA16F for three or four (no RGB16F on most GPUs).
+    const std::uint64_t channels = f.channels.size() <= 2 ? f.channels.size() : 4;
+    const std::uint64_t texels = std::uint64_t(f.visibility().count) * f.n_dot_l().count * f.n_dot_v().count;
+    c.cost.bytes = texels * channels * 2;
+    c.cost.fetches_per_light = 1;
+    c.cost.alu_per_light = count_alu(lutshader::generate_shader(f, lutshader::ShaderLanguage::glsl, file));
+    c.cost.storage = std::string(f.n_dot_v().count > 1 ? "3D" : "2D") + " texture " + std::to_string(f.visibility().count) +
+                     "x" + std::to_string(f.n_dot_l().count) +
+                     (f.n_dot_v().count > 1 ? "x" + std::to_string(f.n_dot_v().count) : std::string()) + " " +
+                     (channels == 1 ? "R16F" : channels == 2 ? "RG16F" : "RGBA16F");
+    c.value = [lut](const compare::ComparatorInputs& in) { return compare::lut_value(*lut, in); };
+    c.provenance = {{"name", name}, {"kind", "lut"}, {"file", json_safe(file)}};
+    for (const char* key : {"version", "command_line"})
+        if (f.metadata.is_object() && f.metadata.contains(key)) c.provenance[key] = f.metadata[key];
+    c.bake = [lut, file](OutputSet& outputs, const std::string& prefix) {
+        std::ifstream in(file, std::ios::binary);
+        if (!in) throw std::runtime_error(file + ": cannot open for reading");
+        std::ostringstream bytes;
+        bytes << in.rdbuf();
+        outputs.stream(outputs.add(prefix + ".exr", true)) << bytes.str();
+        const std::string source = std::filesystem::path(prefix + ".exr").filename().string();
+        outputs.stream(outputs.add(prefix + ".glsl")) << lutshader::generate_shader(lut->file(), lutshader::ShaderLanguage::glsl, source);
+        outputs.stream(outputs.add(prefix + ".hlsl")) << lutshader::generate_shader(lut->file(), lutshader::ShaderLanguage::hlsl, source);
+    };
+    return c;
+}
+
+}  // namespace ms::design

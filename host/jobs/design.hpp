@@ -1,0 +1,83 @@
+// `microshadow design` as a job (issue 15): every candidate representation of the term (part 1's
+// analytic terms, baked LUTs, the fitted closed form, the azimuth-keeping representations) is judged
+// against one cached reference set (jobs/reference_set.hpp); the Pareto front of error against cost
+// (texture bytes, fetches per light, ALU per light) and the best candidate inside a budget.
+//
+// Errors are comparator - term at each reference point, weighted by w_i = weight_i x max(NdotL_i, 0)
+// (the lighting multiplies the term by NdotL): the weighted RMS sqrt(sum w e^2 / sum w), the weighted
+// 99th percentile of |e| (the smallest |e| below which 99 % of the weight lies) and the max |e| over
+// points of non-zero weight.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "io/atomic_file.hpp"
+#include "jobs/compare.hpp"
+#include "jobs/reference_set.hpp"
+
+namespace ms::design {
+
+struct Candidate {
+    std::string name;
+    std::string kind;  // "analytic", "lut", "closed-form", or the representation's own kind
+    compare::ComparatorCost cost;
+    std::function<double(const compare::ComparatorInputs&)> value;
+    nlohmann::json provenance;
+    // Adds the representation's files (its data and its GLSL/HLSL) to `outputs` as `prefix` + a
+    // suffix, written but not committed (the caller commits them with its other outputs).
+    std::function<void(OutputSet& outputs, const std::string& prefix)> bake;
+};
+
+struct Metrics {
+    std::size_t points = 0;
+    double weighted_rms = 0, weighted_p99 = 0, max_abs = 0;
+};
+
+// The comparator inputs of a reference point (roughness as stored, the set's AO weighting).
+compare::ComparatorInputs inputs_of(const ReferencePoint& p, AoWeighting weighting);
+
+// The candidate's errors against the set. A candidate that throws at a point (std::domain_error: a
+// roughness outside its domain) is an std::invalid_argument naming the candidate and the point.
+Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set);
+
+// Weighted metrics of errors e_i with weights w_i >= 0 (exposed for the tests).
+Metrics error_metrics(const std::vector<double>& errors, const std::vector<double>& weights);
+
+// Indices of the candidates no other candidate dominates: another with weighted RMS, bytes, fetches
+// and ALU all <= and one of them < is better in every respect that counts.
+std::vector<std::size_t> pareto_front(const std::vector<Candidate>& candidates, const std::vector<Metrics>& metrics);
+
+struct Budget {
+    std::uint64_t max_bytes = UINT64_MAX;
+    unsigned max_fetches = UINT32_MAX;
+    unsigned max_alu = UINT32_MAX;
+    bool fits(const compare::ComparatorCost& c) const {
+        return c.bytes <= max_bytes && c.fetches_per_light <= max_fetches && c.alu_per_light <= max_alu;
+    }
+};
+
+// The candidate with the lowest weighted RMS inside the budget (ties: fewer bytes, then fewer ALU);
+// std::invalid_argument when none fits (naming the cheapest candidate's cost).
+std::size_t choose(const std::vector<Candidate>& candidates, const std::vector<Metrics>& metrics, const Budget& budget);
+
+// Part 1's terms as candidates (cost: 0 bytes, 0 fetches, ALU counted from their GLSL below).
+std::vector<Candidate> analytic_candidates(AoWeighting weighting);
+// Part 1's term written as GLSL (for the ALU count: the same counting as every other candidate).
+std::string analytic_glsl(analytic::AnalyticTerm term);
+// A baked LUT as a candidate: bytes at float16 per channel (as engines ship it), 1 fetch, ALU counted
+// from its generated GLSL; bake() copies the file and writes its GLSL and HLSL.
+// Throws std::invalid_argument (unreadable file).
+Candidate lut_candidate(const std::string& name, const std::string& file);
+
+// Arithmetic instructions of a GLSL/HLSL function body, counted one way for every candidate: each
+// binary + - * / and comparison is 1, each ?: select 1, each call of a built-in function 1 except pow
+// (3: log2, mul, exp2 as GPUs compile it); texture fetches are not ALU (they are fetches). Comments,
+// declarations and literals cost nothing. An estimate, but the same estimate for every candidate.
+unsigned count_alu(const std::string& shader_source);
+
+}  // namespace ms::design

@@ -1,0 +1,410 @@
+#include "jobs/reference_set.hpp"
+
+#include <toml++/toml.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <stdexcept>
+
+#include "core/cancel.hpp"
+#include "io/atomic_file.hpp"
+#include "io/csv.hpp"
+#include "io/input_file.hpp"
+#include "io/text.hpp"
+
+namespace ms::design {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+// Bumped when the cache format or the point generator changes: old caches are then simply not found.
+constexpr int kCacheFormat = 1;
+const std::vector<std::string> kPointColumns = {"visibility", "n_dot_l", "n_dot_v", "roughness",
+                                                "relative_azimuth_deg", "weight"};
+const std::string kCacheHeader = "visibility,n_dot_l,n_dot_v,roughness,relative_azimuth,weight,term,std_error";
+
+std::uint64_t fnv1a(const std::string& bytes) {
+    std::uint64_t h = 1469598103934665603ULL;
+    for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ULL;
+    return h;
+}
+
+// The radical inverse of i in `base`: the Halton sequence's coordinate.
+double radical_inverse(std::uint64_t i, unsigned base) {
+    double inv = 1.0 / base, f = inv, r = 0;
+    while (i > 0) {
+        r += f * double(i % base);
+        i /= base;
+        f *= inv;
+    }
+    return r;
+}
+
+// A reproducible shift in [0, 1) per dimension from the seed (splitmix64): the Cranley-Patterson
+// rotation that makes two seeds two independent low-discrepancy sets.
+double seed_shift(std::uint64_t seed, unsigned dim) {
+    std::uint64_t z = seed * 0x9E3779B97F4A7C15ULL + (dim + 1) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    return double(z >> 11) * 0x1.0p-53;
+}
+
+[[noreturn]] void fail(const std::string& source, const std::string& key, const std::string& what) {
+    throw std::invalid_argument(source + ": " + key + ": " + what);
+}
+
+double number(const std::string& source, const toml::node& n, const std::string& key) {
+    if (n.is_integer()) return double(n.as_integer()->get());
+    if (n.is_floating_point() && std::isfinite(n.as_floating_point()->get())) return n.as_floating_point()->get();
+    fail(source, key, "must be a finite number");
+}
+
+std::uint64_t positive_integer(const std::string& source, const toml::node& n, const std::string& key,
+                               std::uint64_t max) {
+    if (!n.is_integer() || n.as_integer()->get() <= 0 || std::uint64_t(n.as_integer()->get()) > max)
+        fail(source, key, "must be an integer in [1, " + std::to_string(max) + "]");
+    return std::uint64_t(n.as_integer()->get());
+}
+
+void reject_unknown(const std::string& source, const toml::table& t, const std::string& prefix,
+                    const std::set<std::string>& known) {
+    for (const auto& [k, v] : t) {
+        if (known.count(std::string(k.str()))) continue;
+        std::string list;
+        for (const auto& n : known) list += (list.empty() ? "" : ", ") + n;
+        fail(source, prefix + std::string(k.str()), "unknown key (known here: " + list + ")");
+    }
+}
+
+// [lo, hi] within [min, max], lo < hi.
+Interval interval(const std::string& source, const toml::node& n, const std::string& key, double min, double max) {
+    const toml::array* a = n.as_array();
+    if (!a || a->size() != 2) fail(source, key, "must be [lo, hi]");
+    Interval r{number(source, *a->get(0), key + "[0]"), number(source, *a->get(1), key + "[1]")};
+    if (!(r.lo < r.hi) || r.lo < min || r.hi > max)
+        fail(source, key, "needs " + format_number(min) + " <= lo < hi <= " + format_number(max) + " (got [" +
+                              format_number(r.lo) + ", " + format_number(r.hi) + "])");
+    return r;
+}
+
+std::string row_text(const ReferencePoint& p, const Estimate& e) {
+    return format_number(p.visibility) + "," + format_number(p.n_dot_l) + "," + format_number(p.n_dot_v) + "," +
+           format_number(p.roughness) + "," + format_number(p.relative_azimuth) + "," + format_number(p.weight) +
+           "," + format_number(e.term) + "," + format_number(e.std_error) + "\n";
+}
+
+// Reads rows written by row_text and checks that they are the expected points (a damaged or foreign
+// file is refused, naming it). Returns the estimates.
+std::vector<Estimate> read_rows(const std::string& path, const std::vector<ReferencePoint>& points,
+                                std::size_t first, std::size_t count, bool header) {
+    std::ifstream in(path);
+    if (!in) throw std::runtime_error(path + ": cannot open for reading");
+    std::string line;
+    if (header && (!std::getline(in, line) || line != kCacheHeader))
+        throw std::runtime_error(path + ": not a reference set (header); remove it to recompute");
+    std::vector<Estimate> out;
+    while (std::getline(in, line)) {
+        if (line.empty()) continue;
+        std::vector<double> f;
+        std::stringstream ss(line);
+        std::string field;
+        while (std::getline(ss, field, ',')) {
+            char* end = nullptr;
+            f.push_back(std::strtod(field.c_str(), &end));
+            if (end == field.c_str() || *end != '\0') f.back() = std::nan("");
+        }
+        const std::size_t i = first + out.size();
+        if (f.size() != 8 || out.size() >= count || !std::isfinite(f[6]) || !std::isfinite(f[7]) ||
+            format_number(f[0]) != format_number(points[i].visibility) ||
+            format_number(f[1]) != format_number(points[i].n_dot_l) ||
+            format_number(f[2]) != format_number(points[i].n_dot_v) ||
+            format_number(f[3]) != format_number(points[i].roughness) ||
+            format_number(f[4]) != format_number(points[i].relative_azimuth) ||
+            format_number(f[5]) != format_number(points[i].weight))
+            throw std::runtime_error(path + ": row " + std::to_string(out.size() + 1) +
+                                     " is not the definition's point; remove the file to recompute");
+        out.push_back({f[6], f[7]});
+    }
+    if (out.size() != count)
+        throw std::runtime_error(path + ": " + std::to_string(out.size()) + " rows, expected " + std::to_string(count) +
+                                 "; remove the file to recompute");
+    return out;
+}
+
+std::string chunk_path(const std::string& chunk_dir, std::size_t chunk) {
+    char name[32];
+    std::snprintf(name, sizeof name, "chunk-%06zu.csv", chunk);
+    return (fs::path(chunk_dir) / name).string();
+}
+
+}  // namespace
+
+std::string ReferenceDefinition::canonical_text() const {
+    std::ostringstream s;
+    s << "microshadow reference set format " << kCacheFormat << "\n";
+    if (points_csv.empty()) {
+        s << "region visibility " << format_number(visibility.lo) << " " << format_number(visibility.hi)
+          << " roughness " << format_number(roughness.lo) << " " << format_number(roughness.hi) << " n_dot_v "
+          << format_number(n_dot_v.lo) << " " << format_number(n_dot_v.hi) << " n_dot_l " << format_number(n_dot_l.lo)
+          << " " << format_number(n_dot_l.hi) << " azimuth_deg " << format_number(azimuth_deg.lo) << " "
+          << format_number(azimuth_deg.hi) << "\ncount " << count << " point_seed " << point_seed << "\n";
+    } else {
+        // The points themselves, not the file's name: renaming a file keeps its cache, editing it does not.
+        std::string all;
+        for (const auto& p : csv_points) all += row_text(p, Estimate{});
+        s << "points " << csv_points.size() << " fnv1a " << fnv1a(all) << "\n";
+    }
+    s << "samples " << plan.samples << " replicates " << plan.replicates << " seed " << plan.seed << " sequence "
+      << to_string(plan.sequence) << "\nform " << to_string(options.form) << " ao_weighting "
+      << to_string(options.ao_weighting) << " backend " << backend_label << "\n";
+    return s.str();
+}
+
+std::string ReferenceDefinition::hash() const {
+    char text[17];
+    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fnv1a(canonical_text())));
+    return text;
+}
+
+std::vector<ReferencePoint> read_reference_points_csv(const std::string& path) {
+    const NumericCsv csv = read_numeric_csv(path, kPointColumns);
+    std::vector<ReferencePoint> points;
+    double total_weight = 0;
+    for (std::size_t i = 0; i < csv.rows.size(); ++i) {
+        const auto& r = csv.rows[i];
+        auto check = [&](std::size_t column, bool ok, const std::string& range) {
+            if (!ok)
+                throw CsvError(path + ":" + std::to_string(csv.lines[i]) + ": column " + kPointColumns[column] +
+                               ": " + format_number(r[column]) + " outside " + range);
+        };
+        check(0, r[0] >= 0 && r[0] <= 1, "[0, 1]");
+        check(1, r[1] >= -1 && r[1] <= 1, "[-1, 1]");
+        check(2, r[2] > 0 && r[2] <= 1, "(0, 1]");
+        check(3, r[3] > 0 && r[3] <= 1, "(0, 1]");
+        check(4, r[4] >= 0 && r[4] <= 180, "[0, 180] degrees");
+        check(5, r[5] >= 0, "[0, inf)");
+        points.push_back({r[0], r[1], r[2], r[3], r[4] * kPi / 180.0, r[5]});
+        total_weight += r[5] * std::max(r[1], 0.0);
+    }
+    if (points.empty()) throw CsvError(path + ": no points");
+    if (!(total_weight > 0)) throw CsvError(path + ": every point has weight x NdotL = 0");
+    return points;
+}
+
+ReferenceDefinition parse_reference_spec(const std::string& text, const std::string& source, const std::string& base_dir) {
+    toml::table root;
+    try {
+        root = toml::parse(text, source);
+    } catch (const toml::parse_error& e) {
+        throw std::invalid_argument(source + ":" + std::to_string(e.source().begin.line) + ": " +
+                                    std::string(e.description()));
+    }
+    reject_unknown(source, root, "", {"name", "points", "sampling"});
+    ReferenceDefinition def;
+    if (const toml::node* n = root.get("name")) {
+        if (!n->is_string() || n->as_string()->get().empty()) fail(source, "name", "must be a non-empty string");
+        def.name = n->as_string()->get();
+    } else {
+        def.name = fs::path(source).stem().string();
+    }
+    const toml::node* points = root.get("points");
+    if (!points || !points->is_table()) fail(source, "points", "missing table [points]");
+    const toml::table& pt = *points->as_table();
+    reject_unknown(source, pt, "points.",
+                   {"count", "seed", "visibility", "roughness", "n_dot_v", "n_dot_l", "relative_azimuth_deg", "csv"});
+    if (const toml::node* csv = pt.get("csv")) {
+        for (const char* k : {"count", "seed", "visibility", "roughness", "n_dot_v", "n_dot_l", "relative_azimuth_deg"})
+            if (pt.get(k)) fail(source, std::string("points.") + k, "not allowed with points.csv (the file gives the points)");
+        if (!csv->is_string()) fail(source, "points.csv", "must be a file name");
+        const fs::path p(csv->as_string()->get());
+        def.points_csv = (p.is_absolute() ? p : fs::path(base_dir) / p).string();
+        def.csv_points = read_reference_points_csv(def.points_csv);
+    } else {
+        if (const toml::node* n = pt.get("count")) def.count = positive_integer(source, *n, "points.count", 1u << 24);
+        if (const toml::node* n = pt.get("seed")) {
+            if (!n->is_integer() || n->as_integer()->get() < 0) fail(source, "points.seed", "must be an integer >= 0");
+            def.point_seed = std::uint64_t(n->as_integer()->get());
+        }
+        if (const toml::node* n = pt.get("visibility")) def.visibility = interval(source, *n, "points.visibility", 0, 1);
+        if (const toml::node* n = pt.get("roughness")) def.roughness = interval(source, *n, "points.roughness", 0.01, 1);
+        if (const toml::node* n = pt.get("n_dot_v")) def.n_dot_v = interval(source, *n, "points.n_dot_v", 0.001, 1);
+        if (const toml::node* n = pt.get("n_dot_l")) def.n_dot_l = interval(source, *n, "points.n_dot_l", 0, 1);
+        if (const toml::node* n = pt.get("relative_azimuth_deg"))
+            def.azimuth_deg = interval(source, *n, "points.relative_azimuth_deg", 0, 180);
+    }
+    if (const toml::node* s = root.get("sampling")) {
+        if (!s->is_table()) fail(source, "sampling", "must be a table [sampling]");
+        const toml::table& st = *s->as_table();
+        reject_unknown(source, st, "sampling.", {"samples", "replicates", "seed", "ao_weighting", "form"});
+        if (const toml::node* n = st.get("samples")) def.plan.samples = positive_integer(source, *n, "sampling.samples", 1ull << 32);
+        if (const toml::node* n = st.get("replicates"))
+            def.plan.replicates = std::uint32_t(positive_integer(source, *n, "sampling.replicates", 1024));
+        if (def.plan.replicates < 2) fail(source, "sampling.replicates", "must be at least 2 (the standard error needs two)");
+        if (const toml::node* n = st.get("seed")) {
+            if (!n->is_integer() || n->as_integer()->get() < 0) fail(source, "sampling.seed", "must be an integer >= 0");
+            def.plan.seed = std::uint64_t(n->as_integer()->get());
+        }
+        try {
+            if (const toml::node* n = st.get("ao_weighting"); n && n->is_string())
+                def.options.ao_weighting = parse_ao_weighting(n->as_string()->get());
+            else if (n) fail(source, "sampling.ao_weighting", "must be \"cosine\" or \"uniform\"");
+            if (const toml::node* n = st.get("form"); n && n->is_string()) def.options.form = parse_form(n->as_string()->get());
+            else if (n) fail(source, "sampling.form", "must be \"height-correlated\" or \"uncorrelated\"");
+        } catch (const std::invalid_argument& e) {
+            if (std::string(e.what()).rfind(source, 0) == 0) throw;
+            throw std::invalid_argument(source + ": sampling: " + e.what());
+        }
+    }
+    // Samples a power-of-two multiple of the replicates (the Sobol nets), as the CLI's plan() rounds.
+    std::uint64_t per = 1;
+    while (per * def.plan.replicates < def.plan.samples) per *= 2;
+    def.plan.samples = per * def.plan.replicates;
+    return def;
+}
+
+ReferenceDefinition parse_reference_spec_file(const std::string& path) {
+    const std::string text = read_input_file(path, kMaxSpecBytes, "reference spec");
+    return parse_reference_spec(text, path, fs::path(path).parent_path().string().empty()
+                                                ? std::string(".")
+                                                : fs::path(path).parent_path().string());
+}
+
+std::vector<ReferencePoint> reference_points(const ReferenceDefinition& def) {
+    if (!def.points_csv.empty()) return def.csv_points;
+    std::vector<ReferencePoint> out(def.count);
+    static const unsigned kBases[5] = {2, 3, 5, 7, 11};
+    for (std::uint64_t i = 0; i < def.count; ++i) {
+        double u[5];
+        for (unsigned d = 0; d < 5; ++d) {
+            u[d] = radical_inverse(i + 1, kBases[d]) + seed_shift(def.point_seed, d);
+            u[d] -= std::floor(u[d]);
+        }
+        auto at = [](const Interval& r, double t) { return r.lo + (r.hi - r.lo) * t; };
+        ReferencePoint& p = out[i];
+        p.visibility = at(def.visibility, u[0]);
+        p.roughness = at(def.roughness, u[1]);
+        p.n_dot_v = std::max(at(def.n_dot_v, u[2]), 1e-3);
+        // NdotL in (lo, hi]: 1 - u is in (0, 1].
+        p.n_dot_l = at(def.n_dot_l, 1.0 - u[3]);
+        p.relative_azimuth = at(def.azimuth_deg, u[4]) * kPi / 180.0;
+        p.weight = 1;
+    }
+    return out;
+}
+
+Query query_of(const ReferencePoint& p) {
+    Query q;
+    q.visibility = p.visibility;
+    q.alpha_x = q.alpha_y = std::max(p.roughness * p.roughness, 1e-6);
+    const double sin_v = std::sqrt(std::max(0.0, 1.0 - p.n_dot_v * p.n_dot_v));
+    const double sin_l = std::sqrt(std::max(0.0, 1.0 - p.n_dot_l * p.n_dot_l));
+    q.wi = {sin_v, 0, p.n_dot_v};
+    q.wo = {sin_l * std::cos(p.relative_azimuth), sin_l * std::sin(p.relative_azimuth), p.n_dot_l};
+    return q;
+}
+
+std::string cache_file(const ReferenceDefinition& def, const std::string& dir) {
+    return (fs::path(dir) / ("reference-" + def.hash() + ".csv")).string();
+}
+
+ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& config, CacheReport* report) {
+    const auto start = std::chrono::steady_clock::now();
+    CacheReport local;
+    CacheReport& rep = report ? *report : local;
+    ReferenceSet set;
+    set.definition = def;
+    set.points = reference_points(def);
+    set.file = cache_file(def, config.dir);
+    const std::size_t n = set.points.size();
+    auto finish = [&]() {
+        double sum_sq = 0;
+        for (const auto& e : set.values) {
+            set.max_std_error = std::max(set.max_std_error, e.std_error);
+            sum_sq += e.std_error * e.std_error;
+        }
+        set.rms_std_error = n ? std::sqrt(sum_sq / double(n)) : 0;
+        rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return set;
+    };
+    if (fs::exists(set.file)) {
+        set.values = read_rows(set.file, set.points, 0, n, /*header=*/true);
+        rep.from_cache = true;
+        return finish();
+    }
+    std::error_code ec;
+    fs::create_directories(config.dir, ec);
+    if (ec) throw std::invalid_argument(config.dir + ": cannot create the cache directory (" + ec.message() + ")");
+    // Both outputs checked before the long computation.
+    OutputSet outputs;
+    const std::size_t csv_out = outputs.add(set.file);
+    const std::size_t json_out = outputs.add(fs::path(set.file).replace_extension(".json").string());
+    const std::string chunk_dir = fs::path(set.file).replace_extension(".chunks").string();
+    fs::create_directories(chunk_dir, ec);
+    if (ec) throw std::invalid_argument(chunk_dir + ": cannot create (" + ec.message() + ")");
+    // The definition beside the chunks: a chunk folder is only ever of this hash, but say what it is.
+    {
+        AtomicFile f((fs::path(chunk_dir) / "definition.txt").string());
+        f.stream() << def.canonical_text();
+        f.commit();
+    }
+    const std::size_t chunk = std::max<std::size_t>(1, config.chunk_points);
+    const std::size_t chunks = (n + chunk - 1) / chunk;
+    set.values.assign(n, Estimate{});
+    std::size_t done = 0;
+    for (std::size_t c = 0; c < chunks; ++c) {
+        const std::size_t first = c * chunk, count = std::min(chunk, n - first);
+        const std::string path = chunk_path(chunk_dir, c);
+        if (fs::exists(path)) {
+            const auto rows = read_rows(path, set.points, first, count, false);
+            std::copy(rows.begin(), rows.end(), set.values.begin() + std::ptrdiff_t(first));
+            ++rep.chunks_found;
+        } else {
+            if (config.max_chunks && rep.chunks_computed >= config.max_chunks)
+                throw IncompleteReference("reference set " + def.hash() + ": stopped after " +
+                                          std::to_string(rep.chunks_computed) + " chunks (resumable)");
+            throw_if_cancelled();
+            if (!config.backend) throw std::logic_error("load_or_compute: a backend is needed to compute the set");
+            std::vector<Query> queries;
+            for (std::size_t i = first; i < first + count; ++i) queries.push_back(query_of(set.points[i]));
+            const auto values = evaluate(*config.backend, queries, def.options, def.plan, nullptr,
+                                         [&](std::size_t d, std::size_t) {
+                                             if (config.progress) config.progress(done + d, n);
+                                         });
+            AtomicFile f(path);
+            for (std::size_t i = 0; i < count; ++i) f.stream() << row_text(set.points[first + i], values[i]);
+            f.commit();
+            std::copy(values.begin(), values.end(), set.values.begin() + std::ptrdiff_t(first));
+            ++rep.chunks_computed;
+        }
+        done += count;
+        if (config.progress) config.progress(done, n);
+    }
+    auto& out = outputs.stream(csv_out);
+    out << kCacheHeader << "\n";
+    for (std::size_t i = 0; i < n; ++i) out << row_text(set.points[i], set.values[i]);
+    ReferenceSet result = finish();
+    nlohmann::json meta = {{"program", "microshadow " MICROSHADOW_VERSION},
+                           {"command_line", config.command_line},
+                           {"name", def.name},
+                           {"hash", def.hash()},
+                           {"definition", def.canonical_text()},
+                           {"points", n},
+                           {"max_std_error", result.max_std_error},
+                           {"rms_std_error", result.rms_std_error},
+                           {"seconds", rep.seconds}};
+    if (!def.points_csv.empty()) meta["points_csv"] = json_safe(def.points_csv);
+    outputs.stream(json_out) << dump_json(meta, 2) << "\n";
+    outputs.commit();
+    fs::remove_all(chunk_dir, ec);  // the finished file holds everything the chunks did
+    return result;
+}
+
+}  // namespace ms::design

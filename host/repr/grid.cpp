@@ -1,0 +1,87 @@
+// The representations' texel grid: warped axes and their inverses (representation.hpp states them).
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "repr/representation.hpp"
+
+namespace ms::repr {
+
+std::string to_string(NdotVWarp w) { return w == NdotVWarp::sqrt ? "sqrt" : "linear"; }
+std::string to_string(NdotLWarp w) {
+    return w == NdotLWarp::shadow_edge ? "shadow-edge" : w == NdotLWarp::sqrt_top ? "sqrt-top" : "linear";
+}
+std::string to_string(VisibilityWarp w) { return w == VisibilityWarp::sqrt_top ? "sqrt-top" : "linear"; }
+
+VisibilityWarp parse_visibility_warp(const std::string& s) {
+    if (s == "linear") return VisibilityWarp::linear;
+    if (s == "sqrt-top") return VisibilityWarp::sqrt_top;
+    throw std::invalid_argument("visibility warp must be linear or sqrt-top, not '" + s + "'");
+}
+
+NdotVWarp parse_n_dot_v_warp(const std::string& s) {
+    if (s == "linear") return NdotVWarp::linear;
+    if (s == "sqrt") return NdotVWarp::sqrt;
+    throw std::invalid_argument("NdotV warp must be linear or sqrt, not '" + s + "'");
+}
+
+NdotLWarp parse_n_dot_l_warp(const std::string& s) {
+    if (s == "linear") return NdotLWarp::linear;
+    if (s == "shadow-edge") return NdotLWarp::shadow_edge;
+    if (s == "sqrt-top") return NdotLWarp::sqrt_top;
+    throw std::invalid_argument("NdotL warp must be linear, shadow-edge or sqrt-top, not '" + s + "'");
+}
+
+namespace {
+
+// Texel centre i of n over [0, 1].
+double centre(std::uint32_t i, std::uint32_t n) { return (i + 0.5) / n; }
+
+// The sqrt-top warp u = 1 - sqrt(1 - x) and its inverse x = 1 - (1 - u)^2.
+double sqrt_top(double x) { return 1 - std::sqrt(std::max(1 - x, 0.0)); }
+double sqrt_top_inverse(double u) { return 1 - (1 - u) * (1 - u); }
+
+// Where the shadow edge starts at visibility v: NdotL at or below edge(v) is the provable zero region
+// (cosine AO: the cone's half-angle has cos^2 = 1 - v, the edge is cos(2 theta) = 1 - 2v; uniform AO:
+// cos = 1 - v, edge 2 (1 - v)^2 - 1), and the horizon bounds it below.
+double shadow_edge(double visibility, AoWeighting weighting) {
+    const double edge = weighting == AoWeighting::cosine ? 1 - 2 * visibility
+                                                         : 2 * (1 - visibility) * (1 - visibility) - 1;
+    return std::max(edge, 0.0);
+}
+
+}  // namespace
+
+double ReprGrid::visibility_at(std::uint32_t iv) const {
+    const double u = centre(iv, visibility);
+    return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top_inverse(u) : u;
+}
+
+double ReprGrid::visibility_u(double v) const { return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top(v) : v; }
+
+double ReprGrid::n_dot_l_at(std::uint32_t iv, std::uint32_t il) const {
+    const double u = centre(il, n_dot_l);
+    if (warps.n_dot_l == NdotLWarp::linear) return u;
+    if (warps.n_dot_l == NdotLWarp::sqrt_top) return sqrt_top_inverse(u);
+    const double l0 = shadow_edge(visibility_at(iv), weighting);
+    return l0 + u * (1 - l0);
+}
+
+double ReprGrid::n_dot_v_at(std::uint32_t ivv) const {
+    const double u = centre(ivv, n_dot_v);
+    return warps.n_dot_v == NdotVWarp::sqrt ? u * u : u;
+}
+
+double ReprGrid::n_dot_l_u(double v, double l) const {
+    if (warps.n_dot_l == NdotLWarp::linear) return l;
+    if (warps.n_dot_l == NdotLWarp::sqrt_top) return sqrt_top(l);
+    const double l0 = shadow_edge(std::clamp(v, 0.0, 1.0), weighting);
+    // l0 = 1 only at v = 0 (cosine) where every NdotL is in the zero region: report "below the edge".
+    return l0 >= 1 ? -1.0 : (l - l0) / (1 - l0);
+}
+
+double ReprGrid::n_dot_v_u(double nv) const {
+    return warps.n_dot_v == NdotVWarp::sqrt ? std::sqrt(std::max(nv, 0.0)) : nv;
+}
+
+}  // namespace ms::repr

@@ -1,0 +1,147 @@
+// "azimuth-harmonics": per texel a cosine series in the relative azimuth.
+//
+// Derivation. The term is an even, 2 pi-periodic, smooth function of phi, so it has a cosine series
+// f(phi) = sum_m a_m cos(m phi). From the K bake nodes phi_k = pi k / N (N = K - 1 intervals) the
+// trapezoid-weighted sums are discretely orthogonal (the DCT-I): with w_k = 1/2 at k = 0 and N, else 1,
+//   sum_k w_k cos(m phi_k) cos(m' phi_k) = N (m = m' = 0), N / 2 (m = m' in 1..N-1), 0 (m != m'),
+// so the projection a_0 = (1/N) sum_k w_k f_k, a_m = (2/N) sum_k w_k f_k cos(m phi_k) is the series
+// truncated to m <= 3 (exact when the term has no higher harmonics; the residual at the nodes is
+// recorded as "node_residual_max"). The lookup evaluates a0 + a1 c + a2 (2c^2 - 1) + a3 (4c^3 - 3c)
+// with c = cos phi (no trigonometry in the shader) and clamps the result to [0, 1].
+//
+// Layout: a 3D texture of width nv (visibility), height nl (NdotL), depth nvv * R: roughness node j
+// occupies depth slices [j nvv, (j + 1) nvv); RGBA = (a0, a1, a2, a3). The NdotV coordinate is clamped
+// inside its slab, so the filter never reads the next roughness. Two fetches per light: the slabs of the
+// two roughness nodes that bracket the roughness, each trilinearly filtered, blended by hand.
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "repr/texture_repr.hpp"
+
+namespace ms::repr {
+
+namespace {
+
+constexpr int kHarmonics = 4;
+
+class AzimuthHarmonics final : public TextureRepresentation {
+public:
+    using TextureRepresentation::TextureRepresentation;
+    std::string kind() const override { return "azimuth-harmonics"; }
+    std::string name() const override {
+        std::ostringstream o;
+        o << "azimuth harmonics a0..a3: " << grid_.visibility << " visibility (" << to_string(grid_.warps.visibility) << ") x " << grid_.n_dot_l << " NdotL ("
+          << to_string(grid_.warps.n_dot_l) << ") x " << grid_.n_dot_v << " NdotV (" << to_string(grid_.warps.n_dot_v)
+          << ") x " << grid_.roughness.size() << " roughness slabs:";
+        for (double r : grid_.roughness) o << " " << r;
+        return o.str();
+    }
+    std::vector<std::string> channel_names() const override { return {"cos0phi", "cos1phi", "cos2phi", "cos3phi"}; }
+
+    double operator()(const compare::ComparatorInputs& in) const override {
+        if (zero_region(in.visibility, in.n_dot_l)) return 0;
+        const double tv = visibility_texel(in.visibility), tl = n_dot_l_texel(in.visibility, in.n_dot_l),
+                     tz = n_dot_v_texel(in.n_dot_v);
+        const double c = std::cos(in.relative_azimuth);
+        const double basis[kHarmonics] = {1, c, 2 * c * c - 1, (4 * c * c - 3) * c};
+        auto series = [&](double slab) {
+            const auto a = texture_.sample(tv, tl, slab * grid_.n_dot_v + tz);
+            double s = 0;
+            for (int m = 0; m < kHarmonics; ++m) s += a[m] * basis[m];
+            return s;
+        };
+        const auto& r = grid_.roughness;
+        if (r.size() == 1) return std::clamp(series(0), 0.0, 1.0);
+        const double x = std::clamp(in.roughness, r.front(), r.back());
+        std::size_t j = 0;
+        while (j + 2 < r.size() && x > r[j + 1]) ++j;
+        const double f = (x - r[j]) * (1 / (r[j + 1] - r[j]));
+        const double a = series(double(j)), b = series(double(j + 1));
+        return std::clamp(a + (b - a) * f, 0.0, 1.0);
+    }
+
+    std::string shader(ShaderLanguage language, const std::string& source_name) const override {
+        const auto L = shader_literal;
+        const auto& r = grid_.roughness;
+        std::ostringstream o;
+        o << shader_common(source_name);
+        o << "// RGBA = a0..a3 of a0 + a1 cos(phi) + a2 cos(2 phi) + a3 cos(3 phi); depth = roughness slab j * "
+          << grid_.n_dot_v << " + NdotV texel, slabs at roughness";
+        for (double x : r) o << " " << x;
+        o << ".\n";
+        o << "ENTRY(float visibility, float n_dot_l, float n_dot_v, float roughness, float cos_phi)\n{\n"
+          << "    if (ms_zero_region(visibility, n_dot_l)) return 0.0;  // early-out: no fetch\n"
+          << shader_coordinates()
+          << "    float c = clamp(cos_phi, -1.0, 1.0);\n"
+          << "    // cos(2 phi) and cos(3 phi) from cos(phi) (Chebyshev polynomials): no trigonometry.\n"
+          << "    VEC4 basis = VEC4(1.0, c, 2.0 * c * c - 1.0, (4.0 * c * c - 3.0) * c);\n";
+        if (r.size() == 1) {
+            o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
+              << ", (tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
+              << "    return clamp(dot(FETCH(c0), basis), 0.0, 1.0);\n}\n";
+        } else {
+            o << "    // The roughness slabs j and j + 1 that bracket the roughness, and the weight of j + 1.\n"
+              << "    float r = clamp(roughness, " << L(r.front()) << ", " << L(r.back()) << ");\n"
+              << "    float j = 0.0;\n    float f = (r - " << L(r[0]) << ") * " << L(1 / (r[1] - r[0])) << ";\n";
+            for (std::size_t k = 1; k + 1 < r.size(); ++k)
+                o << "    if (r > " << L(r[k]) << ") { j = " << L(k) << "; f = (r - " << L(r[k]) << ") * " << L(1 / (r[k + 1] - r[k]))
+                  << "; }\n";
+            o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
+              << ", (j * " << L(grid_.n_dot_v) << " + tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
+              << "    VEC3 c1 = c0 + VEC3(0.0, 0.0, " << L(double(grid_.n_dot_v) / texture_.depth) << ");\n"
+              << "    return clamp(MIX(dot(FETCH(c0), basis), dot(FETCH(c1), basis), f), 0.0, 1.0);\n}\n";
+        }
+        return finish_shader(o.str(), language);
+    }
+};
+
+}  // namespace
+
+std::unique_ptr<Representation> make_azimuth_harmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
+                                                       nlohmann::json metadata) {
+    if (grid.roughness.empty()) throw std::invalid_argument("azimuth-harmonics: at least 1 roughness node");
+    if (texture.width != grid.visibility || texture.height != grid.n_dot_l || texture.depth != grid.n_dot_v * grid.roughness.size())
+        throw std::invalid_argument("azimuth-harmonics: texture size does not match the grid");
+    metadata["fetches_per_light"] = grid.roughness.size() == 1 ? 1 : 2;
+    return std::make_unique<AzimuthHarmonics>(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata));
+}
+
+std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake) {
+    const auto& g = bake.grid;
+    const std::uint32_t K = bake.azimuth_nodes, N = K - 1;
+    if (K < 2 * kHarmonics - 1)
+        throw std::invalid_argument("azimuth-harmonics: needs at least " + std::to_string(2 * kHarmonics - 1) + " azimuth nodes");
+    Texture3D t;
+    t.width = g.visibility;
+    t.height = g.n_dot_l;
+    t.depth = g.n_dot_v * std::uint32_t(g.roughness.size());
+    t.texels.resize(std::size_t(t.width) * t.height * t.depth * 4);
+    double residual = 0;
+    for (std::uint32_t r = 0; r < g.roughness.size(); ++r)
+        for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv)
+            for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
+                for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
+                    double a[kHarmonics] = {0, 0, 0, 0};
+                    for (std::uint32_t k = 0; k <= N; ++k) {
+                        const double w = (k == 0 || k == N) ? 0.5 : 1.0, f = bake.value[bake.index(r, k, iv, il, ivv)];
+                        for (int m = 0; m < kHarmonics; ++m) a[m] += w * f * std::cos(m * bake.azimuth_at(k));
+                    }
+                    for (int m = 0; m < kHarmonics; ++m) a[m] *= (m == 0 ? 1.0 : 2.0) / N;
+                    // The truncation residual at the nodes (what the series misses of the bake there).
+                    for (std::uint32_t k = 0; k <= N; ++k) {
+                        double s = 0;
+                        for (int m = 0; m < kHarmonics; ++m) s += a[m] * std::cos(m * bake.azimuth_at(k));
+                        residual = std::max(residual, std::abs(std::clamp(s, 0.0, 1.0) - bake.value[bake.index(r, k, iv, il, ivv)]));
+                    }
+                    const std::size_t z = std::size_t(r) * g.n_dot_v + ivv;
+                    for (int m = 0; m < kHarmonics; ++m) t.texels[((z * t.height + il) * t.width + iv) * 4 + m] = float(a[m]);
+                }
+    nlohmann::json meta = {{"bake", bake.metadata}, {"node_residual_max", residual}};
+    for (const char* key : {"version", "command_line"})
+        if (bake.metadata.contains(key)) meta[key] = bake.metadata[key];
+    return make_azimuth_harmonics(g, K, std::move(t), std::move(meta));
+}
+
+}  // namespace ms::repr

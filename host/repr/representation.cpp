@@ -1,0 +1,171 @@
+// Representation files (open, kind detection), the builders by name, and the comparator hook.
+#include "repr/representation.hpp"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfStringAttribute.h>
+
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+
+#include "repr/texture_repr.hpp"
+
+namespace ms::repr {
+
+nlohmann::json grid_to_json(const ReprGrid& g) {
+    return {{"visibility", g.visibility},          {"n_dot_l", g.n_dot_l},
+            {"n_dot_v", g.n_dot_v},                {"roughness", g.roughness},
+            {"n_dot_v_warp", to_string(g.warps.n_dot_v)}, {"n_dot_l_warp", to_string(g.warps.n_dot_l)},
+            {"visibility_warp", to_string(g.warps.visibility)},
+            {"ao_weighting", to_string(g.weighting)}};
+}
+
+namespace {
+
+std::uint32_t count_field(const nlohmann::json& j, const char* field, std::uint32_t max) {
+    const auto& v = j.at(field);
+    if (!v.is_number_unsigned() || v.get<std::uint64_t>() < 1 || v.get<std::uint64_t>() > max)
+        throw std::runtime_error(std::string("metadata ") + field + " must be an integer in [1, " + std::to_string(max) + "], not " + v.dump());
+    return v.get<std::uint32_t>();
+}
+
+}  // namespace
+
+ReprGrid grid_from_json(const nlohmann::json& j) {
+    ReprGrid g;
+    g.visibility = count_field(j, "visibility", 4096);
+    g.n_dot_l = count_field(j, "n_dot_l", 4096);
+    g.n_dot_v = count_field(j, "n_dot_v", 4096);
+    g.roughness.clear();
+    for (const auto& r : j.at("roughness")) {
+        if (!r.is_number() || !(r.get<double>() > 0 && r.get<double>() <= 1))
+            throw std::runtime_error("metadata grid.roughness: " + r.dump() + " is not in (0, 1]");
+        if (!g.roughness.empty() && !(r.get<double>() > g.roughness.back()))
+            throw std::runtime_error("metadata grid.roughness must increase");
+        g.roughness.push_back(r.get<double>());
+    }
+    if (g.roughness.empty() || g.roughness.size() > 256) throw std::runtime_error("metadata grid.roughness: 1 to 256 nodes");
+    try {
+        g.warps.n_dot_v = parse_n_dot_v_warp(j.at("n_dot_v_warp").get<std::string>());
+        g.warps.n_dot_l = parse_n_dot_l_warp(j.at("n_dot_l_warp").get<std::string>());
+        // Absent in files written before the visibility warp existed: those are linear.
+        g.warps.visibility = parse_visibility_warp(j.value("visibility_warp", std::string("linear")));
+        g.weighting = parse_ao_weighting(j.at("ao_weighting").get<std::string>());
+    } catch (const std::invalid_argument& e) {
+        throw std::runtime_error(std::string("metadata grid: ") + e.what());
+    }
+    return g;
+}
+
+namespace {
+
+// The file's "microshadow" metadata when it is a representation file; nullopt for any other file
+// (a LUT, another EXR, not an EXR). The header is read with OpenEXR's size limits as read_lut sets them.
+struct OpenLimits {
+    OpenLimits() { set(1 << 16, 1 << 20); }
+    ~OpenLimits() { set(0, 0); }
+    static void set(int w, int h) {
+        Imf::Header::setMaxImageSize(w, h);
+        Imf::Header::setMaxTileSize(w, h);
+    }
+};
+
+std::optional<nlohmann::json> representation_metadata(const Imf::Header& header) {
+    const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
+    if (!attr) return std::nullopt;
+    nlohmann::json meta = nlohmann::json::parse(attr->value(), nullptr, false);
+    if (!meta.is_object() || meta.value("kind", std::string()) != "representation") return std::nullopt;
+    return meta;
+}
+
+bool is_exr(const std::string& path) {
+    // OpenEXR's magic number: a file that is not an EXR is not a representation (no OpenEXR exception).
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return false;
+    unsigned char magic[4] = {0, 0, 0, 0};
+    const bool ok = std::fread(magic, 1, 4, f) == 4 && magic[0] == 0x76 && magic[1] == 0x2f && magic[2] == 0x31 && magic[3] == 0x01;
+    std::fclose(f);
+    return ok;
+}
+
+}  // namespace
+
+bool is_representation_file(const std::string& path) {
+    if (!is_exr(path)) return false;
+    try {
+        std::optional<OpenLimits> limits(std::in_place);
+        Imf::InputFile file(path.c_str());
+        return representation_metadata(file.header()).has_value();
+    } catch (const std::exception&) {
+        return false;
+    }
+}
+
+std::unique_ptr<Representation> open_representation(const std::string& path) {
+    try {
+        if (!is_exr(path)) throw std::runtime_error("not an OpenEXR file");
+        std::optional<OpenLimits> limits(std::in_place);
+        Imf::InputFile file(path.c_str());
+        limits.reset();
+        const auto meta = representation_metadata(file.header());
+        if (!meta) throw std::runtime_error("no \"microshadow\" metadata of kind \"representation\"");
+        const ReprGrid grid = grid_from_json(meta->at("grid"));
+        const std::uint32_t azimuth_nodes = count_field(*meta, "azimuth_nodes", 256);
+        const auto& tex = meta->at("texture");
+        Texture3D t;
+        t.width = count_field(tex, "width", 1 << 16);
+        t.height = count_field(tex, "height", 4096);
+        t.depth = count_field(tex, "depth", 1 << 16);
+        const std::uint64_t texels = std::uint64_t(t.width) * t.height * t.depth;
+        if (texels * 4 > (std::uint64_t(1) << 26)) throw std::runtime_error("texture larger than 2^24 texels");
+        const Imath::Box2i dw = file.header().dataWindow();
+        if (std::uint64_t(dw.max.x - dw.min.x + 1) != t.width || std::uint64_t(dw.max.y - dw.min.y + 1) != std::uint64_t(t.height) * t.depth)
+            throw std::runtime_error("image size does not match the metadata's texture (width, height x depth)");
+        std::vector<std::string> names;
+        for (const auto& n : tex.at("channels")) names.push_back(n.get<std::string>());
+        if (names.empty() || names.size() > 4) throw std::runtime_error("metadata texture.channels: 1 to 4 names");
+        t.texels.assign(texels * 4, 0.0f);
+        Imf::FrameBuffer fb;
+        const std::size_t stride = 4 * sizeof(float);
+        char* base = reinterpret_cast<char*>(t.texels.data()) - (std::size_t(dw.min.y) * t.width + dw.min.x) * stride;
+        for (std::size_t c = 0; c < names.size(); ++c) {
+            if (!file.header().channels().findChannel(names[c])) throw std::runtime_error("no channel " + names[c]);
+            fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * t.width));
+        }
+        file.setFrameBuffer(fb);
+        file.readPixels(dw.min.y, dw.max.y);
+        for (std::size_t i = 0; i < texels; ++i) {
+            for (std::size_t c = names.size(); c < 4; ++c) t.texels[i * 4 + c] = t.texels[i * 4 + names.size() - 1];
+            for (std::size_t c = 0; c < 4; ++c)
+                if (!std::isfinite(t.texels[i * 4 + c]))
+                    throw std::runtime_error("texel " + std::to_string(i) + " channel " + names[std::min(c, names.size() - 1)] + " is not finite");
+        }
+        const std::string kind = meta->value("representation", std::string());
+        nlohmann::json m = *meta;
+        if (kind == "azimuth-axis") return make_azimuth_axis(grid, azimuth_nodes, std::move(t), m);
+        if (kind == "azimuth-harmonics") return make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), m);
+        throw std::runtime_error("unknown representation '" + kind + "'");
+    } catch (const std::exception& e) {
+        throw std::runtime_error(path + ": " + e.what());
+    }
+}
+
+std::vector<std::string> representation_kinds() { return {"azimuth-axis", "azimuth-harmonics"}; }
+
+std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake) {
+    if (kind == "azimuth-axis") return build_azimuth_axis(bake);
+    if (kind == "azimuth-harmonics") return build_azimuth_harmonics(bake);
+    throw std::invalid_argument("unknown representation '" + kind + "' (valid: azimuth-axis, azimuth-harmonics)");
+}
+
+void install_comparators() {
+    compare::set_file_comparator_opener([](const std::string& path) -> std::shared_ptr<const compare::FileComparator> {
+        if (!is_representation_file(path)) return nullptr;
+        return std::shared_ptr<const compare::FileComparator>(open_representation(path));
+    });
+}
+
+}  // namespace ms::repr

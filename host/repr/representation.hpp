@@ -1,0 +1,154 @@
+// Texture representations of the micro-shadowing term that keep the relative azimuth (issue 15), as
+// comparators a renderer could ship: each has its bake (an AzimuthBake: the term per texel at K azimuth
+// nodes), its C++ lookup (the renderer's sampling, written out), its file (OpenEXR atlas with the
+// metadata in the "microshadow" header attribute, "kind": "representation"), its generated GLSL/HLSL
+// (matching the C++ lookup; tests/repr_shader_test.cpp runs it on lavapipe) and its cost model.
+// docs/representations.md derives each one and gives its measured error.
+//
+// Kinds:
+// - "azimuth-axis": 4D (visibility, NdotL, NdotV, azimuth) in one 3D texture: K azimuth slots of
+//   nv visibility texels side by side along x, NdotL along y, NdotV along z, one roughness per RGBA
+//   channel. Two filtered fetches (the two azimuth slots that bracket phi), blended by hand.
+// - "azimuth-harmonics": per texel a0 + a1 cos(phi) + a2 cos(2 phi) + a3 cos(3 phi) in RGBA (the
+//   discrete cosine projection of the K nodes), roughness slabs stacked along z. Two fetches (the two
+//   roughness slabs that bracket the roughness), blended by hand.
+// Both take the warped axes (Warps) and roughness nodes chosen by error (choose_roughness_nodes).
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+#include "jobs/compare.hpp"
+#include "jobs/eval.hpp"
+
+namespace ms::repr {
+
+enum class ShaderLanguage { glsl, hlsl };
+
+// Axis warps: the texture coordinate of a parameter. Texel i of an n-texel axis sits at warped
+// coordinate u = (i + 0.5) / n (texel centres over [0, 1]).
+//   NdotV: linear u = NdotV, or sqrt u = sqrt(NdotV) (HDRP's FGD table): more texels at grazing views.
+//   NdotL: linear u = NdotL, or shadow_edge u = (NdotL - l0(v)) / (1 - l0(v)) with
+//          l0(v) = max(0, edge(v)), edge(v) = 1 - 2v (cosine AO) or 2 (1 - v)^2 - 1 (uniform AO): the
+//          provable zero region NdotL <= edge(v) holds no texel; or sqrt_top u = 1 - sqrt(1 - NdotL):
+//          texels dense near NdotL = 1, where the term is smooth in the light's angle, not in its cosine.
+//   visibility: linear u = v, or sqrt_top u = 1 - sqrt(1 - v): texels dense near v = 1, where the term
+//          rises to exactly 1 and is smooth in sqrt(1 - v) (the cosine AO cone's cos theta), not in v.
+enum class NdotVWarp { linear, sqrt };
+enum class NdotLWarp { linear, shadow_edge, sqrt_top };
+enum class VisibilityWarp { linear, sqrt_top };
+struct Warps {
+    NdotVWarp n_dot_v = NdotVWarp::linear;
+    NdotLWarp n_dot_l = NdotLWarp::linear;
+    VisibilityWarp visibility = VisibilityWarp::linear;
+};
+std::string to_string(NdotVWarp);
+std::string to_string(NdotLWarp);
+std::string to_string(VisibilityWarp);
+NdotVWarp parse_n_dot_v_warp(const std::string&);  // "linear" | "sqrt"; std::invalid_argument
+NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top"; std::invalid_argument
+VisibilityWarp parse_visibility_warp(const std::string&);  // "linear" | "sqrt-top"; std::invalid_argument
+
+// The texel grid every representation is baked on: visibility, NdotL and NdotV texel centres in
+// warped coordinates and the roughness nodes.
+struct ReprGrid {
+    std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16;
+    std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
+    Warps warps;
+    AoWeighting weighting = AoWeighting::cosine;
+
+    // Parameters of texel (iv, il, ivv) (NdotL depends on visibility under the shadow-edge warp).
+    double visibility_at(std::uint32_t iv) const;
+    double n_dot_l_at(std::uint32_t iv, std::uint32_t il) const;
+    double n_dot_v_at(std::uint32_t ivv) const;
+    // Warped coordinates in [0, 1] of a lookup's parameters (the inverse of the above). n_dot_l_u of a
+    // point in the zero region is <= 0 (the lookup returns 0 there before reading any texel).
+    double n_dot_l_u(double visibility, double n_dot_l) const;
+    double n_dot_v_u(double n_dot_v) const;
+    double visibility_u(double visibility) const;
+};
+
+// The term per texel and azimuth node: nodes phi_k = pi k / (K - 1), k = 0..K-1 (endpoints included).
+// value/std_error[index(r, k, iv, il, ivv)]; std_error is the replicate standard error (Student-t,
+// replicates - 1 degrees of freedom; exact texels get 0).
+struct AzimuthBake {
+    ReprGrid grid;
+    std::uint32_t azimuth_nodes = 9;
+    std::uint32_t replicates = 8;
+    std::vector<float> value, std_error;
+    nlohmann::json metadata;  // how it was made (samples, seed, sequence, form, seconds, ...)
+
+    double azimuth_at(std::uint32_t k) const;  // radians
+    std::size_t index(std::uint32_t r, std::uint32_t k, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const {
+        return (((std::size_t(r) * azimuth_nodes + k) * grid.n_dot_v + ivv) * grid.n_dot_l + il) * grid.visibility + iv;
+    }
+    // A bake of a subset of the roughness nodes (exactly the same texels: no new sampling).
+    AzimuthBake with_roughness(const std::vector<std::uint32_t>& roughness_indices) const;
+};
+
+struct AzimuthBakeSpec {
+    ReprGrid grid;
+    std::uint32_t azimuth_nodes = 9;
+    SamplingPlan plan;       // samples per texel and node, replicates, seed, sequence
+    TermOptions term;        // form; term.ao_weighting must equal grid.weighting
+    std::string command_line;
+};
+
+// Bakes the term at every texel and node through the term integrand (jobs/eval.hpp's evaluate): one
+// query per (roughness, node, texel), the provable zeros and v = 1 answered exactly.
+AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
+                         const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+class Representation : public compare::FileComparator {
+public:
+    ~Representation() override = default;
+    virtual std::string kind() const = 0;  // "azimuth-axis" | "azimuth-harmonics"
+    std::string name() const override = 0;  // kind and layout in words
+    compare::ComparatorCost cost() const override = 0;
+    // The renderer's lookup (the generated shader's arithmetic, in double).
+    double operator()(const compare::ComparatorInputs& in) const override = 0;
+    nlohmann::json provenance() const override = 0;
+
+    // The sampling code: a function library ms_micro_shadowing(tex, visibility, NdotL, NdotV,
+    // roughness, cos_phi) with cos_phi = the cosine of the relative azimuth.
+    virtual std::string shader(ShaderLanguage language, const std::string& source_name) const = 0;
+    // The texture as a renderer uploads it: width x height x depth texels of RGBA floats.
+    virtual std::uint32_t texture_width() const = 0;
+    virtual std::uint32_t texture_height() const = 0;
+    virtual std::uint32_t texture_depth() const = 0;
+    virtual const std::vector<float>& texels() const = 0;  // RGBA interleaved, x fastest, then y, then z
+    // Writes the OpenEXR atlas (depth slices stacked down the rows) atomically; half = HALF channels.
+    virtual void write(const std::string& path, bool half) const = 0;
+    virtual const ReprGrid& grid() const = 0;
+};
+
+// Builders from a bake (the bake's roughness nodes: azimuth-axis takes 1 to 4, harmonics 1 or more).
+std::unique_ptr<Representation> build_azimuth_axis(const AzimuthBake& bake);
+std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake);
+std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
+std::vector<std::string> representation_kinds();
+
+// Reads a representation file (throws std::runtime_error naming the file and problem).
+std::unique_ptr<Representation> open_representation(const std::string& path);
+// True when the file is an OpenEXR whose "microshadow" metadata has "kind": "representation".
+bool is_representation_file(const std::string& path);
+
+// Roughness nodes chosen by error: from the bake's roughness nodes (a dense reference, increasing), keep
+// `count` (>= 2) including the first and last, minimising the N.L-weighted RMS, over every texel, azimuth
+// node and dense node, of the linear blend across roughness between the kept nodes (the error a lookup
+// makes at the dense nodes it does not keep). Every subset when C(dense - 2, count - 2) <= 20000, else
+// greedy insertion refined by single-node exchanges. Returns indices into bake.grid.roughness,
+// increasing, and that RMS in *rms.
+std::vector<std::uint32_t> choose_roughness_nodes(const AzimuthBake& bake, std::uint32_t count,
+                                                  double* rms = nullptr);
+
+// Lets compare::Comparator::parse open representation files (jobs cannot include repr). Idempotent.
+void install_comparators();
+
+}  // namespace ms::repr

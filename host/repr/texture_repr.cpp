@@ -1,0 +1,250 @@
+#include "repr/texture_repr.hpp"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfIntAttribute.h>
+#include <ImfOutputFile.h>
+#include <ImfStringAttribute.h>
+
+#include <Imath/half.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <regex>
+#include <sstream>
+#include <stdexcept>
+
+#include "io/atomic_file.hpp"
+
+namespace ms::repr {
+
+std::array<double, 4> Texture3D::sample(double x, double y, double z) const {
+    // The trilinear blend a linear sampler computes: texels floor(t) and floor(t) + 1 per axis with
+    // weight frac(t); the +1 neighbour is clamped to the edge (its weight is 0 there anyway).
+    const double t[3] = {x, y, z};
+    const std::uint32_t n[3] = {width, height, depth};
+    std::uint32_t i0[3], i1[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const double c = std::clamp(t[a], 0.0, double(n[a] - 1));
+        i0[a] = std::uint32_t(std::floor(c));
+        i1[a] = std::min(i0[a] + 1, n[a] - 1);
+        f[a] = c - i0[a];
+    }
+    std::array<double, 4> out{0, 0, 0, 0};
+    for (int corner = 0; corner < 8; ++corner) {
+        double w = 1;
+        std::uint32_t idx[3];
+        for (int a = 0; a < 3; ++a) {
+            const bool hi = (corner >> a) & 1;
+            w *= hi ? f[a] : 1 - f[a];
+            idx[a] = hi ? i1[a] : i0[a];
+        }
+        if (w == 0) continue;
+        const std::size_t base = ((std::size_t(idx[2]) * height + idx[1]) * width + idx[0]) * 4;
+        for (int c = 0; c < 4; ++c) out[c] += w * texels[base + c];
+    }
+    return out;
+}
+
+TextureRepresentation::TextureRepresentation(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
+                                             nlohmann::json metadata)
+    : grid_(std::move(grid)), azimuth_nodes_(azimuth_nodes), texture_(std::move(texture)), metadata_(std::move(metadata)) {}
+
+bool TextureRepresentation::zero_region(double v, double l) const {
+    if (l <= 0) return true;
+    if (grid_.weighting == AoWeighting::cosine) return 2 * v + l <= 1;
+    const double c = 1 - v;
+    return l <= 2 * c * c - 1;
+}
+
+double TextureRepresentation::visibility_texel(double v) const {
+    return std::clamp(grid_.visibility_u(v) * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
+}
+double TextureRepresentation::n_dot_l_texel(double v, double l) const {
+    return std::clamp(grid_.n_dot_l_u(v, l) * grid_.n_dot_l - 0.5, 0.0, double(grid_.n_dot_l - 1));
+}
+double TextureRepresentation::n_dot_v_texel(double nv) const {
+    return std::clamp(grid_.n_dot_v_u(nv) * grid_.n_dot_v - 0.5, 0.0, double(grid_.n_dot_v - 1));
+}
+
+compare::ComparatorCost TextureRepresentation::cost() const {
+    compare::ComparatorCost c;
+    // As a renderer uploads it: RGBA16F (8 bytes a texel), whatever the file's own precision.
+    c.bytes = std::uint64_t(texture_.width) * texture_.height * texture_.depth * 8;
+    c.fetches_per_light = metadata_.value("fetches_per_light", 2u);
+    c.alu_per_light = count_alu(shader(ShaderLanguage::glsl, "cost"));
+    c.storage = "3D texture " + std::to_string(texture_.width) + "x" + std::to_string(texture_.height) + "x" +
+                std::to_string(texture_.depth) + " RGBA16F";
+    return c;
+}
+
+nlohmann::json TextureRepresentation::provenance() const {
+    nlohmann::json j = {{"kind", "representation"}, {"representation", kind()}, {"description", name()}};
+    const auto c = cost();
+    j["cost"] = {{"bytes", c.bytes}, {"fetches_per_light", c.fetches_per_light}, {"alu_per_light", c.alu_per_light},
+                 {"storage", c.storage}};
+    for (const char* key : {"version", "command_line"})
+        if (metadata_.contains(key)) j[key] = metadata_[key];
+    return j;
+}
+
+void TextureRepresentation::write(const std::string& path, bool half) const {
+    const auto names = channel_names();
+    const std::size_t width = texture_.width, height = std::size_t(texture_.height) * texture_.depth;
+    nlohmann::json meta = metadata_;
+    meta["kind"] = "representation";
+    meta["representation"] = kind();
+    meta["file_format"] = "exr";
+    meta["half"] = half;
+    meta["grid"] = grid_to_json(grid_);
+    meta["azimuth_nodes"] = azimuth_nodes_;
+    meta["texture"] = {{"width", texture_.width}, {"height", texture_.height}, {"depth", texture_.depth}, {"channels", names}};
+    check_writable_destination(path);
+    AtomicPath atomic(path);
+    {
+        // The atlas: depth slice z occupies rows [z * height, (z + 1) * height).
+        Imf::Header header{int(width), int(height)};
+        header.compression() = Imf::ZIP_COMPRESSION;
+        for (const auto& n : names) header.channels().insert(n, Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
+        header.insert("microshadow", Imf::StringAttribute(meta.dump()));
+        header.insert("microshadow.kind", Imf::StringAttribute("representation"));
+        header.insert("microshadow.representation", Imf::StringAttribute(kind()));
+        header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
+        // OpenEXR does not convert FLOAT to HALF on write: round here (nearest even).
+        std::vector<Imath::half> halves;
+        if (half) halves.assign(texture_.texels.begin(), texture_.texels.end());
+        const std::size_t elem = half ? sizeof(Imath::half) : sizeof(float), stride = 4 * elem;
+        char* base = half ? (char*)halves.data() : (char*)texture_.texels.data();
+        Imf::FrameBuffer fb;
+        for (std::size_t c = 0; c < names.size(); ++c)
+            fb.insert(names[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
+        try {
+            Imf::OutputFile file(atomic.temp_path().c_str(), header);
+            file.setFrameBuffer(fb);
+            file.writePixels(int(height));
+        } catch (const std::exception& e) {
+            throw std::runtime_error("cannot write " + path + ": " + e.what());
+        }
+    }
+    atomic.commit();
+}
+
+std::string shader_literal(double v) {
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.9g", double(float(v)));
+    std::string s = buf;
+    if (s.find_first_of(".eE") == std::string::npos) s += ".0";
+    return s;
+}
+
+std::string TextureRepresentation::shader_common(const std::string& source_name) const {
+    std::ostringstream o;
+    o << "// Micro-shadowing " << kind() << " sampler for " << source_name << ", generated by microshadow "
+      << MICROSHADOW_VERSION << " from the file's metadata. Do not edit: regenerate with the file.\n"
+      << "// " << name() << ".\n"
+      << "// Texture: 3D, " << texture_.width << " x " << texture_.height << " x " << texture_.depth
+      << " RGBA (RGBA16F in an engine); upload one level, no mips; sampler: linear, clamp-to-edge, level 0.\n"
+      << "// Axes (texel centres at (i + 0.5) / n of the warped coordinate): visibility "
+      << (grid_.warps.visibility == VisibilityWarp::sqrt_top ? "u = 1 - sqrt(1 - v)" : "linear") << "; NdotL "
+      << (grid_.warps.n_dot_l == NdotLWarp::shadow_edge ? "from the shadow edge, u = (NdotL - l0(v)) / (1 - l0(v))"
+          : grid_.warps.n_dot_l == NdotLWarp::sqrt_top ? "u = 1 - sqrt(1 - NdotL)" : "linear")
+      << "; NdotV " << (grid_.warps.n_dot_v == NdotVWarp::sqrt ? "u = sqrt(NdotV)" : "linear") << ".\n"
+      << "// cos_phi: cosine of the relative azimuth of L and V (their projections on the surface,\n"
+      << "// normalised; 1 when either is along the normal). Anisotropic GGX: roughness = (alpha_x alpha_y)^(1/4).\n\n";
+    o << "bool ms_zero_region(float visibility, float n_dot_l)\n{\n";
+    if (grid_.weighting == AoWeighting::cosine)
+        o << "    // Cosine AO: the term is 0 for NdotL <= 1 - 2 v (and below the horizon).\n"
+          << "    return n_dot_l <= 0.0 || 2.0 * visibility + n_dot_l <= 1.0;\n}\n\n";
+    else
+        o << "    // Uniform AO: the term is 0 for NdotL <= 2 (1 - v)^2 - 1 (and below the horizon).\n"
+          << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l <= 2.0 * cos_t * cos_t - 1.0;\n}\n\n";
+    return o.str();
+}
+
+std::string TextureRepresentation::shader_coordinates() const {
+    const auto L = shader_literal;
+    std::ostringstream o;
+    o << "    // Texel coordinates within a block, clamped to [0, n - 1] as host/repr/texture_repr.cpp does.\n";
+    if (grid_.warps.visibility == VisibilityWarp::sqrt_top) o << "    float uv = 1.0 - sqrt(max(1.0 - visibility, 0.0));\n";
+    else o << "    float uv = visibility;\n";
+    o << "    float tv = clamp(uv * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
+    if (grid_.warps.n_dot_l == NdotLWarp::linear) {
+        o << "    float ul = n_dot_l;\n";
+    } else if (grid_.warps.n_dot_l == NdotLWarp::sqrt_top) {
+        o << "    float ul = 1.0 - sqrt(max(1.0 - n_dot_l, 0.0));\n";
+    } else {
+        o << "    // NdotL from the shadow edge l0(v): no texel lies in the zero region (l0 < 1 outside it).\n";
+        if (grid_.weighting == AoWeighting::cosine) o << "    float l0 = max(1.0 - 2.0 * visibility, 0.0);\n";
+        else o << "    float c_t = 1.0 - visibility;\n    float l0 = max(2.0 * c_t * c_t - 1.0, 0.0);\n";
+        o << "    float ul = (n_dot_l - l0) / (1.0 - l0);\n";
+    }
+    o << "    float tl = clamp(ul * " << L(grid_.n_dot_l) << " - 0.5, 0.0, " << L(grid_.n_dot_l - 1) << ");\n";
+    if (grid_.warps.n_dot_v == NdotVWarp::sqrt) o << "    float uz = sqrt(max(n_dot_v, 0.0));\n";
+    else o << "    float uz = n_dot_v;\n";
+    o << "    float tz = clamp(uz * " << L(grid_.n_dot_v) << " - 0.5, 0.0, " << L(grid_.n_dot_v - 1) << ");\n";
+    return o.str();
+}
+
+std::string TextureRepresentation::finish_shader(const std::string& body, ShaderLanguage language) const {
+    const bool glsl = language == ShaderLanguage::glsl;
+    std::string s = body;
+    auto replace_all = [&](const std::string& from, const std::string& to) {
+        for (std::size_t p = s.find(from); p != std::string::npos; p = s.find(from, p + to.size())) s.replace(p, from.size(), to);
+    };
+    replace_all("ENTRY(", glsl ? "float ms_micro_shadowing(sampler3D ms_tex, "
+                               : "float ms_micro_shadowing(Texture3D<float4> ms_tex, SamplerState linear_clamp, ");
+    replace_all("VEC3", glsl ? "vec3" : "float3");
+    replace_all("VEC4", glsl ? "vec4" : "float4");
+    replace_all("MIX(", glsl ? "mix(" : "lerp(");
+    s = std::regex_replace(s, std::regex(R"(FETCH\((\w+)\))"), glsl ? "textureLod(ms_tex, $1, 0.0)" : "ms_tex.SampleLevel(linear_clamp, $1, 0.0)");
+    return s;
+}
+
+unsigned count_alu(const std::string& source) {
+    unsigned count = 0;
+    std::istringstream in(source);
+    std::string line;
+    static const std::regex intrinsic(R"(\b(clamp|mix|lerp|min|max|floor|sqrt|acos|dot|abs|cos)\s*\()");
+    while (std::getline(in, line)) {
+        const auto comment = line.find("//");
+        if (comment != std::string::npos) line.resize(comment);
+        count += unsigned(std::distance(std::sregex_iterator(line.begin(), line.end(), intrinsic), std::sregex_iterator()));
+        // Operators: a + - * / after an operand is binary (a '-' after '(' or ',' is a sign); numbers
+        // are skipped whole (their exponent sign is no operator); comparisons, && and || count once.
+        bool after_operand = false;
+        for (std::size_t i = 0; i < line.size();) {
+            const char c = line[i];
+            if (std::isdigit((unsigned char)c) || (c == '.' && i + 1 < line.size() && std::isdigit((unsigned char)line[i + 1]))) {
+                while (i < line.size() && (std::isalnum((unsigned char)line[i]) || line[i] == '.' ||
+                                           ((line[i] == '-' || line[i] == '+') && (line[i - 1] == 'e' || line[i - 1] == 'E'))))
+                    ++i;
+                after_operand = true;
+            } else if (std::isalpha((unsigned char)c) || c == '_') {
+                while (i < line.size() && (std::isalnum((unsigned char)line[i]) || line[i] == '_')) ++i;
+                after_operand = true;
+            } else if (c == ')' || c == ']') {
+                after_operand = true, ++i;
+            } else if (c == '+' || c == '-' || c == '*' || c == '/') {
+                if (after_operand) ++count;
+                after_operand = false, ++i;
+                if (i < line.size() && line[i] == '=') ++i;
+            } else if (c == '<' || c == '>' || (c == '=' && i + 1 < line.size() && line[i + 1] == '=') ||
+                       (c == '&' && i + 1 < line.size() && line[i + 1] == '&') || (c == '|' && i + 1 < line.size() && line[i + 1] == '|') ||
+                       c == '?') {
+                ++count;
+                after_operand = false;
+                i += (i + 1 < line.size() && (line[i + 1] == '=' || line[i + 1] == '&' || line[i + 1] == '|')) ? 2 : 1;
+            } else {
+                if (!std::isspace((unsigned char)c)) after_operand = false;
+                ++i;
+            }
+        }
+    }
+    return count;
+}
+
+}  // namespace ms::repr

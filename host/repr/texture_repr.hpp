@@ -1,0 +1,75 @@
+// The two texture representations (representation.hpp describes them) and what they share: the 3D
+// texture, its trilinear sampling as a GPU does it, the warped texel coordinates, the shader text and
+// its cost. Internal to host/repr/: everything else sees representation.hpp.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "repr/representation.hpp"
+
+namespace ms::repr {
+
+// A 3D texture of RGBA floats sampled with linear filtering and clamp-to-edge, as a GPU does, from
+// continuous texel coordinates (texel centres at integers): the caller clamps each coordinate to
+// [0, n - 1] first, so the sampler's own clamping never acts.
+struct Texture3D {
+    std::uint32_t width = 0, height = 0, depth = 0;
+    std::vector<float> texels;  // RGBA, x fastest, then y, then z
+    std::array<double, 4> sample(double x, double y, double z) const;
+};
+
+class TextureRepresentation : public Representation {
+public:
+    TextureRepresentation(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture, nlohmann::json metadata);
+
+    std::uint32_t texture_width() const override { return texture_.width; }
+    std::uint32_t texture_height() const override { return texture_.height; }
+    std::uint32_t texture_depth() const override { return texture_.depth; }
+    const std::vector<float>& texels() const override { return texture_.texels; }
+    const ReprGrid& grid() const override { return grid_; }
+    nlohmann::json provenance() const override;
+    compare::ComparatorCost cost() const override;
+    void write(const std::string& path, bool half) const override;
+    const nlohmann::json& metadata() const { return metadata_; }
+    std::uint32_t azimuth_nodes() const { return azimuth_nodes_; }
+    // EXR channel names of the meaningful channels (the texture repeats the last one up to RGBA).
+    virtual std::vector<std::string> channel_names() const = 0;
+
+protected:
+    // True where the term is 0 by rule: NdotL <= 0 or in the zero region of the grid's AO weighting.
+    bool zero_region(double visibility, double n_dot_l) const;
+    // Clamped texel coordinates of (visibility, NdotL, NdotV) within one block of the texture.
+    double visibility_texel(double visibility) const;
+    double n_dot_l_texel(double visibility, double n_dot_l) const;
+    double n_dot_v_texel(double n_dot_v) const;
+    // Shader text shared by both kinds: header comment lines, the zero region, the three coordinates
+    // (statements that set tv, tl, tz), written in GLSL with VEC3/VEC4/MIX/FETCH placeholders.
+    std::string shader_common(const std::string& source_name) const;
+    std::string shader_coordinates() const;
+    // Replaces the placeholders for the language and adds the entry point's signature.
+    std::string finish_shader(const std::string& body, ShaderLanguage language) const;
+
+    ReprGrid grid_;
+    std::uint32_t azimuth_nodes_;
+    Texture3D texture_;
+    nlohmann::json metadata_;
+};
+
+// The grid as the file's metadata records it, and back (std::runtime_error naming the field).
+nlohmann::json grid_to_json(const ReprGrid& grid);
+ReprGrid grid_from_json(const nlohmann::json& j);
+
+// A float literal both languages read as the same binary32 value.
+std::string shader_literal(double v);
+// ALU estimate of a generated shader: arithmetic operators, comparisons and intrinsic calls outside
+// comments, each counted once whatever its vector width; texture fetches are not counted.
+unsigned count_alu(const std::string& shader_source);
+
+std::unique_ptr<Representation> make_azimuth_axis(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
+                                                  nlohmann::json metadata);
+std::unique_ptr<Representation> make_azimuth_harmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
+                                                       nlohmann::json metadata);
+
+}  // namespace ms::repr

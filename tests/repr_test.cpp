@@ -1,0 +1,336 @@
+// Issue 15: representations that keep the relative azimuth (host/repr/). The azimuth-keeping bake
+// agrees with part 2's fixed-azimuth LUT bake at the same nodes; each representation's lookup is checked
+// against the reference term (an independent evaluation, another seed) at its own texel centres and
+// between them; files round-trip; `eval --compare FILE` opens them; the roughness placement finds a
+// known kink; the ALU counter counts. Every statistical check is Bonferroni-t at a 0.001 family-wise
+// chance of failing by chance (Student-t, replicates - 1 degrees of freedom).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "cli_runner.hpp"
+#include "core/estimate.hpp"
+#include "device/runtime.hpp"
+#include "jobs/bake.hpp"
+#include "repr/representation.hpp"
+#include "repr/texture_repr.hpp"
+
+namespace {
+
+namespace repr = ms::repr;
+using ms::Query;
+
+ms::TermBackend& backend() {
+    static auto b = ms::make_opencl_backend(ms::ocl::select_devices("default"));
+    return *b;
+}
+
+// Grid 0 linear, 1 sqrt(NdotV) and shadow-edge NdotL, 2 sqrt-top visibility and NdotL.
+constexpr int kGrids = 3;
+const char* const kGridNames[kGrids] = {"linear", "sqrt-NdotV shadow-edge", "sqrt-top"};
+repr::ReprGrid small_grid(int variant) {
+    repr::ReprGrid g;
+    g.visibility = 5, g.n_dot_l = 4, g.n_dot_v = 3, g.roughness = {0.35, 0.75};
+    if (variant == 1) g.warps = {repr::NdotVWarp::sqrt, repr::NdotLWarp::shadow_edge, repr::VisibilityWarp::linear};
+    if (variant == 2) g.warps = {repr::NdotVWarp::linear, repr::NdotLWarp::sqrt_top, repr::VisibilityWarp::sqrt_top};
+    return g;
+}
+
+// One small bake per grid, shared by the tests (4096 samples a query, 7 azimuth nodes: 30 degrees apart).
+const repr::AzimuthBake& small_bake(int variant) {
+    static std::unique_ptr<repr::AzimuthBake> bakes[kGrids];
+    auto& b = bakes[variant];
+    if (!b) {
+        repr::AzimuthBakeSpec spec;
+        spec.grid = small_grid(variant);
+        spec.azimuth_nodes = 7;
+        spec.plan.samples = 4096;
+        spec.plan.seed = 5;
+        b = std::make_unique<repr::AzimuthBake>(repr::bake_azimuth(spec, backend()));
+    }
+    return *b;
+}
+
+Query query_of(double v, double nl, double nv, double roughness, double phi) {
+    Query q;
+    q.visibility = v;
+    q.alpha_x = q.alpha_y = roughness * roughness;
+    q.wi = {std::sqrt(1 - nv * nv), 0, nv};
+    const double sl = std::sqrt(std::max(0.0, 1 - nl * nl));
+    q.wo = {sl * std::cos(phi), sl * std::sin(phi), nl};
+    return q;
+}
+
+ms::compare::ComparatorInputs inputs_of(double v, double nl, double nv, double roughness, double phi) {
+    ms::compare::ComparatorInputs in;
+    in.visibility = v, in.n_dot_l = nl, in.n_dot_v = nv, in.roughness = roughness, in.relative_azimuth = phi;
+    return in;
+}
+
+std::vector<ms::Estimate> reference(const std::vector<Query>& queries, std::uint64_t seed) {
+    ms::SamplingPlan plan;
+    plan.samples = 4096;
+    plan.seed = seed;  // independent of the bake's points
+    return ms::evaluate(backend(), queries, ms::TermOptions{}, plan);
+}
+
+double t_quantile(std::size_t checks) { return ms::student_t_quantile(1 - 0.001 / double(checks), 7); }
+
+TEST(ReprBakeTest, AgreesWithTheFixedAzimuthLutBakeAtTheSameNodes) {
+    const auto& b = small_bake(0);
+    const auto& g = b.grid;
+    std::size_t checks = 0, sampled = 0;
+    std::vector<std::tuple<double, double, double>> diffs;  // |d|, se_a, se_b
+    for (std::uint32_t k : {0u, 3u, 6u}) {
+        ms::BakeSpec spec = ms::default_bake_spec(ms::LutLayout::custom, 4);
+        spec.visibility.count = g.visibility, spec.n_dot_l.count = g.n_dot_l, spec.n_dot_v.count = g.n_dot_v;
+        spec.roughness = g.roughness;
+        spec.azimuth_mean = false;
+        spec.azimuth_degrees = 30.0 * k;
+        spec.samples = 4096;
+        spec.seed = 99;
+        const ms::BakeResult lut = ms::bake_lut(spec);
+        for (std::uint32_t r = 0; r < g.roughness.size(); ++r)
+            for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv)
+                for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
+                    for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
+                        const std::size_t i = b.index(r, k, iv, il, ivv);
+                        const std::size_t j = ((std::size_t(ivv) * g.n_dot_l + il) * g.visibility + iv) * g.roughness.size() + r;
+                        const double sa = b.std_error[i], sb = lut.std_error[j];
+                        if (sa == 0 && sb == 0) {
+                            EXPECT_EQ(b.value[i], lut.value[j]);  // the same exact texels (zero region)
+                            continue;
+                        }
+                        ++sampled;
+                        diffs.emplace_back(std::abs(b.value[i] - lut.value[j]), sa, sb);
+                    }
+    }
+    checks = diffs.size();
+    const double tq = t_quantile(checks);
+    for (const auto& [d, sa, sb] : diffs) EXPECT_LE(d, tq * std::hypot(sa, sb) + 1e-6);
+    EXPECT_GT(sampled, 100u);
+}
+
+// The lookup at a texel centre and azimuth node reads exactly that texel, and agrees with the reference.
+void check_texel_centres(const repr::Representation& rep, const repr::AzimuthBake& b, bool exact_texels, double bound) {
+    const auto& g = b.grid;
+    std::vector<Query> queries;
+    std::vector<double> looked_up, bake_value, bake_se;
+    for (std::uint32_t r = 0; r < g.roughness.size(); ++r)
+        for (std::uint32_t k = 0; k < b.azimuth_nodes; k += 2)
+            for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv)
+                for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
+                    for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
+                        const double v = g.visibility_at(iv), nl = g.n_dot_l_at(iv, il), nv = g.n_dot_v_at(ivv);
+                        const double phi = b.azimuth_at(k), rough = g.roughness[r];
+                        queries.push_back(query_of(v, nl, nv, rough, phi));
+                        looked_up.push_back(rep(inputs_of(v, nl, nv, rough, phi)));
+                        bake_value.push_back(b.value[b.index(r, k, iv, il, ivv)]);
+                        bake_se.push_back(b.std_error[b.index(r, k, iv, il, ivv)]);
+                    }
+    const auto ref = reference(queries, 1234);
+    const double tq = t_quantile(queries.size());
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        if (exact_texels) EXPECT_NEAR(looked_up[i], bake_value[i], 1e-6) << i;
+        // A series' noise at a node is at most the sum of |weights| x the nodes' errors: <= 2 x max se
+        // for the 4-term projection of 7 nodes (sum over k of |c_k(phi)| measured 1.9); the axis: 1 x se.
+        const double se = (exact_texels ? 1.0 : 2.0) * bake_se[i];
+        EXPECT_LE(std::abs(looked_up[i] - ref[i].term), tq * std::hypot(se, ref[i].std_error) + bound + 1e-6) << i;
+    }
+}
+
+TEST(ReprLookupTest, AzimuthAxisAtTexelCentresReadsItsTexelAndMatchesTheReference) {
+    for (int variant = 0; variant < kGrids; ++variant) {
+        SCOPED_TRACE(kGridNames[variant]);
+        const auto& b = small_bake(variant);
+        check_texel_centres(*repr::build_azimuth_axis(b), b, true, 0);
+    }
+}
+
+TEST(ReprLookupTest, HarmonicsAtTexelCentresMatchTheReferenceWithinTheTruncation) {
+    for (int variant = 0; variant < kGrids; ++variant) {
+        SCOPED_TRACE(kGridNames[variant]);
+        const auto& b = small_bake(variant);
+        const auto rep = repr::build_azimuth_harmonics(b);
+        const auto* tex = dynamic_cast<const repr::TextureRepresentation*>(rep.get());
+        ASSERT_NE(tex, nullptr);
+        const double truncation = tex->metadata().at("node_residual_max").get<double>();
+        EXPECT_LT(truncation, 0.1);  // a 4-term series holds most of the azimuth dependence
+        check_texel_centres(*rep, b, false, truncation);
+    }
+}
+
+// Between texel centres: random points in the interior cells at the roughness nodes. The bound is the
+// bake's error plus the interpolation bound of the cell, measured from the bake: per interpolated axis
+// max |second difference| / 8 over the cell's corners (|f - linear interpolant| <= h^2 max|f''| / 8,
+// and a second difference is h^2 f''), summed over the axes; harmonics add their node residual.
+void check_between_centres(const repr::Representation& rep, const repr::AzimuthBake& b, bool azimuth_interpolated,
+                           double extra) {
+    const auto& g = b.grid;
+    auto at = [&](std::uint32_t r, int k, int iv, int il, int ivv) {
+        auto cl = [](int i, std::uint32_t n) { return std::uint32_t(std::clamp(i, 0, int(n) - 1)); };
+        return double(b.value[b.index(r, cl(k, b.azimuth_nodes), cl(iv, g.visibility), cl(il, g.n_dot_l), cl(ivv, g.n_dot_v))]);
+    };
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<Query> queries;
+    std::vector<double> looked_up, bound, se;
+    double max_se = 0;
+    for (float s : b.std_error) max_se = std::max(max_se, double(s));
+    for (int n = 0; n < 48; ++n) {
+        const std::uint32_t r = n % g.roughness.size();
+        // Continuous texel coordinates inside [0, n - 1] (no clamping region) per axis.
+        const double tv = u(rng) * (g.visibility - 1), tl = u(rng) * (g.n_dot_l - 1), tz = u(rng) * (g.n_dot_v - 1);
+        const double tk = u(rng) * (b.azimuth_nodes - 1);
+        // The parameters at those coordinates: the inverse warps, written out here (grid.cpp's own
+        // inverses are what is under test).
+        const double uv = (tv + 0.5) / g.visibility, ul = (tl + 0.5) / g.n_dot_l, uz = (tz + 0.5) / g.n_dot_v;
+        auto top_inverse = [](double x) { return 1 - (1 - x) * (1 - x); };
+        const double v = g.warps.visibility == repr::VisibilityWarp::sqrt_top ? top_inverse(uv) : uv;
+        const double nv = g.warps.n_dot_v == repr::NdotVWarp::sqrt ? uz * uz : uz;
+        double nl = ul;
+        if (g.warps.n_dot_l == repr::NdotLWarp::shadow_edge) {
+            const double l0 = std::max(0.0, 1 - 2 * v);
+            nl = l0 + ul * (1 - l0);
+        } else if (g.warps.n_dot_l == repr::NdotLWarp::sqrt_top) {
+            nl = top_inverse(ul);
+        }
+        const double phi = tk * M_PI / (b.azimuth_nodes - 1);
+        const int c[4] = {int(tk), int(tv), int(tl), int(tz)};
+        double sum = 0;
+        for (int axis = azimuth_interpolated ? 0 : 1; axis < 4; ++axis) {
+            double worst = 0;
+            for (int corner = 0; corner < 16; ++corner) {
+                int i[4];
+                for (int a = 0; a < 4; ++a) i[a] = c[a] + ((corner >> a) & 1);
+                int lo[4] = {i[0], i[1], i[2], i[3]}, hi[4] = {i[0], i[1], i[2], i[3]};
+                lo[axis] -= 1, hi[axis] += 1;
+                const double d2 = at(r, lo[0], lo[1], lo[2], lo[3]) - 2 * at(r, i[0], i[1], i[2], i[3]) + at(r, hi[0], hi[1], hi[2], hi[3]);
+                worst = std::max(worst, std::abs(d2));
+            }
+            sum += worst / 8;
+        }
+        queries.push_back(query_of(v, nl, nv, g.roughness[r], phi));
+        looked_up.push_back(rep(inputs_of(v, nl, nv, g.roughness[r], phi)));
+        bound.push_back(sum + extra);
+    }
+    const auto ref = reference(queries, 4321);
+    const double tq = t_quantile(queries.size());
+    double worst_ratio = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        const double limit = tq * std::hypot(2 * max_se, ref[i].std_error) + bound[i] + 1e-6;
+        EXPECT_LE(std::abs(looked_up[i] - ref[i].term), limit) << i;
+        worst_ratio = std::max(worst_ratio, std::abs(looked_up[i] - ref[i].term) / limit);
+    }
+    ::testing::Test::RecordProperty("worst_error_over_bound", std::to_string(worst_ratio));
+}
+
+TEST(ReprLookupTest, BetweenTexelCentresWithinTheBakeErrorPlusTheMeasuredInterpolationBound) {
+    for (int variant = 0; variant < kGrids; ++variant) {
+        SCOPED_TRACE(kGridNames[variant]);
+        const auto& b = small_bake(variant);
+        check_between_centres(*repr::build_azimuth_axis(b), b, true, 0);
+        const auto h = repr::build_azimuth_harmonics(b);
+        const double truncation =
+            dynamic_cast<const repr::TextureRepresentation&>(*h).metadata().at("node_residual_max").get<double>();
+        check_between_centres(*h, b, false, truncation);
+    }
+}
+
+class ReprFileTest : public ms::testing::ScratchDirTest {
+protected:
+    ReprFileTest() : ScratchDirTest("repr_file") {}
+};
+
+TEST_F(ReprFileTest, FilesRoundTripAndOpenAsComparators) {
+    const auto& b = small_bake(1);
+    repr::install_comparators();
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (const std::string kind : repr::representation_kinds()) {
+        SCOPED_TRACE(kind);
+        const auto rep = repr::build_representation(kind, b);
+        rep->write(path(kind + ".exr"), false);
+        rep->write(path(kind + "_half.exr"), true);
+        EXPECT_TRUE(repr::is_representation_file(path(kind + ".exr")));
+        const auto full = repr::open_representation(path(kind + ".exr"));
+        const auto half = repr::open_representation(path(kind + "_half.exr"));
+        const auto cmp = ms::compare::Comparator::parse("x=" + path(kind + ".exr"));
+        ASSERT_TRUE(cmp.is_representation());
+        EXPECT_EQ(cmp.cost()->bytes, std::uint64_t(rep->texels().size()) * 2);  // RGBA16F: 2 bytes a channel
+        EXPECT_EQ(cmp.cost()->fetches_per_light, 2u);
+        EXPECT_EQ(cmp.provenance().at("representation"), kind);
+        EXPECT_EQ(full->kind(), kind);
+        for (int i = 0; i < 200; ++i) {
+            const auto in = inputs_of(u(rng), u(rng), 0.05 + 0.95 * u(rng), 0.3 + 0.6 * u(rng), M_PI * u(rng));
+            EXPECT_EQ((*full)(in), (*rep)(in));
+            EXPECT_EQ(cmp(in), (*rep)(in));
+            // HALF rounds each texel by at most 2^-11 relative; the blends are convex (axis) or a
+            // 4-term series with |basis| <= 1 and coefficients below 1 (harmonics): 4 x 2^-11.
+            EXPECT_NEAR((*half)(in), (*rep)(in), 4.0 / 2048);
+        }
+    }
+    // A LUT is not a representation; a corrupt file is refused with its name.
+    std::ofstream(path("bad.exr")) << "not an exr";
+    EXPECT_FALSE(repr::is_representation_file(path("bad.exr")));
+    EXPECT_THROW(repr::open_representation(path("bad.exr")), std::runtime_error);
+}
+
+TEST(ReprRoughnessTest, PlacementFindsAKink) {
+    // Values |r - 0.55| + texel noise-free offsets: piecewise linear in roughness with its kink at the
+    // 6th of 11 nodes 0.1, 0.19, ..., 1.0, so 3 nodes {first, kink, last} interpolate it exactly.
+    repr::AzimuthBake b;
+    b.grid.visibility = 2, b.grid.n_dot_l = 2, b.grid.n_dot_v = 2;
+    b.grid.roughness.clear();
+    for (int i = 0; i < 11; ++i) b.grid.roughness.push_back(0.1 + 0.09 * i);
+    b.azimuth_nodes = 2;
+    const std::size_t block = 2 * 2 * 2 * 2;
+    for (int r = 0; r < 11; ++r)
+        for (std::size_t i = 0; i < block; ++i) b.value.push_back(float(std::abs(b.grid.roughness[r] - 0.55) * (1 + 0.1 * i)));
+    b.std_error.assign(b.value.size(), 0.0f);
+    double worst = 1;
+    EXPECT_EQ(repr::choose_roughness_nodes(b, 3, &worst), (std::vector<std::uint32_t>{0, 5, 10}));
+    EXPECT_LT(worst, 1e-6);
+    EXPECT_EQ(b.with_roughness({0, 5, 10}).grid.roughness.size(), 3u);
+}
+
+TEST(ReprCostTest, AluCounterCountsOperatorsAndIntrinsics) {
+    EXPECT_EQ(repr::count_alu("float x = a + b * c;"), 2u);
+    EXPECT_EQ(repr::count_alu("float x = clamp(y * 2.0 - 0.5, 0.0, 1.0);  // 3 + 4"), 3u);
+    EXPECT_EQ(repr::count_alu("x = -1.0e-5 + f(-y);"), 1u);  // signs and exponents are not operators
+    EXPECT_EQ(repr::count_alu("if (a <= b || c > d) return;"), 3u);
+}
+
+class ReprCliTest : public ms::testing::ScratchDirTest {
+protected:
+    ReprCliTest() : ScratchDirTest("repr_cli") {}
+};
+
+TEST_F(ReprCliTest, BakeWritesFileAndShadersAndEvalComparesIt) {
+    using ms::testing::run_shell;
+    const std::string cli = MICROSHADOW_CLI;
+    auto r = run_shell(cli + " repr bake -q --kind azimuth-harmonics --visibility-count 3 --n-dot-l-count 3 --n-dot-v-count 2 "
+                             "--azimuth-nodes 7 --roughness 0.3,0.5,0.9 --roughness-count 2 --n-dot-l-warp shadow-edge --samples 1024 --out " +
+                       path("h.exr") + " --shader-glsl " + path("h.glsl") + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_TRUE(std::filesystem::exists(path("h.glsl")));
+    EXPECT_EQ(repr::open_representation(path("h.exr"))->grid().roughness.size(), 2u);
+    std::ofstream(path("q.csv")) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.8,0.25,0.25,0.6,0,0.8,-0.6,0,0.8\n";
+    r = run_shell(cli + " eval -q --samples 1024 --in " + path("q.csv") + " --out " + path("r.csv") + " --compare " + path("h.exr") + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    std::ifstream in(path("r.csv"));
+    std::string header;
+    std::getline(in, header);
+    EXPECT_NE(header.find(",h,h_error"), std::string::npos) << header;
+    // Bad input: exit 2 and no file.
+    r = run_shell(cli + " repr bake -q --kind azimuth-axis --roughness 0.1,0.2,0.3,0.4,0.5 --out " + path("a.exr") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(path("a.exr")));
+    r = run_shell(cli + " repr info " + path("q.csv") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("q.csv"), std::string::npos);
+}
+
+}  // namespace

@@ -157,7 +157,7 @@ struct PrefilterArgs {
     std::vector<std::string> faces;
     std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
     std::uint64_t samples = 256, seed = 0;
-    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0;
+    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0.2;
     std::size_t bright_max = 1024;
     bool no_fis = false, quiet = false;
     unsigned threads = 0;
@@ -178,6 +178,7 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.options.lod_bias = a.lod_bias;
     spec.bright_threshold = a.bright_threshold;
     spec.bright_max_texels = a.bright_max;
+    spec.bright_min_roughness = a.bright_min_roughness;
     spec.threads = a.threads;
     spec.device = a.device;
     spec.source = environment_name(a.env, a.faces);
@@ -205,7 +206,9 @@ void run_prefilter(const PrefilterArgs& a) {
         check = verify_prefilter(source, result, spec, a.verify);
         meta["verify"] = {{"texels", check.checked}, {"rms_relative", check.rms_relative}, {"max_relative", check.max_relative},
                           {"worst_z", check.worst_z}, {"worst", check.worst_texel},
-                          {"rms_relative_std_error", check.rms_relative_std_error}};
+                          {"rms_relative_std_error", check.rms_relative_std_error},
+                          {"rms_relative_by_mip", check.rms_relative_by_mip},
+                          {"rms_std_error_by_mip", check.rms_std_error_by_mip}};
     }
     const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
     nlohmann::json irr_meta = irradiance_metadata(irr, spec.source, command_line());
@@ -370,6 +373,9 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--bright-threshold", p->bright_threshold,
                    "sum texels brighter than this many times the mean radiance explicitly (the sun), sample the rest; 0: off")
         ->check(CLI::Range(0.0, 1e12));
+    pf->add_option("--bright-min-roughness", p->bright_min_roughness, "... on the mips of at least this roughness")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
     pf->add_option("--bright-max", p->bright_max, "at most this many explicit bright texels (the brightest)")
         ->transform(decimal_range(1, 1u << 20))
         ->capture_default_str();

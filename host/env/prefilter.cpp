@@ -158,15 +158,25 @@ PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n,
         const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
         double w = 0;
         if (nl > near_cos) {
-            const int m = 8;
+            // Near a narrow lobe the source is read bilinearly (as the sampled part and the oracle read it): the
+            // texel's share is its bilinear tent, (1 - |dx|)(1 - |dy|) over +-1 texel around its centre, integrated
+            // on 16 x 16 points of the face plane (extended past the edge: a texel on an edge is read from its own face).
+            const int m = 16;
+            const double step = 2.0 / size / (m / 2);  // face-plane width of one point
             for (int j = 0; j < m; ++j)
                 for (int i = 0; i < m; ++i) {
-                    const Dir d = cube_direction(t.face, 2 * (t.x + (i + 0.5) / m) / size - 1, 2 * (t.y + (j + 0.5) / m) / size - 1);
+                    const double dx = (i + 0.5) / (m / 2) - 1, dy = (j + 0.5) / (m / 2) - 1;  // texel units from the centre
+                    const double ps = 2 * (t.x + 0.5 + dx) / size - 1, pt = 2 * (t.y + 0.5 + dy) / size - 1;
+                    const Dir d = cube_direction(t.face, ps, pt);
                     const double c = n.x * d.x + n.y * d.y + n.z * d.z;
                     if (c <= 0) continue;
+                    const double q = 1 + ps * ps + pt * pt;
                     const double hx = n.x + d.x, hy = n.y + d.y, hz = n.z + d.z;
-                    w += c * ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha) / (m * m);
+                    w += (1 - std::abs(dx)) * (1 - std::abs(dy)) * step * step / (q * std::sqrt(q)) * c *
+                         ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
                 }
+            for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
+            continue;
         } else if (nl > 0) {
             const double hx = n.x + l.x, hy = n.y + l.y, hz = n.z + l.z;
             w = nl * ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);

@@ -48,7 +48,8 @@ PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir&
 //     P(n) = N_rest(n) / Z + sum_{i bright} L_i integral_{T_i} (n.l) D(h) dl / Z,   Z = integral (n.l) D(h) dl,
 // the first term by the usual estimator on L_rest's own mip chain (the ratio sum L (n.l) / sum (n.l) estimates
 // N_rest / Z, with its replicate error bars), the second deterministically: each bright texel's integral at
-// its centre, or as the mean of 8 x 8 sub-texel directions while the lobe is narrow against a texel; and Z
+// its centre, or, while the lobe is narrow against a texel and near it, over its bilinear tent (the source as
+// bilinear reads see it, as the oracle does there) on 16 x 16 points; and Z
 // in closed form (ggx_prefilter_normalisation). Neither filtering's blur nor the sampling noise then sees the
 // sun: its share is exact up to the sub-texel rule.
 struct BrightTexel {

@@ -143,7 +143,8 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
                 const std::uint32_t n = out.size;
                 for (std::uint32_t x = 0; x < n; ++x) {
                     const env::Dir d = env::cube_direction(row.face, 2 * (x + 0.5) / n - 1, 2 * (row.y + 0.5) / n - 1);
-                    const env::PrefilterValue v = use_split ? env::prefilter_direction_split(split, d, r.roughness[row.mip], points, spec.options)
+                    const env::PrefilterValue v = use_split && r.roughness[row.mip] >= spec.bright_min_roughness
+                                                      ? env::prefilter_direction_split(split, d, r.roughness[row.mip], points, spec.options)
                                                             : env::prefilter_direction(chain, d, r.roughness[row.mip], points, spec.options);
                     float* t = out.texel(row.face, x, row.y);
                     for (int c = 0; c < 3; ++c) {
@@ -199,6 +200,7 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
     std::mt19937_64 rng(seed);
     double ss = 0, ss_se = 0;
     std::size_t count = 0;
+    std::vector<double> ss_mip(result.mips.size(), 0.0), se_mip(result.mips.size(), 0.0), n_mip(result.mips.size(), 0.0);
     for (std::uint32_t i = 0; i < k; ++i) {
         const std::uint32_t m = 1 + std::uint32_t(rng() % (result.mips.size() - 1));
         const std::uint32_t n = result.mips[m].size;
@@ -208,7 +210,8 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
         const auto ref = env::prefilter_oracle(source, d, result.roughness[m]);
         const float* got = result.mips[m].texel(f, x, y);
         // Error bars of this texel: recompute it (the file stores values only).
-        const env::PrefilterValue again = spec.bright_threshold > 0 ? env::prefilter_direction_split(split, d, result.roughness[m], points, spec.options)
+        const env::PrefilterValue again = spec.bright_threshold > 0 && result.roughness[m] >= spec.bright_min_roughness
+                                              ? env::prefilter_direction_split(split, d, result.roughness[m], points, spec.options)
                                                                     : env::prefilter_direction(chain, d, result.roughness[m], points, spec.options);
         const double scale = std::max(1e-30, (std::abs(ref[0]) + std::abs(ref[1]) + std::abs(ref[2])) / 3);
         for (int c = 0; c < 3; ++c) {
@@ -225,11 +228,18 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
             }
             if (again.std_error[c] > 0) v.worst_z = std::max(v.worst_z, diff / again.std_error[c]);
             ss_se += (again.std_error[c] / scale) * (again.std_error[c] / scale);
+            ss_mip[m] += rel * rel;
+            se_mip[m] += (again.std_error[c] / scale) * (again.std_error[c] / scale);
+            n_mip[m] += 1;
         }
         ++v.checked;
     }
     v.rms_relative = std::sqrt(ss / double(count));
     v.rms_relative_std_error = std::sqrt(ss_se / double(count));
+    for (std::size_t m = 0; m < result.mips.size(); ++m) {
+        v.rms_relative_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(ss_mip[m] / n_mip[m]) : 0);
+        v.rms_std_error_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(se_mip[m] / n_mip[m]) : 0);
+    }
     return v;
 }
 
@@ -246,6 +256,7 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["lod_bias"] = spec.options.lod_bias;
     if (spec.bright_threshold > 0)
         m["bright_texels"] = {{"threshold_times_mean_radiance", spec.bright_threshold}, {"max_texels", spec.bright_max_texels},
+                              {"min_roughness", spec.bright_min_roughness},
                               {"count", result.bright_texels}, {"power_fraction", result.bright_power_fraction},
                               {"method", "summed explicitly over their solid angles, removed from the sampled environment"}};
     m["sequence"] = to_string(spec.plan.sequence);

@@ -26,6 +26,9 @@ struct PrefilterSpec {
     // the mean radiance, at most bright_max_texels of them; 0: off. C++ estimator only.
     double bright_threshold = 0;
     std::size_t bright_max_texels = 1024;
+    // ... on mips of at least this roughness: the wide lobes, where the bright texels' variance is (a sharp mip
+    // has many texels, each seeing the sun only nearby, and the explicit sum costs bright texels x its texels).
+    double bright_min_roughness = 0.2;
     unsigned threads = 0;  // 0: every hardware thread
     std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
     std::string source, command_line;  // provenance
@@ -61,6 +64,7 @@ struct PrefilterVerification {
     // RMS of the replicate std errors relative to the same scale: the variance part of rms_relative (what is left,
     // sqrt(rms_relative^2 - rms_relative_std_error^2), is bias: filtering's blur, or a rare bright texel no replicate saw).
     double rms_relative_std_error = 0;
+    std::vector<double> rms_relative_by_mip, rms_std_error_by_mip;  // [mip], 0 where no texel of it was drawn (mip 0 never)
     std::string worst_texel;
 };
 PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, const PrefilterSpec& spec,

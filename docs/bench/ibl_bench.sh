@@ -11,6 +11,10 @@
 #            RMS / max error relative to the brute-force oracle on the same 48 random texels (--verify 48)
 #            -> docs/bench/ibl_prefilter.csv; IBL_BENCH_OPENCL=1 IBL_BENCH_TAG=opencl runs the kernel instead
 #            (kernels/prefilter/prefilter.cl), IBL_BENCH_ENV=... IBL_BENCH_TAG=name another environment
+# bright:    the same chain and texels, in one run: filtered importance sampling with and without the
+#            bright texels summed explicitly (--bright-threshold 64, on mips of roughness >= 0.2), against brute
+#            force, with the replicate std error beside the error (variance vs bias)
+#            -> docs/bench/ibl_prefilter_bright_<tag>.csv (IBL_BENCH_ENV, IBL_BENCH_TAG as above; tag forest by default)
 set -euo pipefail
 BIN=${MICROSHADOW:-build/microshadow}
 OUT=docs/bench
@@ -63,6 +67,19 @@ prefilter)
         run filtered-bias1 256 --lod-bias 1
         for s in 256 1024 4096; do run brute-force $s --no-fis; done
     fi ;;
+bright)
+    env=${IBL_BENCH_ENV:-/usr/share/blender/datafiles/studiolights/world/forest.exr}
+    [ -f "$env" ] || { echo "no $env: run scripts/install-example-data.sh" >&2; exit 2; }
+    csv="$OUT/ibl_prefilter_bright_${IBL_BENCH_TAG:-forest}.csv"
+    echo "method,samples_per_texel,bright_texels,bright_power_fraction,cpu_seconds,seconds,rms_relative_error,rms_relative_std_error,max_relative_error,verified_texels" > "$csv"
+    brun() {  # method samples extra-args...
+        local method=$1 samples=$2; shift 2
+        "$BIN" ibl prefilter "$env" --out "$tmp/p" --size 512 --samples "$samples" --verify 48 --quiet "$@"
+        local j="$tmp/p/ibl.json"
+        echo "$method,$samples,$(json "$j" "m['specular'].get('bright_texels',{}).get('count',0)"),$(json "$j" "m['specular'].get('bright_texels',{}).get('power_fraction',0)"),$(json "$j" "m['specular']['cpu_seconds']"),$(json "$j" "m['specular']['seconds']"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['rms_relative_std_error']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$csv"
+    }
+    for s in 64 256; do brun filtered $s; brun filtered-bright64 $s --bright-threshold 64; done
+    for s in 256 1024 4096; do brun brute-force $s --no-fis; done ;;
 *) echo "unknown part $part" >&2; exit 2 ;;
 esac
 done

@@ -3,7 +3,10 @@
 //   ibl prefilter ENV --out DIR                 GGX-prefiltered cubemap mips (cmgen roughness mapping), SH irradiance, previews
 //   ibl sh ENV --out sh.json [--irradiance F]  order-2 SH of an environment (9 coefficients per channel) and its
 //                                              irradiance cubemap faces through the clamped-cosine convolution
+//   ibl irradiance ENV --out DIR               irradiance cubemap (E / pi) by direct convolution, with error bounds and SH comparison
+//   (ENV, for sh / prefilter / irradiance, may instead be six face files: --faces PX NX PY NY PZ NZ)
 #include <cmath>
+#include <cstdio>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -17,6 +20,7 @@
 #include "io/atomic_file.hpp"
 #include "jobs/ibl_dfg.hpp"
 #include "jobs/ibl_env.hpp"
+#include "jobs/ibl_irradiance.hpp"
 #include "jobs/ibl_prefilter.hpp"
 
 #include <filesystem>
@@ -101,23 +105,39 @@ void run_dfg(const DfgArgs& a) {
     }
 }
 
+// The environment of `ibl sh` / `ibl prefilter`: ENV (one image) or --faces (six files), exactly one of them.
+void check_environment_arguments(const std::string& env, const std::vector<std::string>& faces) {
+    if (env.empty() && faces.empty()) throw std::invalid_argument("give an environment: ENV (one image) or --faces PX NX PY NY PZ NZ");
+    if (!env.empty() && !faces.empty()) throw std::invalid_argument("ENV and --faces both given: use one");
+}
+std::string environment_name(const std::string& env, const std::vector<std::string>& faces) {
+    if (!env.empty()) return env;
+    std::string s = "faces";
+    for (const auto& f : faces) s += " " + f;
+    return s;
+}
+
 struct ShArgs {
     std::string env, out, irradiance, preview;
+    std::vector<std::string> faces;
     std::uint32_t face_size = 32;
     bool quiet = false;
 };
 
 void run_sh(const ShArgs& a) {
+    check_environment_arguments(a.env, a.faces);
     check_writable_destination(a.out);
     if (!a.irradiance.empty()) check_writable_destination(a.irradiance);
     if (!a.preview.empty()) check_writable_destination(a.preview);
-    const env::Image image = env::read_environment_image(a.env);
-    // Equirectangular images are projected texel by texel (exact texel integrals); crosses as cubemaps.
+    // Equirectangular images are projected texel by texel (exact texel integrals); crosses and face files as cubemaps.
     // The cross is needed for the EXR and for the preview alike.
     const std::uint32_t faces = a.irradiance.empty() && a.preview.empty() ? 0 : a.face_size;
-    const IrradianceResult r = image.width == 2 * image.height ? compute_irradiance(image, faces)
-                                                               : compute_irradiance(env::cubemap_from_image(image), faces);
-    nlohmann::json meta = irradiance_metadata(r, a.env, command_line());
+    env::Image image;
+    if (a.faces.empty()) image = env::read_environment_image(a.env);
+    const IrradianceResult r = !a.faces.empty() ? compute_irradiance(env::read_cubemap_faces(a.faces), faces)
+                               : image.width == 2 * image.height ? compute_irradiance(image, faces)
+                                                                 : compute_irradiance(env::cubemap_from_image(image), faces);
+    nlohmann::json meta = irradiance_metadata(r, environment_name(a.env, a.faces), command_line());
     AtomicFile json(a.out);
     json.stream() << meta.dump(2) << "\n";
     if (!a.irradiance.empty()) env::write_exr(a.irradiance, r.irradiance_cross, meta);
@@ -125,22 +145,27 @@ void run_sh(const ShArgs& a) {
                                                      "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)");
     json.commit();
     if (!a.quiet)
-        std::cerr << "ibl sh: " << image.width << " x " << image.height << " environment, 9 coefficients per channel; "
+        std::cerr << "ibl sh: " << (a.faces.empty() ? std::to_string(image.width) + " x " + std::to_string(image.height) + " environment"
+                                                    : "six " + std::to_string(r.face_size) + "^2 faces")
+                  << ", 9 coefficients per channel; "
                   << "irradiance SH vs brute force at 26 normals: max relative difference " << std::setprecision(3)
                   << r.max_relative_sh_error << "\n";
 }
 
 struct PrefilterArgs {
     std::string env, out, mapping = "cmgen", device, format = "exr", encoding = "float16";
+    std::vector<std::string> faces;
     std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
     std::uint64_t samples = 256, seed = 0;
-    double lod_bias = 0.0, exposure = 1.0;
+    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0.2;
+    std::size_t bright_max = 1024;
     bool no_fis = false, quiet = false;
     unsigned threads = 0;
 };
 
 void run_prefilter(const PrefilterArgs& a) {
     namespace fs = std::filesystem;
+    check_environment_arguments(a.env, a.faces);
     if (fs::exists(a.out) && !fs::is_directory(a.out)) throw std::invalid_argument("--out " + a.out + " exists and is not a directory");
     if (a.size && (a.size & (a.size - 1))) throw std::invalid_argument("--size must be a power of two");
     PrefilterSpec spec;
@@ -151,14 +176,18 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.plan.seed = a.seed;
     spec.options.filtered = !a.no_fis;
     spec.options.lod_bias = a.lod_bias;
+    spec.bright_threshold = a.bright_threshold;
+    spec.bright_max_texels = a.bright_max;
+    spec.bright_min_roughness = a.bright_min_roughness;
     spec.threads = a.threads;
     spec.device = a.device;
-    spec.source = a.env;
+    spec.source = environment_name(a.env, a.faces);
     spec.command_line = command_line();
 
-    const env::Image image = env::read_environment_image(a.env);
-    env::Cubemap source = env::cubemap_from_image(image, a.size);
-    if (source.size & (source.size - 1)) throw std::invalid_argument("the cross's face size must be a power of two");
+    env::Cubemap source = a.faces.empty() ? env::cubemap_from_image(env::read_environment_image(a.env), a.size)
+                                          : env::read_cubemap_faces(a.faces);
+    if (source.size & (source.size - 1))
+        throw std::invalid_argument("the face size must be a power of two (it is " + std::to_string(source.size) + ")");
     if (a.size > source.size)
         throw std::invalid_argument("--size " + std::to_string(a.size) + " is larger than the cross's faces (" + std::to_string(source.size) + ")");
     if (a.size && source.size != a.size) source = env::mip_chain(source).at(std::size_t(std::log2(double(source.size) / a.size)));
@@ -176,10 +205,13 @@ void run_prefilter(const PrefilterArgs& a) {
     if (a.verify > 0) {
         check = verify_prefilter(source, result, spec, a.verify);
         meta["verify"] = {{"texels", check.checked}, {"rms_relative", check.rms_relative}, {"max_relative", check.max_relative},
-                          {"worst_z", check.worst_z}, {"worst", check.worst_texel}};
+                          {"worst_z", check.worst_z}, {"worst", check.worst_texel},
+                          {"rms_relative_std_error", check.rms_relative_std_error},
+                          {"rms_relative_by_mip", check.rms_relative_by_mip},
+                          {"rms_std_error_by_mip", check.rms_std_error_by_mip}};
     }
     const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
-    nlohmann::json irr_meta = irradiance_metadata(irr, a.env, command_line());
+    nlohmann::json irr_meta = irradiance_metadata(irr, spec.source, command_line());
     if (a.format == "exr")
         write_prefilter_files(a.out, result, meta);
     else
@@ -216,6 +248,61 @@ void run_prefilter(const PrefilterArgs& a) {
         if (a.verify > 0)
             std::cerr << "verify: " << check.checked << " texels against the brute-force oracle: relative RMS " << check.rms_relative
                       << ", max " << check.max_relative << " (" << check.worst_texel << ")\n";
+    }
+}
+
+struct IrradianceArgs {
+    std::string env, out, format = "exr", encoding = "float16", device = "default", backend = "opencl";
+    std::vector<std::string> faces;
+    std::uint32_t face_size = 32, source_size = 128, verify = 0;
+    double exposure = 1.0;
+    bool quiet = false;
+    unsigned threads = 0;
+};
+
+void run_irradiance(const IrradianceArgs& a) {
+    namespace fs = std::filesystem;
+    check_environment_arguments(a.env, a.faces);
+    if (fs::exists(a.out) && !fs::is_directory(a.out)) throw std::invalid_argument("--out " + a.out + " exists and is not a directory");
+    IrradianceMapSpec spec;
+    spec.face_size = a.face_size;
+    spec.source_size = a.source_size;
+    spec.oracle = a.backend == "oracle";
+    spec.device = a.device;
+    spec.threads = a.threads;
+    spec.source = environment_name(a.env, a.faces);
+    spec.command_line = command_line();
+    // Equirectangular images are resampled to a cubemap of height / 2 (a power of two), crosses and faces kept.
+    const env::Cubemap source = a.faces.empty() ? env::cubemap_from_image(env::read_environment_image(a.env)) : env::read_cubemap_faces(a.faces);
+    fs::create_directories(a.out);
+    Progress progress("ibl irradiance", a.quiet);
+    const IrradianceMapResult r = compute_irradiance_map(source, spec, [&](std::uint64_t d, std::uint64_t t) { progress.update(d, t); });
+    progress.finish();
+    nlohmann::json meta = irradiance_map_metadata(spec, r);
+    IrradianceVerification check;
+    if (a.verify > 0) {
+        check = verify_irradiance_map(source, r, a.verify);
+        meta["verify"] = {{"texels", check.checked}, {"failed", check.failed}, {"worst_ratio", check.worst_ratio},
+                          {"max_abs", check.max_abs}, {"worst", check.worst_texel}};
+        if (check.failed > 0)
+            throw std::runtime_error("verification failed: " + std::to_string(check.failed) + " of " + std::to_string(check.checked) +
+                                     " texels differ from the exact convolution by more than their bound (" + check.worst_texel +
+                                     "); nothing was written");
+    }
+    write_irradiance_map(a.out, r, meta, a.format, a.encoding);
+    char caption[160];
+    std::snprintf(caption, sizeof caption, "irradiance E / pi by direct convolution (%u^2 source), cross: +Y top; -X, +Z, +X, -Z; -Y bottom",
+                  r.convolution_size);
+    env::write_png_preview(a.out + "/irradiance_preview.png", env::cross_image(r.map), a.exposure, caption);
+    if (!a.quiet) {
+        std::cerr << std::setprecision(3) << "ibl irradiance: " << r.map.size << "^2 faces from " << r.source_size << "^2 (convolved at "
+                  << r.convolution_size << "^2), " << r.seconds << " s on " << r.backend << "; max relative error bound "
+                  << r.max_relative_bound << "\n";
+        std::cerr << "order-2 SH vs direct: max |diff| " << r.sh_max_abs << " (" << r.sh_max_relative << " of the largest value, RMS "
+                  << r.sh_rms_relative << "); SH truncation bound 3/32 int L / pi = " << r.sh_truncation_bound << "\n";
+        if (a.verify > 0)
+            std::cerr << "verify: " << check.checked << " texels against the exact convolution: max |diff| " << check.max_abs
+                      << ", worst |diff| / bound " << check.worst_ratio << "\n";
     }
 }
 
@@ -259,7 +346,8 @@ void add_ibl_command(CLI::App& app) {
 
     auto s = std::make_shared<ShArgs>();
     auto* sh = ibl->add_subcommand("sh", "order-2 spherical harmonics (9 per channel) and irradiance of an environment");
-    sh->add_option("ENV", s->env, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr")->required();
+    sh->add_option("ENV", s->env, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr");
+    sh->add_option("--faces", s->faces, "instead of ENV: six square face files +X -X +Y -Y +Z -Z (docs/ibl.md: orientation)")->expected(6);
     sh->add_option("--out", s->out, "output JSON: coefficients, convolved irradiance coefficients, provenance")->required();
     sh->add_option("--irradiance", s->irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
     sh->add_option("--face-size", s->face_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
@@ -269,7 +357,8 @@ void add_ibl_command(CLI::App& app) {
 
     auto p = std::make_shared<PrefilterArgs>();
     auto* pf = ibl->add_subcommand("prefilter", "GGX-prefiltered specular cubemap mip chain (+ SH irradiance) of an environment, into a directory");
-    pf->add_option("ENV", p->env, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr")->required();
+    pf->add_option("ENV", p->env, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr");
+    pf->add_option("--faces", p->faces, "instead of ENV: six square face files +X -X +Y -Y +Z -Z, .exr or .hdr (docs/ibl.md: orientation)")->expected(6);
     pf->add_option("--out", p->out, "output directory (created)")->required();
     pf->add_option("--size", p->size, "base face size (power of two; default: from the source)")->transform(decimal_range(1, 4096));
     pf->add_option("--levels", p->levels, "mips (default: down to 4 x 4)")->transform(decimal_range(1, 13));
@@ -281,6 +370,15 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--seed", p->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
     pf->add_flag("--no-fis", p->no_fis, "read every sample from the full-resolution source (brute-force importance sampling)");
     pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias")->capture_default_str();
+    pf->add_option("--bright-threshold", p->bright_threshold,
+                   "sum texels brighter than this many times the mean radiance explicitly (the sun), sample the rest; 0: off")
+        ->check(CLI::Range(0.0, 1e12));
+    pf->add_option("--bright-min-roughness", p->bright_min_roughness, "... on the mips of at least this roughness")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    pf->add_option("--bright-max", p->bright_max, "at most this many explicit bright texels (the brightest)")
+        ->transform(decimal_range(1, 1u << 20))
+        ->capture_default_str();
     pf->add_option("--device", p->device, "run the kernel on OpenCL devices (default, all, N, name); without it, C++ on CPU threads");
     pf->add_option("--threads", p->threads, "CPU threads (0: all)")->transform(decimal_range(0, 1024));
     pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
@@ -297,6 +395,30 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
     pf->add_flag("--quiet", p->quiet, "no progress or summary");
     pf->callback([p] { run_prefilter(*p); });
+
+    auto q = std::make_shared<IrradianceArgs>();
+    auto* ir = ibl->add_subcommand("irradiance", "irradiance cubemap (E / pi) by direct clamped-cosine convolution, with error bounds and SH comparison");
+    ir->add_option("ENV", q->env, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr");
+    ir->add_option("--faces", q->faces, "instead of ENV: six square face files +X -X +Y -Y +Z -Z, .exr or .hdr")->expected(6);
+    ir->add_option("--out", q->out, "output directory (created): irradiance.<format>, irradiance.json, irradiance_preview.png")->required();
+    ir->add_option("--face-size", q->face_size, "output face size")->transform(decimal_range(1, 1024))->capture_default_str();
+    ir->add_option("--source-size", q->source_size, "convolve the source reduced to this face size (at least; solid-angle means, bounded error)")
+        ->transform(decimal_range(1, 8192))
+        ->capture_default_str();
+    ir->add_option("--format", q->format, "exr (horizontal cross), ktx2 or dds (cubemap, RGBA, A = 1)")
+        ->check(CLI::IsMember({"exr", "ktx2", "dds"}))
+        ->capture_default_str();
+    ir->add_option("--encoding", q->encoding, "ktx2 / dds texels: float16 or float32")->check(CLI::IsMember({"float16", "float32"}))->capture_default_str();
+    ir->add_option("--backend", q->backend, "opencl (the kernel) or oracle (exact convolution of the full source, C++ double)")
+        ->check(CLI::IsMember({"opencl", "oracle"}))
+        ->capture_default_str();
+    ir->add_option("--device", q->device, "default, all, an index or part of a name")->capture_default_str();
+    ir->add_option("--threads", q->threads, "oracle threads (0: all)")->transform(decimal_range(0, 1024));
+    ir->add_option("--verify", q->verify, "compare K random texels with the exact convolution; fail if one exceeds its bound")
+        ->transform(decimal_range(0, 100000));
+    ir->add_option("--exposure", q->exposure, "preview: exposure before the tone map")->capture_default_str();
+    ir->add_flag("--quiet", q->quiet, "no progress or summary");
+    ir->callback([q] { run_irradiance(*q); });
 }
 
 }  // namespace ms::cli

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <stdexcept>
 
 namespace ms::env {
@@ -104,6 +105,45 @@ Cubemap cubemap_from_image(const Image& img, std::uint32_t size) {
     if (img.width * 3 == img.height * 4 || img.width * 4 == img.height * 3) return cubemap_from_cross(img);
     throw std::invalid_argument("environment of " + std::to_string(img.width) + " x " + std::to_string(img.height) +
                                 ": expected a 2:1 equirectangular image or a 4:3 / 3:4 cross");
+}
+
+Cubemap cubemap_from_faces(const std::vector<Image>& faces, const std::vector<std::string>& names) {
+    static const char* const kFace[6] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    if (faces.size() != 6 || names.size() != 6)
+        throw std::invalid_argument("a cubemap needs six face files (+X -X +Y -Y +Z -Z), got " + std::to_string(faces.size()));
+    const std::uint32_t n = faces[0].width;
+    for (int f = 0; f < 6; ++f) {
+        const Image& img = faces[f];
+        const std::string what = "face " + std::string(kFace[f]) + " (" + names[f] + ", " + std::to_string(img.width) + " x " +
+                                 std::to_string(img.height) + ")";
+        if (img.width != img.height) throw std::invalid_argument(what + ": a cubemap face must be square");
+        if (img.width == 0) throw std::invalid_argument(what + ": empty image");
+        if (img.width != n)
+            throw std::invalid_argument(what + ": every face must have the size of +X (" + names[0] + ", " + std::to_string(n) + " x " +
+                                        std::to_string(n) + ")");
+        if (img.channels < 3) throw std::invalid_argument(what + ": need RGB");
+    }
+    Cubemap cube(n);
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < n; ++y)
+            for (std::uint32_t x = 0; x < n; ++x)
+                for (int c = 0; c < 3; ++c) cube.texel(f, x, y)[c] = faces[f].at(x, y, std::uint32_t(c));
+    return cube;
+}
+
+Cubemap read_cubemap_faces(const std::vector<std::string>& paths) {
+    if (paths.size() != 6)
+        throw std::invalid_argument("--faces takes six files in the order +X -X +Y -Y +Z -Z, got " + std::to_string(paths.size()));
+    std::vector<Image> faces;
+    // All six are read before the checks so the message can name the first face that differs.
+    static const char* const kFace[6] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    for (std::size_t f = 0; f < 6; ++f) {
+        // A missing file is bad input (exit 2), not a read failure of an existing file.
+        if (!std::filesystem::is_regular_file(paths[f]))
+            throw std::invalid_argument("face " + std::string(kFace[f]) + ": " + paths[f] + " does not exist or is not a file");
+        faces.push_back(read_environment_image(paths[f]));
+    }
+    return cubemap_from_faces(faces, paths);
 }
 
 std::vector<Cubemap> mip_chain(const Cubemap& base) {

@@ -32,6 +32,14 @@ Cubemap cubemap_from_cross(const Image& cross);
 // An environment image of any supported layout by its aspect ratio: 2:1 equirectangular (resampled to
 // `size`, or to height / 2 rounded to a power of two when size = 0), 4:3 or 3:4 cross (kept as it is).
 Cubemap cubemap_from_image(const Image& image, std::uint32_t size = 0);
+// Six face images, one file each, in the order +X, -X, +Y, -Y, +Z, -Z (OpenGL / KTX2 / DDS; cmgen and
+// glTF-IBL-Sampler name them px nx py ny pz nz), each oriented as env/sphere.hpp says: looking at the face
+// from the cube's centre, +Y up on the side faces, row 0 at the top; +Y's top row borders -Z, -Y's top row
+// borders +Z. These are the faces a horizontal cross holds, cut out unrotated. Validation: exactly six,
+// each square, all the same size; `names` (the file names) go into the error messages.
+Cubemap cubemap_from_faces(const std::vector<Image>& faces, const std::vector<std::string>& names);
+// Reads the six files (OpenEXR or Radiance .hdr, read_environment_image) and calls cubemap_from_faces.
+Cubemap read_cubemap_faces(const std::vector<std::string>& paths);
 
 // Box-filtered chain: level k has size >> k, down to 1 (sizes must be powers of two).
 std::vector<Cubemap> mip_chain(const Cubemap& base);

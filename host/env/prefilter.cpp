@@ -88,6 +88,108 @@ PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir&
     return out;
 }
 
+BrightSplit split_bright_texels(const Cubemap& source, double threshold, std::size_t max_texels) {
+    BrightSplit split;
+    split.size = source.size;
+    split.threshold = threshold;
+    const std::uint32_t n = source.size;
+    double power = 0;
+    std::vector<double> omega(std::size_t(n) * n);
+    for (std::uint32_t y = 0; y < n; ++y)
+        for (std::uint32_t x = 0; x < n; ++x) omega[std::size_t(y) * n + x] = cube_texel_solid_angle(x, y, n);
+    auto lum = [](const float* v) { return (double(v[0]) + v[1] + v[2]) / 3; };
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < n; ++y)
+            for (std::uint32_t x = 0; x < n; ++x) power += lum(source.texel(f, x, y)) * omega[std::size_t(y) * n + x];
+    split.mean_radiance = power / (4 * kPi);
+    std::vector<std::pair<double, BrightTexel>> bright;
+    if (threshold > 0)
+        for (int f = 0; f < 6; ++f)
+            for (std::uint32_t y = 0; y < n; ++y)
+                for (std::uint32_t x = 0; x < n; ++x) {
+                    const float* v = source.texel(f, x, y);
+                    if (lum(v) > threshold * split.mean_radiance) bright.push_back({lum(v), {f, x, y, {v[0], v[1], v[2]}}});
+                }
+    // The brightest first, so a cap keeps the texels that matter most.
+    std::sort(bright.begin(), bright.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+    if (bright.size() > max_texels) bright.resize(max_texels);
+    Cubemap rest = source;
+    double bright_power = 0;
+    for (const auto& b : bright) {
+        split.texels.push_back(b.second);
+        float* t = rest.texel(b.second.face, b.second.x, b.second.y);
+        bright_power += lum(t) * omega[std::size_t(b.second.y) * n + b.second.x];
+        t[0] = t[1] = t[2] = 0;
+    }
+    split.bright_power_fraction = power > 0 ? bright_power / power : 0;
+    split.rest_chain = mip_chain(rest);
+    return split;
+}
+
+double ggx_prefilter_normalisation(double alpha) {
+    const double b = alpha * alpha - 1, us = 1 / (1 + alpha * alpha);
+    if (std::abs(b) > 1e-3) return 4 * (-2 * us / b + 2 * (1 + 1 / b) * std::log1p(b * us) / b - us);
+    // Near alpha = 1 the closed form cancels: the integrand is smooth there, 16-point Gauss-Legendre on [0, u*].
+    static const double x[8] = {0.0950125098376374, 0.2816035507792589, 0.4580167776572274, 0.6178762444026438,
+                                0.7554044083550030, 0.8656312023878318, 0.9445750230732326, 0.9894009349916499};
+    static const double w[8] = {0.1894506104550685, 0.1826034150449236, 0.1691565193950025, 0.1495959888165767,
+                                0.1246289712555339, 0.0951585116824928, 0.0622535239386479, 0.0271524594117541};
+    double sum = 0;
+    for (int i = 0; i < 8; ++i)
+        for (double sign : {-1.0, 1.0}) {
+            const double u = 0.5 * us * (1 + sign * x[i]);
+            sum += w[i] * (2 * (1 - u) / (1 + b * u) - 1);
+        }
+    return 4 * 0.5 * us * sum;
+}
+
+PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n, double roughness, const PointSet& points,
+                                         const PrefilterOptions& options) {
+    PrefilterValue v = prefilter_direction(split.rest_chain, n, roughness, points, options);
+    if (split.texels.empty()) return v;
+    const double alpha = roughness * roughness;
+    const std::uint32_t size = split.size;
+    // As the oracle: while the lobe is narrow against a texel, texels near n are integrated on 8 x 8 sub-directions.
+    const double texel_angle = 2.0 / size;
+    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
+    std::array<double, 3> sum{};
+    for (const BrightTexel& t : split.texels) {
+        const Dir l = cube_direction(t.face, 2 * (t.x + 0.5) / size - 1, 2 * (t.y + 0.5) / size - 1);
+        const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
+        double w = 0;
+        if (nl > near_cos) {
+            // Near a narrow lobe the source is read bilinearly (as the sampled part and the oracle read it): the
+            // texel's share is its bilinear tent, (1 - |dx|)(1 - |dy|) over +-1 texel around its centre, integrated
+            // on 16 x 16 points of the face plane (extended past the edge: a texel on an edge is read from its own face).
+            const int m = 16;
+            const double step = 2.0 / size / (m / 2);  // face-plane width of one point
+            for (int j = 0; j < m; ++j)
+                for (int i = 0; i < m; ++i) {
+                    const double dx = (i + 0.5) / (m / 2) - 1, dy = (j + 0.5) / (m / 2) - 1;  // texel units from the centre
+                    const double ps = 2 * (t.x + 0.5 + dx) / size - 1, pt = 2 * (t.y + 0.5 + dy) / size - 1;
+                    const Dir d = cube_direction(t.face, ps, pt);
+                    const double c = n.x * d.x + n.y * d.y + n.z * d.z;
+                    if (c <= 0) continue;
+                    const double q = 1 + ps * ps + pt * pt;
+                    const double hx = n.x + d.x, hy = n.y + d.y, hz = n.z + d.z;
+                    w += (1 - std::abs(dx)) * (1 - std::abs(dy)) * step * step / (q * std::sqrt(q)) * c *
+                         ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+                }
+            for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
+            continue;
+        } else if (nl > 0) {
+            const double hx = n.x + l.x, hy = n.y + l.y, hz = n.z + l.z;
+            w = nl * ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+        }
+        if (w == 0) continue;
+        w *= cube_texel_solid_angle(t.x, t.y, size);
+        for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
+    }
+    const double z = ggx_prefilter_normalisation(alpha);
+    for (int c = 0; c < 3; ++c) v.value[c] += sum[c] / z;
+    return v;
+}
+
 std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness) {
     const std::uint32_t size = src.size;
     std::array<double, 3> acc{};

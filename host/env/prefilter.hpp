@@ -41,6 +41,35 @@ struct PrefilterValue {
 // One direction, roughness r > 0, on `points` (all replicates). chain: the source's mip chain.
 PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir& n, double roughness, const PointSet& points,
                                    const PrefilterOptions& options);
+// Bright texels summed explicitly (issue 13's sunny environments). The environment is split exactly,
+// L = L_rest + L_bright, where L_bright holds the source texels whose luminance (mean of RGB) exceeds
+// `threshold` times the environment's mean radiance (the brightest `max_texels` at most) and L_rest is the
+// source with those texels set to 0. Then
+//     P(n) = N_rest(n) / Z + sum_{i bright} L_i integral_{T_i} (n.l) D(h) dl / Z,   Z = integral (n.l) D(h) dl,
+// the first term by the usual estimator on L_rest's own mip chain (the ratio sum L (n.l) / sum (n.l) estimates
+// N_rest / Z, with its replicate error bars), the second deterministically: each bright texel's integral at
+// its centre, or, while the lobe is narrow against a texel and near it, over its bilinear tent (the source as
+// bilinear reads see it, as the oracle does there) on 16 x 16 points; and Z
+// in closed form (ggx_prefilter_normalisation). Neither filtering's blur nor the sampling noise then sees the
+// sun: its share is exact up to the sub-texel rule.
+struct BrightTexel {
+    int face = 0;
+    std::uint32_t x = 0, y = 0;
+    std::array<float, 3> value{};
+};
+struct BrightSplit {
+    std::vector<Cubemap> rest_chain;  // mip chain of L_rest
+    std::vector<BrightTexel> texels;
+    std::uint32_t size = 0;           // the source's face size
+    double threshold = 0, mean_radiance = 0, bright_power_fraction = 0;
+};
+BrightSplit split_bright_texels(const Cubemap& source, double threshold, std::size_t max_texels);
+// Z(alpha) = integral (n.l) D(h) dl over n.l > 0 with l = reflect(-n, h): 4 int_0^u* (2 (1 - u) / (1 + b u) - 1) du,
+// b = alpha^2 - 1, u* = 1 / (1 + alpha^2) (the GGX CDF in u = the sampling variable); 1 at alpha = 1.
+double ggx_prefilter_normalisation(double alpha);
+PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n, double roughness, const PointSet& points,
+                                         const PrefilterOptions& options);
+
 // The oracle (brute force over the full-resolution source).
 std::array<double, 3> prefilter_oracle(const Cubemap& source, const Dir& n, double roughness);
 // The GGX NDF, written here in double for the prefilter (alpha = roughness^2).

@@ -105,6 +105,15 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
         for (int f = 0; f < 6; ++f)
             for (std::uint32_t y = 0; y < (size >> m); ++y) rows.push_back({m, f, y});
     }
+    if (spec.bright_threshold > 0 && !spec.device.empty())
+        throw std::invalid_argument("--bright-threshold is implemented in the C++ estimator only (no --device)");
+    env::BrightSplit split;
+    if (spec.bright_threshold > 0) {
+        split = env::split_bright_texels(source, spec.bright_threshold, spec.bright_max_texels);
+        r.bright_texels = split.texels.size();
+        r.bright_power_fraction = split.bright_power_fraction;
+    }
+    const bool use_split = spec.bright_threshold > 0;
     if (!spec.device.empty()) {
         double worst = 0;
         prefilter_on_devices(chain, spec, points, r, cb, worst);
@@ -134,7 +143,9 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
                 const std::uint32_t n = out.size;
                 for (std::uint32_t x = 0; x < n; ++x) {
                     const env::Dir d = env::cube_direction(row.face, 2 * (x + 0.5) / n - 1, 2 * (row.y + 0.5) / n - 1);
-                    const env::PrefilterValue v = env::prefilter_direction(chain, d, r.roughness[row.mip], points, spec.options);
+                    const env::PrefilterValue v = use_split && r.roughness[row.mip] >= spec.bright_min_roughness
+                                                      ? env::prefilter_direction_split(split, d, r.roughness[row.mip], points, spec.options)
+                                                            : env::prefilter_direction(chain, d, r.roughness[row.mip], points, spec.options);
                     float* t = out.texel(row.face, x, row.y);
                     for (int c = 0; c < 3; ++c) {
                         t[c] = float(v.value[c]);
@@ -184,9 +195,12 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
     if (!source_chain) own = env::mip_chain(source);
     const std::vector<env::Cubemap>& chain = source_chain ? *source_chain : own;
     const PointSet points = make_point_set(spec.plan);
+    env::BrightSplit split;
+    if (spec.bright_threshold > 0) split = env::split_bright_texels(source, spec.bright_threshold, spec.bright_max_texels);
     std::mt19937_64 rng(seed);
-    double ss = 0;
+    double ss = 0, ss_se = 0;
     std::size_t count = 0;
+    std::vector<double> ss_mip(result.mips.size(), 0.0), se_mip(result.mips.size(), 0.0), n_mip(result.mips.size(), 0.0);
     for (std::uint32_t i = 0; i < k; ++i) {
         const std::uint32_t m = 1 + std::uint32_t(rng() % (result.mips.size() - 1));
         const std::uint32_t n = result.mips[m].size;
@@ -196,7 +210,9 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
         const auto ref = env::prefilter_oracle(source, d, result.roughness[m]);
         const float* got = result.mips[m].texel(f, x, y);
         // Error bars of this texel: recompute it (the file stores values only).
-        const env::PrefilterValue again = env::prefilter_direction(chain, d, result.roughness[m], points, spec.options);
+        const env::PrefilterValue again = spec.bright_threshold > 0 && result.roughness[m] >= spec.bright_min_roughness
+                                              ? env::prefilter_direction_split(split, d, result.roughness[m], points, spec.options)
+                                                                    : env::prefilter_direction(chain, d, result.roughness[m], points, spec.options);
         const double scale = std::max(1e-30, (std::abs(ref[0]) + std::abs(ref[1]) + std::abs(ref[2])) / 3);
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(double(got[c]) - ref[c]);
@@ -211,10 +227,19 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
                 v.worst_texel = s.str();
             }
             if (again.std_error[c] > 0) v.worst_z = std::max(v.worst_z, diff / again.std_error[c]);
+            ss_se += (again.std_error[c] / scale) * (again.std_error[c] / scale);
+            ss_mip[m] += rel * rel;
+            se_mip[m] += (again.std_error[c] / scale) * (again.std_error[c] / scale);
+            n_mip[m] += 1;
         }
         ++v.checked;
     }
     v.rms_relative = std::sqrt(ss / double(count));
+    v.rms_relative_std_error = std::sqrt(ss_se / double(count));
+    for (std::size_t m = 0; m < result.mips.size(); ++m) {
+        v.rms_relative_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(ss_mip[m] / n_mip[m]) : 0);
+        v.rms_std_error_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(se_mip[m] / n_mip[m]) : 0);
+    }
     return v;
 }
 
@@ -229,6 +254,11 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["base_size"] = result.mips.empty() ? 0 : result.mips[0].size;
     m["estimator"] = spec.options.filtered ? "filtered importance sampling (Krivanek & Colbert 2008)" : "importance sampling of the full-resolution source";
     m["lod_bias"] = spec.options.lod_bias;
+    if (spec.bright_threshold > 0)
+        m["bright_texels"] = {{"threshold_times_mean_radiance", spec.bright_threshold}, {"max_texels", spec.bright_max_texels},
+                              {"min_roughness", spec.bright_min_roughness},
+                              {"count", result.bright_texels}, {"power_fraction", result.bright_power_fraction},
+                              {"method", "summed explicitly over their solid angles, removed from the sampled environment"}};
     m["sequence"] = to_string(spec.plan.sequence);
     m["samples"] = spec.plan.samples;
     m["replicates"] = spec.plan.replicates;

@@ -22,6 +22,13 @@ struct PrefilterSpec {
     env::RoughnessMapping mapping = env::RoughnessMapping::cmgen;
     SamplingPlan plan{Sequence::sobol, 256, 4, 0};  // samples per texel, all replicates
     env::PrefilterOptions options;
+    // Bright texels summed explicitly (env/prefilter.hpp, BrightSplit): luminance above bright_threshold times
+    // the mean radiance, at most bright_max_texels of them; 0: off. C++ estimator only.
+    double bright_threshold = 0;
+    std::size_t bright_max_texels = 1024;
+    // ... on mips of at least this roughness: the wide lobes, where the bright texels' variance is (a sharp mip
+    // has many texels, each seeing the sun only nearby, and the explicit sum costs bright texels x its texels).
+    double bright_min_roughness = 0.2;
     unsigned threads = 0;  // 0: every hardware thread
     std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
     std::string source, command_line;  // provenance
@@ -34,6 +41,8 @@ struct PrefilterResult {
     double seconds = 0;
     double cpu_seconds = 0;  // CPU time of the worker threads, summed
     std::uint64_t texels = 0, samples = 0;
+    std::size_t bright_texels = 0;       // summed explicitly (bright_threshold > 0)
+    double bright_power_fraction = 0;    // their share of the environment's power (mean of RGB)
 };
 
 struct PrefilterCallbacks {
@@ -52,6 +61,10 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
 struct PrefilterVerification {
     std::uint32_t checked = 0;
     double rms_relative = 0, max_relative = 0, worst_z = 0;
+    // RMS of the replicate std errors relative to the same scale: the variance part of rms_relative (what is left,
+    // sqrt(rms_relative^2 - rms_relative_std_error^2), is bias: filtering's blur, or a rare bright texel no replicate saw).
+    double rms_relative_std_error = 0;
+    std::vector<double> rms_relative_by_mip, rms_std_error_by_mip;  // [mip], 0 where no texel of it was drawn (mip 0 never)
     std::string worst_texel;
 };
 PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, const PrefilterSpec& spec,

@@ -11,6 +11,7 @@
 #include <ImfPartType.h>
 
 #include <cstring>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -18,7 +19,10 @@
 
 #include "cli_runner.hpp"
 #include "io/exr_preflight.hpp"
+#include "env/image.hpp"
 #include "lut/exr_lut.hpp"
+#include "repr/representation.hpp"
+#include "scene/image_io.hpp"
 
 namespace {
 
@@ -183,6 +187,35 @@ TEST_F(ExrPreflightTest, MultiPartFilesPassWithEveryPartDescribed) {
     ASSERT_NE(second, std::string::npos);
     put_i32(bytes, second + key.size() + 4, 1 << 30);
     EXPECT_NE(refusal(write("multi-forged.exr", bytes)).find("needs at least"), std::string::npos);
+}
+
+// Every reader of EXR files runs the preflight: scene images, environments and representation files
+// refuse the fuzzer's files with the same named claim, and a 2^28-pixel limit bounds what a well-formed
+// image may make a reader decode.
+TEST_F(ExrPreflightTest, SceneEnvironmentAndRepresentationReadersRefuseTheSameFiles) {
+    const std::string forged = std::string(MICROSHADOW_TEST_DATA) + "/hostile/exr/attribute-claims-1.7GB.exr";
+    const auto message = [](const std::function<void()>& read) -> std::string {
+        try {
+            read();
+        } catch (const std::exception& e) {
+            return e.what();
+        }
+        return "accepted";
+    };
+    for (const std::string& m : {message([&] { ms::scene::list_channels(forged); }),
+                                 message([&] { ms::env::read_exr_rgb(forged); }),
+                                 message([&] { ms::repr::open_representation(forged); })})
+        EXPECT_NE(m.find("claims 1700986880 bytes"), std::string::npos) << m;
+
+    std::string wide = slurp(write_small_lut());  // data window 2^20 x 2^10 texels: 2^30 > 2^28
+    const std::size_t at = size_field(wide, "dataWindow", "box2i") + 4;
+    put_i32(wide, at + 8, (1 << 20) - 1);
+    put_i32(wide, at + 12, (1 << 10) - 1);
+    wide.append(std::size_t(1 << 10) / 16 * 16 + 64, '\0');  // room for the 64 ZIP chunks' offsets and headers
+    const std::string path_wide = write("wide.exr", wide);
+    EXPECT_EQ(refusal(path_wide), "");
+    EXPECT_NE(message([&] { ms::scene::list_channels(path_wide); }).find("more than the limit of 268435456 pixels"), std::string::npos)
+        << message([&] { ms::scene::list_channels(path_wide); });
 }
 
 }  // namespace

@@ -20,6 +20,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/exr_preflight.hpp"
 
 namespace ms::env {
 
@@ -65,6 +66,7 @@ void write_exr(const std::string& path, const Image& image, const nlohmann::json
 
 Image read_exr_rgb(const std::string& path, nlohmann::json* metadata) {
     try {
+        exr::preflight_image(path);  // claims the file cannot hold are refused before OpenEXR allocates them
         Imf::InputFile file(path.c_str());
         const Imf::Header& header = file.header();
         if (metadata) {

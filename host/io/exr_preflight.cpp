@@ -278,4 +278,18 @@ FileSummary preflight(const std::string& path) {
     return summary;
 }
 
+FileSummary preflight_image(const std::string& path, std::uint64_t max_pixels) {
+    FileSummary summary = preflight(path);
+    for (std::size_t i = 0; i < summary.parts.size(); ++i) {
+        const PartSummary& p = summary.parts[i];
+        const std::uint64_t pixels = std::uint64_t(p.width) * std::uint64_t(p.height);
+        const std::uint64_t tile = std::uint64_t(p.tile_width) * std::uint64_t(p.tile_height);
+        if (pixels > max_pixels || tile > max_pixels)
+            throw PreflightError(path + ": part " + std::to_string(i) + " (" + std::to_string(p.width) + " x " + std::to_string(p.height) +
+                                 (tile ? ", tiles " + std::to_string(p.tile_width) + " x " + std::to_string(p.tile_height) : std::string()) +
+                                 ") is more than the limit of " + std::to_string(max_pixels) + " pixels");
+    }
+    return summary;
+}
+
 }  // namespace ms::exr

@@ -52,4 +52,12 @@ struct FileSummary {
 // truncated header, a claim the file cannot hold) or std::runtime_error (cannot open or read the file).
 FileSummary preflight(const std::string& path);
 
+// Images (scenes, environments) are decoded whole: 2^28 pixels a part (16384 x 16384) bounds what a
+// file can make a reader allocate, whatever its compression ratio.
+inline constexpr std::uint64_t kMaxImagePixels = std::uint64_t(1) << 28;
+
+// preflight(path), then every part's data window (and tile) checked against max_pixels. Throws
+// PreflightError naming the part and its size.
+FileSummary preflight_image(const std::string& path, std::uint64_t max_pixels = kMaxImagePixels);
+
 }  // namespace ms::exr

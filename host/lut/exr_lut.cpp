@@ -14,7 +14,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <optional>
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
@@ -188,22 +187,9 @@ std::vector<std::uint8_t> coverage_rows(const nlohmann::json& meta, const std::v
 LutFile read_lut(const std::string& path) {
     LutFile lut;
     try {
-        // OpenEXR sizes its tables from the header's data window when the file is opened, before any
-        // check here can run: crafted headers drove fuzz_lut_file past 2 GB. A bake is at most 4096
-        // texels wide, and no LUT within kMaxValues is taller than 2^20 rows, so larger images are refused
-        // on open. The limits are OpenEXR's process-wide settings: set for this open only, so scene and
-        // environment images keep theirs.
-        struct OpenLimits {
-            OpenLimits() { set(4096, 1 << 20); }
-            ~OpenLimits() { set(0, 0); }  // 0: unlimited, OpenEXR's default
-            static void set(int w, int h) {
-                Imf::Header::setMaxImageSize(w, h);
-                Imf::Header::setMaxTileSize(w, h);
-            }
-        };
-        // OpenEXR 3.1 also allocates what a header's attributes and offset tables claim before it
-        // knows the file holds them (fuzz_lut_file: 1.7 GB asked by a 4 KB file): the preflight proves
-        // every claim fits in the file, and the image (and a tile) is bounded before OpenEXR decodes it.
+        // OpenEXR 3.1 allocates what a header's attributes and offset tables claim before it knows the
+        // file holds them (fuzz_lut_file: 1.7 GB asked by a 4 KB file): the preflight proves every claim
+        // fits in the file, and the image (and a tile) is bounded by kMaxValues before OpenEXR decodes it.
         const exr::FileSummary summary = exr::preflight(path);
         if (summary.parts.size() != 1) throw std::runtime_error("a multi-part file: a LUT is one part");
         const exr::PartSummary& part = summary.parts.front();
@@ -214,9 +200,7 @@ LutFile read_lut(const std::string& path) {
             throw std::runtime_error("a " + std::to_string(part.width) + " x " + std::to_string(part.height) + " image of " +
                                      std::to_string(part.channels) + " channels is more than the limit of " +
                                      std::to_string(kMaxValues) + " values");
-        std::optional<OpenLimits> limits(std::in_place);
         Imf::InputFile file(path.c_str());
-        limits.reset();
         const Imf::Header& header = file.header();
         const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
         if (!attr) throw std::runtime_error("no \"microshadow\" header attribute: not a microshadow LUT");

@@ -11,6 +11,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "io/exr_preflight.hpp"
 #include "repr/texture_repr.hpp"
 
 namespace ms::repr {
@@ -63,15 +64,7 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
 namespace {
 
 // The file's "microshadow" metadata when it is a representation file; nullopt for any other file
-// (a LUT, another EXR, not an EXR). The header is read with OpenEXR's size limits as read_lut sets them.
-struct OpenLimits {
-    OpenLimits() { set(1 << 16, 1 << 20); }
-    ~OpenLimits() { set(0, 0); }
-    static void set(int w, int h) {
-        Imf::Header::setMaxImageSize(w, h);
-        Imf::Header::setMaxTileSize(w, h);
-    }
-};
+// (a LUT, another EXR, not an EXR).
 
 std::optional<nlohmann::json> representation_metadata(const Imf::Header& header) {
     const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
@@ -96,7 +89,7 @@ bool is_exr(const std::string& path) {
 bool is_representation_file(const std::string& path) {
     if (!is_exr(path)) return false;
     try {
-        std::optional<OpenLimits> limits(std::in_place);
+        exr::preflight_image(path);
         Imf::InputFile file(path.c_str());
         return representation_metadata(file.header()).has_value();
     } catch (const std::exception&) {
@@ -107,9 +100,9 @@ bool is_representation_file(const std::string& path) {
 std::unique_ptr<Representation> open_representation(const std::string& path) {
     try {
         if (!is_exr(path)) throw std::runtime_error("not an OpenEXR file");
-        std::optional<OpenLimits> limits(std::in_place);
+        // Claims the file cannot hold are refused before OpenEXR allocates them (io/exr_preflight.hpp).
+        exr::preflight_image(path);
         Imf::InputFile file(path.c_str());
-        limits.reset();
         const auto meta = representation_metadata(file.header());
         if (!meta) throw std::runtime_error("no \"microshadow\" metadata of kind \"representation\"");
         const ReprGrid grid = grid_from_json(meta->at("grid"));

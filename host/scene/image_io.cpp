@@ -1,5 +1,6 @@
 #include "scene/image_io.hpp"
 
+#include "io/exr_preflight.hpp"
 #include "io/png_file.hpp"
 
 #include <ImfChannelList.h>
@@ -139,6 +140,7 @@ std::vector<std::string> exr_names(const std::vector<ExrChannel>& channels, bool
 std::vector<std::string> list_channels(const std::string& path) {
     if (is_png(path)) return read_png(path).names;
     try {
+        exr::preflight_image(path);  // claims the file cannot hold are refused before OpenEXR allocates them
         Imf::MultiPartInputFile file(path.c_str());
         return exr_names(exr_channels(file), file.parts() > 1);
     } catch (const std::exception& e) {
@@ -163,6 +165,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
         return planes;
     }
     try {
+        exr::preflight_image(path);  // claims the file cannot hold are refused before OpenEXR allocates them
         Imf::MultiPartInputFile file(path.c_str());
         const std::vector<ExrChannel> all = exr_channels(file);
         const bool multipart = file.parts() > 1;

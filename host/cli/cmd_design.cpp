@@ -346,6 +346,15 @@ void run_design(const DesignArgs& args) {
             j["weighted_p99"] = metrics[i].weighted_p99;
             j["max_abs"] = metrics[i].max_abs;
             j["points"] = metrics[i].points;
+            // Where the largest errors are (the reference point and the error there).
+            nlohmann::json worst = nlohmann::json::array();
+            for (const auto& [index, error] : design::worst_points(candidates[i], set, 5)) {
+                const auto& p = set.points[index];
+                worst.push_back({{"visibility", p.visibility}, {"n_dot_l", p.n_dot_l}, {"n_dot_v", p.n_dot_v},
+                                 {"roughness", p.roughness}, {"relative_azimuth_deg", p.relative_azimuth * 180 / 3.14159265358979323846},
+                                 {"term", set.values[index].term}, {"error", error}});
+            }
+            j["worst_points"] = worst;
             candidates_json.push_back(j);
         }
         nlohmann::json meta = {{"program", "microshadow " MICROSHADOW_VERSION},

@@ -85,6 +85,19 @@ Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set) {
     return error_metrics(errors, weights);
 }
 
+std::vector<std::pair<std::size_t, double>> worst_points(const Candidate& c, const ReferenceSet& set, std::size_t count) {
+    std::vector<double> errors, weights;
+    errors_of(c, set, errors, weights);
+    std::vector<std::pair<std::size_t, double>> out;
+    for (std::size_t i = 0; i < errors.size(); ++i)
+        if (weights[i] > 0) out.emplace_back(i, errors[i]);
+    const std::size_t k = std::min(count, out.size());
+    std::partial_sort(out.begin(), out.begin() + std::ptrdiff_t(k), out.end(),
+                      [](const auto& a, const auto& b) { return std::fabs(a.second) > std::fabs(b.second); });
+    out.resize(k);
+    return out;
+}
+
 std::vector<Metrics> evaluate_candidate_by_roughness(const Candidate& c, const ReferenceSet& set,
                                                      const std::vector<double>& edges) {
     std::vector<double> errors, weights;

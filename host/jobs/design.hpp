@@ -50,6 +50,9 @@ Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set);
 std::vector<Metrics> evaluate_candidate_by_roughness(const Candidate& c, const ReferenceSet& set,
                                                      const std::vector<double>& edges);
 
+// The `count` points of non-zero weight where |candidate - term| is largest, largest first: (index, error).
+std::vector<std::pair<std::size_t, double>> worst_points(const Candidate& c, const ReferenceSet& set, std::size_t count);
+
 // Weighted metrics of errors e_i with weights w_i >= 0 (exposed for the tests).
 Metrics error_metrics(const std::vector<double>& errors, const std::vector<double>& weights);
 

@@ -175,6 +175,12 @@ design::ReferenceSet reference_set(const std::string& spec, const DesignArgs& ar
                                    std::unique_ptr<TermBackend>& owned, const char* what) {
     design::ReferenceDefinition def = design::parse_reference_spec_file(spec);
     def.backend_label = args.sampling.backend;
+    // The spec's sampling passes the checks every sampling job passes (point-set size and memory).
+    try {
+        check_sampling_size(def.plan);
+    } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(spec + ": [sampling]: " + e.what());
+    }
     design::CacheConfig config;
     config.dir = args.cache;
     config.command_line = command_line();

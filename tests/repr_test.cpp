@@ -14,6 +14,7 @@
 #include "core/estimate.hpp"
 #include "device/runtime.hpp"
 #include "jobs/bake.hpp"
+#include "lut/exr_lut.hpp"
 #include "repr/representation.hpp"
 #include "repr/texture_repr.hpp"
 
@@ -308,6 +309,23 @@ TEST(ReprCostTest, AluCounterCountsOperatorsAndIntrinsics) {
     EXPECT_EQ(repr::count_alu("float x = clamp(y * 2.0 - 0.5, 0.0, 1.0);  // 3 + 4"), 3u);
     EXPECT_EQ(repr::count_alu("x = -1.0e-5 + f(-y);"), 1u);  // signs and exponents are not operators
     EXPECT_EQ(repr::count_alu("if (a <= b || c > d) return;"), 3u);
+}
+
+TEST_F(ReprFileTest, LutComparatorsCostTheirRgba16fTextureAndGeneratedShader) {
+    const auto texel = ms::TexelConvention::centres;
+    std::vector<ms::LutAxis> axes = {{"visibility", 0, 1, 5, texel}, {"n_dot_l", 0, 1, 4, texel}, {"n_dot_v", 0, 1, 3, texel}};
+    std::vector<ms::LutChannel> ch = {{"R", 0.1, 0.01, 0.01}, {"G", 0.4, 0.16, 0.16}};
+    const std::vector<float> data(5 * 4 * 3 * 2, 0.5f);
+    const nlohmann::json meta = {{"layout", "custom"}, {"azimuth", "mean"}, {"ao_weighting", "cosine"}};
+    ms::write_lut(path("lut.exr"), axes, ch, data, meta, false);
+    const auto cmp = ms::compare::Comparator::parse(path("lut.exr"));
+    ASSERT_TRUE(cmp.is_lut());
+    ASSERT_TRUE(cmp.cost().has_value());
+    EXPECT_EQ(cmp.cost()->bytes, 5u * 4 * 3 * 8);  // RGBA16F: the 2 channels padded to 4
+    EXPECT_EQ(cmp.cost()->fetches_per_light, 1u);
+    EXPECT_EQ(cmp.cost()->storage, "3D texture 5x4x3 RGBA16F");
+    EXPECT_GT(cmp.cost()->alu_per_light, 10u);
+    EXPECT_FALSE(ms::compare::Comparator::parse("pz-analytic").cost().has_value());
 }
 
 class ReprCliTest : public ms::testing::ScratchDirTest {

@@ -353,6 +353,13 @@ TEST_F(ReprCliTest, BakeWritesFileAndShadersAndEvalComparesIt) {
     r = run_shell(cli + " repr bake -q --kind azimuth-axis --roughness 0.1,0.2,0.3,0.4,0.5 --out " + path("a.exr") + " 2>&1");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_FALSE(std::filesystem::exists(path("a.exr")));
+    r = run_shell(cli + " repr bake -q --kind azimuth-harmonics --azimuth-nodes 5 --out " + path("a.exr") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("at least 7"), std::string::npos) << r.output;
+    r = run_shell(cli + " repr bake -q --kind azimuth-axis --roughness 0.5,0.3 --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2 --out " +
+                  path("a.exr") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(path("a.exr")));
     r = run_shell(cli + " repr info " + path("q.csv") + " 2>&1");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("q.csv"), std::string::npos);

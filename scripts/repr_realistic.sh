@@ -29,6 +29,14 @@ python3 "$here/repr_realistic_queries.py" "$out/queries.csv" "$count" 15
     --roughness $dense --roughness-count 8 --out "$out/harm-16-chosenr-warped.exr"
 "$ms" repr bake -q $samples --half --kind azimuth-harmonics --azimuth-nodes 9 --visibility-count 32 --roughness 0.3,0.5,0.7,0.9 \
     --out "$out/harm-v32.exr"
+"$ms" repr bake -q $samples --half --kind azimuth-harmonics --azimuth-nodes 9 --visibility-count 32 --n-dot-v-count 8 \
+    --roughness 0.3,0.386,0.471,0.557,0.643,0.729,0.814,0.9 --out "$out/harm-v32-nv8-r8.exr"
+"$ms" repr bake -q $samples --half --kind azimuth-harmonics --azimuth-nodes 9 --visibility-count 32 --n-dot-v-count 8 \
+    --roughness 0.3,0.386,0.471,0.557,0.643,0.729,0.814,0.9 --visibility-warp sqrt-top --out "$out/harm-v32-nv8-r8-vtop.exr"
+"$ms" repr bake -q $samples --half --kind azimuth-harmonics --azimuth-nodes 9 --visibility-count 32 --n-dot-v-count 8 \
+    --roughness 0.3,0.386,0.471,0.557,0.643,0.729,0.814,0.9 --visibility-warp sqrt-top --n-dot-l-warp sqrt-top --out "$out/harm-v32-nv8-r8-vltop.exr"
+"$ms" repr bake -q $samples --half --kind azimuth-axis --azimuth-nodes 8 --visibility-count 32 --n-dot-v-count 8 \
+    --roughness 0.3,0.5,0.7,0.9 --visibility-warp sqrt-top --out "$out/axis-v32-vtop.exr"
 compare=(--compare "lut3d=$out/lut3d.exr")
 for f in "$out"/axis-*.exr "$out"/harm-*.exr; do compare+=(--compare "$f"); done
 "$ms" eval --in "$out/queries.csv" --out "$out/results.csv" --samples 65536 "${compare[@]}" 2>&1 | grep 'term:'

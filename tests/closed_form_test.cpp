@@ -199,9 +199,9 @@ TEST_F(ClosedFormShader, GlslAndHlslOnLavapipeMatchTheCppEvaluation) {
             x.t = double(vdl) - double(nv) * double(nl);
             expected.push_back(f.at(x));
             // Float rounding (unit roundoff 6e-8): c, NdotL - c and t carry an absolute error of a few
-            // roundoffs, u = (NdotL - c) / roughness that over roughness; each monomial then carries
+            // roundoffs, u = (NdotL - c) / roughness^2 that over roughness^2; each monomial then carries
             // (its variables' errors) x (the other variables' sizes), at most sum |c_k| prod (|x| + 1)
-            // times 1/roughness and a few roundoffs; S' <= 1/2. 32 roundoffs of that bound it.
+            // times 1/roughness^2 and a few roundoffs; S' <= 1/2. 32 roundoffs of that bound it.
             const double vars[5] = {x.u, x.t, x.n_dot_v, x.roughness, x.c};
             const auto monomials = ms::fit::closed_form_monomials(order);
             double size = 0;
@@ -210,7 +210,7 @@ TEST_F(ClosedFormShader, GlslAndHlslOnLavapipeMatchTheCppEvaluation) {
                 for (int v : monomials[k]) m *= std::fabs(vars[v]) + 1;
                 size += m;
             }
-            bound.push_back(1e-7 + 32 * 6e-8 * size / x.roughness);
+            bound.push_back(1e-7 + 32 * 6e-8 * size / (x.roughness * x.roughness));
         }
         for (bool use_hlsl : {false, true}) {
             ms::testing::ComputeTexture texture;

@@ -165,8 +165,12 @@ TEST_F(DesignTest, CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput) {
     ASSERT_EQ(az0.exit_code, 0) << az0.output;
     const RunResult mean = cli("bake -q --layout custom --size 16 --roughness 0.4 --samples 16384 --out " + path("mean.exr"));
     ASSERT_EQ(mean.exit_code, 0) << mean.output;
+    // A coarse representation that keeps the azimuth (4 texels per axis): a candidate of its own kind.
+    const RunResult rep = cli("repr bake -q --kind azimuth-axis --visibility-count 4 --n-dot-l-count 4 --n-dot-v-count 4 "
+                              "--azimuth-nodes 3 --samples 1024 --half --out " + path("coarse.exr"));
+    ASSERT_EQ(rep.exit_code, 0) << rep.output;
     const std::string base = "design --reference " + path("ref.toml") + " --cache " + path("cache") + " --lut " +
-                             path("az0.exr") + " --lut " + path("mean.exr");
+                             path("az0.exr") + " --lut " + path("mean.exr") + " --repr " + path("coarse.exr");
     const RunResult r = cli(base + " --out " + path("out") + " -q");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     std::ifstream csv(path("out/pareto.csv"));
@@ -178,6 +182,26 @@ TEST_F(DesignTest, CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput) {
     EXPECT_TRUE(fs::exists(path("out/chosen-az0.exr")));
     EXPECT_TRUE(fs::exists(path("out/chosen-az0.glsl")));
     EXPECT_TRUE(fs::exists(path("out/design.json")));
+
+    // The representation and a fitted closed form can be chosen and baked with their shaders; the
+    // closed form's JSON is a candidate again (the same errors: the same coefficients).
+    const RunResult chosen = cli(base + " --fit-reference " + path("ref.toml") + " --fit-orders 1 --choose closed-form-1 --out " +
+                                 path("cf") + " -q");
+    ASSERT_EQ(chosen.exit_code, 0) << chosen.output;
+    for (const char* ext : {".json", ".glsl", ".hlsl"}) EXPECT_TRUE(fs::exists(path("cf/chosen-closed-form-1") + ext)) << ext;
+    const RunResult reread = cli(base + " --no-analytic --closed-form " + path("cf/chosen-closed-form-1.json") + " --choose coarse --out " +
+                                 path("rep") + " -q");
+    ASSERT_EQ(reread.exit_code, 0) << reread.output;
+    for (const char* ext : {".exr", ".glsl", ".hlsl"}) EXPECT_TRUE(fs::exists(path("rep/chosen-coarse") + ext)) << ext;
+    auto row_of = [&](const std::string& file, const std::string& name) {
+        std::ifstream in(file);
+        for (std::string line; std::getline(in, line);)
+            if (line.rfind(name + ",", 0) == 0) return line;
+        return std::string();
+    };
+    EXPECT_FALSE(row_of(path("cf/pareto.csv"), "closed-form-1").empty());
+    EXPECT_EQ(row_of(path("cf/pareto.csv"), "closed-form-1").substr(0, 60), row_of(path("rep/pareto.csv"), "closed-form-1").substr(0, 60));
+    EXPECT_NE(row_of(path("rep/pareto.csv"), "coarse").find("azimuth-axis"), std::string::npos);
 
     // Bad budgets, files and names: exit status 2, nothing written.
     const std::vector<std::pair<std::string, std::string>> bad = {

@@ -175,6 +175,12 @@ design::ReferenceSet reference_set(const std::string& spec, const DesignArgs& ar
                                    std::unique_ptr<TermBackend>& owned, const char* what) {
     design::ReferenceDefinition def = design::parse_reference_spec_file(spec);
     def.backend_label = args.sampling.backend;
+    // The spec's sampling passes the checks every sampling job passes (point-set size and memory).
+    try {
+        check_sampling_size(def.plan);
+    } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(spec + ": [sampling]: " + e.what());
+    }
     design::CacheConfig config;
     config.dir = args.cache;
     config.command_line = command_line();
@@ -304,6 +310,26 @@ void run_design(const DesignArgs& args) {
             << "," << format_number(m.max_abs) << "," << (on_front.count(i) ? 1 : 0) << "," << (i == chosen ? 1 : 0) << ","
             << (budget.fits(c.cost) ? 1 : 0) << "\n";
     }
+    // Where the errors live: N.L-weighted RMS and max per roughness band.
+    const std::vector<double> edges = {0.0, 0.2, 0.4, 0.6, 0.8, 1.0};
+    std::ostringstream bands;
+    bands << "| candidate |";
+    for (std::size_t k = 0; k + 1 < edges.size(); ++k) bands << " roughness " << edges[k] << "-" << edges[k + 1] << " |";
+    bands << "\n|---|";
+    for (std::size_t k = 0; k + 1 < edges.size(); ++k) bands << "---|";
+    bands << "\n";
+    nlohmann::json by_roughness = nlohmann::json::object();
+    for (std::size_t i : order) {
+        const auto per = design::evaluate_candidate_by_roughness(candidates[i], set, edges);
+        bands << "| " << candidates[i].name << " |";
+        nlohmann::json list = nlohmann::json::array();
+        for (const auto& m : per) {
+            bands << " " << (m.points ? fixed(m.weighted_rms, 3) + " (max " + fixed(m.max_abs, 2) + ")" : std::string("-")) << " |";
+            list.push_back({{"points", m.points}, {"weighted_rms", m.weighted_rms}, {"weighted_p99", m.weighted_p99}, {"max_abs", m.max_abs}});
+        }
+        bands << "\n";
+        by_roughness[candidates[i].name] = list;
+    }
     const std::string noise = "reference '" + set.definition.name + "': " + std::to_string(set.points.size()) +
                               " points, term std error max " + fixed(set.max_std_error, 3) + ", RMS " +
                               fixed(set.rms_std_error, 3);
@@ -313,7 +339,8 @@ void run_design(const DesignArgs& args) {
     if (!args.out.empty()) {
         outputs.stream(csv_out) << csv.str();
         outputs.stream(md_out) << md.str() << "\n" << noise << ". `*` Pareto front over (N.L-weighted RMS, bytes, "
-                               << "fetches, ALU); `>` chosen.\n";
+                               << "fetches, ALU); `>` chosen.\n\nN.L-weighted RMS (max |error|) per roughness band:\n\n"
+                               << bands.str();
         nlohmann::json candidates_json = nlohmann::json::array();
         for (std::size_t i = 0; i < candidates.size(); ++i) {
             nlohmann::json j = candidates[i].provenance;
@@ -325,6 +352,15 @@ void run_design(const DesignArgs& args) {
             j["weighted_p99"] = metrics[i].weighted_p99;
             j["max_abs"] = metrics[i].max_abs;
             j["points"] = metrics[i].points;
+            // Where the largest errors are (the reference point and the error there).
+            nlohmann::json worst = nlohmann::json::array();
+            for (const auto& [index, error] : design::worst_points(candidates[i], set, 5)) {
+                const auto& p = set.points[index];
+                worst.push_back({{"visibility", p.visibility}, {"n_dot_l", p.n_dot_l}, {"n_dot_v", p.n_dot_v},
+                                 {"roughness", p.roughness}, {"relative_azimuth_deg", p.relative_azimuth * 180 / 3.14159265358979323846},
+                                 {"term", set.values[index].term}, {"error", error}});
+            }
+            j["worst_points"] = worst;
             candidates_json.push_back(j);
         }
         nlohmann::json meta = {{"program", "microshadow " MICROSHADOW_VERSION},
@@ -338,6 +374,7 @@ void run_design(const DesignArgs& args) {
                                {"candidates", candidates_json},
                                {"chosen", candidates[chosen].name}};
         if (has_fit) meta["fits"] = fits;
+        meta["by_roughness"] = {{"edges", edges}, {"candidates", by_roughness}};
         if (candidates[chosen].bake) {
             const std::string prefix = (fs::path(args.out) / ("chosen-" + candidates[chosen].name)).string();
             candidates[chosen].bake(outputs, prefix);

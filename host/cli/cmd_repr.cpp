@@ -50,6 +50,8 @@ void run_repr_bake(const ReprBakeArgs& a) {
         throw std::invalid_argument("--roughness-count must be between 2 and the number of --roughness values");
     if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
         throw std::invalid_argument("azimuth-axis holds 1 to 4 roughness nodes (RGBA): use --roughness-count 4");
+    if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
+        throw std::invalid_argument("azimuth-harmonics projects on cos(m phi), m <= 3: --azimuth-nodes must be at least 7");
     if (std::filesystem::path(a.out).extension() != ".exr") throw std::invalid_argument("--out must be an .exr file: " + a.out);
     // Every output checked before the bake; all appear together or none.
     OutputSet outputs;

@@ -13,7 +13,8 @@ namespace ms::fit {
 
 namespace {
 
-constexpr const char* kFormat = "microshadow closed form 1";
+// 2: u is measured in units of alpha = roughness^2 (format 1, never released, used roughness).
+constexpr const char* kFormat = "microshadow closed form 2";
 constexpr const char* kVariableNames[5] = {"u", "t", "n_dot_v", "roughness", "c"};
 
 // Variables per order and the monomials' highest degree (see the header).
@@ -47,7 +48,7 @@ ClosedFormVariables closed_form_variables(double visibility, double n_dot_l, dou
                                           double relative_azimuth, AoWeighting weighting) {
     ClosedFormVariables x;
     x.c = weighting == AoWeighting::cosine ? std::sqrt(std::max(0.0, 1.0 - visibility)) : 1.0 - visibility;
-    x.u = (n_dot_l - x.c) / roughness;
+    x.u = (n_dot_l - x.c) / (roughness * roughness);
     const double sin_v = std::sqrt(std::max(0.0, 1.0 - n_dot_v * n_dot_v));
     const double sin_l = std::sqrt(std::max(0.0, 1.0 - n_dot_l * n_dot_l));
     x.t = sin_v * sin_l * std::cos(relative_azimuth);
@@ -111,12 +112,12 @@ std::string generate_closed_form_shader(const ClosedForm& form, ClosedFormLangua
     std::ostringstream o;
     o << "// microshadow closed-form micro-shadowing term, order " << form.order << " (" << monomials.size()
       << " coefficients), " << to_string(form.weighting) << " AO; from " << source_name << ".\n"
-      << "// term ~ S(z), S(z) = 0.5 + 0.5 z / sqrt(1 + z^2), z = a polynomial in u = (NdotL - c) / roughness,\n"
+      << "// term ~ S(z), S(z) = 0.5 + 0.5 z / sqrt(1 + z^2), z = a polynomial in u = (NdotL - c) / roughness^2,\n"
       << "// t = VdotL - NdotV NdotL, NdotV, roughness and c = cos of the visibility cone (docs/study.md).\n"
       << "// roughness is the perceptual roughness (alpha = roughness^2), > 0; anisotropic: (alpha_x alpha_y)^(1/4).\n"
       << "float ms_micro_shadowing_fit(float visibility, float n_dot_l, float n_dot_v, float roughness, float v_dot_l) {\n";
     o << "    float c = " << (form.weighting == AoWeighting::cosine ? "sqrt(1.0 - visibility)" : "1.0 - visibility") << ";\n";
-    o << "    float u = (n_dot_l - c) / roughness;\n";
+    o << "    float u = (n_dot_l - c) / (roughness * roughness);\n";
     if (used.count(1)) o << "    float t = " << fma << "(-n_dot_v, n_dot_l, v_dot_l);\n";
     // Degree >= 2 monomials reuse the one of degree - 1 they extend: one multiply each.
     for (std::size_t k = 0; k < monomials.size(); ++k) {
@@ -144,7 +145,7 @@ nlohmann::json to_json(const ClosedForm& form) {
     }
     return {{"format", kFormat},
             {"model", "term ~ 0.5 + 0.5 z / sqrt(1 + z^2), z = sum_k coefficients[k] * monomials[k]; u = (NdotL - c) / "
-                      "roughness, t = VdotL - NdotV NdotL, c = sqrt(1 - visibility) (cosine AO) or 1 - visibility (uniform)"},
+                      "roughness^2, t = VdotL - NdotV NdotL, c = sqrt(1 - visibility) (cosine AO) or 1 - visibility (uniform)"},
             {"order", form.order},
             {"ao_weighting", to_string(form.weighting)},
             {"monomials", names},

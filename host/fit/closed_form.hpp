@@ -8,7 +8,9 @@
 //
 //   term ~ S(z),  S(z) = 1/2 + z / (2 sqrt(1 + z^2))      (an algebraic sigmoid: one rsqrt, no exp)
 //   z = sum_k c_k m_k(u, t, n_dot_v, r, c)
-//   u = (NdotL - c) / r      signed distance to the shadow edge in roughness units (r = roughness)
+//   u = (NdotL - c) / r^2    signed distance to the shadow edge in units of the GGX alpha = r^2
+//                            (r = roughness; alpha is the slope spread that blurs the step: on the
+//                            reference sets it fits better than NdotL - c over r, docs/study.md)
 //   t = VdotL - NdotV NdotL  = sin(theta_v) sin(theta_l) cos(relative azimuth): where L lies
 //                            around V's side (the only azimuth-dependent quantity, 1 FMA in a shader)
 //

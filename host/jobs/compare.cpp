@@ -9,6 +9,8 @@
 #include <stdexcept>
 
 #include "core/query.hpp"
+#include "lut/shader/alu_count.hpp"
+#include "lut/shader/shader_gen.hpp"
 
 namespace ms::compare {
 
@@ -125,7 +127,18 @@ Comparator Comparator::parse(const std::string& argument) {
 
 std::optional<ComparatorCost> Comparator::cost() const {
     if (file_comparator_) return file_comparator_->cost();
-    return std::nullopt;
+    if (!lut_) return std::nullopt;
+    // Part 2's LUT as an engine ships it: RGBA16F (channels padded to 4), one filtered fetch, and the
+    // ALU of the shader `microshadow shader` generates for it.
+    const auto& f = lut_->file();
+    ComparatorCost c;
+    c.bytes = std::uint64_t(f.width) * f.height * 4 * 2;
+    c.fetches_per_light = 1;
+    c.alu_per_light = lutshader::count_alu(lutshader::generate_shader(f, lutshader::ShaderLanguage::glsl, file_));
+    const bool three_d = f.n_dot_v().count > 1;
+    c.storage = std::string(three_d ? "3D" : "2D") + " texture " + std::to_string(f.visibility().count) + "x" +
+                std::to_string(f.n_dot_l().count) + (three_d ? "x" + std::to_string(f.n_dot_v().count) : "") + " RGBA16F";
+    return c;
 }
 
 double Comparator::operator()(const ComparatorInputs& in) const {
@@ -142,6 +155,9 @@ nlohmann::json Comparator::provenance() const {
     }
     if (!lut_) return {{"name", name_}, {"kind", "analytic"}, {"term", to_string(term_)}};
     nlohmann::json j = {{"name", name_}, {"kind", "lut"}, {"file", file_}};
+    if (const auto c = cost())
+        j["cost"] = {{"bytes", c->bytes}, {"fetches_per_light", c->fetches_per_light}, {"alu_per_light", c->alu_per_light},
+                     {"storage", c->storage}};
     const auto& meta = lut_->file().metadata;
     for (const char* key : {"version", "command_line"})
         if (meta.is_object() && meta.contains(key)) j[key] = meta[key];

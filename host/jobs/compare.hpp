@@ -85,7 +85,8 @@ public:
     const std::string& name() const { return name_; }
     bool is_lut() const { return lut_ != nullptr; }
     bool is_representation() const { return file_comparator_ != nullptr; }
-    // A representation's cost (its own model); none for LUTs and analytic terms.
+    // A representation's cost (its own model); a LUT's as RGBA16F with one fetch and the ALU of its
+    // generated shader; none for the analytic terms.
     std::optional<ComparatorCost> cost() const;
     double operator()(const ComparatorInputs& in) const;
     // {name, kind, term} or {name, kind, file, version, command_line} (the LUT metadata's, when present).

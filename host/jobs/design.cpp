@@ -59,8 +59,12 @@ Metrics error_metrics(const std::vector<double>& errors, const std::vector<doubl
     return m;
 }
 
-Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set) {
-    std::vector<double> errors(set.points.size()), weights(set.points.size());
+namespace {
+
+// Errors (candidate - term) and weights (weight x NdotL) at every point of the set.
+void errors_of(const Candidate& c, const ReferenceSet& set, std::vector<double>& errors, std::vector<double>& weights) {
+    errors.assign(set.points.size(), 0);
+    weights.assign(set.points.size(), 0);
     for (std::size_t i = 0; i < set.points.size(); ++i) {
         const ReferencePoint& p = set.points[i];
         weights[i] = p.weight * std::max(p.n_dot_l, 0.0);
@@ -71,7 +75,44 @@ Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set) {
                                         " (roughness " + format_number(p.roughness) + "): " + e.what());
         }
     }
+}
+
+}  // namespace
+
+Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set) {
+    std::vector<double> errors, weights;
+    errors_of(c, set, errors, weights);
     return error_metrics(errors, weights);
+}
+
+std::vector<std::pair<std::size_t, double>> worst_points(const Candidate& c, const ReferenceSet& set, std::size_t count) {
+    std::vector<double> errors, weights;
+    errors_of(c, set, errors, weights);
+    std::vector<std::pair<std::size_t, double>> out;
+    for (std::size_t i = 0; i < errors.size(); ++i)
+        if (weights[i] > 0) out.emplace_back(i, errors[i]);
+    const std::size_t k = std::min(count, out.size());
+    std::partial_sort(out.begin(), out.begin() + std::ptrdiff_t(k), out.end(),
+                      [](const auto& a, const auto& b) { return std::fabs(a.second) > std::fabs(b.second); });
+    out.resize(k);
+    return out;
+}
+
+std::vector<Metrics> evaluate_candidate_by_roughness(const Candidate& c, const ReferenceSet& set,
+                                                     const std::vector<double>& edges) {
+    std::vector<double> errors, weights;
+    errors_of(c, set, errors, weights);
+    std::vector<Metrics> out;
+    for (std::size_t k = 0; k + 1 < edges.size(); ++k) {
+        std::vector<double> e, w;
+        const bool last = k + 2 == edges.size();
+        for (std::size_t i = 0; i < errors.size(); ++i) {
+            const double r = set.points[i].roughness;
+            if (r >= edges[k] && (r < edges[k + 1] || (last && r == edges[k + 1]))) e.push_back(errors[i]), w.push_back(weights[i]);
+        }
+        out.push_back(error_metrics(e, w));
+    }
+    return out;
 }
 
 std::vector<std::size_t> pareto_front(const std::vector<Candidate>& candidates, const std::vector<Metrics>& metrics) {

@@ -45,6 +45,14 @@ compare::ComparatorInputs inputs_of(const ReferencePoint& p, AoWeighting weighti
 // roughness outside its domain) is an std::invalid_argument naming the candidate and the point.
 Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set);
 
+// The same per roughness band [edges[k], edges[k + 1]) (the last band includes its upper edge): where
+// a candidate's error lives. Bands without points have points = 0.
+std::vector<Metrics> evaluate_candidate_by_roughness(const Candidate& c, const ReferenceSet& set,
+                                                     const std::vector<double>& edges);
+
+// The `count` points of non-zero weight where |candidate - term| is largest, largest first: (index, error).
+std::vector<std::pair<std::size_t, double>> worst_points(const Candidate& c, const ReferenceSet& set, std::size_t count);
+
 // Weighted metrics of errors e_i with weights w_i >= 0 (exposed for the tests).
 Metrics error_metrics(const std::vector<double>& errors, const std::vector<double>& weights);
 

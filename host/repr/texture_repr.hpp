@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "lut/shader/alu_count.hpp"
 #include "repr/representation.hpp"
 
 namespace ms::repr {
@@ -63,9 +64,8 @@ ReprGrid grid_from_json(const nlohmann::json& j);
 
 // A float literal both languages read as the same binary32 value.
 std::string shader_literal(double v);
-// ALU estimate of a generated shader: arithmetic operators, comparisons and intrinsic calls outside
-// comments, each counted once whatever its vector width; texture fetches are not counted.
-unsigned count_alu(const std::string& shader_source);
+// ALU estimate of a generated shader (lut/shader/alu_count.hpp).
+using lutshader::count_alu;
 
 std::unique_ptr<Representation> make_azimuth_axis(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                                   nlohmann::json metadata);

@@ -19,6 +19,7 @@
 #include "io/atomic_file.hpp"
 #include "jobs/compare.hpp"
 #include "jobs/reference_set.hpp"
+#include "lut/shader/alu_count.hpp"
 
 namespace ms::design {
 
@@ -82,10 +83,7 @@ std::string analytic_glsl(analytic::AnalyticTerm term);
 // Throws std::invalid_argument (unreadable file).
 Candidate lut_candidate(const std::string& name, const std::string& file);
 
-// Arithmetic instructions of a GLSL/HLSL function body, counted one way for every candidate: each
-// binary + - * / and comparison is 1, each ?: select 1, each call of a built-in function 1 except pow
-// (3: log2, mul, exp2 as GPUs compile it); texture fetches are not ALU (they are fetches). Comments,
-// declarations and literals cost nothing. An estimate, but the same estimate for every candidate.
-unsigned count_alu(const std::string& shader_source);
+// The ALU rule of every candidate's cost (lut/shader/alu_count.hpp).
+using lutshader::count_alu;
 
 }  // namespace ms::design

@@ -2,9 +2,6 @@
 // the Pareto front of error against cost, the best candidate inside a budget, and its bake.
 #include <nlohmann/json.hpp>
 
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
 
 #include <cerrno>
 #include <cstring>
@@ -16,6 +13,7 @@
 #include <sstream>
 
 #include "cli/common.hpp"
+#include "cli/plot_runner.hpp"
 #include "cli/progress.hpp"
 #include "core/cancel.hpp"
 #include "fit/closed_form.hpp"
@@ -27,7 +25,6 @@
 #include "jobs/reference_set.hpp"
 #include "repr/representation.hpp"
 
-extern char** environ;
 
 namespace ms::cli {
 
@@ -65,60 +62,6 @@ std::uint64_t parse_bytes(const std::string& text) {
         throw std::invalid_argument("--max-bytes " + text +
                                     ": expected a size in bytes >= 0 (a number with an optional B, KiB, MiB or GiB) or 'unlimited'");
     return std::uint64_t(value * scale);
-}
-
-// plot_pareto.py, found as sweep finds plot_sweep.py: beside an installed binary
-// (<prefix>/share/microshadow/), or the source tree's scripts/ for a build tree.
-std::string plot_script() {
-    std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (ec) throw std::runtime_error("--plot: cannot find the executable's path (/proc/self/exe: " + ec.message() + ")");
-    const fs::path bin = exe.parent_path();
-    std::vector<fs::path> candidates = {bin / ".." / "share" / "microshadow" / "plot_pareto.py",
-                                        bin / ".." / "scripts" / "plot_pareto.py"};
-    std::ifstream cache(bin / "CMakeCache.txt");
-    for (std::string line; std::getline(cache, line);)
-        if (line.rfind("CMAKE_HOME_DIRECTORY:INTERNAL=", 0) == 0)
-            candidates.push_back(fs::path(line.substr(line.find('=') + 1)) / "scripts" / "plot_pareto.py");
-    std::string looked;
-    for (const auto& c : candidates) {
-        if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
-        looked += "\n  " + c.lexically_normal().string();
-    }
-    throw std::runtime_error("--plot: plot_pareto.py not found; looked in:" + looked);
-}
-
-// Runs the plotter without a shell (an argument vector: no file name is parsed as a command), with
-// the default signal mask so Ctrl-C stops it too (the CLI blocks SIGINT/SIGTERM in its threads).
-void run_plot(const std::vector<std::string>& args, bool quiet) {
-    std::string shown;
-    for (const auto& a : args) shown += (shown.empty() ? "" : " ") + shell_quote(a);
-    if (!quiet) std::cerr << "design: " << shown << "\n";
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    posix_spawnattr_t attr;
-    posix_spawnattr_init(&attr);
-    sigset_t none, defaults;
-    sigemptyset(&none);
-    sigemptyset(&defaults);
-    sigaddset(&defaults, SIGINT);
-    sigaddset(&defaults, SIGTERM);
-    sigaddset(&defaults, SIGPIPE);
-    posix_spawnattr_setsigmask(&attr, &none);
-    posix_spawnattr_setsigdefault(&attr, &defaults);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-    std::cout.flush();
-    pid_t pid = 0;
-    const int rc = posix_spawn(&pid, argv[0], nullptr, &attr, argv.data(), environ);
-    posix_spawnattr_destroy(&attr);
-    if (rc != 0) throw std::runtime_error("--plot: cannot run " + args[0] + ": " + std::strerror(rc));
-    int status = 0;
-    while (waitpid(pid, &status, 0) < 0)
-        if (errno != EINTR) throw std::runtime_error(std::string("--plot: waitpid: ") + std::strerror(errno));
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    throw ExitError(code, "plotting failed: " + shown + " (the tables are written)");
 }
 
 // A representation file (repr/representation.hpp) as a candidate: its own cost model, lookup and
@@ -388,9 +331,9 @@ void run_design(const DesignArgs& args) {
                                             << (candidates[chosen].bake ? " and chosen-" + candidates[chosen].name + ".*" : std::string()) << "\n";
         if (args.plot) {
             const fs::path dir = fs::absolute(args.out).lexically_normal();
-            run_plot({"/usr/bin/python3", plot_script(), (dir / "pareto.csv").string(), "--out", (dir / "pareto.png").string(),
-                      "--title", "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"},
-                     args.sampling.quiet);
+            run_plotter({"/usr/bin/python3", find_plot_script("plot_pareto.py"), (dir / "pareto.csv").string(), "--out", (dir / "pareto.png").string(),
+                         "--title", "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"},
+                        "design", args.sampling.quiet, "the tables are written");
         }
     }
 }

@@ -1,8 +1,5 @@
 // microshadow sweep SPEC.toml: a parameter study of the generic term against comparators, streamed
 // to disk in chunks (resumable, shardable). microshadow merge: joins the outputs of --shard runs.
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
 
 #include <cerrno>
 #include <cstring>
@@ -12,12 +9,11 @@
 #include <limits>
 
 #include "cli/common.hpp"
+#include "cli/plot_runner.hpp"
 #include "cli/progress.hpp"
 #include "core/cancel.hpp"
 #include "io/text.hpp"
 #include "jobs/sweep/runner.hpp"
-
-extern char** environ;
 
 namespace ms::cli {
 
@@ -33,71 +29,14 @@ struct SweepArgs {
     CLI::App* cmd = nullptr;
 };
 
-// The plotting script, found from the executable's own location (no path compiled in, so a moved or
-// installed binary finds its own copy): <prefix>/bin/microshadow -> <prefix>/share/microshadow/; a
-// build tree (build/microshadow) -> the source tree's scripts/, found beside the build directory or
-// through the build directory's CMakeCache.txt (CMAKE_HOME_DIRECTORY) for out-of-tree builds.
-std::string plot_script() {
-    std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (ec) throw std::runtime_error("--plot: cannot find the executable's path (/proc/self/exe: " + ec.message() + ")");
-    const fs::path bin = exe.parent_path();
-    std::vector<fs::path> candidates = {bin / ".." / "share" / "microshadow" / "plot_sweep.py",
-                                        bin / ".." / "scripts" / "plot_sweep.py"};
-    std::ifstream cache(bin / "CMakeCache.txt");
-    for (std::string line; std::getline(cache, line);)
-        if (line.rfind("CMAKE_HOME_DIRECTORY:INTERNAL=", 0) == 0)
-            candidates.push_back(fs::path(line.substr(line.find('=') + 1)) / "scripts" / "plot_sweep.py");
-    std::string looked;
-    for (const auto& c : candidates) {
-        if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
-        looked += "\n  " + c.lexically_normal().string();
-    }
-    throw std::runtime_error("--plot: plot_sweep.py not found; looked in:" + looked);
-}
-
-// Runs the plotting script without a shell: an argument vector for posix_spawn, so no file name
-// (a spec called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command.
+// Draws the sweep's heatmaps into OUT/figures with plot_sweep.py.
 void run_plot(const std::string& out_dir, bool quiet) {
     // Absolute paths: a relative directory starting with '-' would read as an option to argparse.
     const fs::path dir = fs::absolute(out_dir).lexically_normal();
     // Debian's python3 carries python3-matplotlib; a python3 earlier on PATH may not.
-    const std::vector<std::string> args = {"/usr/bin/python3", plot_script(), "heatmaps", (dir / "sweep.csv").string(),
-                                           "--out", (dir / "figures").string()};
-    std::string shown;
-    for (const auto& a : args) shown += (shown.empty() ? "" : " ") + shell_quote(a);
-    if (!quiet) std::cerr << "sweep: " << shown << "\n";
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    // The CLI blocks SIGINT/SIGTERM in every thread (progress.cpp) and a spawned child inherits that
-    // mask: give the plotter the default mask and dispositions so Ctrl-C stops it too.
-    posix_spawnattr_t attr;
-    posix_spawnattr_init(&attr);
-    sigset_t none, defaults;
-    sigemptyset(&none);
-    sigemptyset(&defaults);
-    sigaddset(&defaults, SIGINT);
-    sigaddset(&defaults, SIGTERM);
-    sigaddset(&defaults, SIGPIPE);
-    posix_spawnattr_setsigmask(&attr, &none);
-    posix_spawnattr_setsigdefault(&attr, &defaults);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-    std::cout.flush();
-    pid_t pid = 0;
-    const int rc = posix_spawn(&pid, argv[0], nullptr, &attr, argv.data(), environ);
-    posix_spawnattr_destroy(&attr);
-    if (rc != 0) throw std::runtime_error("--plot: cannot run " + args[0] + ": " + std::strerror(rc));
-    int status = 0;
-    while (waitpid(pid, &status, 0) < 0)
-        if (errno != EINTR) throw std::runtime_error(std::string("--plot: waitpid: ") + std::strerror(errno));
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
-    // The plotter's own status becomes the command's (128 + N for a signal, as a shell reports it).
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-    throw ExitError(code, "plotting failed (" +
-                              (WIFEXITED(status) ? "exit status " + std::to_string(code)
-                                                 : "killed by signal " + std::to_string(WTERMSIG(status))) +
-                              "): " + shown + "; the sweep itself is complete in " + out_dir);
+    run_plotter({"/usr/bin/python3", find_plot_script("plot_sweep.py"), "heatmaps", (dir / "sweep.csv").string(), "--out",
+                 (dir / "figures").string()},
+                "sweep", quiet, "the sweep itself is complete in " + out_dir);
 }
 
 void run_sweep_command(SweepArgs& args) {

@@ -1,0 +1,23 @@
+// The project's matplotlib scripts (scripts/plot_*.py) as the CLI runs them for --plot: found from the
+// executable's own location, and run without a shell.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace ms::cli {
+
+// The script `name` (e.g. "plot_sweep.py"), found from the executable's own location (no path compiled
+// in, so a moved or installed binary finds its own copy): <prefix>/bin/microshadow ->
+// <prefix>/share/microshadow/; a build tree (build/microshadow) -> the source tree's scripts/, found
+// beside the build directory or through the build directory's CMakeCache.txt (CMAKE_HOME_DIRECTORY) for
+// out-of-tree builds. Throws std::runtime_error listing where it looked.
+std::string find_plot_script(const std::string& name);
+
+// Runs args[0] with args as its argument vector through posix_spawn: no shell, so no file name (a spec
+// called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command. `who` prefixes the
+// echoed command line (unless quiet). A failing plotter becomes ExitError with its status (128 + N for
+// a signal, as a shell reports it) and the message "plotting failed (...): COMMAND; " + what_is_done.
+void run_plotter(const std::vector<std::string>& args, const std::string& who, bool quiet, const std::string& what_is_done);
+
+}  // namespace ms::cli

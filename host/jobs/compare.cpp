@@ -112,14 +112,21 @@ Comparator Comparator::parse(const std::string& argument) {
     if (name.empty()) throw std::invalid_argument("--compare " + argument + ": the file stem gives no column name; use NAME=FILE");
     if (name.find(',') != std::string::npos || name.find('"') != std::string::npos || name.find('\n') != std::string::npos)
         throw std::invalid_argument("--compare " + argument + ": column name '" + name + "' holds a comma, quote or line break");
-    c.file_ = file;
     try {
-        if (const auto& open = file_comparator_opener())
-            if ((c.file_comparator_ = open(file))) return c;
-        c.lut_ = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
+        return open_file(name, file);
     } catch (const std::exception& e) {
         throw std::invalid_argument(std::string("--compare: ") + e.what());
     }
+}
+
+Comparator Comparator::open_file(const std::string& name, const std::string& file) {
+    Comparator c;
+    c.name_ = name;
+    c.file_ = file;
+    // The opener answers null for a file that is not of its kinds (then it is read as a LUT).
+    if (const auto& open = file_comparator_opener())
+        if ((c.file_comparator_ = open(file))) return c;
+    c.lut_ = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
     return c;
 }
 

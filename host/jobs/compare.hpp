@@ -81,6 +81,11 @@ public:
     // Throws std::invalid_argument: an unknown name (listing the valid ones, with "did you mean" when
     // one is close) or an unreadable LUT (read_lut's message).
     static Comparator parse(const std::string& argument);
+    // The comparator of a file under a given column name: a representation file (through the installed
+    // opener, set_file_comparator_opener) or else a part 2 LUT. Sweeps open their [[comparators.lut]]
+    // files here, so a spec names a representation exactly as it names a LUT. Throws std::runtime_error
+    // naming the file (read_lut's or the opener's message).
+    static Comparator open_file(const std::string& name, const std::string& file);
 
     const std::string& name() const { return name_; }
     bool is_lut() const { return lut_ != nullptr; }

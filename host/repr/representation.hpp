@@ -125,6 +125,14 @@ public:
     virtual const std::vector<float>& texels() const = 0;  // RGBA interleaved, x fastest, then y, then z
     // Writes the OpenEXR atlas (depth slices stacked down the rows) atomically; half = HALF channels.
     virtual void write(const std::string& path, bool half) const = 0;
+    // The texture alone as a GPU texture file, what an engine loads (RGBA16F with half, else RGBA32F;
+    // one level, linear data): KTX2 with the EXR's metadata in the key/value data (key "microshadow",
+    // "file_format": "ktx2"), or DDS (DX10 header) with the metadata beside it in `<file>.json`. The
+    // texels, dimensions and x/y/z order are texels()'s, which the generated shader samples: a 3D
+    // texture width x height x depth, KTXorientation "rdi". Written atomically through
+    // lut/formats/texture.hpp; std::runtime_error naming the file on I/O errors.
+    virtual void write_ktx2(const std::string& path, bool half) const = 0;
+    virtual void write_dds(const std::string& path, bool half) const = 0;
     virtual const ReprGrid& grid() const = 0;
 };
 

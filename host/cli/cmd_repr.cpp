@@ -134,7 +134,7 @@ std::unique_ptr<repr::Representation> open_or_bad_input(const std::string& path)
 }  // namespace
 
 void add_repr_command(CLI::App& app) {
-    auto* repr_cmd = app.add_subcommand("repr", "representations that keep the relative azimuth: bake, shader, info");
+    auto* repr_cmd = app.add_subcommand("repr", "representations that keep the relative azimuth: bake, shader, info, export");
     repr_cmd->require_subcommand(1);
 
     auto a = std::make_shared<ReprBakeArgs>();

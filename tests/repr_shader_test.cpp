@@ -6,8 +6,9 @@
 // float acos (the C++ side takes the same float cos_phi, so the acos ill-conditioning near +-1 acts on
 // both alike); a wrong texel, slot, slab or weight errs by the texel spread, ~0.3.
 // KTX2/DDS output (issue 15 part C): the KTX2 file, read field by field by a reader written here from the
-// KTX 2.0 specification, holds the EXR's texels and metadata, and the GLSL run over its level data as
-// uploaded agrees with the C++ lookup; `repr export` and `repr bake --out F.ktx2` end to end.
+// KTX 2.0 specification, holds the EXR's texels and metadata, opens as a comparator equal to the EXR, and
+// the GLSL run over its level data as uploaded agrees with the C++ lookup; `repr export` and
+// `repr bake --out F.ktx2` end to end.
 #include <gtest/gtest.h>
 
 #include <Imath/half.h>
@@ -239,6 +240,32 @@ TEST(ReprKtx2Test, TextureEqualsTheExrAndTheGeneratedShaderSamplesIt) {
             std::size_t differ = 0;
             for (std::size_t i = 0; i < texels.size(); ++i) differ += texels[i] != want[i];
             EXPECT_EQ(differ, 0u);
+        }
+        // The KTX2 opens as a representation (eval --compare, sweeps) equal to the EXR of the same precision.
+        ms::repr::install_comparators();
+        const auto from_ktx2 = repr::open_representation(base + "_half.ktx2");
+        const auto cmp = ms::compare::Comparator::parse("k=" + base + "_half.ktx2");
+        ASSERT_TRUE(cmp.is_representation());
+        EXPECT_EQ(from_ktx2->kind(), c.kind);
+        for (int i = 0; i < 200; ++i) {
+            ms::compare::ComparatorInputs in;
+            in.visibility = u(rng), in.n_dot_l = u(rng), in.n_dot_v = 0.05 + 0.95 * u(rng), in.roughness = u(rng);
+            in.relative_azimuth = M_PI * u(rng);
+            EXPECT_EQ((*from_ktx2)(in), (*exr)(in));
+            EXPECT_EQ(cmp(in), (*exr)(in));
+        }
+        // A cut-off KTX2 is refused naming the file.
+        {
+            std::ifstream in(base + "_half.ktx2", std::ios::binary);
+            std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+            std::ofstream(base + "_cut.ktx2", std::ios::binary) << bytes.substr(0, bytes.size() - 8);
+        }
+        EXPECT_FALSE(repr::is_representation_file(base + "_cut.ktx2"));
+        try {
+            repr::open_representation(base + "_cut.ktx2");
+            ADD_FAILURE() << "a cut-off KTX2 was accepted";
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("_cut.ktx2"), std::string::npos) << e.what();
         }
         // The generated GLSL over the half KTX2's level data uploaded as they are (RGBA16F, the file's
         // dimensions) agrees with the C++ lookup of the half EXR: the shader samples the KTX2 layout.

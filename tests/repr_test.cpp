@@ -296,6 +296,19 @@ TEST(ReprRoughnessTest, PlacementFindsAKink) {
     EXPECT_EQ(b.with_roughness({0, 5, 10}).grid.roughness.size(), 3u);
 }
 
+TEST(ReprCostTest, AnalyticComparatorsCostNoTextureAndTheirGlslAlu) {
+    // naughty-dog: clamp(n_dot_l + 2.0 * v * v - 1.0, 0.0, 1.0) is 4 operators and 1 intrinsic.
+    const auto nd = ms::compare::Comparator::parse("naughty-dog").cost();
+    ASSERT_TRUE(nd.has_value());
+    EXPECT_EQ(nd->bytes, 0u);
+    EXPECT_EQ(nd->fetches_per_light, 0u);
+    EXPECT_EQ(nd->alu_per_light, 5u);
+    // Every term has a cost, and the PZ term (a pow and a sqrt) costs more than naughty-dog's line.
+    for (auto t : ms::analytic::kAllAnalyticTerms)
+        EXPECT_TRUE(ms::compare::Comparator::parse(ms::analytic::to_string(t)).cost().has_value());
+    EXPECT_GT(ms::compare::Comparator::parse("pz-analytic").cost()->alu_per_light, nd->alu_per_light);
+}
+
 TEST(ReprCostTest, AluCounterCountsOperatorsAndIntrinsics) {
     EXPECT_EQ(repr::count_alu("float x = a + b * c;"), 2u);
     EXPECT_EQ(repr::count_alu("float x = clamp(y * 2.0 - 0.5, 0.0, 1.0);  // 3 + 4"), 3u);

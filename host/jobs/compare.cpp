@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/query.hpp"
+#include "jobs/design.hpp"
 
 namespace ms::compare {
 
@@ -132,7 +133,11 @@ Comparator Comparator::open_file(const std::string& name, const std::string& fil
 
 std::optional<ComparatorCost> Comparator::cost() const {
     if (file_comparator_) return file_comparator_->cost();
-    return std::nullopt;
+    if (lut_) return std::nullopt;
+    ComparatorCost c;
+    c.alu_per_light = design::count_alu(design::analytic_glsl(term_));
+    c.storage = "none (part 1's formula)";
+    return c;
 }
 
 double Comparator::operator()(const ComparatorInputs& in) const {

@@ -90,7 +90,9 @@ public:
     const std::string& name() const { return name_; }
     bool is_lut() const { return lut_ != nullptr; }
     bool is_representation() const { return file_comparator_ != nullptr; }
-    // A representation's cost (its own model); none for LUTs and analytic terms.
+    // A representation's cost (its own model); an analytic term's: no texture, no fetch, and the ALU
+    // count of its GLSL (jobs/design.hpp's analytic_glsl and count_alu, the counts the design command puts
+    // on its cost axis); none for LUTs (the design command models those from their generated shader).
     std::optional<ComparatorCost> cost() const;
     double operator()(const ComparatorInputs& in) const;
     // {name, kind, term} or {name, kind, file, version, command_line} (the LUT metadata's, when present).

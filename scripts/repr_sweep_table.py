@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """The error table of a sweep's comparators (docs/representations.md): per comparator max |e|, the 99th
 percentile of |e|, RMS, the N.L-weighted RMS sqrt(sum NdotL e^2 / sum NdotL) (the lighting multiplies the
-term by NdotL) and that RMS's ratio to a baseline comparator; then the N.L-weighted RMS per relative
-azimuth delta_phi. e = comparator - term. Usage: repr_sweep_table.py SWEEP.csv [BASELINE]"""
+term by NdotL) and that RMS's ratio to a baseline comparator; then the N.L-weighted RMS per value of
+delta_phi, NdotV, NdotL and visibility. e = comparator - term. Usage: repr_sweep_table.py SWEEP.csv [BASELINE]"""
 import csv
 import math
 import sys
@@ -30,18 +30,21 @@ def main():
         s = stats[n]
         print(f"| `{n}` | {s['max']:.3f} | {s['p99']:.3f} | {s['rms']:.4f} | {s['wrms']:.4f} | "
               f"{stats[base]['wrms'] / s['wrms']:.1f}x |")
-    phis = sorted({float(r["delta_phi"]) for r in rows})
-    print("\nN.L-weighted RMS per relative azimuth (degrees):\n")
-    print("| comparator | " + " | ".join(f"{p:g}" for p in phis) + " |")
-    print("|---|" + "---|" * len(phis))
-    for n in names:
-        cells = []
-        for p in phis:
-            sel = [r for r in rows if float(r["delta_phi"]) == p]
-            num = sum(max(float(r["n_dot_l"]), 0.0) * (float(r[n]) - float(r["term"])) ** 2 for r in sel)
-            den = sum(max(float(r["n_dot_l"]), 0.0) for r in sel)
-            cells.append(f"{math.sqrt(num / den):.4f}")
-        print(f"| `{n}` | " + " | ".join(cells) + " |")
+    # The same N.L-weighted RMS per value of each swept parameter: where along an axis the errors sit.
+    for axis, title in [("delta_phi", "relative azimuth (degrees)"), ("n_dot_v", "NdotV"), ("n_dot_l", "NdotL"),
+                        ("visibility", "visibility")]:
+        values = sorted({float(r[axis]) for r in rows})
+        print(f"\nN.L-weighted RMS per {title}:\n")
+        print("| comparator | " + " | ".join(f"{p:g}" for p in values) + " |")
+        print("|---|" + "---|" * len(values))
+        for n in names:
+            cells = []
+            for p in values:
+                sel = [r for r in rows if float(r[axis]) == p]
+                num = sum(max(float(r["n_dot_l"]), 0.0) * (float(r[n]) - float(r["term"])) ** 2 for r in sel)
+                den = sum(max(float(r["n_dot_l"]), 0.0) for r in sel)
+                cells.append(f"{math.sqrt(num / den):.4f}" if den > 0 else "-")
+            print(f"| `{n}` | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":

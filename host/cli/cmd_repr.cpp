@@ -50,7 +50,13 @@ struct ReprOutput {
         if (format == ReprFormat::exr) return r.write(temp, half);
         if (format == ReprFormat::ktx2) return r.write_ktx2(temp, half);
         // The DDS writer puts the metadata beside its path: moved into the set's own `<out>.json`.
-        r.write_dds(temp, half);
+        try {
+            r.write_dds(temp, half);
+        } catch (...) {
+            std::error_code ec;  // the writer's own sidecar of the temporary must not stay behind
+            std::filesystem::remove(temp + ".json", ec);
+            throw;
+        }
         std::ifstream in(temp + ".json", std::ios::binary);
         outputs.stream(sidecar) << in.rdbuf();
         in.close();

@@ -5,11 +5,19 @@
 // 2e-5: float32 arithmetic of values of order 1 (a few ulps of 6e-8 each over ~30 operations) and
 // float acos (the C++ side takes the same float cos_phi, so the acos ill-conditioning near +-1 acts on
 // both alike); a wrong texel, slot, slab or weight errs by the texel spread, ~0.3.
+// KTX2/DDS output (issue 15 part C): the KTX2 file, read field by field by a reader written here from the
+// KTX 2.0 specification, holds the EXR's texels and metadata, opens as a comparator equal to the EXR, and
+// the GLSL run over its level data as uploaded agrees with the C++ lookup; `repr export` and
+// `repr bake --out F.ktx2` end to end.
 #include <gtest/gtest.h>
+
+#include <Imath/half.h>
+#include <nlohmann/json.hpp>
 
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <random>
 #include <sstream>
 
@@ -135,6 +143,204 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
             EXPECT_LT(worst, 2e-5 + acos_bound) << (lang ? "HLSL" : "GLSL") << " on " << run.device;
         }
     }
+}
+
+// --- KTX2 and DDS output (issue 15 part C) --------------------------------------------------------
+// A KTX2 file read field by field from the KTX 2.0 specification ("File Structure", "Level Index",
+// "Key/Value Data"), independently of the writer (lut/formats/texture.cpp).
+struct Ktx2File {
+    std::uint32_t vk_format = 0, type_size = 0, width = 0, height = 0, depth = 0, layers = 0, faces = 0, levels = 0, scheme = 0;
+    std::map<std::string, std::string> kv;  // values without their terminating NUL
+    std::vector<std::uint8_t> level0;
+};
+
+Ktx2File read_ktx2(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    const std::vector<std::uint8_t> b{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    Ktx2File k;
+    const std::uint8_t id[12] = {0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
+    EXPECT_GE(b.size(), 104u);
+    if (b.size() < 104 || std::memcmp(b.data(), id, 12) != 0) {
+        ADD_FAILURE() << path << ": no KTX2 identifier";
+        return k;
+    }
+    auto u32 = [&](std::size_t at) { std::uint32_t v; std::memcpy(&v, b.data() + at, 4); return v; };
+    auto u64 = [&](std::size_t at) { std::uint64_t v; std::memcpy(&v, b.data() + at, 8); return v; };
+    k.vk_format = u32(12), k.type_size = u32(16), k.width = u32(20), k.height = u32(24), k.depth = u32(28);
+    k.layers = u32(32), k.faces = u32(36), k.levels = u32(40), k.scheme = u32(44);
+    const std::uint32_t kvd_offset = u32(56), kvd_length = u32(60);
+    for (std::size_t at = kvd_offset; at + 4 <= std::size_t(kvd_offset) + kvd_length;) {
+        const std::uint32_t n = u32(at);
+        const std::string entry(reinterpret_cast<const char*>(b.data() + at + 4), n);
+        const std::size_t nul = entry.find('\0');
+        std::string value = entry.substr(nul + 1);
+        if (!value.empty() && value.back() == '\0') value.pop_back();
+        k.kv[entry.substr(0, nul)] = value;
+        at += 4 + ((n + 3) / 4) * 4;  // each entry padded to 4 bytes
+    }
+    const std::uint64_t offset = u64(80), length = u64(88);
+    EXPECT_EQ(u64(96), length);  // no supercompression: uncompressed length = length
+    EXPECT_LE(offset + length, b.size());
+    if (offset + length <= b.size()) k.level0.assign(b.begin() + std::ptrdiff_t(offset), b.begin() + std::ptrdiff_t(offset + length));
+    return k;
+}
+
+std::vector<float> decode_level(const Ktx2File& k) {
+    std::vector<float> out;
+    if (k.type_size == 4) {
+        out.resize(k.level0.size() / 4);
+        std::memcpy(out.data(), k.level0.data(), out.size() * 4);
+    } else {
+        for (std::size_t i = 0; i + 1 < k.level0.size(); i += 2) {
+            std::uint16_t bits;
+            std::memcpy(&bits, k.level0.data() + i, 2);
+            Imath::half h;
+            h.setBits(bits);
+            out.push_back(float(h));
+        }
+    }
+    return out;
+}
+
+TEST(ReprKtx2Test, TextureEqualsTheExrAndTheGeneratedShaderSamplesIt) {
+    const std::string dir = ::testing::TempDir() + "repr_ktx2";
+    std::filesystem::create_directories(dir);
+    std::mt19937 rng(17);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (const auto& c : cases()) {
+        if (c.name != "axis_warped" && c.name != "harm_linear") continue;
+        SCOPED_TRACE(c.name);
+        const auto rep = repr::build_representation(c.kind, synthetic_bake(c.grid, c.nodes, 11));
+        const std::string base = dir + "/" + c.name;
+        rep->write(base + "_half.exr", true);
+        rep->write_ktx2(base + "_half.ktx2", true);
+        rep->write_ktx2(base + ".ktx2", false);
+        const auto exr = repr::open_representation(base + "_half.exr");
+        for (int half = 0; half < 2; ++half) {
+            const Ktx2File k = read_ktx2(half ? base + "_half.ktx2" : base + ".ktx2");
+            EXPECT_EQ(k.vk_format, half ? 97u : 109u);  // VK_FORMAT_R16G16B16A16_SFLOAT / R32G32B32A32_SFLOAT
+            EXPECT_EQ(k.type_size, half ? 2u : 4u);
+            EXPECT_EQ(k.width, rep->texture_width());
+            EXPECT_EQ(k.height, rep->texture_height());
+            EXPECT_EQ(k.depth, rep->texture_depth());
+            EXPECT_EQ(k.layers + (k.faces - 1) + (k.levels - 1) + k.scheme, 0u);  // 1 face, 1 level, no array, none
+            EXPECT_EQ(k.kv.at("KTXorientation"), "rdi");
+            const auto meta = nlohmann::json::parse(k.kv.at("microshadow"));
+            EXPECT_EQ(meta.at("kind"), "representation");
+            EXPECT_EQ(meta.at("representation"), c.kind);
+            EXPECT_EQ(meta.at("file_format"), "ktx2");
+            EXPECT_EQ(meta.at("half").get<bool>(), half == 1);
+            EXPECT_EQ(meta.at("grid").at("roughness").get<std::vector<double>>(), c.grid.roughness);
+            EXPECT_EQ(meta.at("azimuth_nodes").get<std::uint32_t>(), c.nodes);
+            // Texel for texel: the half file equals the half EXR (both round to nearest even), the float
+            // file the representation's own texels.
+            const auto texels = decode_level(k);
+            const auto& want = half ? exr->texels() : rep->texels();
+            ASSERT_EQ(texels.size(), want.size());
+            std::size_t differ = 0;
+            for (std::size_t i = 0; i < texels.size(); ++i) differ += texels[i] != want[i];
+            EXPECT_EQ(differ, 0u);
+        }
+        // The KTX2 opens as a representation (eval --compare, sweeps) equal to the EXR of the same precision.
+        ms::repr::install_comparators();
+        const auto from_ktx2 = repr::open_representation(base + "_half.ktx2");
+        const auto cmp = ms::compare::Comparator::parse("k=" + base + "_half.ktx2");
+        ASSERT_TRUE(cmp.is_representation());
+        EXPECT_EQ(from_ktx2->kind(), c.kind);
+        for (int i = 0; i < 200; ++i) {
+            ms::compare::ComparatorInputs in;
+            in.visibility = u(rng), in.n_dot_l = u(rng), in.n_dot_v = 0.05 + 0.95 * u(rng), in.roughness = u(rng);
+            in.relative_azimuth = M_PI * u(rng);
+            EXPECT_EQ((*from_ktx2)(in), (*exr)(in));
+            EXPECT_EQ(cmp(in), (*exr)(in));
+        }
+        // A cut-off KTX2 is refused naming the file.
+        {
+            std::ifstream in(base + "_half.ktx2", std::ios::binary);
+            std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+            std::ofstream(base + "_cut.ktx2", std::ios::binary) << bytes.substr(0, bytes.size() - 8);
+        }
+        EXPECT_FALSE(repr::is_representation_file(base + "_cut.ktx2"));
+        try {
+            repr::open_representation(base + "_cut.ktx2");
+            ADD_FAILURE() << "a cut-off KTX2 was accepted";
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find("_cut.ktx2"), std::string::npos) << e.what();
+        }
+        // The generated GLSL over the half KTX2's level data uploaded as they are (RGBA16F, the file's
+        // dimensions) agrees with the C++ lookup of the half EXR: the shader samples the KTX2 layout.
+        if (!have_glslang()) continue;
+        const Ktx2File k = read_ktx2(base + "_half.ktx2");
+        const auto glsl = compile(glsl_wrapper(exr->shader(repr::ShaderLanguage::glsl, c.name)), base + "_ktx2.comp", "");
+        ms::testing::ComputeTexture tex;
+        tex.width = k.width, tex.height = k.height, tex.depth = k.depth;
+        tex.three_d = true;
+        tex.vk_format = k.vk_format;
+        tex.texels.assign(k.level0.begin(), k.level0.end());
+        const std::size_t n = 256;
+        std::vector<float> inputs;
+        std::vector<double> expected;
+        for (std::size_t i = 0; i < n; ++i) {
+            const float v = float(u(rng)), l = float(u(rng)), nv = float(0.02 + 0.98 * u(rng)), r = float(u(rng));
+            const float cos_phi = float(2 * u(rng) - 1);
+            inputs.insert(inputs.end(), {v, l, nv, r, cos_phi, 0, 0, 0});
+            ms::compare::ComparatorInputs in;
+            in.visibility = v, in.n_dot_l = l, in.n_dot_v = nv, in.roughness = r;
+            in.relative_azimuth = std::acos(double(cos_phi));
+            expected.push_back((*exr)(in));
+        }
+        const auto run = ms::testing::run_compute(glsl, tex, inputs, false);
+        if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+        ASSERT_GE(run.values.size(), n);
+        double worst = 0;
+        for (std::size_t i = 0; i < n; ++i) worst = std::max(worst, std::abs(run.values[i] - expected[i]));
+        // As above: float arithmetic, plus Vulkan's acos error for the axis.
+        const double acos_bound = c.kind == "azimuth-axis" ? (c.nodes - 1) / M_PI * 4096 * std::ldexp(1.0, -22) : 0.0;
+        EXPECT_LT(worst, 2e-5 + acos_bound) << "GLSL on " << run.device;
+    }
+}
+
+class ReprExportCliTest : public ms::testing::ScratchDirTest {
+protected:
+    ReprExportCliTest() : ScratchDirTest("repr_export") {}
+};
+
+TEST_F(ReprExportCliTest, BakeAndExportWriteKtx2AndDdsAndRefuseOtherExtensions) {
+    const std::string cli = MICROSHADOW_CLI;
+    const auto c = cases()[3];  // harmonics, linear grid
+    const auto rep = repr::build_representation(c.kind, synthetic_bake(c.grid, c.nodes, 11));
+    rep->write(path("h.exr"), false);
+    auto r = run_shell(cli + " repr export " + path("h.exr") + " --half --out " + path("h.ktx2") + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto half = repr::open_representation(path("h.exr"));
+    const auto k = read_ktx2(path("h.ktx2"));
+    EXPECT_EQ(k.vk_format, 97u);
+    const auto texels = decode_level(k);
+    ASSERT_EQ(texels.size(), rep->texels().size());
+    for (std::size_t i = 0; i < texels.size(); ++i) ASSERT_EQ(texels[i], float(Imath::half(rep->texels()[i]))) << i;
+    // DDS: the texture and its metadata beside it, together.
+    r = run_shell(cli + " repr export " + path("h.exr") + " --out " + path("h.dds") + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(std::filesystem::file_size(path("h.dds")), 4 + 124 + 20 + rep->texels().size() * 4);
+    std::ifstream sidecar(path("h.dds.json"));
+    const auto meta = nlohmann::json::parse(sidecar);
+    EXPECT_EQ(meta.at("file_format"), "dds");
+    EXPECT_EQ(meta.at("representation"), c.kind);
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir_), std::filesystem::directory_iterator()), 4);  // no temporaries left
+    // An unknown extension: exit 2, nothing written.
+    r = run_shell(cli + " repr export " + path("h.exr") + " --out " + path("h.png") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find(".ktx2"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(path("h.png")));
+    // repr bake --out X.ktx2 writes the texture directly (a tiny bake).
+    r = run_shell(cli + " repr bake -q --kind azimuth-axis --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2 "
+                        "--azimuth-nodes 3 --roughness 0.5 --samples 256 --half --out " + path("b.ktx2") + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto b = read_ktx2(path("b.ktx2"));
+    EXPECT_EQ(b.width, 2u * 3);  // 3 azimuth slots of 2 visibility texels
+    EXPECT_EQ(b.height, 2u);
+    EXPECT_EQ(b.depth, 2u);
+    EXPECT_NE(nlohmann::json::parse(b.kv.at("microshadow")).at("command_line").get<std::string>().find("b.ktx2"), std::string::npos);
 }
 
 }  // namespace

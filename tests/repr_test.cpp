@@ -304,6 +304,19 @@ TEST(ReprRoughnessTest, PlacementFindsAKink) {
     EXPECT_EQ(b.with_roughness({0, 5, 10}).grid.roughness.size(), 3u);
 }
 
+TEST(ReprCostTest, AnalyticComparatorsCostNoTextureAndTheirGlslAlu) {
+    // naughty-dog: clamp(n_dot_l + 2.0 * v * v - 1.0, 0.0, 1.0) is 4 operators and 1 intrinsic.
+    const auto nd = ms::compare::Comparator::parse("naughty-dog").cost();
+    ASSERT_TRUE(nd.has_value());
+    EXPECT_EQ(nd->bytes, 0u);
+    EXPECT_EQ(nd->fetches_per_light, 0u);
+    EXPECT_EQ(nd->alu_per_light, 5u);
+    // Every term has a cost, and the PZ term (a pow and a sqrt) costs more than naughty-dog's line.
+    for (auto t : ms::analytic::kAllAnalyticTerms)
+        EXPECT_TRUE(ms::compare::Comparator::parse(ms::analytic::to_string(t)).cost().has_value());
+    EXPECT_GT(ms::compare::Comparator::parse("pz-analytic").cost()->alu_per_light, nd->alu_per_light);
+}
+
 TEST(ReprCostTest, AluCounterCountsOperatorsAndIntrinsics) {
     EXPECT_EQ(repr::count_alu("float x = a + b * c;"), 2u);
     EXPECT_EQ(repr::count_alu("float x = clamp(y * 2.0 - 0.5, 0.0, 1.0);  // 3 + 4"), 3u);
@@ -311,7 +324,7 @@ TEST(ReprCostTest, AluCounterCountsOperatorsAndIntrinsics) {
     EXPECT_EQ(repr::count_alu("if (a <= b || c > d) return;"), 3u);
 }
 
-TEST_F(ReprFileTest, LutComparatorsCostTheirRgba16fTextureAndGeneratedShader) {
+TEST_F(ReprFileTest, LutComparatorsCostTheirHalfFloatTextureAndGeneratedShader) {
     const auto texel = ms::TexelConvention::centres;
     std::vector<ms::LutAxis> axes = {{"visibility", 0, 1, 5, texel}, {"n_dot_l", 0, 1, 4, texel}, {"n_dot_v", 0, 1, 3, texel}};
     std::vector<ms::LutChannel> ch = {{"R", 0.1, 0.01, 0.01}, {"G", 0.4, 0.16, 0.16}};
@@ -321,11 +334,16 @@ TEST_F(ReprFileTest, LutComparatorsCostTheirRgba16fTextureAndGeneratedShader) {
     const auto cmp = ms::compare::Comparator::parse(path("lut.exr"));
     ASSERT_TRUE(cmp.is_lut());
     ASSERT_TRUE(cmp.cost().has_value());
-    EXPECT_EQ(cmp.cost()->bytes, 5u * 4 * 3 * 8);  // RGBA16F: the 2 channels padded to 4
+    EXPECT_EQ(cmp.cost()->bytes, 5u * 4 * 3 * 4);  // RG16F: 2 channels of 2 bytes (3 or 4 would pad to RGBA16F)
     EXPECT_EQ(cmp.cost()->fetches_per_light, 1u);
-    EXPECT_EQ(cmp.cost()->storage, "3D texture 5x4x3 RGBA16F");
+    EXPECT_EQ(cmp.cost()->storage, "3D texture 5x4x3 RG16F");
     EXPECT_GT(cmp.cost()->alu_per_light, 10u);
-    EXPECT_FALSE(ms::compare::Comparator::parse("pz-analytic").cost().has_value());
+    // Part 1's terms: no texture, no fetch, only ALU.
+    const auto pz = ms::compare::Comparator::parse("pz-analytic").cost();
+    ASSERT_TRUE(pz.has_value());
+    EXPECT_EQ(pz->bytes, 0u);
+    EXPECT_EQ(pz->fetches_per_light, 0u);
+    EXPECT_GT(pz->alu_per_light, 0u);
 }
 
 class ReprCliTest : public ms::testing::ScratchDirTest {

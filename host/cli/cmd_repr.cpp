@@ -1,8 +1,9 @@
 // microshadow repr: representations that keep the relative azimuth (host/repr/representation.hpp,
 // docs/representations.md). `repr bake` bakes the term at K azimuth nodes per texel and builds one
 // representation (file, shaders); `repr shader` regenerates the sampling code of a file; `repr info`
-// prints its layout and cost.
+// prints its layout and cost; `repr export` writes a file's texture as KTX2 or DDS.
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <sstream>
 
@@ -22,6 +23,45 @@ struct ReprBakeArgs {
     std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear", visibility_warp = "linear";
     bool half = false;
     SamplingOptions sampling;
+};
+
+// The representation file formats, by --out's extension: the OpenEXR atlas (what `eval --compare` and
+// sweeps open), or the 3D texture alone as an engine loads it (KTX2, DDS + `<file>.json`).
+enum class ReprFormat { exr, ktx2, dds };
+ReprFormat repr_format(const std::string& out) {
+    const std::string ext = std::filesystem::path(out).extension().string();
+    if (ext == ".exr") return ReprFormat::exr;
+    if (ext == ".ktx2") return ReprFormat::ktx2;
+    if (ext == ".dds") return ReprFormat::dds;
+    throw std::invalid_argument("--out must be an .exr, .ktx2 or .dds file: " + out);
+}
+
+// The outputs of one representation file in `outputs` (a DDS adds its metadata sidecar `<out>.json`).
+struct ReprOutput {
+    ReprFormat format;
+    std::size_t file = 0, sidecar = 0;
+    ReprOutput(OutputSet& outputs, const std::string& out) : format(repr_format(out)) {
+        file = outputs.add(out, true);
+        if (format == ReprFormat::dds) sidecar = outputs.add(out + ".json");
+    }
+    // Writes the file into its temporary; all appear together at outputs.commit().
+    void write(OutputSet& outputs, const repr::Representation& r, bool half) const {
+        const std::string temp = outputs.temp_path(file);
+        if (format == ReprFormat::exr) return r.write(temp, half);
+        if (format == ReprFormat::ktx2) return r.write_ktx2(temp, half);
+        // The DDS writer puts the metadata beside its path: moved into the set's own `<out>.json`.
+        try {
+            r.write_dds(temp, half);
+        } catch (...) {
+            std::error_code ec;  // the writer's own sidecar of the temporary must not stay behind
+            std::filesystem::remove(temp + ".json", ec);
+            throw;
+        }
+        std::ifstream in(temp + ".json", std::ios::binary);
+        outputs.stream(sidecar) << in.rdbuf();
+        in.close();
+        std::filesystem::remove(temp + ".json");
+    }
 };
 
 std::string cost_line(const repr::Representation& r) {
@@ -52,10 +92,9 @@ void run_repr_bake(const ReprBakeArgs& a) {
         throw std::invalid_argument("azimuth-axis holds 1 to 4 roughness nodes (RGBA): use --roughness-count 4");
     if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
         throw std::invalid_argument("azimuth-harmonics projects on cos(m phi), m <= 3: --azimuth-nodes must be at least 7");
-    if (std::filesystem::path(a.out).extension() != ".exr") throw std::invalid_argument("--out must be an .exr file: " + a.out);
     // Every output checked before the bake; all appear together or none.
     OutputSet outputs;
-    const std::size_t exr = outputs.add(a.out, true);
+    const ReprOutput file(outputs, a.out);
     const std::size_t glsl = a.shader_glsl.empty() ? 0 : outputs.add(a.shader_glsl);
     const std::size_t hlsl = a.shader_hlsl.empty() ? 0 : outputs.add(a.shader_hlsl);
     auto backend = a.sampling.make_backend();
@@ -77,7 +116,7 @@ void run_repr_bake(const ReprBakeArgs& a) {
     }
     const auto rep = repr::build_representation(a.kind, bake);
     const std::string name = std::filesystem::path(a.out).filename().string();
-    rep->write(outputs.temp_path(exr), a.half);
+    file.write(outputs, *rep, a.half);
     if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
     if (!a.shader_hlsl.empty()) outputs.stream(hlsl) << rep->shader(repr::ShaderLanguage::hlsl, name);
     outputs.commit();
@@ -89,6 +128,7 @@ void run_repr_bake(const ReprBakeArgs& a) {
 
 struct ReprFileArgs {
     std::string file, lang = "glsl", out;
+    bool half = false;
 };
 
 std::unique_ptr<repr::Representation> open_or_bad_input(const std::string& path) {
@@ -102,13 +142,15 @@ std::unique_ptr<repr::Representation> open_or_bad_input(const std::string& path)
 }  // namespace
 
 void add_repr_command(CLI::App& app) {
-    auto* repr_cmd = app.add_subcommand("repr", "representations that keep the relative azimuth: bake, shader, info");
+    auto* repr_cmd = app.add_subcommand("repr", "representations that keep the relative azimuth: bake, shader, info, export");
     repr_cmd->require_subcommand(1);
 
     auto a = std::make_shared<ReprBakeArgs>();
     auto* bake = repr_cmd->add_subcommand("bake", "bake the term at K azimuth nodes per texel and build a representation");
     bake->add_option("--kind", a->kind, "azimuth-axis or azimuth-harmonics")->required()->check(CLI::IsMember(repr::representation_kinds()));
-    bake->add_option("--out", a->out, "the representation file (.exr)")->required();
+    bake->add_option("--out", a->out,
+                     "the representation file: .exr (opened by eval --compare and sweeps), or the 3D texture alone as "
+                     ".ktx2 or .dds (+ .dds.json metadata)")->required();
     bake->add_option("--visibility-count", a->visibility, "visibility texels")->transform(decimal_range(2, 256))->capture_default_str();
     bake->add_option("--n-dot-l-count", a->n_dot_l, "NdotL texels")->transform(decimal_range(2, 256))->capture_default_str();
     bake->add_option("--n-dot-v-count", a->n_dot_v, "NdotV texels")->transform(decimal_range(2, 256))->capture_default_str();
@@ -146,6 +188,19 @@ void add_repr_command(CLI::App& app) {
         }
         OutputSet outputs;
         outputs.stream(outputs.add(s->out)) << text;
+        outputs.commit();
+    });
+
+    auto x = std::make_shared<ReprFileArgs>();
+    auto* exp = repr_cmd->add_subcommand("export", "write a representation file's 3D texture as KTX2 or DDS (or EXR)");
+    exp->add_option("file", x->file, "a file written by `microshadow repr bake`")->required();
+    exp->add_option("--out", x->out, ".ktx2, .dds (+ .dds.json metadata) or .exr")->required();
+    exp->add_flag("--half", x->half, "RGBA16F (what an engine uploads); default RGBA32F");
+    exp->callback([x] {
+        const auto rep = open_or_bad_input(x->file);
+        OutputSet outputs;
+        const ReprOutput file(outputs, x->out);
+        file.write(outputs, *rep, x->half);
         outputs.commit();
     });
 

@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "core/query.hpp"
+#include "jobs/design.hpp"
 #include "lut/shader/alu_count.hpp"
 #include "lut/shader/shader_gen.hpp"
 
@@ -114,30 +115,43 @@ Comparator Comparator::parse(const std::string& argument) {
     if (name.empty()) throw std::invalid_argument("--compare " + argument + ": the file stem gives no column name; use NAME=FILE");
     if (name.find(',') != std::string::npos || name.find('"') != std::string::npos || name.find('\n') != std::string::npos)
         throw std::invalid_argument("--compare " + argument + ": column name '" + name + "' holds a comma, quote or line break");
-    c.file_ = file;
     try {
-        if (const auto& open = file_comparator_opener())
-            if ((c.file_comparator_ = open(file))) return c;
-        c.lut_ = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
+        return open_file(name, file);
     } catch (const std::exception& e) {
         throw std::invalid_argument(std::string("--compare: ") + e.what());
     }
+}
+
+Comparator Comparator::open_file(const std::string& name, const std::string& file) {
+    Comparator c;
+    c.name_ = name;
+    c.file_ = file;
+    // The opener answers null for a file that is not of its kinds (then it is read as a LUT).
+    if (const auto& open = file_comparator_opener())
+        if ((c.file_comparator_ = open(file))) return c;
+    c.lut_ = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
     return c;
 }
 
 std::optional<ComparatorCost> Comparator::cost() const {
     if (file_comparator_) return file_comparator_->cost();
-    if (!lut_) return std::nullopt;
-    // Part 2's LUT as an engine ships it: RGBA16F (channels padded to 4), one filtered fetch, and the
-    // ALU of the shader `microshadow shader` generates for it.
-    const auto& f = lut_->file();
     ComparatorCost c;
-    c.bytes = std::uint64_t(f.width) * f.height * 4 * 2;
+    if (!lut_) {  // part 1's formula: no texture, no fetch
+        c.alu_per_light = lutshader::count_alu(design::analytic_glsl(term_));
+        c.storage = "none (part 1's formula)";
+        return c;
+    }
+    // Part 2's LUT as an engine ships it: R16F, RG16F, or RGBA16F for three or four channels (no RGB16F
+    // on most GPUs), one filtered fetch, and the ALU of the shader `microshadow shader` generates for it.
+    const auto& f = lut_->file();
+    const std::uint64_t channels = f.channels.size() <= 2 ? f.channels.size() : 4;
+    c.bytes = std::uint64_t(f.width) * f.height * channels * 2;
     c.fetches_per_light = 1;
     c.alu_per_light = lutshader::count_alu(lutshader::generate_shader(f, lutshader::ShaderLanguage::glsl, file_));
     const bool three_d = f.n_dot_v().count > 1;
     c.storage = std::string(three_d ? "3D" : "2D") + " texture " + std::to_string(f.visibility().count) + "x" +
-                std::to_string(f.n_dot_l().count) + (three_d ? "x" + std::to_string(f.n_dot_v().count) : "") + " RGBA16F";
+                std::to_string(f.n_dot_l().count) + (three_d ? "x" + std::to_string(f.n_dot_v().count) : "") + " " +
+                (channels == 1 ? "R16F" : channels == 2 ? "RG16F" : "RGBA16F");
     return c;
 }
 

@@ -81,12 +81,18 @@ public:
     // Throws std::invalid_argument: an unknown name (listing the valid ones, with "did you mean" when
     // one is close) or an unreadable LUT (read_lut's message).
     static Comparator parse(const std::string& argument);
+    // The comparator of a file under a given column name: a representation file (through the installed
+    // opener, set_file_comparator_opener) or else a part 2 LUT. Sweeps open their [[comparators.lut]]
+    // files here, so a spec names a representation exactly as it names a LUT. Throws std::runtime_error
+    // naming the file (read_lut's or the opener's message).
+    static Comparator open_file(const std::string& name, const std::string& file);
 
     const std::string& name() const { return name_; }
     bool is_lut() const { return lut_ != nullptr; }
     bool is_representation() const { return file_comparator_ != nullptr; }
-    // A representation's cost (its own model); a LUT's as RGBA16F with one fetch and the ALU of its
-    // generated shader; none for the analytic terms.
+    // A representation's cost (its own model); a LUT's as an engine uploads it (R16F, RG16F or RGBA16F,
+    // one fetch, the ALU of its generated shader); an analytic term's: no texture, no fetch, the ALU of
+    // its GLSL (jobs/design.hpp's analytic_glsl). ALU by lut/shader/alu_count.hpp for all.
     std::optional<ComparatorCost> cost() const;
     double operator()(const ComparatorInputs& in) const;
     // {name, kind, term} or {name, kind, file, version, command_line} (the LUT metadata's, when present).

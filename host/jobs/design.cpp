@@ -225,16 +225,8 @@ Candidate lut_candidate(const std::string& name, const std::string& file) {
     Candidate c;
     c.name = name;
     c.kind = "lut";
-    // Channels as a texture holds them: R16F, RG16F, or RGBA16F for three or four (no RGB16F on most GPUs).
-    const std::uint64_t channels = f.channels.size() <= 2 ? f.channels.size() : 4;
-    const std::uint64_t texels = std::uint64_t(f.visibility().count) * f.n_dot_l().count * f.n_dot_v().count;
-    c.cost.bytes = texels * channels * 2;
-    c.cost.fetches_per_light = 1;
-    c.cost.alu_per_light = count_alu(lutshader::generate_shader(f, lutshader::ShaderLanguage::glsl, file));
-    c.cost.storage = std::string(f.n_dot_v().count > 1 ? "3D" : "2D") + " texture " + std::to_string(f.visibility().count) +
-                     "x" + std::to_string(f.n_dot_l().count) +
-                     (f.n_dot_v().count > 1 ? "x" + std::to_string(f.n_dot_v().count) : std::string()) + " " +
-                     (channels == 1 ? "R16F" : channels == 2 ? "RG16F" : "RGBA16F");
+    // The LUT's cost model is the comparator's (compare::Comparator::cost): one for eval, sweeps and design.
+    c.cost = *compare::Comparator::open_file(name, file).cost();
     c.value = [lut](const compare::ComparatorInputs& in) { return compare::lut_value(*lut, in); };
     c.provenance = {{"name", name}, {"kind", "lut"}, {"file", json_safe(file)}};
     for (const char* key : {"version", "command_line"})

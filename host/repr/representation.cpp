@@ -7,11 +7,17 @@
 #include <ImfInputFile.h>
 #include <ImfStringAttribute.h>
 
+#include <Imath/half.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <optional>
 #include <stdexcept>
 
 #include "io/exr_preflight.hpp"
+#include "io/input_file.hpp"
 #include "repr/texture_repr.hpp"
 
 namespace ms::repr {
@@ -84,9 +90,113 @@ bool is_exr(const std::string& path) {
     return ok;
 }
 
+// KTX 2.0's identifier (the specification's "File Structure"): the first 12 bytes of every KTX2 file.
+constexpr unsigned char kKtx2Identifier[12] = {0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
+
+bool is_ktx2(const std::string& path) {
+    std::FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return false;
+    unsigned char magic[12] = {};
+    const bool ok = std::fread(magic, 1, 12, f) == 12 && std::memcmp(magic, kKtx2Identifier, 12) == 0;
+    std::fclose(f);
+    return ok;
+}
+
+// A KTX2 file of `Representation::write_ktx2` read back: the "microshadow" metadata of its key/value
+// data and its one level as RGBA floats. Only what write_ktx2 writes is accepted (RGBA16F or RGBA32F,
+// one face, one level, no array, no supercompression); every offset and length is checked against the
+// file's size before it is read. Throws std::runtime_error saying what is wrong.
+struct Ktx2Representation {
+    nlohmann::json metadata;
+    Texture3D texture;
+};
+
+Ktx2Representation read_ktx2_representation(const std::string& path) {
+    const std::string b = read_input_file(path, std::uint64_t(1) << 28, "representation file");
+    auto u32 = [&](std::size_t at) {
+        std::uint32_t v;
+        std::memcpy(&v, b.data() + at, 4);
+        return v;
+    };
+    auto u64 = [&](std::size_t at) {
+        std::uint64_t v;
+        std::memcpy(&v, b.data() + at, 8);
+        return v;
+    };
+    // Header (80 bytes) and the level index of one level (24 bytes).
+    if (b.size() < 104 || std::memcmp(b.data(), kKtx2Identifier, 12) != 0) throw std::runtime_error("not a KTX2 file");
+    const std::uint32_t vk_format = u32(12), type_size = u32(16);
+    if (!((vk_format == 97 && type_size == 2) || (vk_format == 109 && type_size == 4)))
+        throw std::runtime_error("vkFormat " + std::to_string(vk_format) + " is not RGBA16F (97) or RGBA32F (109)");
+    if (u32(32) != 0 || u32(36) != 1 || u32(40) != 1 || u32(44) != 0)
+        throw std::runtime_error("not one face, one level, no array layers and no supercompression");
+    const std::uint64_t kvd_offset = u32(56), kvd_length = u32(60);
+    if (kvd_offset + kvd_length > b.size()) throw std::runtime_error("key/value data beyond the end of the file");
+    std::optional<nlohmann::json> meta;
+    for (std::uint64_t at = kvd_offset; at + 4 <= kvd_offset + kvd_length;) {
+        const std::uint64_t n = u32(std::size_t(at));
+        if (at + 4 + n > kvd_offset + kvd_length) throw std::runtime_error("a key/value entry runs past the key/value data");
+        const std::string entry = b.substr(std::size_t(at + 4), std::size_t(n));
+        const std::size_t nul = entry.find('\0');
+        if (nul != std::string::npos && entry.compare(0, nul, "microshadow") == 0) {
+            std::string value = entry.substr(nul + 1);
+            if (!value.empty() && value.back() == '\0') value.pop_back();
+            meta = nlohmann::json::parse(value, nullptr, false);
+        }
+        at += 4 + (n + 3) / 4 * 4;  // entries are padded to 4 bytes
+    }
+    if (!meta || !meta->is_object() || meta->value("kind", std::string()) != "representation")
+        throw std::runtime_error("no \"microshadow\" metadata of kind \"representation\" in the key/value data");
+    Ktx2Representation out;
+    out.metadata = *meta;
+    Texture3D& t = out.texture;
+    const auto& tex = meta->at("texture");
+    t.width = count_field(tex, "width", 1 << 16);
+    t.height = count_field(tex, "height", 4096);
+    t.depth = count_field(tex, "depth", 1 << 16);
+    if (u32(20) != t.width || u32(24) != t.height || std::max<std::uint32_t>(u32(28), 1) != t.depth)
+        throw std::runtime_error("pixelWidth/Height/Depth do not match the metadata's texture");
+    const std::uint64_t texels = std::uint64_t(t.width) * t.height * t.depth;
+    if (texels * 4 > (std::uint64_t(1) << 26)) throw std::runtime_error("texture larger than 2^24 texels");
+    const std::uint64_t offset = u64(80), length = u64(88);
+    if (length != texels * 4 * type_size || offset > b.size() || length > b.size() - offset)
+        throw std::runtime_error("level 0 is not width x height x depth RGBA texels inside the file");
+    t.texels.resize(std::size_t(texels * 4));
+    for (std::size_t i = 0; i < t.texels.size(); ++i) {
+        if (type_size == 4) {
+            std::memcpy(&t.texels[i], b.data() + offset + 4 * i, 4);
+        } else {
+            std::uint16_t bits;
+            std::memcpy(&bits, b.data() + offset + 2 * i, 2);
+            Imath::half h;
+            h.setBits(bits);
+            t.texels[i] = float(h);
+        }
+        if (!std::isfinite(t.texels[i])) throw std::runtime_error("texel " + std::to_string(i / 4) + " is not finite");
+    }
+    return out;
+}
+
+std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, Texture3D t) {
+    const ReprGrid grid = grid_from_json(meta.at("grid"));
+    const std::uint32_t azimuth_nodes = count_field(meta, "azimuth_nodes", 256);
+    const std::string kind = meta.value("representation", std::string());
+    if (kind == "azimuth-axis") return make_azimuth_axis(grid, azimuth_nodes, std::move(t), meta);
+    if (kind == "azimuth-harmonics") return make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
+    throw std::runtime_error("unknown representation '" + kind + "'");
+}
+
 }  // namespace
 
 bool is_representation_file(const std::string& path) {
+    if (is_ktx2(path)) {
+        try {
+            read_ktx2_representation(path);
+            return true;
+        } catch (const std::exception&) {
+            return false;
+        }
+    }
     if (!is_exr(path)) return false;
     try {
         exr::preflight_image(path);
@@ -99,7 +209,11 @@ bool is_representation_file(const std::string& path) {
 
 std::unique_ptr<Representation> open_representation(const std::string& path) {
     try {
-        if (!is_exr(path)) throw std::runtime_error("not an OpenEXR file");
+        if (is_ktx2(path)) {
+            Ktx2Representation k = read_ktx2_representation(path);
+            return make_representation(k.metadata, std::move(k.texture));
+        }
+        if (!is_exr(path)) throw std::runtime_error("neither an OpenEXR nor a KTX2 file");
         // Claims the file cannot hold are refused before OpenEXR allocates them (io/exr_preflight.hpp).
         exr::preflight_image(path);
         Imf::InputFile file(path.c_str());

@@ -125,6 +125,14 @@ public:
     virtual const std::vector<float>& texels() const = 0;  // RGBA interleaved, x fastest, then y, then z
     // Writes the OpenEXR atlas (depth slices stacked down the rows) atomically; half = HALF channels.
     virtual void write(const std::string& path, bool half) const = 0;
+    // The texture alone as a GPU texture file, what an engine loads (RGBA16F with half, else RGBA32F;
+    // one level, linear data): KTX2 with the EXR's metadata in the key/value data (key "microshadow",
+    // "file_format": "ktx2"), or DDS (DX10 header) with the metadata beside it in `<file>.json`. The
+    // texels, dimensions and x/y/z order are texels()'s, which the generated shader samples: a 3D
+    // texture width x height x depth, KTXorientation "rdi". Written atomically through
+    // lut/formats/texture.hpp; std::runtime_error naming the file on I/O errors.
+    virtual void write_ktx2(const std::string& path, bool half) const = 0;
+    virtual void write_dds(const std::string& path, bool half) const = 0;
     virtual const ReprGrid& grid() const = 0;
 };
 
@@ -134,9 +142,10 @@ std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake)
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
 std::vector<std::string> representation_kinds();
 
-// Reads a representation file (throws std::runtime_error naming the file and problem).
+// Reads a representation file: the OpenEXR of write(), or the KTX2 of write_ktx2() (its metadata from
+// the key/value data; the DDS is not read). Throws std::runtime_error naming the file and problem.
 std::unique_ptr<Representation> open_representation(const std::string& path);
-// True when the file is an OpenEXR whose "microshadow" metadata has "kind": "representation".
+// True when the file is an OpenEXR or KTX2 whose "microshadow" metadata has "kind": "representation".
 bool is_representation_file(const std::string& path);
 
 // Roughness nodes chosen by error: from the bake's roughness nodes (a dense reference, increasing), keep

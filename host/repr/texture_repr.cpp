@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "lut/formats/texture.hpp"
 #include "lut/shader/alu_count.hpp"
 
 namespace ms::repr {
@@ -93,17 +94,45 @@ nlohmann::json TextureRepresentation::provenance() const {
     return j;
 }
 
-void TextureRepresentation::write(const std::string& path, bool half) const {
-    const auto names = channel_names();
-    const std::size_t width = texture_.width, height = std::size_t(texture_.height) * texture_.depth;
+nlohmann::json TextureRepresentation::file_metadata(const std::string& file_format, bool half) const {
     nlohmann::json meta = metadata_;
     meta["kind"] = "representation";
     meta["representation"] = kind();
-    meta["file_format"] = "exr";
+    meta["file_format"] = file_format;
     meta["half"] = half;
     meta["grid"] = grid_to_json(grid_);
     meta["azimuth_nodes"] = azimuth_nodes_;
-    meta["texture"] = {{"width", texture_.width}, {"height", texture_.height}, {"depth", texture_.depth}, {"channels", names}};
+    meta["texture"] = {{"width", texture_.width}, {"height", texture_.height}, {"depth", texture_.depth}, {"channels", channel_names()}};
+    return meta;
+}
+
+namespace {
+// The texture as the shared texture writers take it: already RGBA (channel_names() says which channels
+// hold data; the rest repeat the last, as the texture holds them), one level.
+lutfmt::TextureData texture_data(const Texture3D& t, nlohmann::json meta) {
+    lutfmt::TextureData d;
+    d.width = t.width, d.height = t.height, d.depth = t.depth;
+    d.channels = 4;
+    d.levels = {t.texels};
+    d.metadata = std::move(meta);
+    return d;
+}
+}  // namespace
+
+void TextureRepresentation::write_ktx2(const std::string& path, bool half) const {
+    lutfmt::write_ktx2_texture(path, texture_data(texture_, file_metadata("ktx2", half)),
+                               half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
+}
+
+void TextureRepresentation::write_dds(const std::string& path, bool half) const {
+    lutfmt::write_dds_texture(path, texture_data(texture_, file_metadata("dds", half)),
+                              half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
+}
+
+void TextureRepresentation::write(const std::string& path, bool half) const {
+    const auto names = channel_names();
+    const std::size_t width = texture_.width, height = std::size_t(texture_.height) * texture_.depth;
+    const nlohmann::json meta = file_metadata("exr", half);
     check_writable_destination(path);
     AtomicPath atomic(path);
     {

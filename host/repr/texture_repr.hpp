@@ -33,12 +33,17 @@ public:
     nlohmann::json provenance() const override;
     compare::ComparatorCost cost() const override;
     void write(const std::string& path, bool half) const override;
+    void write_ktx2(const std::string& path, bool half) const override;
+    void write_dds(const std::string& path, bool half) const override;
     const nlohmann::json& metadata() const { return metadata_; }
     std::uint32_t azimuth_nodes() const { return azimuth_nodes_; }
     // EXR channel names of the meaningful channels (the texture repeats the last one up to RGBA).
     virtual std::vector<std::string> channel_names() const = 0;
 
 protected:
+    // The metadata every file of this representation records ("microshadow"): the bake's, plus kind,
+    // grid, azimuth nodes, texture layout, file format and precision.
+    nlohmann::json file_metadata(const std::string& file_format, bool half) const;
     // True where the term is 0 by rule: NdotL <= 0 or in the zero region of the grid's AO weighting.
     bool zero_region(double visibility, double n_dot_l) const;
     // Clamped texel coordinates of (visibility, NdotL, NdotV) within one block of the texture.

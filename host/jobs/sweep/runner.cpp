@@ -168,7 +168,8 @@ void write_json(const std::string& path, const json& j) {
 }
 
 // Every input that decides the bits of the rows: the spec's values, the sampling plan, the
-// defaults, the backend and the LUT contents (a re-baked LUT must not resume old chunks).
+// defaults, the backend and the comparator files' bytes (a re-baked LUT or representation must not
+// resume old chunks).
 std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
     std::ostringstream s;
     s << canonical_text(spec) << "samples=" << c.plan.samples << "\nreplicates=" << c.plan.replicates
@@ -184,7 +185,23 @@ class ChunkComputer {
 public:
     ChunkComputer(const Spec& spec, const RunConfig& config)
         : spec_(spec), grid_(spec, config.defaults.form, config.defaults.ao_weighting) {
-        for (const auto& l : spec.luts) luts_.push_back(std::make_unique<LutLookup>(LutLookup::open(l.file)));
+        // A [[comparators.lut]] file is a part 2 LUT or a representation (host/repr/, opened through the
+        // hook repr::install_comparators() sets): compare::Comparator tells them apart by the file's metadata.
+        for (const auto& l : spec.luts) files_.push_back(compare::Comparator::open_file(l.name, l.file));
+    }
+    // Each file comparator's provenance (kind, file, version, command line; a representation's cost).
+    json file_provenance() const {
+        json out = json::array();
+        for (const auto& c : files_) {
+            json j = c.provenance();
+            if (const auto cost = c.cost())
+                j["cost"] = {{"bytes", cost->bytes},
+                             {"fetches_per_light", cost->fetches_per_light},
+                             {"alu_per_light", cost->alu_per_light},
+                             {"storage", cost->storage}};
+            out.push_back(j);
+        }
+        return out;
     }
     const PointGrid& grid() const { return grid_; }
 
@@ -217,8 +234,11 @@ public:
             // delta_phi in degrees, folded to [0, 180] (the term is even and 360-periodic in it).
             const double folded = std::fabs(std::remainder(p.delta_phi, 360.0));
             in.relative_azimuth = folded * (3.14159265358979323846 / 180.0);
+            // A direction along the normal has no azimuth: 0, as eval --compare reads it from the query's
+            // directions (compare::inputs_of), so a representation column equals eval's at such points.
+            if (p.n_dot_v >= 1 || p.n_dot_l >= 1) in.relative_azimuth = 0;
             for (auto t : spec_.analytic) line += "," + format_number(compare::analytic_value(t, in));
-            for (const auto& l : luts_) line += "," + format_number(compare::lut_value(*l, in));
+            for (const auto& c : files_) line += "," + format_number(c(in));
             out += line + "\n";
         }
         return out;
@@ -227,7 +247,7 @@ public:
 private:
     const Spec& spec_;
     PointGrid grid_;
-    std::vector<std::unique_ptr<LutLookup>> luts_;
+    std::vector<compare::Comparator> files_;  // spec.luts, in order
 };
 
 // Writes sweep.csv from the chunk files (in chunk order), then the summary and provenance.
@@ -326,7 +346,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         if (m.value("spec_hash", "") != result.spec_hash) {
             if (!config.restart)
                 throw std::invalid_argument(entry.path().string() +
-                                            ": this directory holds a different sweep (spec, sampling, backend or LUT "
+                                            ": this directory holds a different sweep (spec, sampling, backend or comparator "
                                             "files changed); use another --out, or --restart to discard it");
             continue;
         }
@@ -371,6 +391,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
                      {"backend", config.backend_label},
                      {"fast_math", config.fast_math},
                      {"command_line", config.command_line},
+                     {"comparator_files", computer.file_provenance()},
                      {"complete", false},
                      {"finished", json::array()}};
     auto save_manifest = [&](bool complete) {

@@ -30,7 +30,8 @@
 //   analytic = ["reference-step", "naughty-dog", "pz-analytic"]     # part 1's terms by name
 //   [[comparators.lut]]
 //   name = "lut3d-32"             # the column name
-//   file = "lut3d-32.exr"         # a LUT of `microshadow bake`; relative to the spec file
+//   file = "lut3d-32.exr"         # a LUT of `microshadow bake`, or a representation file of `microshadow
+//                                 # repr bake` (told apart by its metadata); relative to the spec file
 //
 // A range is { start, stop, count, scale = "linear" | "log" }: count values from start to stop
 // inclusive (count = 1 gives start). Log ranges need start, stop > 0.

@@ -54,7 +54,7 @@ PY
     sed -e '/^file = "normal.png"/d' -e '/^space = "tangent"/d' -e '/^green = "+Y"/d' \
         -e 's|^\[normal\]|[normal]\nvalue = [0.0, 0.0, 1.0]|' -e "s|file = \"\([a-z]*\.png\)\"|file = \"$PWD/examples/scene/\1\"|" \
         examples/scene/scene.toml > "$tmp/flat.toml"
-    echo "scene,layout,texels,baked_texels,touched_texels,baked_slices,slices,scene_bake_s,full_bake_s,ratio,scene_lut_weighted_max,scene_lut_weighted_rms,default_weighted_max,default_weighted_rms,reference_bound,default_serves,load_before" > "$OUT/scene_bake.csv"
+    echo "scene,layout,texels,baked_texels,touched_texels,baked_slices,slices,scene_bake_s,full_bake_s,ratio,scene_lut_weighted_max,scene_lut_weighted_rms,default_weighted_max,default_weighted_rms,reference_bound,default_serves,load_before,histogram_updates,full_histogram_updates,batches,full_batches" > "$OUT/scene_bake.csv"
     for scene in example flat; do
     toml=examples/scene/scene.toml
     [ $scene = flat ] && toml="$tmp/flat.toml"
@@ -68,7 +68,7 @@ print(",".join(str(x) for x in [sys.argv[4], sys.argv[2], c["texels"], c["baked_
       "%.2f" % t["scene_bake_seconds"], "%.2f" % t["full_bake_seconds"], "%.3f" % t["ratio"],
       "%.4g" % e["scene_lut"]["weighted_max"], "%.4g" % e["scene_lut"]["weighted_rms"],
       "%.4g" % e["default_lut"]["weighted_max"], "%.4g" % e["default_lut"]["weighted_rms"], "%.3g" % e["reference_bound"],
-      j["verdict"]["default_serves"], sys.argv[3]]))
+      j["verdict"]["default_serves"], sys.argv[3], t["histogram_updates"], t["full_histogram_updates"], t["batches"], t["full_batches"]]))
 PY
       echo "bake $scene $layout: $(tail -1 "$OUT/scene_bake.csv")"
     done

@@ -317,9 +317,14 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     BakeSpec full = r.plan.spec;
     if (full.baked_rows.empty()) {
         r.full_seconds = r.bake.seconds;  // every row was touched: the scene bake is the full bake
+        r.full_histogram_updates = r.bake.sample_node_rows;
+        r.full_batches = r.bake.batches;
     } else {
         full.baked_rows.clear();
-        r.full_seconds = bake_lut(full, backend.scheduler(), progress("full bake (for the time ratio)")).seconds;
+        const BakeResult f = bake_lut(full, backend.scheduler(), progress("full bake (for the time ratio)"));
+        r.full_seconds = f.seconds;
+        r.full_histogram_updates = f.sample_node_rows;
+        r.full_batches = f.batches;
     }
     // The default LUT: seed-3d at the base's counts and sampling.
     BakeSpec standard = default_bake_spec(LutLayout::seed_3d, base.n_dot_l.count);
@@ -401,6 +406,8 @@ json scene_bake_report(const SceneBakeResult& r, const std::vector<LightDomain>&
     j["time"] = {{"scene_bake_seconds", r.bake.seconds}, {"full_bake_seconds", r.full_seconds},
                  {"ratio", r.full_seconds > 0 ? r.bake.seconds / r.full_seconds : 0.0},
                  {"default_lut_seconds", r.default_seconds}, {"reference_seconds", r.reference_seconds},
+                 {"histogram_updates", r.bake.sample_node_rows}, {"full_histogram_updates", r.full_histogram_updates},
+                 {"batches", r.bake.batches}, {"full_batches", r.full_batches},
                  {"device", r.bake.devices.empty() ? "" : r.bake.devices[0]}};
     j["bake"] = {{"max_std_error", r.bake.max_std_error}, {"batches", r.bake.batches}, {"samples_per_batch", r.bake.samples_per_batch},
                  {"azimuth_quadrature_error", r.bake.azimuth_quadrature_error}};
@@ -447,6 +454,10 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
         m << ", full bake of the same layout " << fmt(r.full_seconds) << " s (ratio " << fmt(r.bake.seconds / r.full_seconds)
           << ", same run), default LUT " << fmt(r.default_seconds) << " s, reference " << fmt(r.reference_seconds) << " s";
     m << ".\n\n";
+    if (r.full_histogram_updates)
+        m << "Work (load-independent): histogram updates (samples x rows x azimuth nodes) " << r.bake.sample_node_rows << " of the full bake's "
+          << r.full_histogram_updates << " (" << fmt(double(r.bake.sample_node_rows) / double(r.full_histogram_updates)) << "); normals passes "
+          << r.bake.batches << " of " << r.full_batches << " (slice batches).\n\n";
     if (!r.errors.empty()) {
         m << "## Error on the scene (|LUT - reference| x N.L x intensity, sampled lookups)\n\n";
         m << "| light | LUT | lookups | weighted max | weighted RMS | weighted p99 | max | RMS | reference bound |\n";

@@ -102,6 +102,9 @@ struct SceneBakeResult {
     BakeResult bake;                        // the partial (scene) bake
     std::vector<LutChannel> channels;
     double full_seconds = 0;                // the full bake of the same layout (compare)
+    // Work counts of the full bake (load-independent, unlike seconds on a shared machine): histogram
+    // updates (samples x rows x azimuth nodes) and batches (one normals pass of every sample each).
+    std::uint64_t full_histogram_updates = 0, full_batches = 0;
     double default_seconds = 0;             // the default seed-3d LUT (compare)
     double reference_seconds = 0;
     // Per light (compare): the errors of the scene LUT and the default LUT on the sampled lookups,

@@ -173,6 +173,30 @@ TEST_F(SceneBakeTest, CommandLineBakesTheExampleSceneWithItsReport) {
     EXPECT_GT(j["time"]["full_bake_seconds"].get<double>(), 0.0);
     // The LUT reads back (with or without a coverage record) and serves every lookup of the scene.
     EXPECT_NO_THROW(read_lut(path("lut.exr")));
+
+    // A partial LUT serves its own scene as a `scene --lut` comparator, and stops another scene whose
+    // lookups reach rows it did not bake (NdotV 0.8: slices 5 and 6, of which only 5 was baked): exit 2,
+    // the comparator and the pixel named, nothing written.
+    flat_scene(0.5);
+    r = testing::run_shell(cli + " bake --scene " + path("s.toml") + " --scene-layout layout --size 8 --samples 4096 --out " +
+                           path("partial.exr") + " --scene-report " + path("rep2") + " --no-scene-compare --quiet 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    r = testing::run_shell(cli + " scene " + path("s.toml") + " --lut " + path("partial.exr") + " --out " + path("own") +
+                           " --no-seed-luts --tolerance 0.05 --quiet 2>&1");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::string other;
+    {
+        std::ifstream in(path("s.toml"));
+        other.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    other.replace(other.find("[0.8, 0, 0.6]"), 13, "[0.6, 0, 0.8]");
+    std::ofstream(path("other.toml")) << other;
+    r = testing::run_shell(cli + " scene " + path("other.toml") + " --lut " + path("partial.exr") + " --out " + path("other") +
+                           " --no-seed-luts --tolerance 0.05 --quiet 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("comparator lut-partial at pixel (0, 0)"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("did not bake"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(path("other")));
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <unordered_map>
 
 #include "analytic/part1_terms.hpp"
@@ -411,7 +412,14 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                     if (d.has_material) pixel_material[i] = std::uint16_t(groups[2]);
                 }
                 for (std::size_t k = 0; k < comparators.size(); ++k) {
-                    const double a = comparator_value(comparators[k], p, q, w);
+                    double a = 0;
+                    try {
+                        a = comparator_value(comparators[k], p, q, w);
+                    } catch (const std::domain_error& e) {
+                        // A partial LUT (bake --scene of another scene) refuses lookups outside what it baked.
+                        throw SceneError("comparator " + comparators[k].name + " at pixel (" + std::to_string(i % result.width) +
+                                         ", " + std::to_string(i / result.width) + "): " + e.what());
+                    }
                     const double diff = a - double(li.reference[i]);
                     li.approximation[k][i] = float(a);
                     li.error[k][i] = float(diff * q.irradiance);

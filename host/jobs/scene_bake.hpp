@@ -40,6 +40,9 @@
 
 namespace ms::scene {
 
+// Azimuth nodes of the azimuth-mean floor (trapezoid on [0, 180] degrees: 16 intervals).
+inline constexpr std::uint32_t kAzimuthFloorNodes = 17;
+
 // One lookup of a renderer: a shaded, lit pixel under one light.
 struct SceneLookup {
     std::uint32_t pixel = 0;
@@ -93,6 +96,7 @@ struct SceneBakeOptions {
     bool compare = true;                    // full bake, default LUT and reference on a sample
     std::uint32_t error_lookups = 2048;     // per light, the sample of lookups the reference is taken at
     std::uint64_t reference_samples = 65536;
+    std::uint64_t azimuth_floor_samples = 16384;  // per azimuth node (0: no azimuth floor)
     double serve_error = 0.01;              // the verdict's threshold on the weighted error
     std::function<void(const std::string& phase, std::size_t done, std::size_t total)> progress;
 };
@@ -113,6 +117,13 @@ struct SceneBakeResult {
         std::string light;
         LutErrorStats scene_lut, default_lut;
         double reference_bound = 0;
+        // The azimuth-mean floor: |mean over the azimuth of the term - the term at the pixel's azimuth|,
+        // at the same (v, alpha, NdotV, NdotL), on the isotropic sampled lookups: the error of a perfect
+        // LUT that stores the azimuth mean (as every LUT here does), whatever its resolution. The mean is
+        // the trapezoid rule on kAzimuthFloorNodes nodes over [0, 180] degrees, each node sampled with
+        // azimuth_floor_samples; its bound is the largest t x (weighted sum of the nodes' std errors).
+        LutErrorStats azimuth_floor;
+        double azimuth_floor_bound = 0;
     };
     std::vector<LightErrors> errors;
     std::uint64_t default_size = 32;

@@ -11,7 +11,8 @@
 # bake:  `microshadow bake --scene` on the 256 x 256 example scene and on its texture set on a flat plane
 #        (the same AO and roughness, normal (0, 0, 1)), --scene-layout fit and layout: texels
 #        baked of the full layout, the scene bake's time against the full bake of the same layout (same
-#        run), and the error of the scene LUT and the default LUT on sampled lookups -> docs/bench/scene_bake.csv
+#        run), and the error of the scene LUT, the default LUT and the azimuth-mean floor on sampled lookups
+#        -> docs/bench/scene_bake.csv
 # The machine is shared: compare CPU seconds and sample counts; wall times carry the load average, which
 # the CSV records.
 set -euo pipefail
@@ -54,7 +55,7 @@ PY
     sed -e '/^file = "normal.png"/d' -e '/^space = "tangent"/d' -e '/^green = "+Y"/d' \
         -e 's|^\[normal\]|[normal]\nvalue = [0.0, 0.0, 1.0]|' -e "s|file = \"\([a-z]*\.png\)\"|file = \"$PWD/examples/scene/\1\"|" \
         examples/scene/scene.toml > "$tmp/flat.toml"
-    echo "scene,layout,texels,baked_texels,touched_texels,baked_slices,slices,scene_bake_s,full_bake_s,ratio,scene_lut_weighted_max,scene_lut_weighted_rms,default_weighted_max,default_weighted_rms,reference_bound,default_serves,load_before,histogram_updates,full_histogram_updates,batches,full_batches" > "$OUT/scene_bake.csv"
+    echo "scene,layout,texels,baked_texels,touched_texels,baked_slices,slices,scene_bake_s,full_bake_s,ratio,scene_lut_weighted_max,scene_lut_weighted_rms,default_weighted_max,default_weighted_rms,reference_bound,default_serves,load_before,histogram_updates,full_histogram_updates,batches,full_batches,azimuth_floor_weighted_max,azimuth_floor_weighted_rms,azimuth_floor_bound" > "$OUT/scene_bake.csv"
     for scene in example flat; do
     toml=examples/scene/scene.toml
     [ $scene = flat ] && toml="$tmp/flat.toml"
@@ -68,7 +69,8 @@ print(",".join(str(x) for x in [sys.argv[4], sys.argv[2], c["texels"], c["baked_
       "%.2f" % t["scene_bake_seconds"], "%.2f" % t["full_bake_seconds"], "%.3f" % t["ratio"],
       "%.4g" % e["scene_lut"]["weighted_max"], "%.4g" % e["scene_lut"]["weighted_rms"],
       "%.4g" % e["default_lut"]["weighted_max"], "%.4g" % e["default_lut"]["weighted_rms"], "%.3g" % e["reference_bound"],
-      j["verdict"]["default_serves"], sys.argv[3], t["histogram_updates"], t["full_histogram_updates"], t["batches"], t["full_batches"]]))
+      j["verdict"]["default_serves"], sys.argv[3], t["histogram_updates"], t["full_histogram_updates"], t["batches"], t["full_batches"],
+      "%.4g" % e["azimuth_mean_floor"]["weighted_max"], "%.4g" % e["azimuth_mean_floor"]["weighted_rms"], "%.3g" % e["azimuth_mean_floor_bound"]]))
 PY
       echo "bake $scene $layout: $(tail -1 "$OUT/scene_bake.csv")"
     done

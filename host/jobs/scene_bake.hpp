@@ -23,8 +23,9 @@
 // 5. The comparison (optional, on by default): the full bake of the same layout (the time ratio, same
 //    run, same scheduler), the default seed-3d LUT at the same samples, and the reference term by VNDF
 //    sampling on a deterministic sample of the lookups: the error of both LUTs as shading sees it
-//    (times N.L and the light's intensity), and the verdict whether the default LUT serves the scene
-//    within a stated error.
+//    (times N.L and the light's intensity), the azimuth-mean floor (what any LUT of the azimuth mean
+//    misses on those lookups), and the verdict whether the default LUT serves the scene within a stated
+//    error.
 #pragma once
 
 #include <nlohmann/json.hpp>

@@ -154,6 +154,31 @@ TEST_F(SceneBakeTest, PartialBakeMatchesTheFullBakeAndUnbakedTexelsAreMarkedAndR
     EXPECT_THROW(read_lut(path("norecord.exr")), std::runtime_error);
 }
 
+TEST_F(SceneBakeTest, AzimuthMeanFloorVanishesWhenTheViewIsAlongTheNormal) {
+    // V = N: the relative azimuth of L means nothing (every azimuth is the same query turned about the
+    // normal), so the azimuth mean equals the term: the floor is zero within the two error bounds (one
+    // distinct query, both bounds at 99.9 %).
+    std::vector<float> ao(16, 0.7f);
+    scene::write_exr(path("ao.exr"), 4, 4, {{"ao", ao.data()}});
+    std::ofstream(path("n.toml")) << "[normal]\nvalue = [0, 0, 1]\n[visibility]\nfile = \"ao.exr\"\nchannel = \"ao\"\n"
+                                     "[roughness]\nvalue = 0.6\n[view]\ndirection = [0, 0, 1]\n[[light]]\nname = \"sun\"\n"
+                                     "direction = [0.6, 0, 0.8]\n";
+    const scene::SceneInputs inputs = scene::SceneInputs::load(scene::load_scene(path("n.toml")));
+    const auto domain = scene::scene_domain(inputs, 8);
+    BakeSpec base = default_bake_spec(LutLayout::seed_3d, 4);
+    base.samples = 4096;
+    auto backend = make_opencl_backend(ocl::select_devices("default"));
+    scene::SceneBakeOptions options;
+    options.error_lookups = 1;  // every lookup is the same query
+    const auto r = scene::run_scene_bake(inputs, domain, base, *backend, options);
+    ASSERT_EQ(r.errors.size(), 1u);
+    const auto& e = r.errors[0];
+    ASSERT_EQ(e.azimuth_floor.lookups, 1u);
+    EXPECT_GT(e.azimuth_floor_bound, 0.0);
+    EXPECT_LE(e.azimuth_floor.max_term, e.azimuth_floor_bound + e.reference_bound)
+        << "floor " << e.azimuth_floor.max_term << ", bounds " << e.azimuth_floor_bound << " + " << e.reference_bound;
+}
+
 TEST_F(SceneBakeTest, CommandLineBakesTheExampleSceneWithItsReport) {
     const std::string cli = MICROSHADOW_CLI;
     const std::string example = std::string(MICROSHADOW_SOURCE_DIR) + "/examples/scene/scene.toml";
@@ -171,8 +196,37 @@ TEST_F(SceneBakeTest, CommandLineBakesTheExampleSceneWithItsReport) {
     EXPECT_LE(j["coverage"]["baked_texels"].get<std::uint64_t>(), j["coverage"]["texels"].get<std::uint64_t>());
     EXPECT_TRUE(j["verdict"].contains("default_serves"));
     EXPECT_GT(j["time"]["full_bake_seconds"].get<double>(), 0.0);
+    // On the example the azimuth matters (V is 50 degrees off the plane's normal): the floor is far above
+    // its error bounds (measured 0.080 against 0.006 + 0.003).
+    const auto& errors = j["lights"][0]["errors"];
+    EXPECT_GT(errors["azimuth_mean_floor"]["max"].get<double>(),
+              errors["azimuth_mean_floor_bound"].get<double>() + errors["reference_bound"].get<double>());
     // The LUT reads back (with or without a coverage record) and serves every lookup of the scene.
     EXPECT_NO_THROW(read_lut(path("lut.exr")));
+
+    // A partial LUT serves its own scene as a `scene --lut` comparator, and stops another scene whose
+    // lookups reach rows it did not bake (NdotV 0.8: slices 5 and 6, of which only 5 was baked): exit 2,
+    // the comparator and the pixel named, nothing written.
+    flat_scene(0.5);
+    r = testing::run_shell(cli + " bake --scene " + path("s.toml") + " --scene-layout layout --size 8 --samples 4096 --out " +
+                           path("partial.exr") + " --scene-report " + path("rep2") + " --no-scene-compare --quiet 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    r = testing::run_shell(cli + " scene " + path("s.toml") + " --lut " + path("partial.exr") + " --out " + path("own") +
+                           " --no-seed-luts --tolerance 0.05 --quiet 2>&1");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    std::string other;
+    {
+        std::ifstream in(path("s.toml"));
+        other.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    }
+    other.replace(other.find("[0.8, 0, 0.6]"), 13, "[0.6, 0, 0.8]");
+    std::ofstream(path("other.toml")) << other;
+    r = testing::run_shell(cli + " scene " + path("other.toml") + " --lut " + path("partial.exr") + " --out " + path("other") +
+                           " --no-seed-luts --tolerance 0.05 --quiet 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("comparator lut-partial at pixel (0, 0)"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("did not bake"), std::string::npos) << r.output;
+    EXPECT_FALSE(fs::exists(path("other")));
 }
 
 }  // namespace

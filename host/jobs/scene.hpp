@@ -27,7 +27,11 @@
 // Per-pixel tolerance: every key is sampled with min_samples, and keys whose error bound (Student t of
 // the R replicates at 99.9 %, student_t_999(R), times the standard error) exceeds E are resampled with
 // the samples predicted from that bound (at least 2x; scene.cpp), up to max_samples; keys still above
-// are counted. R = 16 by default (docs/scenes.md).
+// are counted. R = 16 by default (docs/scenes.md). The first count of a query is predicted from its
+// neighbours' final counts (sampling.predict_stride; scene.cpp).
+//
+// Tiles: pixels are classified, keyed and sampled sampling.tile_pixels at a time, so the working memory
+// grows with the tile; the inputs and the output layers are what is held for the whole image.
 #pragma once
 
 #include <nlohmann/json.hpp>

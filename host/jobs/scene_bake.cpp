@@ -317,9 +317,14 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     BakeSpec full = r.plan.spec;
     if (full.baked_rows.empty()) {
         r.full_seconds = r.bake.seconds;  // every row was touched: the scene bake is the full bake
+        r.full_histogram_updates = r.bake.sample_node_rows;
+        r.full_batches = r.bake.batches;
     } else {
         full.baked_rows.clear();
-        r.full_seconds = bake_lut(full, backend.scheduler(), progress("full bake (for the time ratio)")).seconds;
+        const BakeResult f = bake_lut(full, backend.scheduler(), progress("full bake (for the time ratio)"));
+        r.full_seconds = f.seconds;
+        r.full_histogram_updates = f.sample_node_rows;
+        r.full_batches = f.batches;
     }
     // The default LUT: seed-3d at the base's counts and sampling.
     BakeSpec standard = default_bake_spec(LutLayout::seed_3d, base.n_dot_l.count);
@@ -380,6 +385,47 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
         }
         e.scene_lut = error_stats(ws, ts);
         e.default_lut = error_stats(wd, td);
+        if (options.azimuth_floor_samples) {
+            // The term of each isotropic sampled lookup at the trapezoid nodes of the azimuth (wi = (sin_v,
+            // 0, cos_v) in the pixel's frame, inputs.hpp; wo turned about the normal), and its mean.
+            SamplingPlan floor_plan = plan;
+            floor_plan.samples = options.azimuth_floor_samples;
+            std::vector<Query> nodes;
+            std::vector<std::size_t> which;  // index into chosen
+            for (std::size_t k = 0; k < chosen.size(); ++k) {
+                const Query& q = queries[k];
+                if (q.alpha_x != q.alpha_y) continue;  // anisotropic: the frame's azimuth matters
+                const double sl = std::sqrt(std::max(0.0, 1 - q.wo.z * q.wo.z));
+                for (std::uint32_t i = 0; i < kAzimuthFloorNodes; ++i) {
+                    const double phi = 3.14159265358979323846 * i / (kAzimuthFloorNodes - 1);
+                    Query n = q;
+                    n.wo = {sl * std::cos(phi), sl * std::sin(phi), q.wo.z};
+                    nodes.push_back(n);
+                }
+                which.push_back(k);
+            }
+            const auto node_est = evaluate(backend, nodes, term, floor_plan, nullptr, [&](std::size_t done, std::size_t total) {
+                if (options.progress) options.progress("azimuth mean (" + ld.light + ")", done, total);
+            });
+            std::vector<double> wf, tf;
+            for (std::size_t m = 0; m < which.size(); ++m) {
+                // Every node uses the same points, so their errors are correlated: the mean's standard error
+                // is bounded by the weighted sum of theirs (the triangle inequality), not the root of squares.
+                double mean = 0, std_error = 0;
+                for (std::uint32_t i = 0; i < kAzimuthFloorNodes; ++i) {
+                    const double w = (i == 0 || i + 1 == kAzimuthFloorNodes ? 0.5 : 1.0) / (kAzimuthFloorNodes - 1);
+                    const Estimate& ne = node_est[m * kAzimuthFloorNodes + i];
+                    mean += w * ne.term;
+                    std_error += w * ne.std_error;
+                }
+                e.azimuth_floor_bound = std::max(e.azimuth_floor_bound, t * std_error);
+                const SceneLookup& l = *chosen[which[m]];
+                const double d = std::fabs(mean - est[which[m]].term);
+                tf.push_back(d);
+                wf.push_back(d * l.weight);
+            }
+            e.azimuth_floor = error_stats(wf, tf);
+        }
         if (e.default_lut.max + e.reference_bound > options.serve_error) r.default_serves = false;
         r.errors.push_back(e);
     }
@@ -401,6 +447,8 @@ json scene_bake_report(const SceneBakeResult& r, const std::vector<LightDomain>&
     j["time"] = {{"scene_bake_seconds", r.bake.seconds}, {"full_bake_seconds", r.full_seconds},
                  {"ratio", r.full_seconds > 0 ? r.bake.seconds / r.full_seconds : 0.0},
                  {"default_lut_seconds", r.default_seconds}, {"reference_seconds", r.reference_seconds},
+                 {"histogram_updates", r.bake.sample_node_rows}, {"full_histogram_updates", r.full_histogram_updates},
+                 {"batches", r.bake.batches}, {"full_batches", r.full_batches},
                  {"device", r.bake.devices.empty() ? "" : r.bake.devices[0]}};
     j["bake"] = {{"max_std_error", r.bake.max_std_error}, {"batches", r.bake.batches}, {"samples_per_batch", r.bake.samples_per_batch},
                  {"azimuth_quadrature_error", r.bake.azimuth_quadrature_error}};
@@ -411,6 +459,8 @@ json scene_bake_report(const SceneBakeResult& r, const std::vector<LightDomain>&
             const auto& e = r.errors[i];
             l["errors"] = {{"scene_lut", stats_json(e.scene_lut)},
                            {"default_lut", stats_json(e.default_lut)},
+                           {"azimuth_mean_floor", stats_json(e.azimuth_floor)},
+                           {"azimuth_mean_floor_bound", e.azimuth_floor_bound},
                            {"reference_bound", e.reference_bound},
                            {"weighting", "|LUT - reference| x max(N.L, 0) x intensity, on an evenly strided sample of the lookups"}};
         }
@@ -447,6 +497,10 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
         m << ", full bake of the same layout " << fmt(r.full_seconds) << " s (ratio " << fmt(r.bake.seconds / r.full_seconds)
           << ", same run), default LUT " << fmt(r.default_seconds) << " s, reference " << fmt(r.reference_seconds) << " s";
     m << ".\n\n";
+    if (r.full_histogram_updates)
+        m << "Work (load-independent): histogram updates (samples x rows x azimuth nodes) " << r.bake.sample_node_rows << " of the full bake's "
+          << r.full_histogram_updates << " (" << fmt(double(r.bake.sample_node_rows) / double(r.full_histogram_updates)) << "); normals passes "
+          << r.bake.batches << " of " << r.full_batches << " (slice batches).\n\n";
     if (!r.errors.empty()) {
         m << "## Error on the scene (|LUT - reference| x N.L x intensity, sampled lookups)\n\n";
         m << "| light | LUT | lookups | weighted max | weighted RMS | weighted p99 | max | RMS | reference bound |\n";
@@ -456,6 +510,12 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
                                           std::pair<std::string, const LutErrorStats&>{"default seed-3d-" + std::to_string(r.default_size), e.default_lut}})
                 m << "| " << e.light << " | " << name << " | " << s.lookups << " | " << fmt(s.max) << " | " << fmt(s.rms) << " | "
                   << fmt(s.p99) << " | " << fmt(s.max_term) << " | " << fmt(s.rms_term) << " | " << fmt(e.reference_bound) << " |\n";
+        for (const auto& e : r.errors)
+            if (e.azimuth_floor.lookups)
+                m << "| " << e.light << " | azimuth-mean floor (any LUT of the azimuth mean) | " << e.azimuth_floor.lookups << " | "
+                  << fmt(e.azimuth_floor.max) << " | " << fmt(e.azimuth_floor.rms) << " | " << fmt(e.azimuth_floor.p99) << " | "
+                  << fmt(e.azimuth_floor.max_term) << " | " << fmt(e.azimuth_floor.rms_term) << " | " << fmt(e.azimuth_floor_bound)
+                  << " (mean) |\n";
         m << "\n**Verdict:** the default LUT " << (r.default_serves ? "serves" : "does not serve") << " this scene within "
           << fmt(r.serve_error) << " (its largest weighted error on the sampled lookups plus the reference's bound).\n\n";
     }

@@ -23,8 +23,9 @@
 // 5. The comparison (optional, on by default): the full bake of the same layout (the time ratio, same
 //    run, same scheduler), the default seed-3d LUT at the same samples, and the reference term by VNDF
 //    sampling on a deterministic sample of the lookups: the error of both LUTs as shading sees it
-//    (times N.L and the light's intensity), and the verdict whether the default LUT serves the scene
-//    within a stated error.
+//    (times N.L and the light's intensity), the azimuth-mean floor (what any LUT of the azimuth mean
+//    misses on those lookups), and the verdict whether the default LUT serves the scene within a stated
+//    error.
 #pragma once
 
 #include <nlohmann/json.hpp>
@@ -39,6 +40,9 @@
 #include "scene/inputs.hpp"
 
 namespace ms::scene {
+
+// Azimuth nodes of the azimuth-mean floor (trapezoid on [0, 180] degrees: 16 intervals).
+inline constexpr std::uint32_t kAzimuthFloorNodes = 17;
 
 // One lookup of a renderer: a shaded, lit pixel under one light.
 struct SceneLookup {
@@ -93,6 +97,7 @@ struct SceneBakeOptions {
     bool compare = true;                    // full bake, default LUT and reference on a sample
     std::uint32_t error_lookups = 2048;     // per light, the sample of lookups the reference is taken at
     std::uint64_t reference_samples = 65536;
+    std::uint64_t azimuth_floor_samples = 16384;  // per azimuth node (0: no azimuth floor)
     double serve_error = 0.01;              // the verdict's threshold on the weighted error
     std::function<void(const std::string& phase, std::size_t done, std::size_t total)> progress;
 };
@@ -102,6 +107,9 @@ struct SceneBakeResult {
     BakeResult bake;                        // the partial (scene) bake
     std::vector<LutChannel> channels;
     double full_seconds = 0;                // the full bake of the same layout (compare)
+    // Work counts of the full bake (load-independent, unlike seconds on a shared machine): histogram
+    // updates (samples x rows x azimuth nodes) and batches (one normals pass of every sample each).
+    std::uint64_t full_histogram_updates = 0, full_batches = 0;
     double default_seconds = 0;             // the default seed-3d LUT (compare)
     double reference_seconds = 0;
     // Per light (compare): the errors of the scene LUT and the default LUT on the sampled lookups,
@@ -110,6 +118,13 @@ struct SceneBakeResult {
         std::string light;
         LutErrorStats scene_lut, default_lut;
         double reference_bound = 0;
+        // The azimuth-mean floor: |mean over the azimuth of the term - the term at the pixel's azimuth|,
+        // at the same (v, alpha, NdotV, NdotL), on the isotropic sampled lookups: the error of a perfect
+        // LUT that stores the azimuth mean (as every LUT here does), whatever its resolution. The mean is
+        // the trapezoid rule on kAzimuthFloorNodes nodes over [0, 180] degrees, each node sampled with
+        // azimuth_floor_samples; its bound is the largest t x (weighted sum of the nodes' std errors).
+        LutErrorStats azimuth_floor;
+        double azimuth_floor_bound = 0;
     };
     std::vector<LightErrors> errors;
     std::uint64_t default_size = 32;

@@ -338,7 +338,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
 
     if ((t = table_at(c, root, "sampling"))) {
         reject_unknown(c, *t, "sampling.", {"tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step",
-                                             "tile_pixels"});
+                                             "tile_pixels", "predict_stride"});
         auto& s = d.sampling;
         if (const toml::node* n = t->get("tolerance")) {
             s.tolerance = number(c, *n, "sampling.tolerance");
@@ -361,6 +361,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
             s.dedup_step = number(c, *n, "sampling.dedup_step");
             if (!(s.dedup_step >= 0 && s.dedup_step <= 4)) c.fail("sampling.dedup_step", "must be in [0, 4] (0: no deduplication)");
         }
+        if (const toml::node* n = t->get("predict_stride")) s.predict_stride = std::uint32_t(positive(c, *n, "sampling.predict_stride", 1024));
         if (const toml::node* n = t->get("tile_pixels")) {
             if (!n->is_integer() || n->as_integer()->get() < 0) c.fail("sampling.tile_pixels", "must be an integer >= 0 (0: the whole image at once)");
             s.tile_pixels = std::uint64_t(n->as_integer()->get());

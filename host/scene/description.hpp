@@ -95,6 +95,7 @@ struct SamplingSettings {
     std::uint32_t replicates = 16;      // 8, 16, 32 or 64: the Student t factor of the bound shrinks with more
     Form form = Form::height_correlated;
     double dedup_step = 0.125;          // the key grid step, as a fraction of tolerance x alpha (scene.hpp)
+    std::uint32_t predict_stride = 8;   // > 1: queries start at their neighbours' final sample count (scene.cpp); 1: off
     std::uint64_t tile_pixels = 65536;  // pixels classified, deduplicated and sampled at a time (0: all at once; scene.hpp)
 };
 

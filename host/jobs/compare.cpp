@@ -167,11 +167,12 @@ nlohmann::json Comparator::provenance() const {
         j["file"] = file_;
         return j;
     }
-    if (!lut_) return {{"name", name_}, {"kind", "analytic"}, {"term", to_string(term_)}};
-    nlohmann::json j = {{"name", name_}, {"kind", "lut"}, {"file", file_}};
+    nlohmann::json j = lut_ ? nlohmann::json{{"name", name_}, {"kind", "lut"}, {"file", file_}}
+                            : nlohmann::json{{"name", name_}, {"kind", "analytic"}, {"term", to_string(term_)}};
     if (const auto c = cost())
         j["cost"] = {{"bytes", c->bytes}, {"fetches_per_light", c->fetches_per_light}, {"alu_per_light", c->alu_per_light},
                      {"storage", c->storage}};
+    if (!lut_) return j;
     const auto& meta = lut_->file().metadata;
     for (const char* key : {"version", "command_line"})
         if (meta.is_object() && meta.contains(key)) j[key] = meta[key];

@@ -22,7 +22,9 @@
 #include "core/cone.hpp"
 #include "core/query.hpp"
 #include "jobs/eval.hpp"
+#include "jobs/compare.hpp"
 #include "jobs/scene.hpp"
+#include "repr/representation.hpp"
 #include "scene/description.hpp"
 #include "scene/image_io.hpp"
 #include "scene/inputs.hpp"
@@ -641,6 +643,66 @@ TEST_F(SceneTest, CommandLineWritesEverythingOrNothing) {
     const auto layers = scene::list_channels(path("out/scene.exr"));
     EXPECT_NE(std::find(layers.begin(), layers.end(), "sun.reference"), layers.end());
     EXPECT_NE(std::find(layers.begin(), layers.end(), "sun.pz-analytic_error"), layers.end());
+}
+
+}  // namespace
+}  // namespace ms
+
+namespace ms {
+namespace {
+
+// Issue 15 on scenes: a representation that keeps the azimuth is a scene comparator like a LUT file,
+// and reads each pixel's relative azimuth: two lights at the same NdotL on opposite sides of the view
+// give the values the representation's own lookup gives at azimuths 0 and 180 degrees.
+TEST_F(SceneTest, RepresentationComparatorReadsEachPixelsAzimuth) {
+    repr::install_comparators();
+    const auto bake = testing::run_shell(std::string(MICROSHADOW_CLI) +
+                                         " repr bake -q --kind azimuth-harmonics --visibility-count 4 --n-dot-l-count 4"
+                                         " --n-dot-v-count 4 --azimuth-nodes 7 --roughness 0.4,0.8 --samples 1024 --out " +
+                                         path("harm.exr") + " 2>&1");
+    ASSERT_EQ(bake.exit_code, 0) << bake.output;
+    write_png(path("rough.png"), 3, 2, 1, std::vector<double>(6, 0.6));
+    write_text(path("s.toml"), R"(
+[normal]
+value = [0, 0, 1]
+[visibility]
+value = 0.75
+[roughness]
+file = "rough.png"
+[view]
+direction = [0.6, 0.0, 0.8]
+[[light]]
+name = "same-side"
+direction = [0.6, 0.0, 0.8]
+[[light]]
+name = "opposite"
+direction = [-0.6, 0.0, 0.8]
+[comparators]
+analytic = []
+)");
+    const scene::SceneDescription d = scene::load_scene(path("s.toml"));
+    const scene::SceneInputs inputs = scene::SceneInputs::load(d);
+    scene::SceneRunOptions options;
+    options.bake_seed_luts = false;
+    options.luts = {path("harm.exr")};
+    const scene::SceneResult r = scene::run_scene(inputs, backend(), options);
+    ASSERT_EQ(r.comparators.size(), 1u);
+    EXPECT_EQ(r.comparators[0], "repr-harm");
+    const compare::Comparator c = compare::Comparator::open_file("harm", path("harm.exr"));
+    ASSERT_TRUE(c.is_representation());
+    compare::ComparatorInputs in;
+    in.visibility = 0.75;
+    in.n_dot_l = 0.8;
+    in.n_dot_v = 0.8;
+    in.roughness = 0.6;
+    const double pi = 3.14159265358979323846;
+    for (std::size_t light = 0; light < 2; ++light) {
+        in.relative_azimuth = light == 0 ? 0.0 : pi;
+        const double expected = c(in);
+        for (float v : r.lights[light].approximation[0]) EXPECT_NEAR(v, expected, 1e-6) << "light " << light;
+    }
+    // The azimuth matters here: the two lights differ by far more than the storage's rounding.
+    EXPECT_GT(std::fabs(r.lights[0].approximation[0][0] - r.lights[1].approximation[0][0]), 0.01);
 }
 
 }  // namespace

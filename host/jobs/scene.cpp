@@ -16,6 +16,7 @@
 #include "io/atomic_file.hpp"
 #include "io/text.hpp"
 #include "jobs/bake.hpp"
+#include "jobs/compare.hpp"
 #include "lut/formats/lut_formats.hpp"
 #include "lut/lookup.hpp"
 #include "scene/false_colour.hpp"
@@ -62,6 +63,9 @@ struct Comparator {
     bool is_lut = false;
     analytic::AnalyticTerm term{};
     std::shared_ptr<sweep::LutLookup> lut;
+    // A comparator file (a LUT or a representation that keeps the azimuth, opened as eval --compare and
+    // sweeps open them): it reads the pixel's relative azimuth too.
+    std::shared_ptr<compare::Comparator> file;
 };
 
 std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescription& d, TermBackend& backend) {
@@ -85,6 +89,18 @@ std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescrip
 
 double comparator_value(const Comparator& c, const PixelSurface& p, const LightQuery& q, AoWeighting w) {
     const double n_dot_l = std::clamp(q.n_dot_l, -1.0, 1.0), n_dot_v = std::clamp(q.n_dot_v, 0.0, 1.0);
+    if (c.file) {
+        compare::ComparatorInputs in;
+        in.visibility = p.visibility;
+        in.n_dot_l = std::max(0.0, n_dot_l);
+        in.n_dot_v = n_dot_v;
+        in.roughness = p.roughness;
+        in.weighting = w;
+        // Isotropic pixels carry the relative azimuth; an anisotropic pixel's is that of its tangent-frame
+        // query's projections (the same angle, measured in the tangent frame).
+        in.relative_azimuth = p.anisotropic && q.status == PixelStatus::shaded ? compare::inputs_of(q.query, w).relative_azimuth : q.azimuth;
+        return (*c.file)(in);
+    }
     if (c.is_lut) return (*c.lut)(p.visibility, std::max(0.0, n_dot_l), n_dot_v, p.roughness);
     analytic::AnalyticInputs in;
     in.visibility = p.visibility;
@@ -176,29 +192,29 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
     const auto lut_start = std::chrono::steady_clock::now();
     if (options.bake_seed_luts && d.comparators.seed_3d) {
         progress("baking the seed 3D LUT", 0, 1);
-        comparators.push_back({"seed-3d-" + std::to_string(d.comparators.lut_size), true, {}, bake_seed(LutLayout::seed_3d, d, backend)});
+        comparators.push_back({"seed-3d-" + std::to_string(d.comparators.lut_size), true, {}, bake_seed(LutLayout::seed_3d, d, backend), nullptr});
     }
     if (options.bake_seed_luts && d.comparators.seed_2d) {
         progress("baking the seed 2D LUT", 0, 1);
-        comparators.push_back({"seed-2d-" + std::to_string(d.comparators.lut_size), true, {}, bake_seed(LutLayout::seed_2d, d, backend)});
+        comparators.push_back({"seed-2d-" + std::to_string(d.comparators.lut_size), true, {}, bake_seed(LutLayout::seed_2d, d, backend), nullptr});
     }
     std::vector<std::string> lut_files = d.comparators.luts;
     lut_files.insert(lut_files.end(), options.luts.begin(), options.luts.end());
     std::set<std::string> used;
     for (const auto& c : comparators) used.insert(c.name);
     for (const auto& f : lut_files) {
-        std::shared_ptr<sweep::LutLookup> lut;
+        std::shared_ptr<compare::Comparator> file;
         try {
-            lut = std::make_shared<sweep::LutLookup>(sweep::LutLookup::open(f));
+            file = std::make_shared<compare::Comparator>(compare::Comparator::open_file(fs::path(f).stem().string(), f));
         } catch (const std::exception& e) {
             throw SceneError(std::string("LUT comparator: ") + e.what());
         }
-        std::string name = "lut-" + fs::path(f).stem().string();
+        std::string name = (file->is_representation() ? "repr-" : "lut-") + fs::path(f).stem().string();
         for (char& ch : name)
             if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_') ch = '_';
         while (used.count(name)) name += "_";
         used.insert(name);
-        comparators.push_back({name, true, {}, lut});
+        comparators.push_back({name, true, {}, nullptr, file});
     }
     result.lut_seconds = seconds_since(lut_start);
     for (const auto& c : comparators) result.comparators.push_back(c.name);

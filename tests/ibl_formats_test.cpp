@@ -343,6 +343,59 @@ TEST_F(IblFormats, PrefilteredCubemapKtx2AndDdsReadBackEqualToTheExrFaces) {
     RecordProperty("cubemap_half_max_relative", std::to_string(worst_rel));
 }
 
+// The direct-convolution irradiance cubemap (ibl irradiance --format ktx2 --encoding float32): one level, faceCount 6,
+// its texels equal to the EXR cross's faces bit for bit, A = 1; DDS (float16) within half rounding.
+TEST_F(IblFormats, IrradianceCubemapKtx2AndDdsReadBackEqualToTheExrCross) {
+    const std::uint32_t n = 16, out = 4;
+    env::Cubemap cube(n);
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < n; ++y)
+            for (std::uint32_t x = 0; x < n; ++x) {
+                const auto v = sky(env::cube_direction(f, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1));
+                for (int c = 0; c < 3; ++c) cube.texel(f, x, y)[c] = float(v[c]);
+            }
+    env::write_exr(path("sky.exr"), env::cross_image(cube), {{"note", "test"}});
+    for (const char* format : {"exr", "ktx2", "dds"}) {
+        const auto res = ms::testing::run_shell(cli() + " ibl irradiance " + path("sky.exr") + " --out " + path(std::string("i_") + format) +
+                                                " --format " + format + " --face-size 4 --source-size 8 --quiet" +
+                                                (std::string(format) == "ktx2" ? " --encoding float32" : "") + " 2>&1");
+        ASSERT_EQ(res.exit_code, 0) << res.output;
+    }
+    const env::Image cross = env::read_exr_rgb(path("i_exr/irradiance.exr"));
+    auto want = [&](int f, std::uint32_t x, std::uint32_t y, int c) {
+        std::uint32_t ox, oy;
+        env::cross_face_offset(f, out, ox, oy);
+        return cross.at(ox + x, oy + y, c);
+    };
+    const auto kb = slurp(path("i_ktx2/irradiance.ktx2"));
+    const Ktx2 k = read_ktx2(kb, 16);
+    EXPECT_EQ(k.vk_format, 109u);  // VK_FORMAT_R32G32B32A32_SFLOAT
+    EXPECT_EQ(k.width, out);
+    EXPECT_EQ(k.faces, 6u);
+    EXPECT_EQ(k.levels, 1u);
+    EXPECT_EQ(nlohmann::json::parse(k.kv.at("microshadow")).at("file_format"), "ktx2-cubemap");
+    Bytes kr{kb};
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < out; ++y)
+            for (std::uint32_t x = 0; x < out; ++x) {
+                const std::size_t at = k.level[0].offset + ((std::size_t(f) * out + y) * out + x) * 16;
+                for (int c = 0; c < 3; ++c) ASSERT_EQ(kr.f32(at + 4 * c), want(f, x, y, c)) << f << " " << x << " " << y << " " << c;
+                ASSERT_EQ(kr.f32(at + 12), 1.0f);
+            }
+    const auto db = slurp(path("i_dds/irradiance.dds"));
+    const Dds d = read_dds(db);
+    EXPECT_EQ(d.width, out);
+    EXPECT_EQ(d.dxgi, 10u);  // DXGI_FORMAT_R16G16B16A16_FLOAT
+    Bytes dr{db};
+    for (int f = 0; f < 6; ++f)  // one level: the faces one after the other
+        for (std::uint32_t y = 0; y < out; ++y)
+            for (std::uint32_t x = 0; x < out; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const std::size_t at = kDdsData + ((std::size_t(f) * out + y) * out + x) * 8 + 2 * c;
+                    ASSERT_LE(std::abs(dr.f16(at) - want(f, x, y, c)), half_allowed(want(f, x, y, c)));
+                }
+}
+
 TEST_F(IblFormats, UnknownExtensionsAndEncodingsAreRefused) {
     const auto png = ms::testing::run_shell(cli() + " ibl dfg --out " + path("dfg.tga") + " --size 4 --samples 1024 --quiet 2>&1");
     EXPECT_NE(png.exit_code, 0);

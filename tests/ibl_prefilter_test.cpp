@@ -56,6 +56,15 @@ TEST(IblPrefilter, ConstantEnvironmentStaysConstant) {
                 }
     // The oracle too, at any roughness.
     for (double rough : {0.1, 0.5, 1.0}) EXPECT_NEAR(env::prefilter_oracle(src, {0.6, 0, 0.8}, rough)[1], 2.0, 1e-9);
+    // With the bright-texel split asked for (none is brighter than the mean) and 4x samples on the wide mips: still exact.
+    spec.bright_threshold = 8;
+    spec.wide_samples_factor = 4;
+    const PrefilterResult w = prefilter_cubemap(src, spec);
+    EXPECT_EQ(w.bright_texels, 0u);
+    EXPECT_EQ(w.samples, 6ull * 16 * 16 * 256 + 6ull * (8 * 8 + 4 * 4) * 1024);  // mips 2, 3 have roughness >= 0.2
+    for (std::size_t m = 1; m < w.mips.size(); ++m) EXPECT_NEAR(w.mips[m].texel(2, 1, 1)[2], 7.0, 1e-5);
+    spec.wide_samples_factor = 3;
+    EXPECT_THROW(prefilter_cubemap(src, spec), std::invalid_argument);
 }
 
 // A linear environment L = 1 + d.x: the lobe is symmetric about n, so P(n) = 1 + c(r) n.x exactly, on

@@ -15,6 +15,8 @@
 #            bright texels summed explicitly (--bright-threshold 64, on mips of roughness >= 0.2), against brute
 #            force, with the replicate std error beside the error (variance vs bias)
 #            -> docs/bench/ibl_prefilter_bright_<tag>.csv (IBL_BENCH_ENV, IBL_BENCH_TAG as above; tag forest by default)
+#            IBL_BENCH_WIDE=1: both methods with 4x samples on the wide-lobe mips (--wide-samples-factor 4)
+#            -> docs/bench/ibl_prefilter_bright_wide4_<tag>.csv
 set -euo pipefail
 BIN=${MICROSHADOW:-build/microshadow}
 OUT=docs/bench
@@ -70,7 +72,7 @@ prefilter)
 bright)
     env=${IBL_BENCH_ENV:-/usr/share/blender/datafiles/studiolights/world/forest.exr}
     [ -f "$env" ] || { echo "no $env: run scripts/install-example-data.sh" >&2; exit 2; }
-    csv="$OUT/ibl_prefilter_bright_${IBL_BENCH_TAG:-forest}.csv"
+    csv="$OUT/ibl_prefilter_bright${IBL_BENCH_WIDE:+_wide4}_${IBL_BENCH_TAG:-forest}.csv"
     echo "method,samples_per_texel,bright_texels,bright_power_fraction,cpu_seconds,seconds,rms_relative_error,rms_relative_std_error,max_relative_error,verified_texels" > "$csv"
     brun() {  # method samples extra-args...
         local method=$1 samples=$2; shift 2
@@ -78,8 +80,13 @@ bright)
         local j="$tmp/p/ibl.json"
         echo "$method,$samples,$(json "$j" "m['specular'].get('bright_texels',{}).get('count',0)"),$(json "$j" "m['specular'].get('bright_texels',{}).get('power_fraction',0)"),$(json "$j" "m['specular']['cpu_seconds']"),$(json "$j" "m['specular']['seconds']"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['rms_relative_std_error']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$csv"
     }
-    for s in 64 256; do brun filtered $s; brun filtered-bright64 $s --bright-threshold 64; done
-    for s in 256 1024 4096; do brun brute-force $s --no-fis; done ;;
+    if [ -n "${IBL_BENCH_WIDE:-}" ]; then  # 4x samples on the wide-lobe mips, for both methods
+        for s in 64 256; do brun filtered-bright64-wide4 $s --bright-threshold 64 --wide-samples-factor 4; done
+        for s in 1024 4096; do brun brute-force-wide4 $s --no-fis --wide-samples-factor 4; done
+    else
+        for s in 64 256; do brun filtered $s; brun filtered-bright64 $s --bright-threshold 64; done
+        for s in 256 1024 4096; do brun brute-force $s --no-fis; done
+    fi ;;
 *) echo "unknown part $part" >&2; exit 2 ;;
 esac
 done

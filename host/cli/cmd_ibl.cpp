@@ -159,6 +159,7 @@ struct PrefilterArgs {
     std::uint64_t samples = 256, seed = 0;
     double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0.2;
     std::size_t bright_max = 1024;
+    std::uint32_t wide_samples_factor = 1;
     bool no_fis = false, quiet = false;
     unsigned threads = 0;
 };
@@ -179,6 +180,7 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.bright_threshold = a.bright_threshold;
     spec.bright_max_texels = a.bright_max;
     spec.bright_min_roughness = a.bright_min_roughness;
+    spec.wide_samples_factor = a.wide_samples_factor;
     spec.threads = a.threads;
     spec.device = a.device;
     spec.source = environment_name(a.env, a.faces);
@@ -373,8 +375,11 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--bright-threshold", p->bright_threshold,
                    "sum texels brighter than this many times the mean radiance explicitly (the sun), sample the rest; 0: off")
         ->check(CLI::Range(0.0, 1e12));
-    pf->add_option("--bright-min-roughness", p->bright_min_roughness, "... on the mips of at least this roughness")
+    pf->add_option("--bright-min-roughness", p->bright_min_roughness, "the wide-lobe mips (bright texels, --wide-samples-factor): roughness at least this")
         ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    pf->add_option("--wide-samples-factor", p->wide_samples_factor, "multiply --samples on the mips of roughness >= --bright-min-roughness")
+        ->transform(decimal_range(1, 64))
         ->capture_default_str();
     pf->add_option("--bright-max", p->bright_max, "at most this many explicit bright texels (the brightest)")
         ->transform(decimal_range(1, 1u << 20))

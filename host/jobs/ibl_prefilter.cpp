@@ -89,7 +89,12 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
     const std::uint32_t levels = spec.levels ? spec.levels : default_levels(size);
     if ((size >> (levels - 1)) == 0) throw std::invalid_argument("prefilter: too many levels for a face of " + std::to_string(size));
     const std::vector<env::Cubemap> chain = env::mip_chain(source);
+    if (spec.wide_samples_factor == 0 || (spec.wide_samples_factor & (spec.wide_samples_factor - 1)))
+        throw std::invalid_argument("--wide-samples-factor must be a power of two (the point sets are nets of 2^m points)");
     const PointSet points = make_point_set(spec.plan);
+    SamplingPlan wide_plan = spec.plan;
+    wide_plan.samples *= std::max(1u, spec.wide_samples_factor);
+    const PointSet wide_points = spec.wide_samples_factor > 1 ? make_point_set(wide_plan) : PointSet{};
     PrefilterResult r;
     r.mips.push_back(source);
     r.roughness.push_back(0);
@@ -105,6 +110,8 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
         for (int f = 0; f < 6; ++f)
             for (std::uint32_t y = 0; y < (size >> m); ++y) rows.push_back({m, f, y});
     }
+    if (spec.wide_samples_factor > 1 && !spec.device.empty())
+        throw std::invalid_argument("--wide-samples-factor is implemented in the C++ estimator only (no --device)");
     if (spec.bright_threshold > 0 && !spec.device.empty())
         throw std::invalid_argument("--bright-threshold is implemented in the C++ estimator only (no --device)");
     env::BrightSplit split;
@@ -143,9 +150,10 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
                 const std::uint32_t n = out.size;
                 for (std::uint32_t x = 0; x < n; ++x) {
                     const env::Dir d = env::cube_direction(row.face, 2 * (x + 0.5) / n - 1, 2 * (row.y + 0.5) / n - 1);
-                    const env::PrefilterValue v = use_split && r.roughness[row.mip] >= spec.bright_min_roughness
-                                                      ? env::prefilter_direction_split(split, d, r.roughness[row.mip], points, spec.options)
-                                                            : env::prefilter_direction(chain, d, r.roughness[row.mip], points, spec.options);
+                    const bool wide = r.roughness[row.mip] >= spec.bright_min_roughness;
+                    const PointSet& pts = wide && spec.wide_samples_factor > 1 ? wide_points : points;
+                    const env::PrefilterValue v = use_split && wide ? env::prefilter_direction_split(split, d, r.roughness[row.mip], pts, spec.options)
+                                                                    : env::prefilter_direction(chain, d, r.roughness[row.mip], pts, spec.options);
                     float* t = out.texel(row.face, x, row.y);
                     for (int c = 0; c < 3; ++c) {
                         t[c] = float(v.value[c]);
@@ -180,8 +188,11 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
     if (error) std::rethrow_exception(error);
     if (cb.progress) cb.progress(rows.size(), rows.size());
     r.max_relative_std_error = worst[0];
-    for (std::uint32_t m = 1; m < levels; ++m) r.texels += 6ull * (size >> m) * (size >> m);
-    r.samples = r.texels * spec.plan.samples;
+    for (std::uint32_t m = 1; m < levels; ++m) {
+        const std::uint64_t texels = 6ull * (size >> m) * (size >> m);
+        r.texels += texels;
+        r.samples += texels * (r.roughness[m] >= spec.bright_min_roughness ? wide_plan.samples : spec.plan.samples);
+    }
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.cpu_seconds = double(cpu_ns.load()) * 1e-9;
     return r;
@@ -195,6 +206,9 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
     if (!source_chain) own = env::mip_chain(source);
     const std::vector<env::Cubemap>& chain = source_chain ? *source_chain : own;
     const PointSet points = make_point_set(spec.plan);
+    SamplingPlan wide_plan = spec.plan;
+    wide_plan.samples *= std::max(1u, spec.wide_samples_factor);
+    const PointSet wide_points = spec.wide_samples_factor > 1 ? make_point_set(wide_plan) : PointSet{};
     env::BrightSplit split;
     if (spec.bright_threshold > 0) split = env::split_bright_texels(source, spec.bright_threshold, spec.bright_max_texels);
     std::mt19937_64 rng(seed);
@@ -210,9 +224,10 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
         const auto ref = env::prefilter_oracle(source, d, result.roughness[m]);
         const float* got = result.mips[m].texel(f, x, y);
         // Error bars of this texel: recompute it (the file stores values only).
-        const env::PrefilterValue again = spec.bright_threshold > 0 && result.roughness[m] >= spec.bright_min_roughness
-                                              ? env::prefilter_direction_split(split, d, result.roughness[m], points, spec.options)
-                                                                    : env::prefilter_direction(chain, d, result.roughness[m], points, spec.options);
+        const bool wide = result.roughness[m] >= spec.bright_min_roughness;
+        const PointSet& pts = wide && spec.wide_samples_factor > 1 ? wide_points : points;
+        const env::PrefilterValue again = spec.bright_threshold > 0 && wide ? env::prefilter_direction_split(split, d, result.roughness[m], pts, spec.options)
+                                                                            : env::prefilter_direction(chain, d, result.roughness[m], pts, spec.options);
         const double scale = std::max(1e-30, (std::abs(ref[0]) + std::abs(ref[1]) + std::abs(ref[2])) / 3);
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(double(got[c]) - ref[c]);
@@ -261,6 +276,9 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
                               {"method", "summed explicitly over their solid angles, removed from the sampled environment"}};
     m["sequence"] = to_string(spec.plan.sequence);
     m["samples"] = spec.plan.samples;
+    m["wide_samples_factor"] = spec.wide_samples_factor;  // on mips of roughness >= bright_min_roughness
+    m["wide_min_roughness"] = spec.bright_min_roughness;
+    m["samples_total"] = result.samples;
     m["replicates"] = spec.plan.replicates;
     m["seed"] = spec.plan.seed;
     m["max_relative_std_error"] = result.max_relative_std_error;

@@ -29,6 +29,9 @@ struct PrefilterSpec {
     // ... on mips of at least this roughness: the wide lobes, where the bright texels' variance is (a sharp mip
     // has many texels, each seeing the sun only nearby, and the explicit sum costs bright texels x its texels).
     double bright_min_roughness = 0.2;
+    // Samples per texel on those wide-lobe mips (roughness >= bright_min_roughness) multiplied by this factor: they
+    // hold 6% of an 8-mip chain's texels and most of its variance, so a factor of 4 costs ~20% more time. C++ only.
+    std::uint32_t wide_samples_factor = 1;
     unsigned threads = 0;  // 0: every hardware thread
     std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
     std::string source, command_line;  // provenance

@@ -216,6 +216,14 @@ TEST_F(ExrPreflightTest, SceneEnvironmentAndRepresentationReadersRefuseTheSameFi
     EXPECT_EQ(refusal(path_wide), "");
     EXPECT_NE(message([&] { ms::scene::list_channels(path_wide); }).find("more than the limit of 268435456 pixels"), std::string::npos)
         << message([&] { ms::scene::list_channels(path_wide); });
+
+    // fuzz_repr_file's finding: a 2^22-wide image whose chunk buffer OpenEXR sizes at 1.6 GB.
+    const std::string wide_chunk = std::string(MICROSHADOW_TEST_DATA) + "/hostile/exr/wide-chunk-buffer-1.6GB.exr";
+    for (const std::string& m : {message([&] { ms::scene::list_channels(wide_chunk); }),
+                                 message([&] { ms::env::read_exr_rgb(wide_chunk); }),
+                                 message([&] { ms::repr::open_representation(wide_chunk); }),
+                                 message([&] { ms::read_lut(wide_chunk); })})
+        EXPECT_TRUE(m.find("chunk buffer of more than 256 MiB") != std::string::npos || m.find("more than the limit of") != std::string::npos) << m;
 }
 
 }  // namespace

@@ -247,6 +247,7 @@ FileSummary preflight(const std::string& path) {
                          : (h + std::uint64_t(lines_per_chunk(p.compression)) - 1) / std::uint64_t(lines_per_chunk(p.compression));
         p.tile_width = tile_x;
         p.tile_height = tile_y;
+        p.lines_per_chunk = lines_per_chunk(p.compression);
         if (chunk_count >= 0) p.chunks = std::max<std::uint64_t>(p.chunks, std::uint64_t(chunk_count));
         if (!summary.multi_part && (version & kNonImageFlag) && p.type.rfind("deep", 0) != 0) p.type = "deepscanline";
         summary.parts.push_back(p);
@@ -288,6 +289,12 @@ FileSummary preflight_image(const std::string& path, std::uint64_t max_pixels) {
             throw PreflightError(path + ": part " + std::to_string(i) + " (" + std::to_string(p.width) + " x " + std::to_string(p.height) +
                                  (tile ? ", tiles " + std::to_string(p.tile_width) + " x " + std::to_string(p.tile_height) : std::string()) +
                                  ") is more than the limit of " + std::to_string(max_pixels) + " pixels");
+        // A chunk's buffer: a tile, or lines_per_chunk scan lines, of every channel at 4 bytes at most.
+        const std::uint64_t chunk_pixels = tile ? tile : std::uint64_t(p.width) * std::uint64_t(p.lines_per_chunk);
+        if (chunk_pixels * std::max<std::uint64_t>(p.channels, 1) * 4 > kMaxChunkBufferBytes)
+            throw PreflightError(path + ": part " + std::to_string(i) + " (" + std::to_string(p.width) + " x " + std::to_string(p.height) + ", " +
+                                 std::to_string(p.channels) + " channels) needs a chunk buffer of more than " +
+                                 std::to_string(kMaxChunkBufferBytes >> 20) + " MiB");
     }
     return summary;
 }

@@ -39,6 +39,7 @@ struct PartSummary {
     int compression = 0;             // OpenEXR's Compression enum value (0 none ... 9 DWAB)
     std::uint64_t chunks = 0;        // offset-table entries the part needs (level 0 of a tiled part)
     std::int64_t tile_width = 0, tile_height = 0;  // tiled parts only
+    int lines_per_chunk = 1;         // scan lines per chunk of its compression (scan-line parts)
 };
 
 struct FileSummary {
@@ -55,9 +56,12 @@ FileSummary preflight(const std::string& path);
 // Images (scenes, environments) are decoded whole: 2^28 pixels a part (16384 x 16384) bounds what a
 // file can make a reader allocate, whatever its compression ratio.
 inline constexpr std::uint64_t kMaxImagePixels = std::uint64_t(1) << 28;
+// OpenEXR also sizes one chunk's decompression buffer, width x lines per chunk x channels x 4 bytes,
+// before it reads a byte of pixels (fuzz_repr_file: 1.6 GB for a 2^22-wide, 4-line image): 256 MiB.
+inline constexpr std::uint64_t kMaxChunkBufferBytes = std::uint64_t(256) << 20;
 
-// preflight(path), then every part's data window (and tile) checked against max_pixels. Throws
-// PreflightError naming the part and its size.
+// preflight(path), then every part's data window (and tile) checked against max_pixels, and its chunk
+// buffer against kMaxChunkBufferBytes. Throws PreflightError naming the part and its size.
 FileSummary preflight_image(const std::string& path, std::uint64_t max_pixels = kMaxImagePixels);
 
 }  // namespace ms::exr

@@ -190,7 +190,7 @@ LutFile read_lut(const std::string& path) {
         // OpenEXR 3.1 allocates what a header's attributes and offset tables claim before it knows the
         // file holds them (fuzz_lut_file: 1.7 GB asked by a 4 KB file): the preflight proves every claim
         // fits in the file, and the image (and a tile) is bounded by kMaxValues before OpenEXR decodes it.
-        const exr::FileSummary summary = exr::preflight(path);
+        const exr::FileSummary summary = exr::preflight_image(path, kMaxValues);
         if (summary.parts.size() != 1) throw std::runtime_error("a multi-part file: a LUT is one part");
         const exr::PartSummary& part = summary.parts.front();
         if (part.type != "scanlineimage" && part.type != "tiledimage")

@@ -22,6 +22,12 @@
 
 namespace ms::repr {
 
+namespace {
+// A representation's texture is a few hundred KiB (docs/representations.md); 2^24 texels (256 MiB as RGBA
+// float) bounds what a file can make the reader decode.
+constexpr std::uint64_t kMaxReprTexels = std::uint64_t(1) << 24;
+}  // namespace
+
 nlohmann::json grid_to_json(const ReprGrid& g) {
     return {{"visibility", g.visibility},          {"n_dot_l", g.n_dot_l},
             {"n_dot_v", g.n_dot_v},                {"roughness", g.roughness},
@@ -199,7 +205,7 @@ bool is_representation_file(const std::string& path) {
     }
     if (!is_exr(path)) return false;
     try {
-        exr::preflight_image(path);
+        exr::preflight_image(path, kMaxReprTexels);
         Imf::InputFile file(path.c_str());
         return representation_metadata(file.header()).has_value();
     } catch (const std::exception&) {
@@ -215,7 +221,7 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
         }
         if (!is_exr(path)) throw std::runtime_error("neither an OpenEXR nor a KTX2 file");
         // Claims the file cannot hold are refused before OpenEXR allocates them (io/exr_preflight.hpp).
-        exr::preflight_image(path);
+        exr::preflight_image(path, kMaxReprTexels);
         Imf::InputFile file(path.c_str());
         const auto meta = representation_metadata(file.header());
         if (!meta) throw std::runtime_error("no \"microshadow\" metadata of kind \"representation\"");

@@ -320,7 +320,8 @@ std::string build_options(const BuildConfig& config) {
 const std::vector<std::string>& preamble_files() {
     // Order matters: layout first, then the working precision every later file uses.
     static const std::vector<std::string> files = {"common/microshadow_shared.h", "common/real.cl", "common/sincos.cl",
-                                                   "common/vndf.cl", "common/cone.cl", "common/work_items.cl"};
+                                                   "common/vndf.cl", "common/cone.cl", "common/work_items.cl",
+                                                   "common/cubemap.cl"};
     return files;
 }
 

@@ -21,34 +21,19 @@
  * One work-item per output direction. Written on its own: the oracle (host/env/irradiance.cpp) integrates
  * in the face plane by antiderivatives and Green's theorem, not by Lambert's formula.
  */
-/* Preamble (prepended by the host): common/microshadow_shared.h, real.cl, sincos.cl, vndf.cl, cone.cl. */
+/* Preamble (prepended by the host): common/microshadow_shared.h, real.cl, sincos.cl, vndf.cl, cone.cl,
+ * work_items.cl, cubemap.cl (ms_cube_direction). */
 
-/* Direction through face coordinates (s, t) in [-1, 1]; faces +X -X +Y -Y +Z -Z, OpenGL orientation. */
-inline float3 ir_direction(int face, float s, float t)
-{
-    float3 d;
-    switch (face) {
-    case 0: d = (float3)(1.0f, -t, -s); break;
-    case 1: d = (float3)(-1.0f, -t, s); break;
-    case 2: d = (float3)(s, 1.0f, t); break;
-    case 3: d = (float3)(s, -1.0f, -t); break;
-    case 4: d = (float3)(s, -t, 1.0f); break;
-    default: d = (float3)(-s, -t, -1.0f); break;
-    }
-    return normalize(d);
-}
-
-/* integral over texel (x, y) of `face` of max(0, n.l) dl: the texel clipped to n.l >= 0, Lambert's formula. */
 inline float ir_clipped_texel(float3 n, int face, uint x, uint y, uint size)
 {
     const float step = 2.0f / (float)size;
     const float s0 = (float)x * step - 1.0f, s1 = (float)(x + 1u) * step - 1.0f;
     const float t0 = (float)y * step - 1.0f, t1 = (float)(y + 1u) * step - 1.0f;
     float3 c[4];
-    c[0] = ir_direction(face, s0, t0);
-    c[1] = ir_direction(face, s1, t0);
-    c[2] = ir_direction(face, s1, t1);
-    c[3] = ir_direction(face, s0, t1);
+    c[0] = ms_cube_direction(face, s0, t0);
+    c[1] = ms_cube_direction(face, s1, t0);
+    c[2] = ms_cube_direction(face, s1, t1);
+    c[3] = ms_cube_direction(face, s0, t1);
     /* The corners run +s then +t; whether that is counter-clockwise seen from outside depends on the face. */
     const float orient = dot(cross(c[1] - c[0], c[3] - c[0]), c[0]) > 0.0f ? 1.0f : -1.0f;
     float3 p[5];

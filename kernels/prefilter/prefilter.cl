@@ -15,40 +15,8 @@
  * denominator) and the host forms the ratio and its error bar (ms::reduce_replicates). Written on its own
  * (the host's C++ estimator, host/env/prefilter.cpp, and the brute-force oracle are separate code).
  */
-/* Preamble (prepended by the host): common/microshadow_shared.h, real.cl, sincos.cl, vndf.cl, cone.cl. */
-
-/* Face and (s, t) in [-1, 1] of a direction; faces +X -X +Y -Y +Z -Z, OpenGL orientation. */
-inline int pf_face_st(float3 d, float* s, float* t)
-{
-    const float ax = fabs(d.x), ay = fabs(d.y), az = fabs(d.z);
-    if (ax >= ay && ax >= az) {
-        *s = (d.x > 0.0f ? -d.z : d.z) / ax;
-        *t = -d.y / ax;
-        return d.x > 0.0f ? 0 : 1;
-    }
-    if (ay >= az) {
-        *s = d.x / ay;
-        *t = (d.y > 0.0f ? d.z : -d.z) / ay;
-        return d.y > 0.0f ? 2 : 3;
-    }
-    *s = (d.z > 0.0f ? d.x : -d.x) / az;
-    *t = -d.y / az;
-    return d.z > 0.0f ? 4 : 5;
-}
-
-inline float3 pf_direction(int face, float s, float t)
-{
-    float3 d;
-    switch (face) {
-    case 0: d = (float3)(1.0f, -t, -s); break;
-    case 1: d = (float3)(-1.0f, -t, s); break;
-    case 2: d = (float3)(s, 1.0f, t); break;
-    case 3: d = (float3)(s, -1.0f, -t); break;
-    case 4: d = (float3)(s, -t, 1.0f); break;
-    default: d = (float3)(-s, -t, -1.0f); break;
-    }
-    return normalize(d);
-}
+/* Preamble (prepended by the host): common/microshadow_shared.h, real.cl, sincos.cl, vndf.cl, cone.cl,
+ * work_items.cl, cubemap.cl (ms_cube_direction, ms_cube_face_st). */
 
 inline float3 pf_texel(__global const float* chain, uint offset, uint n, int face, int x, int y)
 {
@@ -58,7 +26,7 @@ inline float3 pf_texel(__global const float* chain, uint offset, uint n, int fac
 inline float3 pf_bilinear(__global const float* chain, uint offset, uint n, float3 d)
 {
     float s, t;
-    const int face = pf_face_st(d, &s, &t);
+    const int face = ms_cube_face_st(d, &s, &t);
     const float x = (s + 1.0f) * 0.5f * (float)n - 0.5f, y = (t + 1.0f) * 0.5f * (float)n - 0.5f;
     const float fx = floor(x), fy = floor(y);
     const float ax = x - fx, ay = y - fy;
@@ -73,10 +41,10 @@ inline float3 pf_bilinear(__global const float* chain, uint offset, uint n, floa
             if (xi >= 0 && yi >= 0 && xi < (int)n && yi < (int)n) {
                 v = pf_texel(chain, offset, n, face, xi, yi);
             } else {
-                const float3 e = pf_direction(face, 2.0f * ((float)xi + 0.5f) / (float)n - 1.0f,
+                const float3 e = ms_cube_direction(face, 2.0f * ((float)xi + 0.5f) / (float)n - 1.0f,
                                               2.0f * ((float)yi + 0.5f) / (float)n - 1.0f);
                 float es, et;
-                const int ef = pf_face_st(e, &es, &et);
+                const int ef = ms_cube_face_st(e, &es, &et);
                 const int ex = clamp((int)floor((es + 1.0f) * 0.5f * (float)n), 0, (int)n - 1);
                 const int ey = clamp((int)floor((et + 1.0f) * 0.5f * (float)n), 0, (int)n - 1);
                 v = pf_texel(chain, offset, n, ef, ex, ey);
@@ -123,7 +91,7 @@ __kernel void ms_prefilter(__global const float* chain, __global const uint* lev
         float3 v;
         if (filtered) {
             float fs, ft;
-            (void)pf_face_st(l, &fs, &ft);
+            (void)ms_cube_face_st(l, &fs, &ft);
             const float q = 1.0f + fs * fs + ft * ft;
             const float omega_l = omega_p / (q * sqrt(q));
             const float dd = (a2 - 1.0f) * c2 + 1.0f;

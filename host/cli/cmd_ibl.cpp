@@ -343,7 +343,7 @@ void add_ibl_command(CLI::App& app) {
     dfg->add_flag("--half", d->half, "16-bit half floats");
     dfg->add_flag("--fast-math", d->fast_math, "build the kernel with -cl-fast-relaxed-math (recorded)");
     dfg->add_flag("--double-kernels", d->double_kernels, "run the kernel in double (cl_khr_fp64 devices)");
-    dfg->add_flag("--quiet", d->quiet, "no progress or summary");
+    dfg->add_flag("-q,--quiet", d->quiet, "no progress or summary");
     dfg->callback([d] { run_dfg(*d); });
 
     auto s = std::make_shared<ShArgs>();
@@ -354,7 +354,7 @@ void add_ibl_command(CLI::App& app) {
     sh->add_option("--irradiance", s->irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
     sh->add_option("--face-size", s->face_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
     sh->add_option("--preview", s->preview, "PNG of the irradiance cross (Reinhard tone map, sRGB)");
-    sh->add_flag("--quiet", s->quiet, "no summary");
+    sh->add_flag("-q,--quiet", s->quiet, "no summary");
     sh->callback([s] { run_sh(*s); });
 
     auto p = std::make_shared<PrefilterArgs>();
@@ -398,7 +398,7 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (exr, ktx2 or dds)")
         ->transform(decimal_range(0, 4096));
     pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
-    pf->add_flag("--quiet", p->quiet, "no progress or summary");
+    pf->add_flag("-q,--quiet", p->quiet, "no progress or summary");
     pf->callback([p] { run_prefilter(*p); });
 
     auto q = std::make_shared<IrradianceArgs>();
@@ -422,7 +422,7 @@ void add_ibl_command(CLI::App& app) {
     ir->add_option("--verify", q->verify, "compare K random texels with the exact convolution; fail if one exceeds its bound")
         ->transform(decimal_range(0, 100000));
     ir->add_option("--exposure", q->exposure, "preview: exposure before the tone map")->capture_default_str();
-    ir->add_flag("--quiet", q->quiet, "no progress or summary");
+    ir->add_flag("-q,--quiet", q->quiet, "no progress or summary");
     ir->callback([q] { run_irradiance(*q); });
 }
 

@@ -107,7 +107,7 @@ void add_scene_command(CLI::App& app) {
     cmd->add_option("--backend", args->backend, "opencl (default) or oracle")->check(CLI::IsMember({"opencl", "oracle"}));
     cmd->add_option("--device", args->device, "OpenCL device: default, all, an index from `devices`, or part of a name");
     cmd->add_flag("--fast-math", args->fast_math, "build the kernels with fast math");
-    cmd->add_flag("--quiet", args->quiet, "no progress or summary on stderr");
+    cmd->add_flag("-q,--quiet", args->quiet, "no progress or summary on stderr");
     cmd->callback([args] { run_scene_command(*args); });
 }
 

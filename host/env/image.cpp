@@ -20,6 +20,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
 
 namespace ms::env {
@@ -29,39 +30,9 @@ void write_exr(const std::string& path, const Image& image, const nlohmann::json
         image.data.size() != std::size_t(image.width) * image.height * image.channels ||
         image.channel_names.size() != image.channels)
         throw std::invalid_argument("write_exr: inconsistent image");
-    check_writable_destination(path);
-    AtomicPath atomic(path);
-    {
-        Imf::Header header{int(image.width), int(image.height)};
-        header.compression() = Imf::ZIP_COMPRESSION;
-        for (const auto& name : image.channel_names) header.channels().insert(name, Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
-        header.insert("microshadow", Imf::StringAttribute(metadata.dump()));
-        for (auto it = metadata.begin(); it != metadata.end(); ++it) {
-            const std::string name = "microshadow." + it.key();
-            if (it->is_string()) header.insert(name, Imf::StringAttribute(it->get<std::string>()));
-            else if (it->is_number_integer() && std::abs(it->get<double>()) < 2147483647.0)
-                header.insert(name, Imf::IntAttribute(it->get<int>()));
-            else if (it->is_number()) header.insert(name, Imf::DoubleAttribute(it->get<double>()));
-            else if (it->is_boolean()) header.insert(name, Imf::IntAttribute(it->get<bool>() ? 1 : 0));
-        }
-        std::vector<Imath::half> halves;
-        if (half) halves.assign(image.data.begin(), image.data.end());
-        const std::size_t elem = half ? sizeof(Imath::half) : sizeof(float);
-        const std::size_t stride = image.channels * elem;
-        char* base = half ? (char*)halves.data() : (char*)image.data.data();
-        Imf::FrameBuffer fb;
-        for (std::size_t c = 0; c < image.channels; ++c)
-            fb.insert(image.channel_names[c],
-                      Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * image.width));
-        try {
-            Imf::OutputFile file(atomic.temp_path().c_str(), header);
-            file.setFrameBuffer(fb);
-            file.writePixels(int(image.height));
-        } catch (const std::exception& e) {
-            throw std::runtime_error("cannot write " + path + ": " + e.what());
-        }
-    }
-    atomic.commit();
+    Imf::Header header = exr::image_header(image.width, image.height, image.channel_names, half);
+    exr::insert_metadata(header, metadata);
+    exr::write_interleaved(path, header, image.channel_names, image.data, image.channels, half);
 }
 
 Image read_exr_rgb(const std::string& path, nlohmann::json* metadata) {

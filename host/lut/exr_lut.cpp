@@ -17,6 +17,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
 #include "lut/formats/encoding.hpp"
 
@@ -87,54 +88,21 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
     meta["file_format"] = "exr";
     lutfmt::add_error_budget(meta, data, half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
 
-    check_writable_destination(path);
-    AtomicPath atomic(path);
-    {
-        Imf::Header header{int(width), int(height)};
-        header.compression() = Imf::ZIP_COMPRESSION;
-        for (std::size_t c = 0; c < channels.size(); ++c)
-            header.channels().insert(exr_names[c], Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
-        header.insert("microshadow", Imf::StringAttribute(meta.dump()));
-        // A 4-channel image written as PNG (or TIFF, ...) by OpenImageIO gets its 4th channel as alpha
-        // whatever its name, and OpenImageIO divides by it unless the data say they are unassociated:
-        // this attribute (read by OpenImageIO from any EXR) says so; nothing is premultiplied here.
-        header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
-        // Typed copies of the main fields, for people reading the header with exrheader.
-        for (auto it = meta.begin(); it != meta.end(); ++it) {
-            const std::string name = "microshadow." + it.key();
-            if (it->is_string()) header.insert(name, Imf::StringAttribute(it->get<std::string>()));
-            else if (it->is_number_integer() && std::abs(it->get<double>()) < 2147483647.0)
-                header.insert(name, Imf::IntAttribute(it->get<int>()));
-            else if (it->is_number()) header.insert(name, Imf::DoubleAttribute(it->get<double>()));
-            else if (it->is_boolean()) header.insert(name, Imf::IntAttribute(it->get<bool>() ? 1 : 0));
-        }
-        for (std::size_t i = 0; i < 3; ++i) {
-            const std::string p = std::string("microshadow.axis.") + kAxisNames[i] + ".";
-            header.insert(p + "min", Imf::DoubleAttribute(axes[i].min));
-            header.insert(p + "max", Imf::DoubleAttribute(axes[i].max));
-            header.insert(p + "count", Imf::IntAttribute(int(axes[i].count)));
-            header.insert(p + "texel", Imf::StringAttribute(to_string(axes[i].texel)));
-        }
-        for (const auto& c : channels) header.insert("microshadow.roughness." + c.name, Imf::DoubleAttribute(c.roughness));
-
-        // OpenEXR does not convert FLOAT to HALF on write: round to half here (round to nearest even).
-        std::vector<Imath::half> halves;
-        if (half) halves.assign(data.begin(), data.end());
-        Imf::FrameBuffer fb;
-        const std::size_t elem = half ? sizeof(Imath::half) : sizeof(float);
-        const std::size_t stride = channels.size() * elem;
-        char* base = half ? (char*)halves.data() : (char*)data.data();
-        for (std::size_t c = 0; c < channels.size(); ++c)
-            fb.insert(exr_names[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
-        try {
-            Imf::OutputFile file(atomic.temp_path().c_str(), header);
-            file.setFrameBuffer(fb);
-            file.writePixels(int(height));
-        } catch (const std::exception& e) {
-            throw std::runtime_error("cannot write " + path + ": " + e.what());
-        }
+    Imf::Header header = exr::image_header(width, height, exr_names, half);
+    exr::insert_metadata(header, meta);
+    // A 4-channel image written as PNG (or TIFF, ...) by OpenImageIO gets its 4th channel as alpha
+    // whatever its name, and OpenImageIO divides by it unless the data say they are unassociated:
+    // this attribute (read by OpenImageIO from any EXR) says so; nothing is premultiplied here.
+    header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
+    for (std::size_t i = 0; i < 3; ++i) {
+        const std::string p = std::string("microshadow.axis.") + kAxisNames[i] + ".";
+        header.insert(p + "min", Imf::DoubleAttribute(axes[i].min));
+        header.insert(p + "max", Imf::DoubleAttribute(axes[i].max));
+        header.insert(p + "count", Imf::IntAttribute(int(axes[i].count)));
+        header.insert(p + "texel", Imf::StringAttribute(to_string(axes[i].texel)));
     }
-    atomic.commit();
+    for (const auto& c : channels) header.insert("microshadow.roughness." + c.name, Imf::DoubleAttribute(c.roughness));
+    exr::write_interleaved(path, header, exr_names, data, channels.size(), half);
 }
 
 namespace {

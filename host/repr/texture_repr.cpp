@@ -18,6 +18,7 @@
 #include <stdexcept>
 
 #include "io/atomic_file.hpp"
+#include "io/exr_file.hpp"
 #include "lut/formats/texture.hpp"
 #include "lut/shader/alu_count.hpp"
 
@@ -133,34 +134,13 @@ void TextureRepresentation::write(const std::string& path, bool half) const {
     const auto names = channel_names();
     const std::size_t width = texture_.width, height = std::size_t(texture_.height) * texture_.depth;
     const nlohmann::json meta = file_metadata("exr", half);
-    check_writable_destination(path);
-    AtomicPath atomic(path);
-    {
-        // The atlas: depth slice z occupies rows [z * height, (z + 1) * height).
-        Imf::Header header{int(width), int(height)};
-        header.compression() = Imf::ZIP_COMPRESSION;
-        for (const auto& n : names) header.channels().insert(n, Imf::Channel(half ? Imf::HALF : Imf::FLOAT));
-        header.insert("microshadow", Imf::StringAttribute(meta.dump()));
-        header.insert("microshadow.kind", Imf::StringAttribute("representation"));
-        header.insert("microshadow.representation", Imf::StringAttribute(kind()));
-        header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
-        // OpenEXR does not convert FLOAT to HALF on write: round here (nearest even).
-        std::vector<Imath::half> halves;
-        if (half) halves.assign(texture_.texels.begin(), texture_.texels.end());
-        const std::size_t elem = half ? sizeof(Imath::half) : sizeof(float), stride = 4 * elem;
-        char* base = half ? (char*)halves.data() : (char*)texture_.texels.data();
-        Imf::FrameBuffer fb;
-        for (std::size_t c = 0; c < names.size(); ++c)
-            fb.insert(names[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
-        try {
-            Imf::OutputFile file(atomic.temp_path().c_str(), header);
-            file.setFrameBuffer(fb);
-            file.writePixels(int(height));
-        } catch (const std::exception& e) {
-            throw std::runtime_error("cannot write " + path + ": " + e.what());
-        }
-    }
-    atomic.commit();
+    // The atlas: depth slice z occupies rows [z * height, (z + 1) * height).
+    Imf::Header header = exr::image_header(std::uint32_t(width), std::uint32_t(height), names, half);
+    header.insert("microshadow", Imf::StringAttribute(meta.dump()));
+    header.insert("microshadow.kind", Imf::StringAttribute("representation"));
+    header.insert("microshadow.representation", Imf::StringAttribute(kind()));
+    header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
+    exr::write_interleaved(path, header, names, texture_.texels, 4, half);
 }
 
 std::string shader_literal(double v) {

@@ -1,0 +1,30 @@
+// Writing OpenEXR images the project's way, for every writer (LUTs, environments and cubemaps,
+// representation atlases): ZIP-compressed FLOAT or HALF channels from interleaved floats, written
+// atomically (io/atomic_file.hpp), with the "microshadow" JSON attribute and typed copies of its fields.
+#pragma once
+
+#include <ImfHeader.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace ms::exr {
+
+// A ZIP-compressed width x height header with `names` as HALF (half = true) or FLOAT channels.
+Imf::Header image_header(std::uint32_t width, std::uint32_t height, const std::vector<std::string>& names, bool half);
+
+// The "microshadow" attribute (the JSON) and typed copies of its top-level scalars as
+// "microshadow.<key>" (string, int, double; booleans as 0/1), for people reading the header with exrheader.
+void insert_metadata(Imf::Header& header, const nlohmann::json& metadata);
+
+// Writes `data` (floats_per_pixel interleaved floats a pixel, row by row; channel c of `names` is the c-th
+// float of a pixel) under `header` to `path`, atomically: the destination is checked first, nothing is
+// left on failure. HALF channels are rounded here (nearest even): OpenEXR does not convert on write.
+// Throws std::runtime_error "cannot write PATH: ...".
+void write_interleaved(const std::string& path, const Imf::Header& header, const std::vector<std::string>& names,
+                       const std::vector<float>& data, std::size_t floats_per_pixel, bool half);
+
+}  // namespace ms::exr

@@ -12,6 +12,10 @@ enum class AoWeighting { cosine, uniform };
 enum class Form { height_correlated, uncorrelated };
 // Point sequence fed to the VNDF sampler.
 enum class Sequence { sobol, random };
+// How the term is integrated: by VNDF sampling (RQMC estimate, replicate standard error) or by the
+// deterministic boundary-integral evaluator of host/exact/ (quadrature, error estimate from a
+// higher-order rule).
+enum class Method { sampled, exact };
 
 struct Vec3 {
     double x = 0, y = 0, z = 0;
@@ -50,9 +54,11 @@ struct TermOptions {
 std::string to_string(AoWeighting);
 std::string to_string(Form);
 std::string to_string(Sequence);
+std::string to_string(Method);
 // Parse the CLI spellings ("cosine", "height-correlated", "sobol", ...); throw std::invalid_argument.
 AoWeighting parse_ao_weighting(const std::string&);
 Form parse_form(const std::string&);
 Sequence parse_sequence(const std::string&);
+Method parse_method(const std::string&);
 
 }  // namespace ms

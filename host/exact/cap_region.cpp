@@ -1,0 +1,355 @@
+// Derivation. The spherical-cap sampler (Dupuy & Benyoub 2023) draws o uniformly on the cap
+// {|o| = 1, o.z >= -a.z} of area 2 pi (1 + a.z), with a = normalize(S wi), S = diag(alpha_x, alpha_y, 1),
+// and returns the normal m = normalize(S d), d = (o + a) / |o + a|. So the VNDF probability of a region
+// R of normals is the area of its preimage in o over 2 pi (1 + a.z). In d the map o -> d has area element
+// dA_o = 4 (a.d) domega_d (the alpha = 1 VNDF 2 (a.d) / (pi (1 + a.z)) times the cap's area), and
+// 4 (a.d) domega = d[2 a.(d x dd)] on the unit sphere, a 1-form smooth everywhere. Stokes gives
+//
+//     P(R) = 1 / (pi (1 + a.z)) * closed integral over dR of a.(v x dv) / |v|^2,     v = S^-1 m,
+//
+// because d x dd = v x dv / |v|^2 for d = v / |v|, and m -> d = normalize(S^-1 m) preserves orientation
+// (det S > 0), so the boundary may be traversed in m: counter-clockwise around each cap's axis.
+//
+// R is an intersection of caps {m.n_k > c_k}. Its boundary is made of arcs of the caps' circles
+// m(psi) = c_k n_k + s_k (cos psi e1 + sin psi e2), (e1, e2, n_k) right-handed: the part of circle k
+// inside cap j solves A cos psi + B sin psi > C with A = s_k e1.n_j, B = s_k e2.n_j,
+// C = c_j - c_k n_k.n_j, the arc atan2(B, A) +- acos(C / hypot(A, B)). On an arc v = p + q cos psi +
+// r sin psi (p = c_k S^-1 n_k, q = s_k S^-1 e1, r = s_k S^-1 e2), v x dv = [q x r + (p x r) cos psi -
+// (p x q) sin psi] dpsi, and the integrand is that, dotted with a, over |v|^2.
+//
+// Three cases integrate in closed form:
+//  - a great circle (c_k = 0): v stays in the plane normal to S n_k (v.S n_k = m.n_k = 0), so
+//    v x dv = |v|^2 dtheta n^ with n^ = normalize(S n_k) and the arc gives (a.n^) times the angle v
+//    sweeps round n^;
+//  - the circle round e_z of an isotropic surface: |v|^2 = c^2 + s^2 / alpha^2 is constant;
+//  - (both of the hemisphere's three circles are great circles, so P(hemisphere) is closed-form.)
+// Every other arc is integrated by Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
+// polynomial of degree 2: with z = e^{i psi}, z^2 |v|^2 is a quartic whose roots come in pairs z, 1/conj(z),
+// and each root inside the unit disc is a pole of the integrand at psi = arg z + i (-ln |z|). For smooth
+// or strongly anisotropic surfaces those poles come within ~alpha (or ~alpha_y / alpha_x) of the real
+// axis, where any fixed rule fails; a piece whose Bernstein ellipse of parameter rho excludes every pole
+// converges like rho^(-2n), so pieces are bisected until it does.
+#include "exact/cap_region.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <limits>
+
+#include "exact/gauss_legendre.hpp"
+
+namespace ms::exact {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kTwoPi = 2 * kPi;
+
+double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+Vec3 cross(const Vec3& a, const Vec3& b) {
+    return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+Vec3 scale(const Vec3& a, double k) { return {a.x * k, a.y * k, a.z * k}; }
+Vec3 sub(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+Vec3 unit(const Vec3& a) { return scale(a, 1.0 / std::sqrt(dot(a, a))); }
+
+// An orthonormal pair (e1, e2) with e1 x e2 = n, continuous away from n = -e_z (Frisvad / Duff et al.'s
+// branchless basis); n = e_z gives exactly (e_x, e_y).
+void basis(const Vec3& n, Vec3& e1, Vec3& e2) {
+    const double sign = std::copysign(1.0, n.z);
+    const double a = -1.0 / (sign + n.z);
+    const double b = n.x * n.y * a;
+    e1 = {1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x};
+    e2 = {b, sign + n.y * n.y * a, -n.y};
+}
+
+struct Interval {
+    double lo, hi;
+};
+
+// The parts of circle k that lie inside every other cap, as psi intervals (possibly one full turn).
+std::vector<Interval> boundary_arcs(const std::vector<Cap>& caps, std::size_t k, const Vec3& e1, const Vec3& e2) {
+    std::vector<Interval> arcs{{0.0, kTwoPi}};
+    bool full = true;
+    for (std::size_t j = 0; j < caps.size(); ++j) {
+        if (j == k) continue;
+        const Cap& ck = caps[k];
+        const Cap& cj = caps[j];
+        const Vec3 dn = sub(cj.n, ck.n);  // e1.n_j = e1.(n_j - n_k): no cancellation when the axes are close
+        const double A = ck.s * dot(e1, dn), B = ck.s * dot(e2, dn);
+        // C = c_j - c_k n_k.n_j written as (c_j - c_k) + c_k (1 - n_k.n_j), 1 - n_k.n_j = |n_j - n_k|^2 / 2.
+        const double C = (cj.c - ck.c) + ck.c * 0.5 * dot(dn, dn);
+        const double R = std::sqrt(A * A + B * B);
+        if (C < -R) continue;                  // circle k lies inside cap j
+        if (C >= R) return {};                 // outside (or touching only): no boundary here
+        const double centre = std::atan2(B, A);
+        const double half = std::acos(C / R);  // C / R in (-1, 1)
+        const Interval allowed{centre - half, centre + half};
+        std::vector<Interval> next;
+        for (const Interval& cur : arcs) {
+            if (full) {
+                next.push_back(allowed);
+                continue;
+            }
+            for (int shift = -1; shift <= 1; ++shift) {
+                const double lo = std::max(cur.lo, allowed.lo + shift * kTwoPi);
+                const double hi = std::min(cur.hi, allowed.hi + shift * kTwoPi);
+                if (hi > lo) next.push_back({lo, hi});
+            }
+        }
+        full = false;
+        arcs.swap(next);
+        if (arcs.empty()) return {};
+    }
+    return arcs;
+}
+
+// The poles of 1 / |v(psi)|^2 in the upper half plane (one period), from the roots of
+// z^2 |v|^2 = sum c_i z^i inside the unit disc.
+std::vector<std::complex<double>> poles_of(const Vec3& p, const Vec3& q, const Vec3& r) {
+    using cd = std::complex<double>;
+    const double k0 = dot(p, p) + 0.5 * (dot(q, q) + dot(r, r));
+    const double k1 = 2 * dot(p, q), k2 = 2 * dot(p, r);
+    const double k3 = 0.5 * (dot(q, q) - dot(r, r)), k4 = dot(q, r);
+    // |v|^2 = k0 + k1 cos + k2 sin + k3 cos 2psi + k4 sin 2psi.
+    const cd c4(0.5 * k3, -0.5 * k4), c3(0.5 * k1, -0.5 * k2), c2(k0, 0), c1(0.5 * k1, 0.5 * k2), c0(0.5 * k3, 0.5 * k4);
+    std::vector<cd> roots;
+    const double negligible = 1e-26 * k0 * k0;  // compared with squared moduli
+    if (std::norm(c4) > negligible) {
+        // Durand-Kerner on the monic quartic: converges for any start off the real axis and for
+        // well-separated or clustered roots alike (4 unknowns, so each sweep costs ~ 30 flops).
+        const cd inv4 = std::conj(c4) / std::norm(c4);
+        const cd a3 = c3 * inv4, a2 = c2 * inv4, a1 = c1 * inv4, a0 = c0 * inv4;
+        const double radius = std::pow(std::abs(a0), 0.25);
+        cd z[4];
+        const cd seed(0.4, 0.9);
+        cd w = 1;
+        for (auto& zi : z) {
+            zi = radius * w;
+            w *= seed;
+        }
+        for (int iter = 0; iter < 200; ++iter) {
+            double change = 0;
+            for (int i = 0; i < 4; ++i) {
+                const cd x = z[i];
+                const cd value = (((x + a3) * x + a2) * x + a1) * x + a0;
+                cd denom = 1;
+                for (int j = 0; j < 4; ++j)
+                    if (j != i) denom *= x - z[j];
+                // value / denom through the conjugate: libgcc's general complex division is 10x slower.
+                const double dn = std::norm(denom);
+                const cd step = dn > 0 ? value * std::conj(denom) / dn : cd(1e-3, 1e-3);
+                z[i] -= step;
+                change = std::max(change, std::norm(step) / (1 + std::norm(z[i])));
+            }
+            if (change < 1e-30) break;
+        }
+        roots.assign(z, z + 4);
+    } else if (std::norm(c3) > negligible) {
+        // The z^4 and z^0 terms vanish: z (c3 z^2 + c2 z + c1), two roots (z = 0 and infinity are no poles).
+        const cd disc = std::sqrt(c2 * c2 - 4.0 * c3 * c1);
+        const cd big = -0.5 * (c2 + (std::real(std::conj(c2) * disc) >= 0 ? disc : -disc));
+        roots.push_back(big / c3);
+        if (big != cd(0)) roots.push_back(c1 / big);
+    }
+    std::vector<cd> poles;
+    for (const cd& z : roots) {
+        const double m2 = std::norm(z);
+        if (!(m2 < 1) || m2 == 0) continue;
+        const double im = -0.5 * std::log(m2);
+        if (im > 12) continue;  // farther than any piece's ellipse can reach
+        poles.emplace_back(std::arg(z), im);
+    }
+    return poles;
+}
+
+// Whether a translate (by 2 pi k) of `pole` lies inside the Bernstein ellipse E_rho of [lo, hi]. With
+// t the pole mapped to [-1, 1], t is inside E_rho iff |t - 1| + |t + 1| < rho + 1 / rho (the ellipse with
+// foci -1, 1 and semi-axes (rho +- 1/rho) / 2): two square roots, no complex arithmetic.
+bool pole_inside_ellipse(double lo, double hi, std::complex<double> pole, double rho) {
+    const double mid = 0.5 * (lo + hi), inv_half = 2.0 / (hi - lo);
+    const double limit = rho + 1.0 / rho;
+    const double shift = std::round((mid - pole.real()) / kTwoPi) * kTwoPi;
+    const double y = pole.imag() * inv_half, y2 = y * y;
+    for (int k = -1; k <= 1; ++k) {
+        const double x = (pole.real() + shift + k * kTwoPi - mid) * inv_half;
+        if (std::sqrt((x - 1) * (x - 1) + y2) + std::sqrt((x + 1) * (x + 1) + y2) < limit) return true;
+    }
+    return false;
+}
+
+struct ArcIntegrand {
+    Vec3 p, q, r;
+    double k, bc, bs;  // a.(q x r), a.(p x r), a.(p x q)
+    double operator()(double psi) const {
+        const double c = std::cos(psi), s = std::sin(psi);
+        const Vec3 v{p.x + q.x * c + r.x * s, p.y + q.y * c + r.y * s, p.z + q.z * c + r.z * s};
+        return (k + bc * c - bs * s) / dot(v, v);
+    }
+};
+
+struct PieceSum {
+    double value = 0, error = 0;
+    int pieces = 0;
+};
+
+// The pole translate (by 2 pi k) nearest to [lo, hi] that lies inside the piece's Bernstein ellipse of
+// parameter rho, if any: its real part (where a graded split puts the piece boundary).
+bool pole_near_piece(double lo, double hi, const std::vector<std::complex<double>>& poles, double rho, double& real_part) {
+    bool found = false;
+    double best = std::numeric_limits<double>::infinity();
+    const double mid = 0.5 * (lo + hi);
+    for (const auto& pole : poles) {
+        if (!pole_inside_ellipse(lo, hi, pole, rho)) continue;
+        const double x = pole.real() + std::round((mid - pole.real()) / kTwoPi) * kTwoPi;
+        const double distance = std::fabs(x - mid) + pole.imag();
+        if (distance < best) {
+            best = distance;
+            real_part = x;
+            found = true;
+        }
+    }
+    return found;
+}
+
+// One piece of an arc. A piece whose ellipse holds a pole is split: at the pole's real part when that
+// lies well inside, otherwise graded towards the pole by the ratio 1 : 1.7 (a pole at distance e above
+// an end needs pieces growing geometrically away from it; for rho = 4 a ratio up to 2.78 keeps it
+// outside, bisection would spend log(2.78) / log(2) = 1.5x more pieces).
+void integrate_piece(const ArcIntegrand& f, const std::vector<std::complex<double>>& poles, double lo, double hi,
+                     const ArcRule& rule, double tolerance_per_radian, int depth, PieceSum& out) {
+    const double half = 0.5 * (hi - lo), mid = 0.5 * (hi + lo);
+    double pole_x = 0;
+    if (depth < 60 && pole_near_piece(lo, hi, poles, rule.rho, pole_x)) {
+        double split;
+        const double margin = 0.25 * (hi - lo);
+        if (pole_x > lo + margin && pole_x < hi - margin) split = pole_x;
+        else if (pole_x <= lo + margin) split = lo + (hi - lo) / 2.7;
+        else split = hi - (hi - lo) / 2.7;
+        integrate_piece(f, poles, lo, split, rule, tolerance_per_radian, depth + 1, out);
+        integrate_piece(f, poles, split, hi, rule, tolerance_per_radian, depth + 1, out);
+        return;
+    }
+    const GaussRule& gh = gauss_legendre(rule.high);
+    const GaussRule& gl = gauss_legendre(rule.low);
+    double qh = 0, ql = 0, magnitude = 0;
+    for (int i = 0; i < rule.high; ++i) {
+        const double fx = f(mid + half * gh.nodes[i]);
+        qh += gh.weights[i] * fx;
+        magnitude += gh.weights[i] * std::fabs(fx);
+    }
+    for (int i = 0; i < rule.low; ++i) ql += gl.weights[i] * f(mid + half * gl.nodes[i]);
+    qh *= half;
+    ql *= half;
+    // The difference is the low rule's error (the high rule's is far smaller, every pole lying outside
+    // the piece's ellipse E_rho): a conservative estimate of the value returned. (Extrapolating it by
+    // rho^(-2 (high - low)) was measured to be up to 85x optimistic on the stress set.)
+    const double difference = std::fabs(qh - ql);
+    const double estimate = difference;
+    // Below ~1e3 ulps of the piece's magnitude the difference is rounding, not truncation: accept.
+    const double rounding_floor = 1e3 * std::numeric_limits<double>::epsilon() * half * magnitude;
+    if (estimate > tolerance_per_radian * (hi - lo) && difference > rounding_floor && depth < 40) {
+        integrate_piece(f, poles, lo, mid, rule, tolerance_per_radian, depth + 1, out);
+        integrate_piece(f, poles, mid, hi, rule, tolerance_per_radian, depth + 1, out);
+        return;
+    }
+    out.value += qh;
+    out.error += estimate + 64 * std::numeric_limits<double>::epsilon() * half * magnitude;
+    out.pieces += 1;
+}
+
+// The angle v sweeps round axis n^ while psi runs over [lo, hi] on a great circle, through pieces shorter
+// than pi in psi (antipodal m map to antipodal v, so such a piece sweeps less than pi and atan2 is exact).
+double swept_angle(const Vec3& p_unused, const Vec3& q, const Vec3& r, const Vec3& axis, double lo, double hi) {
+    (void)p_unused;
+    if (hi - lo >= kTwoPi * (1 - 1e-15)) return kTwoPi;
+    const int pieces = static_cast<int>(std::ceil((hi - lo) / (0.75 * kPi)));
+    double total = 0;
+    double psi0 = lo;
+    Vec3 v0 = {q.x * std::cos(psi0) + r.x * std::sin(psi0), q.y * std::cos(psi0) + r.y * std::sin(psi0),
+               q.z * std::cos(psi0) + r.z * std::sin(psi0)};
+    for (int i = 1; i <= pieces; ++i) {
+        const double psi1 = i == pieces ? hi : lo + (hi - lo) * i / pieces;
+        const double c = std::cos(psi1), s = std::sin(psi1);
+        const Vec3 v1{q.x * c + r.x * s, q.y * c + r.y * s, q.z * c + r.z * s};
+        total += std::atan2(dot(cross(v0, v1), axis), dot(v0, v1));
+        v0 = v1;
+    }
+    return total;
+}
+
+}  // namespace
+
+ArcRule arc_rule_for(double tolerance) {
+    if (tolerance >= 1e-5) return {6, 4, 3.0};
+    if (tolerance >= 1e-8) return {8, 6, 3.5};
+    return {12, 8, 4.0};
+}
+
+Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
+    Microsurface m;
+    m.alpha_x = alpha_x;
+    m.alpha_y = alpha_y;
+    m.a = unit(Vec3{alpha_x * wi.x, alpha_y * wi.y, wi.z});
+    return m;
+}
+
+BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
+                                   double absolute_tolerance) {
+    // Coincident caps (wo = e_z, wo = wi, wi = e_z) would each exclude the other's circle (C = R = 0):
+    // keep one of each.
+    for (std::size_t i = 0; i < caps.size(); ++i)
+        for (std::size_t j = caps.size(); j-- > i + 1;) {
+            const Vec3 dn = sub(caps[i].n, caps[j].n);
+            if (dot(dn, dn) < 1e-30 && std::fabs(caps[i].c - caps[j].c) < 1e-16) caps.erase(caps.begin() + j);
+        }
+    const double ax = surface.alpha_x, ay = surface.alpha_y;
+    const Vec3& a = surface.a;
+    auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
+    BoundaryIntegral result;
+    double rounding = 0;
+    const double tolerance_per_radian = absolute_tolerance / (kTwoPi * caps.size());
+    for (std::size_t k = 0; k < caps.size(); ++k) {
+        Vec3 e1, e2;
+        basis(caps[k].n, e1, e2);
+        const std::vector<Interval> arcs = boundary_arcs(caps, k, e1, e2);
+        if (arcs.empty()) continue;
+        const Cap& cap = caps[k];
+        const Vec3 p = scale(unstretch(cap.n), cap.c), q = scale(unstretch(e1), cap.s), r = scale(unstretch(e2), cap.s);
+        if (cap.c == 0) {
+            const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
+            const double weight = dot(a, axis);
+            for (const Interval& arc : arcs) {
+                const double part = weight * swept_angle(p, q, r, axis, arc.lo, arc.hi);
+                result.value += part;
+                rounding += std::fabs(part);
+            }
+            continue;
+        }
+        const double k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
+        const bool constant_norm = ax == ay && cap.n.x == 0 && cap.n.y == 0;
+        if (constant_norm) {
+            // Round e_z on an isotropic surface |v|^2 is constant: integrate the trigonometric numerator.
+            const double norm2 = dot(p, p) + dot(q, q);
+            for (const Interval& arc : arcs) {
+                const double part = (k_const * (arc.hi - arc.lo) + bc * (std::sin(arc.hi) - std::sin(arc.lo)) +
+                                     bs * (std::cos(arc.hi) - std::cos(arc.lo))) /
+                                    norm2;
+                result.value += part;
+                rounding += std::fabs(k_const * (arc.hi - arc.lo) / norm2) + (std::fabs(bc) + std::fabs(bs)) * 2 / norm2;
+            }
+            continue;
+        }
+        const ArcIntegrand f{p, q, r, k_const, bc, bs};
+        const std::vector<std::complex<double>> poles = poles_of(p, q, r);
+        PieceSum sum;
+        for (const Interval& arc : arcs) integrate_piece(f, poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
+        result.value += sum.value;
+        result.error += sum.error;
+        result.quadrature_pieces += sum.pieces;
+    }
+    result.error += 32 * std::numeric_limits<double>::epsilon() * rounding;
+    return result;
+}
+
+}  // namespace ms::exact

@@ -1,5 +1,8 @@
 #include "cli/common.hpp"
 
+#include "exact/exact_term.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
+
 #include <unistd.h>
 
 #include <cstdlib>
@@ -79,6 +82,14 @@ SamplingPlan SamplingOptions::plan() const {
     p.replicates = replicates;
     p.seed = seed;
     p.samples = round_up_samples(samples, replicates);
+    p.method = parse_method(method);
+    p.single_precision = exact_single_precision;
+    p.tolerance = tolerance;
+    if (p.method == Method::exact) {
+        if (p.tolerance == 0) p.tolerance = exact::kDefaultTolerance;
+        exact_term::validate_tolerance(p.tolerance);
+        return p;  // no point set is made: the sampling fields are unused
+    }
     check_sampling_size(p);
     if (p.samples != samples && !quiet)
         std::cerr << "note: --samples " << samples << " rounded up to " << p.samples << " (" << replicates
@@ -153,7 +164,24 @@ CLI::Validator real_range(double min, double max) {
         format_g(min) + ".." + format_g(max));
 }
 
-void add_sampling_options(CLI::App* app, SamplingOptions& o) {
+void add_tolerance_option(CLI::App* app, SamplingOptions& o) {
+    app->add_option("--tolerance", o.tolerance,
+                    "estimated absolute error asked of each value: the exact method's quadrature estimate (default "
+                    "1e-10; 1e-13 to 0.1), or for the sampled method the replicate standard error, reached by "
+                    "quadrupling the samples of the queries above it (up to 2^24)")
+        ->check(CLI::PositiveNumber);
+}
+
+void add_sampling_options(CLI::App* app, SamplingOptions& o, const std::string& method_why) {
+    app->add_option("--method", o.method,
+                    "exact: the deterministic boundary-integral evaluator (quadrature error estimate in std_error, "
+                    "no samples); sampled: VNDF sampling (replicate standard error)" +
+                        (method_why.empty() ? std::string() : ". " + method_why))
+        ->check(CLI::IsMember({"exact", "sampled"}))
+        ->capture_default_str();
+    app->add_flag("--exact-float", o.exact_single_precision,
+                  "exact method on OpenCL devices: the float kernel even where the device has fp64 (what a GPU "
+                  "without fp64 gets; its accuracy is in docs/exact-method.md)");
     const std::uint64_t memory = physical_memory();
     const std::string memory_note = memory ? " here: " + gib(memory / 2) : "";
     app->add_option("--samples", o.samples,

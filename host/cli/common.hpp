@@ -23,6 +23,13 @@ struct SamplingOptions {
     bool fast_math = false;
     bool double_kernels = false;
     bool quiet = false;
+    // The integration method (each command sets its own default before add_sampling_options, chosen by
+    // measurement and explained in its help) and, for the exact method, the float kernel on fp64 devices.
+    std::string method = "sampled";
+    bool exact_single_precision = false;
+    // --tolerance where the command takes it through add_tolerance_option: the estimated error asked of
+    // each value (0: the method's default).
+    double tolerance = 0;
 
     TermOptions term_options() const;
     // The plan, with samples rounded up to replicates * 2^k (reported on stderr when rounded).
@@ -49,7 +56,10 @@ CLI::Validator decimal_range(std::uint64_t min, std::uint64_t max);
 CLI::Validator real_range(double min, double max);
 
 // Adds --samples --seed --replicates --sequence --form --ao-weighting --backend --device --fast-math --quiet.
-void add_sampling_options(CLI::App* app, SamplingOptions& options);
+// `method_why`: one sentence on why the command's default method is the default (shown in --help).
+void add_sampling_options(CLI::App* app, SamplingOptions& options, const std::string& method_why = "");
+// --tolerance E for commands whose sampling options do not already define one.
+void add_tolerance_option(CLI::App* app, SamplingOptions& o);
 
 // MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
 // its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.

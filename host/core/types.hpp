@@ -39,11 +39,20 @@ struct Estimate {
 
 // How an estimate is sampled. samples = replicates * points_per_replicate; each replicate is an
 // independent randomisation of the sequence, which is where the standard error comes from.
+//
+// method = exact replaces sampling by the deterministic evaluator (host/exact/): the four sampling fields
+// are then unused, and `tolerance` is the estimated absolute error asked of each value (the Estimate's
+// std_error is then that estimate, not a replicate spread).
 struct SamplingPlan {
     Sequence sequence = Sequence::sobol;
     std::uint64_t samples = 65536;
     std::uint32_t replicates = 8;
     std::uint64_t seed = 0;
+    Method method = Method::sampled;
+    // Estimated absolute error asked of each value; 0: the method's default (exact: 1e-10; sampled: one
+    // pass of `samples`). Sampled runs with a tolerance quadruple the samples of the values above it.
+    double tolerance = 0;
+    bool single_precision = false;       // exact method on OpenCL devices: the float kernel even with fp64
 };
 
 struct TermOptions {

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "core/query.hpp"
 #include "core/types.hpp"
 #include "device/runtime.hpp"
@@ -61,5 +63,9 @@ std::vector<Estimate> evaluate_each(TermBackend& backend, const std::vector<Quer
                                     const std::vector<TermOptions>& options, const SamplingPlan& plan,
                                EvalStats* stats = nullptr,
                                const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// The provenance of the exact method under `plan` (method, rule, tolerance, what the error column holds),
+// recorded by every output it made.
+nlohmann::json exact_provenance(const SamplingPlan& plan);
 
 }  // namespace ms

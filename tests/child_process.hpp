@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -25,9 +26,15 @@ inline std::string slurp_file(const std::filesystem::path& p) {
     return s.str();
 }
 
+// The binary under test: MICROSHADOW_CLI_UNDER_TEST when set (another build), else this build's.
+inline std::string microshadow_under_test() {
+    const char* other = std::getenv("MICROSHADOW_CLI_UNDER_TEST");
+    return other && *other ? other : MICROSHADOW_CLI;
+}
+
 // Starts `env... microshadow args` in `dir`, appending its output to dir/log.txt; returns the CLI's pid.
 inline pid_t spawn_microshadow(const std::filesystem::path& dir, const std::string& args, const std::string& env = "") {
-    const std::string cmd = "cd " + dir.string() + " && exec env " + env + " " + std::string(MICROSHADOW_CLI) + " " + args +
+    const std::string cmd = "cd " + dir.string() + " && exec env " + env + " " + microshadow_under_test() + " " + args +
                             " >>log.txt 2>&1 </dev/null";
     const char* argv[] = {"sh", "-c", cmd.c_str(), nullptr};
     pid_t pid = 0;

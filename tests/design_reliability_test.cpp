@@ -9,9 +9,6 @@
 //     run stopped by SIGTERM leaves no temporary or mixed file: the rerun gives the clean run's bytes.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
-#include <sys/file.h>
-
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
 #include <ImfHeader.h>
@@ -20,11 +17,11 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
-#include <functional>
 #include <condition_variable>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <future>
 #include <mutex>
 #include <random>

@@ -3,7 +3,10 @@
 #include <nlohmann/json.hpp>
 
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -42,26 +45,51 @@ struct DesignArgs {
     SamplingOptions sampling;
 };
 
-// "65536", "64KiB", "1.5MiB", "unlimited": bytes. Throws std::invalid_argument (exit status 2).
+// "65536", "64KiB", "1.5MiB", "unlimited": bytes. Decimal digits with an optional fraction and unit,
+// nothing else (std::stod would also take "0x10", " 5", "1e3" or "inf"). Throws std::invalid_argument.
 std::uint64_t parse_bytes(const std::string& text) {
     if (text == "unlimited") return UINT64_MAX;
     std::size_t used = 0;
-    double value = -1;
-    try {
-        value = std::stod(text, &used);
-    } catch (const std::exception&) {
-        used = 0;
+    while (used < text.size() && std::isdigit(static_cast<unsigned char>(text[used]))) ++used;
+    const std::size_t whole_digits = used;
+    if (used < text.size() && text[used] == '.') {
+        const std::size_t dot = used++;
+        while (used < text.size() && std::isdigit(static_cast<unsigned char>(text[used]))) ++used;
+        if (used == dot + 1) used = 0;  // "5." has no fraction digits
     }
-    const std::string unit = text.substr(used);
+    const std::string unit = used ? text.substr(used) : std::string();
     double scale = 0;
     if (unit.empty() || unit == "B") scale = 1;
     else if (unit == "KiB") scale = 1024;
     else if (unit == "MiB") scale = 1024.0 * 1024;
     else if (unit == "GiB") scale = 1024.0 * 1024 * 1024;
-    if (used == 0 || scale == 0 || !(value >= 0) || !std::isfinite(value) || value * scale >= 1.8e19)
+    const double value = used && whole_digits ? std::strtod(text.substr(0, used).c_str(), nullptr) : -1;
+    if (used == 0 || whole_digits == 0 || scale == 0 || !(value >= 0) || value * scale >= 1.8e19)
         throw std::invalid_argument("--max-bytes " + text +
-                                    ": expected a size in bytes >= 0 (a number with an optional B, KiB, MiB or GiB) or 'unlimited'");
+                                    ": expected a size in bytes >= 0 (a decimal number with an optional B, KiB, MiB or GiB) or 'unlimited'");
     return std::uint64_t(value * scale);
+}
+
+// A CSV field quoted, inner quotes doubled (RFC 4180).
+std::string csv_quoted(const std::string& text) {
+    std::string out = "\"";
+    for (char ch : text) out += ch == '"' ? std::string("\"\"") : std::string(1, ch);
+    return out + "\"";
+}
+// A CSV field, quoted only when it holds a comma, a quote or a line break.
+std::string csv_field(const std::string& text) {
+    return text.find_first_of(",\"\r\n") == std::string::npos ? text : csv_quoted(text);
+}
+
+// A Markdown table cell: '|' escaped, line breaks as spaces.
+std::string md_cell(const std::string& text) {
+    std::string out;
+    for (char ch : text) {
+        if (ch == '|') out += "\\|";
+        else if (ch == '\n' || ch == '\r') out += ' ';
+        else out += ch;
+    }
+    return out;
 }
 
 // A representation file (repr/representation.hpp) as a candidate: its own cost model, lookup and
@@ -98,6 +126,12 @@ std::pair<std::string, std::string> named_file(const std::string& option, const 
     const std::string file = eq == std::string::npos ? text : text.substr(eq + 1);
     const std::string name = eq == std::string::npos ? fs::path(text).stem().string() : text.substr(0, eq);
     if (name.empty() || file.empty()) throw std::invalid_argument(option + " " + text + ": expected FILE or NAME=FILE");
+    try {
+        design::check_candidate_name(name);
+    } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(option + " " + text + ": " + e.what() +
+                                    (eq == std::string::npos ? " (the name is the file's stem: give one with NAME=FILE)" : ""));
+    }
     return {name, file};
 }
 
@@ -114,25 +148,33 @@ std::string bytes_text(std::uint64_t b) {
     return std::to_string(b) + " B";
 }
 
-design::ReferenceSet reference_set(const std::string& spec, const DesignArgs& args, TermBackend*& backend,
-                                   std::unique_ptr<TermBackend>& owned, const char* what) {
+// A reference spec parsed and checked in full (its sampling as every sampling job checks it, and as the
+// cache needs it), before anything is computed or written.
+design::ReferenceDefinition checked_definition(const std::string& spec, const DesignArgs& args) {
     design::ReferenceDefinition def = design::parse_reference_spec_file(spec);
     def.backend_label = args.sampling.backend;
-    // The spec's sampling passes the checks every sampling job passes (point-set size and memory).
     try {
         check_sampling_size(def.plan);
+        design::check_plan(def);
     } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(spec + ": [sampling]: " + e.what());
     }
+    return def;
+}
+
+design::ReferenceSet reference_set(const design::ReferenceDefinition& def, const DesignArgs& args, TermBackend*& backend,
+                                   std::unique_ptr<TermBackend>& owned, const char* what) {
     design::CacheConfig config;
     config.dir = args.cache;
     config.command_line = command_line();
     // The backend (device start-up) only when something has to be computed.
-    if (!fs::exists(design::cache_file(def, args.cache))) {
+    config.backend = backend;
+    config.open_backend = [&]() {
         if (!owned) owned = args.sampling.make_backend();
         backend = owned.get();
-    }
-    config.backend = backend;
+        return backend;
+    };
+    config.warn = [&](const std::string& w) { std::cerr << "\ndesign: warning: " << w << "\n"; };
     Progress progress(std::string("design: ") + what + " reference " + def.name, args.sampling.quiet);
     config.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
     design::CacheReport report;
@@ -156,8 +198,15 @@ void run_design(const DesignArgs& args) {
 
     // Every candidate that needs no reference is built first: a bad file stops before any work.
     std::vector<design::Candidate> candidates;
-    const design::ReferenceDefinition peek = design::parse_reference_spec_file(args.reference);
-    if (!args.no_analytic) candidates = design::analytic_candidates(peek.options.ao_weighting);
+    // Both reference specs in full before any work (a bad fit spec must not wait for the evaluation set).
+    const design::ReferenceDefinition evaluation_def = checked_definition(args.reference, args);
+    design::ReferenceDefinition fit_def;
+    if (has_fit) {
+        fit_def = checked_definition(args.fit_reference, args);
+        if (fit_def.options.ao_weighting != evaluation_def.options.ao_weighting)
+            throw std::invalid_argument("--fit-reference: its AO weighting differs from --reference's");
+    }
+    if (!args.no_analytic) candidates = design::analytic_candidates(evaluation_def.options.ao_weighting);
     for (const auto& l : args.luts) {
         const auto [name, file] = named_file("--lut", l);
         candidates.push_back(design::lut_candidate(name, file));
@@ -181,14 +230,37 @@ void run_design(const DesignArgs& args) {
         json_out = outputs.add((fs::path(args.out) / "design.json").string());
     }
 
+    {
+        // Names are checked before any work too: the fitted closed forms' names are known in advance.
+        std::set<std::string> names;
+        for (const auto& c : candidates)
+            if (!names.insert(c.name).second)
+                throw std::invalid_argument("two candidates named '" + c.name + "'; name LUTs with --lut NAME=FILE");
+        if (has_fit)
+            for (unsigned order : args.fit_orders)
+                if (names.count("closed-form-" + std::to_string(order)))
+                    throw std::invalid_argument("two candidates named 'closed-form-" + std::to_string(order) +
+                                                "' (a --closed-form file and --fit-orders " + std::to_string(order) + ")");
+    }
+    if (!args.choose.empty()) {
+        // --choose names a candidate known now (or a closed form this run fits): refused before the work.
+        std::vector<std::string> names;
+        for (const auto& c : candidates) names.push_back(c.name);
+        if (has_fit)
+            for (unsigned order : args.fit_orders) names.push_back("closed-form-" + std::to_string(order));
+        if (std::find(names.begin(), names.end(), args.choose) == names.end()) {
+            std::string list;
+            for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+            throw std::invalid_argument("--choose " + args.choose + ": no such candidate (candidates: " + list + ")");
+        }
+    }
+
     TermBackend* backend = nullptr;
     std::unique_ptr<TermBackend> owned;
-    const design::ReferenceSet set = reference_set(args.reference, args, backend, owned, "evaluation");
+    const design::ReferenceSet set = reference_set(evaluation_def, args, backend, owned, "evaluation");
     nlohmann::json fits = nlohmann::json::array();
     if (has_fit) {
-        const design::ReferenceSet training = reference_set(args.fit_reference, args, backend, owned, "fit");
-        if (training.definition.options.ao_weighting != set.definition.options.ao_weighting)
-            throw std::invalid_argument("--fit-reference: its AO weighting differs from --reference's");
+        const design::ReferenceSet training = reference_set(fit_def, args, backend, owned, "fit");
         for (unsigned order : args.fit_orders) {
             throw_if_cancelled();
             fit::ClosedForm form = design::fit_closed_form(training, order);
@@ -244,11 +316,11 @@ void run_design(const DesignArgs& args) {
     for (std::size_t i : order) {
         const auto& c = candidates[i];
         const auto& m = metrics[i];
-        md << "| " << (i == chosen ? ">" : "") << (on_front.count(i) ? "*" : "") << " | " << c.name << " | " << c.kind
-           << " | " << c.cost.storage << " | " << bytes_text(c.cost.bytes) << " | " << c.cost.fetches_per_light << " | "
+        md << "| " << (i == chosen ? ">" : "") << (on_front.count(i) ? "*" : "") << " | " << md_cell(c.name) << " | "
+           << md_cell(c.kind) << " | " << md_cell(c.cost.storage) << " | " << bytes_text(c.cost.bytes) << " | " << c.cost.fetches_per_light << " | "
            << c.cost.alu_per_light << " | " << fixed(m.weighted_rms) << " | " << fixed(m.weighted_p99) << " | "
            << fixed(m.max_abs) << " |\n";
-        csv << c.name << "," << c.kind << ",\"" << c.cost.storage << "\"," << c.cost.bytes << "," << c.cost.fetches_per_light
+        csv << csv_field(c.name) << "," << csv_field(c.kind) << "," << csv_quoted(c.cost.storage) << "," << c.cost.bytes << "," << c.cost.fetches_per_light
             << "," << c.cost.alu_per_light << "," << format_number(m.weighted_rms) << "," << format_number(m.weighted_p99)
             << "," << format_number(m.max_abs) << "," << (on_front.count(i) ? 1 : 0) << "," << (i == chosen ? 1 : 0) << ","
             << (budget.fits(c.cost) ? 1 : 0) << "\n";
@@ -264,7 +336,7 @@ void run_design(const DesignArgs& args) {
     nlohmann::json by_roughness = nlohmann::json::object();
     for (std::size_t i : order) {
         const auto per = design::evaluate_candidate_by_roughness(candidates[i], set, edges);
-        bands << "| " << candidates[i].name << " |";
+        bands << "| " << md_cell(candidates[i].name) << " |";
         nlohmann::json list = nlohmann::json::array();
         for (const auto& m : per) {
             bands << " " << (m.points ? fixed(m.weighted_rms, 3) + " (max " + fixed(m.max_abs, 2) + ")" : std::string("-")) << " |";

@@ -52,6 +52,9 @@ void run_sweep_command(SweepArgs& args) {
     if (!spec.weightings.empty() && given("--ao-weighting"))
         throw std::invalid_argument("--ao-weighting conflicts with parameters.ao_weighting in " + args.spec);
 
+    // The comparator files before the devices start: a missing or damaged one is bad input, named.
+    sweep::check_comparator_files(spec);
+
     sweep::RunConfig config;
     config.out_dir = args.out.empty() ? std::filesystem::path(args.spec).stem().string() + ".sweep" : args.out;
     config.plan = args.sampling.plan();

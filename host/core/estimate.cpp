@@ -1,5 +1,6 @@
 #include "core/estimate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -50,7 +51,10 @@ double incomplete_beta_cf(double a, double b, double x) {
     double c = 1, d = 1 - (a + b) * x / (a + 1);
     d = 1 / (std::abs(d) < tiny ? tiny : d);
     double h = d;
-    for (int m = 1; m < 500; ++m) {
+    // The fraction needs O(sqrt(max(a, b))) terms (Numerical Recipes 6.4): 500 covers the t quantiles,
+    // binomial bounds on billions of samples need more.
+    const int terms = std::max(500, int(std::min(4.0e6, 10 * std::sqrt(a + b) + 100)));
+    for (int m = 1; m < terms; ++m) {
         const double m2 = 2.0 * m;
         double aa = m * (b - m) * x / ((a + m2 - 1) * (a + m2));
         d = 1 + aa * d; d = 1 / (std::abs(d) < tiny ? tiny : d);
@@ -84,6 +88,26 @@ double student_t_quantile(double confidence, int df) {
         (two_sided_tail(mid, df) > tail ? lo : hi) = mid;
     }
     return 0.5 * (lo + hi);
+}
+
+double binomial_agreement_bound(double passed, double total, double confidence) {
+    if (!(total > 0)) return 1.0;
+    if (!(passed > 0) || !(passed < total)) return binomial_zero_bound(total, confidence);
+    const double k = passed, n = total, f = k / n, tail = (1 - confidence) / 2;
+    // P(X >= k | p) = I_p(k, n - k + 1) rises with p; P(X <= k | p) = 1 - I_p(k + 1, n - k) falls with p.
+    // Bisection on each (the brackets hold the answer: the tails are 0 and 1 at the ends). 120 halvings
+    // of [0, 1] reach 1e-36, far below the smallest bound (about 1 / n).
+    double lo_a = 0, lo_b = f;
+    for (int i = 0; i < 120; ++i) {
+        const double mid = 0.5 * (lo_a + lo_b);
+        (regularised_beta(k, n - k + 1, mid) < tail ? lo_a : lo_b) = mid;
+    }
+    double hi_a = f, hi_b = 1;
+    for (int i = 0; i < 120; ++i) {
+        const double mid = 0.5 * (hi_a + hi_b);
+        (1 - regularised_beta(k + 1, n - k, mid) > tail ? hi_a : hi_b) = mid;
+    }
+    return std::max(hi_b - f, f - lo_a);  // the outer ends of the brackets: never smaller than the bound
 }
 
 }  // namespace ms

@@ -43,6 +43,16 @@ Estimate reduce_replicates(const double* cone, const double* hemisphere, std::si
 // (or a failure) can have and still produce that outcome: 1 - (1 - confidence)^(1 / total).
 double binomial_zero_bound(double total, double confidence);
 
+// When the replicates agree exactly although some samples passed and some failed (a stratified point
+// set can give every replicate the same count: v 0.95, alpha 0.05, wi = wo = normal has one failure
+// in each replicate's 8192 points), the spread is 0 too and says nothing about the error. The exact
+// binomial (Clopper-Pearson) bound on how far the true fraction can be from passed / total:
+// max(p_hi - f, f - p_lo) with P(X >= passed | p_lo) = P(X <= passed | p_hi) = (1 - confidence) / 2,
+// so that the interval holds with `confidence` on both sides together. At passed = 0 or
+// passed = total only one side exists and the bound is binomial_zero_bound(total, confidence), bit
+// for bit. `passed` and `total` may be weighted (non-integer) counts; total > 0, 0 <= passed <= total.
+double binomial_agreement_bound(double passed, double total, double confidence);
+
 // Two-sided Student-t quantile for the given confidence (e.g. 0.999) and degrees of freedom, used to
 // turn a standard error with few replicates into an error bar that holds with that confidence.
 double student_t_quantile(double confidence, int degrees_of_freedom);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -17,6 +18,28 @@
 #include "lut/shader/shader_gen.hpp"
 
 namespace ms::design {
+
+void check_candidate_name(const std::string& name) {
+    auto refuse = [&](const std::string& why) {
+        std::string shown;  // one line whatever the name holds: other bytes as \xHH
+        for (unsigned char ch : name) {
+            char code[8];
+            std::snprintf(code, sizeof code, "\\x%02x", ch);
+            shown += ch >= 0x20 && ch < 0x7f ? std::string(1, char(ch)) : std::string(code);
+        }
+        throw std::invalid_argument("candidate name '" + shown + "': " + why +
+                                    " (names are 1 to 64 letters, digits, '.', '_', '+' or '-', not starting with '.' or '-')");
+    };
+    if (name.empty() || name.size() > 64) refuse("length " + std::to_string(name.size()));
+    if (name[0] == '.' || name[0] == '-') refuse("starts with '" + std::string(1, name[0]) + "'");
+    for (std::size_t i = 0; i < name.size(); ++i) {
+        const unsigned char ch = static_cast<unsigned char>(name[i]);
+        if (std::isalnum(ch) || ch == '.' || ch == '_' || ch == '+' || ch == '-') continue;
+        char code[8];
+        std::snprintf(code, sizeof code, "0x%02x", ch);
+        refuse("character " + std::to_string(i + 1) + " (" + code + ") is not allowed");
+    }
+}
 
 compare::ComparatorInputs inputs_of(const ReferencePoint& p, AoWeighting weighting) {
     compare::ComparatorInputs in;

@@ -23,6 +23,11 @@
 
 namespace ms::design {
 
+// A candidate's name goes into CSV and Markdown rows and into file names (OUT/chosen-NAME.*): 1 to 64
+// letters, digits, '.', '_', '+' or '-', not starting with '.' or '-'. Throws std::invalid_argument
+// naming the first character that is not allowed.
+void check_candidate_name(const std::string& name);
+
 struct Candidate {
     std::string name;
     std::string kind;  // "analytic", "lut", "closed-form", or the representation's own kind

@@ -2,20 +2,28 @@
 
 #include <toml++/toml.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <set>
 #include <sstream>
 #include <stdexcept>
+#include <thread>
 
 #include "core/cancel.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "io/input_file.hpp"
 #include "io/text.hpp"
+#include "sampling/point_set.hpp"
 
 namespace ms::design {
 
@@ -25,7 +33,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 // Bumped when the cache format or the point generator changes: old caches are then simply not found.
-constexpr int kCacheFormat = 1;
+constexpr int kCacheFormat = 2;
 const std::vector<std::string> kPointColumns = {"visibility", "n_dot_l", "n_dot_v", "roughness",
                                                 "relative_azimuth_deg", "weight"};
 const std::string kCacheHeader = "visibility,n_dot_l,n_dot_v,roughness,relative_azimuth,weight,term,std_error";
@@ -101,16 +109,43 @@ std::string row_text(const ReferencePoint& p, const Estimate& e) {
            "," + format_number(e.term) + "," + format_number(e.std_error) + "\n";
 }
 
-// Reads rows written by row_text and checks that they are the expected points (a damaged or foreign
-// file is refused, naming it). Returns the estimates.
-std::vector<Estimate> read_rows(const std::string& path, const std::vector<ReferencePoint>& points,
-                                std::size_t first, std::size_t count, bool header) {
-    std::ifstream in(path);
+// What a cache file must hold, recorded when it is written: its row count and FNV-1a 64 digest. Rows
+// changed afterwards (a term out of range, or merely a different number) no longer match it.
+std::string digest_text(const std::string& rows) {
+    std::size_t lines = 0;
+    for (char ch : rows) lines += ch == '\n';
+    char text[17];
+    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fnv1a(rows)));
+    return "rows " + std::to_string(lines) + " fnv1a64 " + text;
+}
+// A chunk file ends with this line over the rows before it: each chunk checks itself.
+const std::string kDigestPrefix = "# ";
+
+std::string read_whole(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
     if (!in) throw std::runtime_error(path + ": cannot open for reading");
-    std::string line;
-    if (header && (!std::getline(in, line) || line != kCacheHeader))
-        throw std::runtime_error(path + ": not a reference set (header); remove it to recompute");
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+// A problem with a cache file, with a short tag first (the name it is set aside under): "digest",
+// "rows", "range", "header", "sidecar".
+struct Damage {
+    std::string tag, what;
+};
+
+// Parses rows written by row_text, checks that they are the expected points and that each estimate is
+// a term in [0, 1] with a std error in [0, 1]. Returns the estimates, or the damage in *damage.
+std::vector<Estimate> parse_rows(const std::string& text, const std::vector<ReferencePoint>& points,
+                                 std::size_t first, std::size_t count, Damage* damage) {
     std::vector<Estimate> out;
+    std::istringstream in(text);
+    std::string line;
+    auto bad = [&](const std::string& tag, const std::string& what) {
+        *damage = {tag, "row " + std::to_string(out.size() + 1) + " " + what};
+        return std::vector<Estimate>{};
+    };
     while (std::getline(in, line)) {
         if (line.empty()) continue;
         std::vector<double> f;
@@ -121,23 +156,116 @@ std::vector<Estimate> read_rows(const std::string& path, const std::vector<Refer
             f.push_back(std::strtod(field.c_str(), &end));
             if (end == field.c_str() || *end != '\0') f.back() = std::nan("");
         }
+        if (out.size() >= count) return bad("rows", "is one more than the " + std::to_string(count) + " expected");
         const std::size_t i = first + out.size();
-        if (f.size() != 8 || out.size() >= count || !std::isfinite(f[6]) || !std::isfinite(f[7]) ||
-            format_number(f[0]) != format_number(points[i].visibility) ||
+        if (f.size() != 8 || format_number(f[0]) != format_number(points[i].visibility) ||
             format_number(f[1]) != format_number(points[i].n_dot_l) ||
             format_number(f[2]) != format_number(points[i].n_dot_v) ||
             format_number(f[3]) != format_number(points[i].roughness) ||
             format_number(f[4]) != format_number(points[i].relative_azimuth) ||
             format_number(f[5]) != format_number(points[i].weight))
-            throw std::runtime_error(path + ": row " + std::to_string(out.size() + 1) +
-                                     " is not the definition's point; remove the file to recompute");
+            return bad("rows", "is not the definition's point");
+        // The term is a ratio of a part of an integral to the whole: in [0, 1]; so is any useful error.
+        if (!(f[6] >= 0 && f[6] <= 1) || !(f[7] >= 0 && f[7] <= 1))
+            return bad("range", "has term " + format_number(f[6]) + " and std_error " + format_number(f[7]) +
+                                    " (both must be in [0, 1])");
         out.push_back({f[6], f[7]});
     }
-    if (out.size() != count)
-        throw std::runtime_error(path + ": " + std::to_string(out.size()) + " rows, expected " + std::to_string(count) +
-                                 "; remove the file to recompute");
+    if (out.size() != count) {
+        *damage = {"rows", std::to_string(out.size()) + " rows, expected " + std::to_string(count)};
+        return {};
+    }
     return out;
 }
+
+// A chunk file: the rows, then the digest line over them.
+std::vector<Estimate> read_chunk(const std::string& path, const std::vector<ReferencePoint>& points, std::size_t first,
+                                 std::size_t count, Damage* damage) {
+    const std::string text = read_whole(path);
+    const std::size_t last_line = text.size() >= 2 ? text.rfind('\n', text.size() - 2) : std::string::npos;
+    const std::size_t rows_end = last_line == std::string::npos ? 0 : last_line + 1;
+    const std::string trailer = text.substr(rows_end);
+    const std::string rows = text.substr(0, rows_end);
+    if (trailer != kDigestPrefix + digest_text(rows) + "\n") {
+        *damage = {"digest", "its rows do not match the digest line written with them"};
+        return {};
+    }
+    return parse_rows(rows, points, first, count, damage);
+}
+
+// The finished file: the header, the rows, and the digest its sidecar recorded.
+std::vector<Estimate> read_finished(const std::string& csv_path, const std::string& json_path,
+                                    const ReferenceDefinition& def, const std::vector<ReferencePoint>& points,
+                                    Damage* damage) {
+    const std::string text = read_whole(csv_path);
+    nlohmann::json meta;
+    {
+        std::ifstream in(json_path, std::ios::binary);
+        if (in) meta = nlohmann::json::parse(in, nullptr, false);
+    }
+    if (!meta.is_object() || !meta.contains("csv_digest") || !meta["csv_digest"].is_string() ||
+        meta.value("hash", std::string()) != def.hash()) {
+        *damage = {"sidecar", json_path + " is missing, unreadable or not this definition's"};
+        return {};
+    }
+    if (meta["csv_digest"].get<std::string>() != digest_text(text)) {
+        *damage = {"digest", "its rows do not match the digest recorded in " + json_path + " when it was written"};
+        return {};
+    }
+    const std::size_t header_end = text.find('\n');
+    if (header_end == std::string::npos || text.compare(0, header_end, kCacheHeader) != 0) {
+        *damage = {"header", "not a reference set (header)"};
+        return {};
+    }
+    return parse_rows(text.substr(header_end + 1), points, 0, points.size(), damage);
+}
+
+// Moves a damaged cache file to DIR/rejected/ (kept as evidence, never read again) and says so.
+std::string set_aside(const std::string& path, const std::string& tag) {
+    const fs::path from(path);
+    const fs::path dir = from.parent_path() / "rejected";
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    fs::path to = dir / (from.filename().string() + "." + tag);
+    for (int n = 1; fs::exists(to); ++n) to = dir / (from.filename().string() + "." + tag + "." + std::to_string(n));
+    if (!ec) fs::rename(from, to, ec);
+    return ec ? " (could not be moved aside: " + ec.message() + ")" : "; moved to " + to.string();
+}
+
+// An exclusive lock on DIR/reference-H.lock while a set is computed, so that two runs on one cache
+// never compute (and then remove) the same chunks: the second waits, then finds the finished file.
+// flock() locks die with their process, so a killed run leaves no stale lock; the empty file stays
+// (removing it would let a third run lock a new file while a second still waits on the old one).
+class CacheLock {
+public:
+    CacheLock(const std::string& path, const std::function<void(const std::string&)>& notice) {
+        fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        if (fd_ < 0) throw std::invalid_argument(path + ": cannot create the cache lock (" + std::strerror(errno) + ")");
+        bool told = false;
+        while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+            if (errno != EWOULDBLOCK && errno != EINTR) {
+                const int e = errno;
+                ::close(fd_);
+                throw std::runtime_error(path + ": cannot lock (" + std::strerror(e) + ")");
+            }
+            if (!told && notice) notice("another run is computing this reference set (" + path + " is locked); waiting for it");
+            told = true;
+            try {
+                throw_if_cancelled();
+            } catch (...) {
+                ::close(fd_);
+                throw;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(50));
+        }
+    }
+    ~CacheLock() { ::close(fd_); }
+    CacheLock(const CacheLock&) = delete;
+    CacheLock& operator=(const CacheLock&) = delete;
+
+private:
+    int fd_ = -1;
+};
 
 std::string chunk_path(const std::string& chunk_dir, std::size_t chunk) {
     char name[32];
@@ -263,10 +391,9 @@ ReferenceDefinition parse_reference_spec(const std::string& text, const std::str
             throw std::invalid_argument(source + ": sampling: " + e.what());
         }
     }
-    // Samples a power-of-two multiple of the replicates (the Sobol nets), as the CLI's plan() rounds.
-    std::uint64_t per = 1;
-    while (per * def.plan.replicates < def.plan.samples) per *= 2;
-    def.plan.samples = per * def.plan.replicates;
+    // Samples a power-of-two multiple (at least 16) of the replicates (the Sobol nets), as the CLI's
+    // plan() rounds.
+    def.plan.samples = round_up_samples(def.plan.samples, def.plan.replicates);
     return def;
 }
 
@@ -315,14 +442,28 @@ std::string cache_file(const ReferenceDefinition& def, const std::string& dir) {
     return (fs::path(dir) / ("reference-" + def.hash() + ".csv")).string();
 }
 
+void check_plan(const ReferenceDefinition& def) {
+    const SamplingPlan& p = def.plan;
+    const std::uint64_t per = p.replicates ? p.samples / p.replicates : 0;
+    // What the point set accepts (sampling/point_set.hpp), and two replicates for a standard error.
+    if (p.replicates < 2 || p.replicates > 1024 || p.samples % p.replicates != 0 || per < 16 || per > (1ull << 28) ||
+        (per & (per - 1)) != 0)
+        throw std::invalid_argument("reference set '" + def.name + "': " + std::to_string(p.samples) + " samples in " +
+                                    std::to_string(p.replicates) +
+                                    " replicates; needs 2 to 1024 replicates of a power of two in [16, 2^28] points each");
+}
+
 ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& config, CacheReport* report) {
     const auto start = std::chrono::steady_clock::now();
+    // Everything about the definition is checked before any file or folder is made.
+    check_plan(def);
     CacheReport local;
     CacheReport& rep = report ? *report : local;
     ReferenceSet set;
     set.definition = def;
     set.points = reference_points(def);
     set.file = cache_file(def, config.dir);
+    const std::string json_file = fs::path(set.file).replace_extension(".json").string();
     const std::size_t n = set.points.size();
     auto finish = [&]() {
         double sum_sq = 0;
@@ -334,8 +475,24 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
         rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return set;
     };
-    if (fs::exists(set.file)) {
-        set.values = read_rows(set.file, set.points, 0, n, /*header=*/true);
+    auto warn = [&](const std::string& w) {
+        rep.warnings.push_back(w);
+        if (config.warn) config.warn(w);
+    };
+    // The finished file, trusted only when its digest and every row hold; else it is set aside (with
+    // its sidecar) and the set computed again.
+    auto try_finished = [&]() {
+        if (!fs::exists(set.file)) return false;
+        Damage damage;
+        set.values = read_finished(set.file, json_file, def, set.points, &damage);
+        if (damage.tag.empty()) return true;
+        std::string moved = set_aside(set.file, damage.tag);
+        if (fs::exists(json_file)) set_aside(json_file, damage.tag);
+        warn(set.file + ": " + damage.what + moved + "; computed again");
+        set.values.clear();
+        return false;
+    };
+    if (try_finished()) {
         rep.from_cache = true;
         return finish();
     }
@@ -345,7 +502,19 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
     // Both outputs checked before the long computation.
     OutputSet outputs;
     const std::size_t csv_out = outputs.add(set.file);
-    const std::size_t json_out = outputs.add(fs::path(set.file).replace_extension(".json").string());
+    const std::size_t json_out = outputs.add(json_file);
+    const CacheLock lock(fs::path(set.file).replace_extension(".lock").string(), config.warn);
+    // Another run may have finished the set while this one waited for the lock.
+    if (try_finished()) {
+        rep.from_cache = true;
+        return finish();
+    }
+    TermBackend* backend = config.backend;
+    auto need_backend = [&]() -> TermBackend& {
+        if (!backend && config.open_backend) backend = config.open_backend();
+        if (!backend) throw std::runtime_error(set.file + ": the reference set has to be computed and no backend was given");
+        return *backend;
+    };
     const std::string chunk_dir = fs::path(set.file).replace_extension(".chunks").string();
     fs::create_directories(chunk_dir, ec);
     if (ec) throw std::invalid_argument(chunk_dir + ": cannot create (" + ec.message() + ")");
@@ -363,33 +532,40 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
         const std::size_t first = c * chunk, count = std::min(chunk, n - first);
         const std::string path = chunk_path(chunk_dir, c);
         if (fs::exists(path)) {
-            const auto rows = read_rows(path, set.points, first, count, false);
-            std::copy(rows.begin(), rows.end(), set.values.begin() + std::ptrdiff_t(first));
-            ++rep.chunks_found;
-        } else {
-            if (config.max_chunks && rep.chunks_computed >= config.max_chunks)
-                throw IncompleteReference("reference set " + def.hash() + ": stopped after " +
-                                          std::to_string(rep.chunks_computed) + " chunks (resumable)");
-            throw_if_cancelled();
-            if (!config.backend) throw std::logic_error("load_or_compute: a backend is needed to compute the set");
-            std::vector<Query> queries;
-            for (std::size_t i = first; i < first + count; ++i) queries.push_back(query_of(set.points[i]));
-            const auto values = evaluate(*config.backend, queries, def.options, def.plan, nullptr,
-                                         [&](std::size_t d, std::size_t) {
-                                             if (config.progress) config.progress(done + d, n);
-                                         });
-            AtomicFile f(path);
-            for (std::size_t i = 0; i < count; ++i) f.stream() << row_text(set.points[first + i], values[i]);
-            f.commit();
-            std::copy(values.begin(), values.end(), set.values.begin() + std::ptrdiff_t(first));
-            ++rep.chunks_computed;
+            Damage damage;
+            const auto rows = read_chunk(path, set.points, first, count, &damage);
+            if (damage.tag.empty()) {
+                std::copy(rows.begin(), rows.end(), set.values.begin() + std::ptrdiff_t(first));
+                ++rep.chunks_found;
+                done += count;
+                if (config.progress) config.progress(done, n);
+                continue;
+            }
+            warn(path + ": " + damage.what + set_aside(path, damage.tag) + "; computed again");
         }
+        if (config.max_chunks && rep.chunks_computed >= config.max_chunks)
+            throw IncompleteReference("reference set " + def.hash() + ": stopped after " +
+                                      std::to_string(rep.chunks_computed) + " chunks (resumable)");
+        throw_if_cancelled();
+        TermBackend& b = need_backend();
+        std::vector<Query> queries;
+        for (std::size_t i = first; i < first + count; ++i) queries.push_back(query_of(set.points[i]));
+        const auto values = evaluate(b, queries, def.options, def.plan, nullptr, [&](std::size_t d, std::size_t) {
+            if (config.progress) config.progress(done + d, n);
+        });
+        std::string rows;
+        for (std::size_t i = 0; i < count; ++i) rows += row_text(set.points[first + i], values[i]);
+        AtomicFile f(path);
+        f.stream() << rows << kDigestPrefix << digest_text(rows) << "\n";
+        f.commit();
+        std::copy(values.begin(), values.end(), set.values.begin() + std::ptrdiff_t(first));
+        ++rep.chunks_computed;
         done += count;
         if (config.progress) config.progress(done, n);
     }
-    auto& out = outputs.stream(csv_out);
-    out << kCacheHeader << "\n";
-    for (std::size_t i = 0; i < n; ++i) out << row_text(set.points[i], set.values[i]);
+    std::string text = kCacheHeader + "\n";
+    for (std::size_t i = 0; i < n; ++i) text += row_text(set.points[i], set.values[i]);
+    outputs.stream(csv_out) << text;
     ReferenceSet result = finish();
     nlohmann::json meta = {{"program", "microshadow " MICROSHADOW_VERSION},
                            {"command_line", config.command_line},
@@ -397,13 +573,16 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
                            {"hash", def.hash()},
                            {"definition", def.canonical_text()},
                            {"points", n},
+                           {"csv_digest", digest_text(text)},
                            {"max_std_error", result.max_std_error},
                            {"rms_std_error", result.rms_std_error},
                            {"seconds", rep.seconds}};
     if (!def.points_csv.empty()) meta["points_csv"] = json_safe(def.points_csv);
     outputs.stream(json_out) << dump_json(meta, 2) << "\n";
     outputs.commit();
-    fs::remove_all(chunk_dir, ec);  // the finished file holds everything the chunks did
+    // The finished file holds everything the chunks did. Only this run (holding the lock) ever wrote
+    // into this folder, so removing it cannot take another run's chunks.
+    fs::remove_all(chunk_dir, ec);
     return result;
 }
 

@@ -9,10 +9,14 @@
 //
 // Cache layout in the cache directory (a definition's hash H is FNV-1a 64 of canonical_text()):
 //   reference-H.csv          the finished set: the points and term,std_error (written with its sidecar
-//   reference-H.json         atomically, together or not at all; the JSON holds the definition text)
+//   reference-H.json         atomically, together or not at all; the JSON holds the definition text
+//                            and the CSV's row count and digest)
 //   reference-H.chunks/      while computing: chunk-NNNNNN.csv, each written atomically once its
-//                            points are evaluated; a resumed run computes only the missing chunks and
-//                            the folder is removed once the finished set is written.
+//                            points are evaluated, its last line the digest of its rows; a resumed run
+//                            computes only the missing chunks and the folder is removed once the
+//                            finished set is written.
+//   reference-H.lock         held (flock) by the run computing the set.
+//   rejected/                damaged files, set aside with the reason as a suffix.
 // A changed definition (points, region, sampling, form, AO weighting, backend) has another hash, so a
 // cache never answers for another definition.
 #pragma once
@@ -88,12 +92,18 @@ struct CacheConfig {
     std::uint64_t max_chunks = 0;  // > 0: compute at most this many chunks, then throw IncompleteReference
     std::string command_line;
     std::function<void(std::size_t, std::size_t)> progress;  // (points done, points)
+    // Opens a backend when `backend` is null and something has to be computed after all (a damaged
+    // cache file set aside); null: then that is an error naming the file.
+    std::function<TermBackend*()> open_backend;
+    // Damaged files set aside and waits for another run's lock, as they happen.
+    std::function<void(const std::string&)> warn;
 };
 
 struct CacheReport {
     bool from_cache = false;                // the finished file was there
     std::size_t chunks_found = 0, chunks_computed = 0;
     double seconds = 0;
+    std::vector<std::string> warnings;  // damaged files set aside (each named, with where it went)
 };
 
 // Stopped by CacheConfig::max_chunks before the set was complete (the chunks so far are kept).
@@ -103,8 +113,13 @@ public:
 };
 
 // Loads the cached set, or computes what is missing (resuming from finished chunks) and caches it.
-// Throws ms::Cancelled when interrupted (finished chunks stay), std::runtime_error on a damaged cache
-// file (naming it: remove it to recompute).
+// Every file read is checked first: its digest (the finished CSV's is in its JSON sidecar, a chunk's is
+// its last line), every row being the definition's point, term and std_error in [0, 1]. A damaged
+// file is moved to DIR/rejected/ (named in the report's warnings) and its points computed again.
+// While computing, DIR/reference-H.lock is held: a second run on the same definition waits for the
+// first and then reads its finished file. Throws std::invalid_argument before touching the cache for
+// a sampling plan that cannot be used, ms::Cancelled when interrupted (finished chunks stay).
+void check_plan(const ReferenceDefinition& def);
 ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& config, CacheReport* report = nullptr);
 
 // The cache file of a definition in `dir`.

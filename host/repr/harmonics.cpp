@@ -39,6 +39,11 @@ public:
         return o.str();
     }
     std::vector<std::string> channel_names() const override { return {"cos0phi", "cos1phi", "cos2phi", "cos3phi"}; }
+    // With f_k in [0, 1] and sum_k w_k = N: a_0 = (1/N) sum w_k f_k is in [0, 1] and
+    // |a_m| <= (2/N) sum w_k |f_k cos(m phi_k)| <= 2.
+    std::array<double, 2> channel_range(std::size_t c) const override {
+        return c == 0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{-2.0, 2.0};
+    }
 
     double operator()(const compare::ComparatorInputs& in) const override {
         if (zero_region(in.visibility, in.n_dot_l)) return 0;

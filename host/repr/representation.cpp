@@ -183,13 +183,32 @@ Ktx2Representation read_ktx2_representation(const std::string& path) {
     return out;
 }
 
-std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, Texture3D t) {
+// The metadata's texture.channels: 1 to 4 strings.
+std::vector<std::string> metadata_channels(const nlohmann::json& tex) {
+    const auto it = tex.find("channels");
+    if (it == tex.end() || !it->is_array() || it->empty() || it->size() > 4)
+        throw std::runtime_error("metadata texture.channels: 1 to 4 names");
+    std::vector<std::string> names;
+    for (const auto& n : *it) {
+        if (!n.is_string()) throw std::runtime_error("metadata texture.channels: names must be strings");
+        names.push_back(n.get<std::string>());
+    }
+    return names;
+}
+
+// Builds the representation and checks what the file gave against it (its channels, each texel's
+// range): a file edited or damaged after its bake is refused, not looked up.
+std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, Texture3D t,
+                                                    const std::vector<std::string>& channels) {
     const ReprGrid grid = grid_from_json(meta.at("grid"));
     const std::uint32_t azimuth_nodes = count_field(meta, "azimuth_nodes", 256);
     const std::string kind = meta.value("representation", std::string());
-    if (kind == "azimuth-axis") return make_azimuth_axis(grid, azimuth_nodes, std::move(t), meta);
-    if (kind == "azimuth-harmonics") return make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
-    throw std::runtime_error("unknown representation '" + kind + "'");
+    std::unique_ptr<Representation> r;
+    if (kind == "azimuth-axis") r = make_azimuth_axis(grid, azimuth_nodes, std::move(t), meta);
+    else if (kind == "azimuth-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
+    else throw std::runtime_error("unknown representation '" + kind + "'");
+    static_cast<const TextureRepresentation&>(*r).check_contents(channels);
+    return r;
 }
 
 }  // namespace
@@ -217,7 +236,8 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
     try {
         if (is_ktx2(path)) {
             Ktx2Representation k = read_ktx2_representation(path);
-            return make_representation(k.metadata, std::move(k.texture));
+            const auto channels = metadata_channels(k.metadata.at("texture"));
+            return make_representation(k.metadata, std::move(k.texture), channels);
         }
         if (!is_exr(path)) throw std::runtime_error("neither an OpenEXR nor a KTX2 file");
         // Claims the file cannot hold are refused before OpenEXR allocates them (io/exr_preflight.hpp).
@@ -225,8 +245,6 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
         Imf::InputFile file(path.c_str());
         const auto meta = representation_metadata(file.header());
         if (!meta) throw std::runtime_error("no \"microshadow\" metadata of kind \"representation\"");
-        const ReprGrid grid = grid_from_json(meta->at("grid"));
-        const std::uint32_t azimuth_nodes = count_field(*meta, "azimuth_nodes", 256);
         const auto& tex = meta->at("texture");
         Texture3D t;
         t.width = count_field(tex, "width", 1 << 16);
@@ -237,9 +255,7 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
         const Imath::Box2i dw = file.header().dataWindow();
         if (std::uint64_t(dw.max.x - dw.min.x + 1) != t.width || std::uint64_t(dw.max.y - dw.min.y + 1) != std::uint64_t(t.height) * t.depth)
             throw std::runtime_error("image size does not match the metadata's texture (width, height x depth)");
-        std::vector<std::string> names;
-        for (const auto& n : tex.at("channels")) names.push_back(n.get<std::string>());
-        if (names.empty() || names.size() > 4) throw std::runtime_error("metadata texture.channels: 1 to 4 names");
+        const std::vector<std::string> names = metadata_channels(tex);
         t.texels.assign(texels * 4, 0.0f);
         Imf::FrameBuffer fb;
         const std::size_t stride = 4 * sizeof(float);
@@ -256,11 +272,7 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
                 if (!std::isfinite(t.texels[i * 4 + c]))
                     throw std::runtime_error("texel " + std::to_string(i) + " channel " + names[std::min(c, names.size() - 1)] + " is not finite");
         }
-        const std::string kind = meta->value("representation", std::string());
-        nlohmann::json m = *meta;
-        if (kind == "azimuth-axis") return make_azimuth_axis(grid, azimuth_nodes, std::move(t), m);
-        if (kind == "azimuth-harmonics") return make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), m);
-        throw std::runtime_error("unknown representation '" + kind + "'");
+        return make_representation(*meta, std::move(t), names);
     } catch (const std::exception& e) {
         throw std::runtime_error(path + ": " + e.what());
     }

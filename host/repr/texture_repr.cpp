@@ -74,6 +74,34 @@ double TextureRepresentation::n_dot_v_texel(double nv) const {
     return std::clamp(grid_.n_dot_v_u(nv) * grid_.n_dot_v - 0.5, 0.0, double(grid_.n_dot_v - 1));
 }
 
+void TextureRepresentation::check_contents(const std::vector<std::string>& file_channels) const {
+    const std::vector<std::string> expected = channel_names();
+    for (std::size_t i = 0; i < file_channels.size(); ++i)
+        for (std::size_t j = 0; j < i; ++j)
+            if (file_channels[i] == file_channels[j])
+                throw std::runtime_error("texture.channels names channel " + file_channels[i] + " twice");
+    if (file_channels != expected) {
+        std::string want, got;
+        for (const auto& n : expected) want += (want.empty() ? "" : ", ") + n;
+        for (const auto& n : file_channels) got += (got.empty() ? "" : ", ") + n;
+        throw std::runtime_error("texture.channels [" + got + "] are not the channels of this " + kind() + " grid [" + want +
+                                 "]");
+    }
+    const std::size_t texels = std::size_t(texture_.width) * texture_.height * texture_.depth;
+    for (std::size_t i = 0; i < texels; ++i)
+        for (std::size_t c = 0; c < 4; ++c) {
+            const double v = texture_.texels[i * 4 + c];
+            const auto range = channel_range(c);
+            if (v >= range[0] && v <= range[1]) continue;
+            const std::size_t x = i % texture_.width, y = i / texture_.width % texture_.height,
+                              z = i / (std::size_t(texture_.width) * texture_.height);
+            const std::string channel = expected[std::min(c, expected.size() - 1)];
+            throw std::runtime_error("texel (" + std::to_string(x) + ", " + std::to_string(y) + ", " + std::to_string(z) +
+                                     ") channel " + channel + " is " + shader_literal(v) + ", outside [" +
+                                     shader_literal(range[0]) + ", " + shader_literal(range[1]) + "]");
+        }
+}
+
 compare::ComparatorCost TextureRepresentation::cost() const {
     compare::ComparatorCost c;
     // As a renderer uploads it: RGBA16F (8 bytes a texel), whatever the file's own precision.

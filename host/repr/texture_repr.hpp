@@ -39,6 +39,15 @@ public:
     std::uint32_t azimuth_nodes() const { return azimuth_nodes_; }
     // EXR channel names of the meaningful channels (the texture repeats the last one up to RGBA).
     virtual std::vector<std::string> channel_names() const = 0;
+    // The values a baked texel of RGBA channel c can hold: [0, 1] for a term value.
+    virtual std::array<double, 2> channel_range(std::size_t c) const {
+        (void)c;
+        return {0.0, 1.0};
+    }
+    // Checks what a file gave: `file_channels` (the metadata's texture.channels) are the kind's own
+    // channel_names(), each once, and every texel is inside its channel_range(). Throws
+    // std::runtime_error naming the channel or the first texel outside (x, y, z and channel).
+    void check_contents(const std::vector<std::string>& file_channels) const;
 
 protected:
     // The metadata every file of this representation records ("microshadow"): the bake's, plus kind,

@@ -181,14 +181,29 @@ std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
     return hex(h);
 }
 
+// The [[comparators.lut]] files opened: a part 2 LUT or a representation (host/repr/, opened through the
+// hook repr::install_comparators() sets): compare::Comparator tells them apart by the file's metadata.
+// A file that cannot be used (missing, truncated, not a LUT) is bad input naming the comparator.
+std::vector<compare::Comparator> open_comparator_files(const Spec& spec) {
+    std::vector<compare::Comparator> files;
+    for (std::size_t i = 0; i < spec.luts.size(); ++i) {
+        const auto& l = spec.luts[i];
+        try {
+            files.push_back(compare::Comparator::open_file(l.name, l.file));
+        } catch (const std::exception& e) {
+            const std::string what = e.what();
+            // The readers name the file themselves; say it once.
+            throw std::invalid_argument(spec.source + ": comparators.lut[" + std::to_string(i) + "] '" + l.name + "': " +
+                                        (what.find(l.file) == std::string::npos ? l.file + ": " : std::string()) + what);
+        }
+    }
+    return files;
+}
+
 class ChunkComputer {
 public:
     ChunkComputer(const Spec& spec, const RunConfig& config)
-        : spec_(spec), grid_(spec, config.defaults.form, config.defaults.ao_weighting) {
-        // A [[comparators.lut]] file is a part 2 LUT or a representation (host/repr/, opened through the
-        // hook repr::install_comparators() sets): compare::Comparator tells them apart by the file's metadata.
-        for (const auto& l : spec.luts) files_.push_back(compare::Comparator::open_file(l.name, l.file));
-    }
+        : spec_(spec), grid_(spec, config.defaults.form, config.defaults.ao_weighting), files_(open_comparator_files(spec)) {}
     // Each file comparator's provenance (kind, file, version, command line; a representation's cost).
     json file_provenance() const {
         json out = json::array();
@@ -295,6 +310,8 @@ std::vector<std::string> split(const std::string& line) {
 }
 
 }  // namespace
+
+void check_comparator_files(const Spec& spec) { open_comparator_files(spec); }
 
 Shard parse_shard(const std::string& text) {
     const auto slash = text.find('/');

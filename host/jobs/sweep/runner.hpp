@@ -66,6 +66,10 @@ struct RunResult {
 // The CSV header of a sweep's output.
 std::string csv_header(const Spec& spec);
 
+// Opens every [[comparators.lut]] file as the sweep will: std::invalid_argument naming the spec, the
+// comparator and the file when one cannot be used (call it before starting a backend).
+void check_comparator_files(const Spec& spec);
+
 // Runs (or resumes) the sweep. Throws ms::Cancelled when ms::cancel_requested() is set (finished
 // chunks stay on disk), std::invalid_argument for a spec/out-dir mismatch, std::runtime_error on I/O.
 RunResult run_sweep(const Spec& spec, const RunConfig& config);

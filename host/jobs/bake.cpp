@@ -6,6 +6,8 @@
 #include <chrono>
 #include <stdexcept>
 
+#include "exact/cap_region.hpp"
+#include "integrands/exact_term/exact_lut_integrand.hpp"
 #include "integrands/lut_slice/lut_slice_integrand.hpp"
 
 namespace ms {
@@ -54,9 +56,48 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
     return bake_lut(spec, scheduler, callbacks);
 }
 
+namespace {
+
+// The exact method: every texel by the deterministic evaluator, one work item per slice.
+BakeResult bake_lut_exact(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks,
+                          std::chrono::steady_clock::time_point start) {
+    exact_term::ExactConfig config;
+    config.tolerance = spec.tolerance > 0 ? spec.tolerance : kDefaultExactBakeTolerance;
+    config.build = spec.build;
+    config.force_float = spec.exact_single_precision;
+    exact_term::ExactLutIntegrand integrand(spec, config);
+    schedule::RunCallbacks run_callbacks;
+    if (callbacks.progress)
+        run_callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { callbacks.progress(done, total); };
+    const schedule::RunReport run = scheduler.run(integrand, {}, run_callbacks);
+    BakeResult result;
+    result.width = spec.visibility.count;
+    result.n_dot_l_count = spec.n_dot_l.count;
+    result.height = spec.n_dot_l.count * spec.n_dot_v.count;
+    result.channels = std::uint32_t(spec.roughness.size());
+    result.texels = std::uint64_t(result.width) * result.height * result.channels;
+    result.value = integrand.values();
+    result.std_error = integrand.errors();
+    result.max_std_error = integrand.max_error();
+    result.slices = integrand.work_items();
+    result.skipped_zero = integrand.exact_zero();
+    result.skipped_one = integrand.exact_one();
+    result.exact_quadrature_pieces = integrand.quadrature_pieces();
+    result.exact_tolerance = config.tolerance;
+    result.tolerance_met = result.max_std_error <= config.tolerance;
+    result.devices = scheduler.is_oracle() ? std::vector<std::string>{scheduler.name()} : scheduler.device_labels();
+    result.failed_devices = run.failed_places;
+    result.rerun_chunks = run.rerun;
+    result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    return result;
+}
+
+}  // namespace
+
 BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks) {
     validate(spec);
     const auto start = std::chrono::steady_clock::now();
+    if (spec.method == Method::exact) return bake_lut_exact(spec, scheduler, callbacks, start);
     lut_slice::LutSliceIntegrand integrand(spec);
     const lut_slice::SlicePlan& plan = integrand.plan();
 
@@ -109,6 +150,39 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
 nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     nlohmann::json m;
     m["layout"] = to_string(spec.layout);
+    m["method"] = to_string(spec.method);
+    if (spec.method == Method::exact) {
+        const exact::ArcRule rule = exact::arc_rule_for(0.25 * r.exact_tolerance);
+        m["azimuth"] = spec.azimuth_mean ? nlohmann::json("mean") : nlohmann::json(spec.azimuth_degrees);
+        if (spec.azimuth_mean)
+            m["azimuth_quadrature"] = "Gauss-Legendre pieces on [0, 180] degrees between the azimuths where the term "
+                                      "is not analytic, cosine-substituted, bisected to the tolerance";
+        m["rule"] = "boundary integral; arcs by Gauss-Legendre " + std::to_string(rule.high) + "/" +
+                    std::to_string(rule.low) + " nodes, poles outside the Bernstein ellipse rho = " +
+                    std::to_string(rule.rho).substr(0, 3);
+        m["tolerance"] = r.exact_tolerance;
+        m["tolerance_met"] = r.tolerance_met;
+        m["max_error"] = r.max_std_error;
+        m["max_error_kind"] = "largest per-texel estimated error of the exact method (quadrature estimate plus the "
+                              "float texel's rounding)";
+        m["quadrature_pieces"] = r.exact_quadrature_pieces;
+        m["form"] = to_string(spec.term.form);
+        m["ao_weighting"] = to_string(spec.term.ao_weighting);
+        m["skipped_zero"] = r.skipped_zero;
+        m["skipped_one"] = r.skipped_one;
+        m["n_dot_v_clamp_min"] = kMinNdotV;
+        m["n_dot_l_clamp_min"] = kMinNdotL;
+        m["rerun_chunks"] = r.rerun_chunks;
+        std::string devices;
+        for (std::size_t i = 0; i < r.devices.size(); ++i) devices += (i ? "; " : "") + r.devices[i];
+        m["device"] = devices;
+        m["kernel_precision"] = spec.oracle ? "C++ double" : (spec.exact_single_precision ? "float" : "double where the device has fp64, else float");
+        m["backend"] = spec.oracle ? "oracle" : "opencl";
+        m["version"] = MICROSHADOW_VERSION;
+        m["program"] = "microshadow " MICROSHADOW_VERSION;
+        m["command_line"] = spec.command_line;
+        return m;
+    }
     if (spec.azimuth_mean) {
         m["azimuth"] = "mean";
         if (r.azimuth_cells) {

@@ -66,6 +66,9 @@ struct BakeResult {
     // K is odd or a fixed angle), and how many (slice, row) pairs ended at each K (adaptive or fixed).
     double azimuth_quadrature_error = 0;
     std::map<std::uint32_t, std::uint64_t> azimuth_rows_by_intervals;
+    // Exact method: the tolerance asked of each texel and the Gauss pieces used over all texels.
+    double exact_tolerance = 0;
+    std::uint64_t exact_quadrature_pieces = 0;
 
     float at(std::uint32_t channel, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const;
 };

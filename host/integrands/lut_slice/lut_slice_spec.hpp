@@ -63,6 +63,12 @@ struct LutSliceSpec {
 
     ocl::BuildConfig build;  // the kernel routine's build (the oracle ignores it)
 
+    // sampled: everything above. exact: every texel by the deterministic evaluator (host/exact/), to
+    // `tolerance` (0: kDefaultExactBakeTolerance) estimated error per texel; sequence, samples, replicates,
+    // seed and the azimuth quadrature settings are then unused.
+    Method method = Method::sampled;
+    bool exact_single_precision = false;  // exact on OpenCL devices: the float kernel even with fp64
+
     // Which NdotL rows to bake (a partial bake: `microshadow bake --scene`, jobs/scene_bake.hpp). Empty
     // (the default): every row of every slice, as every bake before it. Otherwise one flag per (slice,
     // row), index slice * n_dot_l.count + row with slice = NdotV index * channels + channel (the
@@ -78,6 +84,9 @@ struct LutSliceSpec {
 // Defaults chosen by measurement (docs/lab-notes/bake-defaults.md).
 extern const std::uint32_t kDefaultAzimuthIntervals;  // the reference grid of azimuth_nodes() (16)
 extern const std::uint64_t kDefaultBatchSamples;      // 65536
+// The exact bake's default tolerance per texel (docs/exact-method.md: the accuracy at which it is faster
+// than the sampled default bake, which reaches ~5e-4).
+inline constexpr double kDefaultExactBakeTolerance = 1e-6;
 // NdotV = 0 (the endpoint convention's first slice) has wi on the horizon, where the VNDF sampler and
 // eval's input check (wi_z > 0) are undefined; such texels are evaluated at this NdotV instead.
 inline constexpr double kMinNdotV = 1e-4;

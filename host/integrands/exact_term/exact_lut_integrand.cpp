@@ -1,0 +1,105 @@
+#include "integrands/exact_term/exact_lut_integrand.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/cone.hpp"
+#include "grid/atlas.hpp"
+
+namespace ms::exact_term {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+class SliceWorker final : public schedule::Worker {
+public:
+    SliceWorker(ExactLutIntegrand& owner, std::unique_ptr<Evaluator> evaluator)
+        : owner_(owner), evaluator_(std::move(evaluator)) {}
+    void run(std::uint64_t id) override { owner_.run_slice(*evaluator_, id); }
+
+private:
+    ExactLutIntegrand& owner_;
+    std::unique_ptr<Evaluator> evaluator_;
+};
+
+}  // namespace
+
+ExactLutIntegrand::ExactLutIntegrand(const LutSliceSpec& spec, ExactConfig config)
+    : spec_(spec), config_(std::move(config)), channels_(std::uint32_t(spec.roughness.size())) {
+    validate(spec_);
+    validate_tolerance(config_.tolerance);
+    const std::size_t texels = std::size_t(spec_.visibility.count) * spec_.n_dot_l.count * spec_.n_dot_v.count * channels_;
+    values_.assign(texels, 0.0f);
+    errors_.assign(texels, 0.0f);
+    slice_max_error_.assign(work_items(), 0.0);
+    slice_pieces_.assign(work_items(), 0);
+    for (std::uint32_t il = 0; il < spec_.n_dot_l.count; ++il)
+        for (std::uint32_t iv = 0; iv < spec_.visibility.count; ++iv) {
+            const double v = spec_.visibility.value(iv);
+            const double nl = std::max(spec_.n_dot_l.value(il), kMinNdotL);
+            if (in_zero_region(cone_cos_theta(v, spec_.term.ao_weighting), nl)) ++zero_;
+            else if (v >= 1) ++one_;
+        }
+    zero_ *= std::uint64_t(spec_.n_dot_v.count) * channels_;
+    one_ *= std::uint64_t(spec_.n_dot_v.count) * channels_;
+}
+
+std::uint64_t ExactLutIntegrand::work_items() const { return std::uint64_t(spec_.n_dot_v.count) * channels_; }
+
+std::unique_ptr<schedule::Worker> ExactLutIntegrand::device_worker(ocl::Device& device) {
+    return std::make_unique<SliceWorker>(*this, make_device_evaluator(device, device_build(device.info(), config_)));
+}
+
+std::unique_ptr<schedule::Worker> ExactLutIntegrand::oracle_worker() {
+    return std::make_unique<SliceWorker>(*this, make_cpu_evaluator());
+}
+
+void ExactLutIntegrand::run_slice(Evaluator& evaluator, std::uint64_t slice) {
+    const std::uint32_t ivv = std::uint32_t(slice / channels_), channel = std::uint32_t(slice % channels_);
+    const double r = spec_.roughness.at(channel);
+    const double nv = std::max(spec_.n_dot_v.value(ivv), kMinNdotV);
+    const AtlasShape shape{spec_.visibility.count, spec_.n_dot_l.count, spec_.n_dot_v.count, channels_};
+    std::vector<ExactTexel> texels;
+    std::vector<std::size_t> where;
+    for (std::uint32_t il = 0; il < spec_.n_dot_l.count; ++il) {
+        const bool baked = spec_.row_baked(slice, il);
+        for (std::uint32_t iv = 0; iv < spec_.visibility.count; ++iv) {
+            const std::size_t at = shape.index(channel, iv, il, ivv);
+            if (!baked) {
+                values_[at] = errors_[at] = std::numeric_limits<float>::quiet_NaN();
+                continue;
+            }
+            texels.push_back({spec_.visibility.value(iv), r * r, nv, std::max(spec_.n_dot_l.value(il), kMinNdotL)});
+            where.push_back(at);
+        }
+    }
+    std::vector<exact::ExactValue> out;
+    evaluator.texels(texels, spec_.term.ao_weighting, spec_.azimuth_mean, spec_.azimuth_degrees * kPi / 180.0,
+                     config_.tolerance, out);
+    double max_error = 0;
+    std::uint64_t pieces = 0;
+    for (std::size_t k = 0; k < where.size(); ++k) {
+        values_[where[k]] = float(out[k].term);
+        // The float texel's rounding joins the estimate, so the recorded error is the stored value's.
+        const double stored_error = out[k].error + std::fabs(double(float(out[k].term)) - out[k].term);
+        errors_[where[k]] = float(stored_error);
+        max_error = std::max(max_error, stored_error);
+        pieces += std::uint64_t(out[k].quadrature_pieces);
+    }
+    slice_max_error_[slice] = max_error;
+    slice_pieces_[slice] = pieces;
+}
+
+double ExactLutIntegrand::max_error() const {
+    return slice_max_error_.empty() ? 0.0 : *std::max_element(slice_max_error_.begin(), slice_max_error_.end());
+}
+
+std::uint64_t ExactLutIntegrand::quadrature_pieces() const {
+    std::uint64_t sum = 0;
+    for (auto p : slice_pieces_) sum += p;
+    return sum;
+}
+
+}  // namespace ms::exact_term

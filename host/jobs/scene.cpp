@@ -280,7 +280,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
     // Tiles: pixels are classified, keyed, sampled and written `tile` at a time, so the working memory
     // (the key table, the distinct queries, their estimates and the integrand's tallies) is bounded by
     // the tile, not the image. Held for the whole run: the input planes and the output layers (written
-    // at the end), and per pixel one byte of roughness band and two of material group (for the 99th
+    // at the end), and per pixel one byte of roughness band and four of material group (for the 99th
     // percentiles, taken from the error layers at the end). Deduplication finds repeats within a tile.
     const std::size_t tile = d.sampling.tile_pixels ? std::size_t(d.sampling.tile_pixels) : std::max<std::size_t>(n, 1);
     constexpr std::uint8_t kUnlit = 0xff;

@@ -91,6 +91,8 @@ PngPixels read_png(const std::string& path) {
     std::vector<png_byte> buffer;
     std::vector<png_bytep> rows;
     std::string refusal;
+    std::vector<png_color> palette;   // copied: libpng's own copy goes with the read struct
+    std::vector<png_byte> palette_alpha;
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_read_struct(&png, &info, nullptr);
         std::fclose(f);
@@ -117,15 +119,17 @@ PngPixels read_png(const std::string& path) {
         if (!refusal.empty()) png_longjmp(png, 1);
     }
     out.palette = color == PNG_COLOR_TYPE_PALETTE;
-    png_colorp palette = nullptr;
-    int palette_size = 0;
-    png_bytep palette_alpha = nullptr;
-    int palette_alpha_size = 0;
     if (out.palette) {
         // Indices are kept (an object-index mask is a palette's indices, not its colours); colours are
         // looked up below.
-        png_get_PLTE(png, info, &palette, &palette_size);
-        if (png_get_valid(png, info, PNG_INFO_tRNS)) png_get_tRNS(png, info, &palette_alpha, &palette_alpha_size, nullptr);
+        png_colorp entries = nullptr;
+        int entry_count = 0;
+        png_get_PLTE(png, info, &entries, &entry_count);
+        palette.assign(entries, entries + entry_count);
+        png_bytep alpha = nullptr;
+        int alpha_count = 0;
+        if (png_get_valid(png, info, PNG_INFO_tRNS)) png_get_tRNS(png, info, &alpha, &alpha_count, nullptr);
+        if (alpha) palette_alpha.assign(alpha, alpha + alpha_count);
         png_set_packing(png);
     } else {
         if (color == PNG_COLOR_TYPE_GRAY && stored_depth < 8) png_set_expand_gray_1_2_4_to_8(png);
@@ -146,7 +150,8 @@ PngPixels read_png(const std::string& path) {
     std::fclose(f);
     const std::size_t pixels = std::size_t(out.width) * out.height;
     if (out.palette) {
-        const bool alpha = palette_alpha_size > 0;
+        const bool alpha = !palette_alpha.empty();
+        const int palette_size = int(palette.size()), palette_alpha_size = int(palette_alpha.size());
         out.names = alpha ? std::vector<std::string>{"R", "G", "B", "A", "index"} : std::vector<std::string>{"R", "G", "B", "index"};
         out.scale.assign(out.names.size(), 255.0);
         out.scale.back() = 1.0;

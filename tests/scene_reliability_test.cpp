@@ -605,5 +605,51 @@ TEST_F(SceneReliability, SigtermMidRunThenRerunLeavesOneCompleteSet) {
     EXPECT_EQ(files_in(), new_set);
 }
 
+// The same for bake --scene: the LUT and its report folder are one set, and a rerun with fewer lights
+// leaves no histogram image of the old light.
+TEST_F(SceneReliability, SigtermDuringBakeSceneThenRerunLeavesOneCompleteSet) {
+    small_scene(dir_, "[[light]]\nname = \"sun\"\ndirection = [0.5, 0.2, 0.8]\n[[light]]\nname = \"rim\"\ndirection = [-0.6, 0.1, 0.5]\n");
+    fs::rename(path("s.toml"), path("two.toml"));
+    small_scene(dir_);
+    const std::string args = " --out l.exr --scene-report rep --scene-layout layout --size 8 --samples 16384 -q";
+    auto r = cli("bake --scene two.toml" + args);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    // One run's set: the LUT's scene is the report's, and the histogram images are the report's lights'.
+    auto consistent = [&](const std::string& when) {
+        const auto report = nlohmann::json::parse(slurp(path("rep/report.json")));
+        const LutFile lut = read_lut(path("l.exr"));
+        EXPECT_EQ(lut.metadata.value("scene", ""), report["provenance"]["scene"].get<std::string>()) << when;
+        std::set<std::string> images, expected;
+        for (const auto& e : fs::directory_iterator(path("rep")))
+            if (e.path().extension() == ".png") images.insert(e.path().filename().string());
+        for (const auto& l : report["lights"]) expected.insert("histograms_" + l["light"].get<std::string>() + ".png");
+        EXPECT_EQ(images, expected) << when;
+        for (const auto& e : fs::directory_iterator(dir_))
+            EXPECT_EQ(e.path().filename().string().find(".tmp."), std::string::npos) << when << ": " << e.path();
+        return report["lights"].size();
+    };
+    EXPECT_EQ(consistent("first run"), 2u);
+    for (const double at : {0.3, 1.0, 2.0}) {
+        const std::string cmd = "cd " + dir_.string() + " && exec " + kCli + " bake --scene s.toml" + args + " >log.txt 2>&1";
+        const pid_t pid = fork();
+        ASSERT_GE(pid, 0);
+        if (pid == 0) {
+            execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+            _exit(127);
+        }
+        std::this_thread::sleep_for(std::chrono::duration<double>(at));
+        kill(pid, SIGTERM);
+        int status = 0;
+        waitpid(pid, &status, 0);
+        const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+        std::printf("bake --scene, SIGTERM at %.1f s: exit status %d\n", at, code);
+        EXPECT_TRUE(code == 143 || code == 0) << code << " " << slurp(path("log.txt"));
+        consistent("SIGTERM at " + std::to_string(at) + " s");
+    }
+    r = cli("bake --scene s.toml" + args);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(consistent("rerun"), 1u);
+}
+
 }  // namespace
 }  // namespace ms

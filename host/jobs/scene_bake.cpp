@@ -558,7 +558,8 @@ void write_scene_bake_outputs(const SceneBakeResult& r, const std::vector<LightD
     std::vector<std::string> before;
     if (std::ifstream in(fs::path(report_dir) / "report.json"); in) {
         try {
-            for (const auto& l : json::parse(in).at("lights")) before.push_back("histograms_" + file_name(l.at("light").get<std::string>()) + ".png");
+            const json previous = json::parse(in);  // named: a range over a temporary's member would dangle
+            for (const auto& l : previous.at("lights")) before.push_back("histograms_" + file_name(l.at("light").get<std::string>()) + ".png");
         } catch (const std::exception&) {
             before.clear();
         }

@@ -1,9 +1,11 @@
 // microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR.
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 
 #include "jobs/bake.hpp"
+#include "jobs/scene.hpp"
 #include "jobs/scene_bake.hpp"  // issue 11: bake --scene
 #include "jobs/verify.hpp"
 #include "cli/bake_outputs.hpp"  // issue 12: file formats, preview checks, shaders
@@ -161,6 +163,14 @@ void run_scene_bake_command(const BakeArgs& args) {
     base.term.ao_weighting = description.ao_weighting;
     base.term.form = description.sampling.form;
     check_writable_destination(args.out);
+    // The report folder and its files, before any work (a bad one used to be found after the bakes).
+    scene::check_output_folder(args.scene_report);
+    if (std::error_code ec; std::filesystem::is_directory(args.scene_report, ec)) {
+        for (const char* f : {"histograms.json", "histograms.csv", "report.json", "report.md"})
+            check_writable_destination((std::filesystem::path(args.scene_report) / f).string());
+        for (const auto& l : description.lights)
+            check_writable_destination((std::filesystem::path(args.scene_report) / ("histograms_" + l.name + ".png")).string());
+    }
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
     std::unique_ptr<TermBackend> backend;
     if (base.oracle) {
@@ -170,6 +180,7 @@ void run_scene_bake_command(const BakeArgs& args) {
         config.build = base.build;
         backend = make_opencl_backend(ocl::select_devices(base.device), config);
     }
+    backend->scheduler().set_fault_injection(fault_injection_from_environment());
     scene::SceneBakeOptions options;
     options.fit = args.scene_layout == "fit";
     options.compare = !args.no_scene_compare;
@@ -199,6 +210,8 @@ void run_scene_bake_command(const BakeArgs& args) {
         if (result.full_seconds > 0)
             std::cerr << "; full bake of the same layout " << result.full_seconds << " s (ratio " << result.bake.seconds / result.full_seconds << ")";
         std::cerr << "\n";
+        if (result.bake.rerun_chunks)
+            for (const auto& f : result.bake.failed_devices) std::cerr << "bake --scene: device failed, its chunks were rerun: " << f << "\n";
         for (const auto& e : result.errors)
             std::cerr << "bake --scene: " << e.light << ": weighted error on " << e.scene_lut.lookups << " sampled lookups: scene LUT max "
                       << e.scene_lut.max << " RMS " << e.scene_lut.rms << ", default LUT max " << e.default_lut.max << " RMS "

@@ -27,6 +27,7 @@ void run_scene_command(const SceneArgs& args) {
     std::error_code ec;
     if (std::filesystem::exists(args.out, ec) && !std::filesystem::is_directory(args.out, ec))
         throw std::invalid_argument(args.out + ": exists and is not a folder (--out names the output folder)");
+    scene::check_output_folder(args.out);
     const scene::SceneDescription description = scene::load_scene(args.scene);
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
     std::unique_ptr<TermBackend> backend;
@@ -44,6 +45,13 @@ void run_scene_command(const SceneArgs& args) {
     options.tolerance = args.tolerance;
     options.luts = args.luts;
     options.bake_seed_luts = !args.no_seed_luts;
+    // Every output name and the folder are checked once the comparators are known, before any work.
+    options.check_outputs = [&](const std::vector<std::string>& comparators) {
+        std::vector<std::string> lights;
+        for (const auto& l : description.lights) lights.push_back(l.name);
+        scene::check_scene_outputs(args.out, lights, comparators);
+    };
+    options.memory_limit = physical_memory() / 2;
     std::unique_ptr<Progress> progress;
     std::string phase;
     options.progress = [&](const std::string& p, std::size_t done, std::size_t total) {

@@ -4,8 +4,24 @@
 
 #include <cstdio>
 #include <stdexcept>
+#include <string>
 
 namespace ms {
+
+namespace {
+
+// libpng's message goes into the exception (its default handler prints it raw on stderr).
+struct PngWriteMessage {
+    char text[256] = {};
+};
+void png_write_error(png_structp png, png_const_charp message) {
+    auto* m = static_cast<PngWriteMessage*>(png_get_error_ptr(png));
+    std::snprintf(m->text, sizeof m->text, "%s", message ? message : "unknown error");
+    png_longjmp(png, 1);
+}
+void png_write_warning(png_structp, png_const_charp) {}
+
+}  // namespace
 
 void write_png(const std::string& path, const PngImage& image, const std::string& text_key, const std::string& text) {
     if ((image.channels != 3 && image.channels != 4) || (image.bits != 8 && image.bits != 16) || !image.pixels ||
@@ -13,7 +29,8 @@ void write_png(const std::string& path, const PngImage& image, const std::string
         throw std::invalid_argument("write_png: " + path + ": not an 8/16-bit RGB or RGBA image");
     std::FILE* f = std::fopen(path.c_str(), "wb");
     if (!f) throw std::runtime_error("cannot open " + path + " for writing");
-    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    PngWriteMessage message;
+    png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &message, png_write_error, png_write_warning);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     if (!png || !info) {
         png_destroy_write_struct(&png, &info);
@@ -27,7 +44,7 @@ void write_png(const std::string& path, const PngImage& image, const std::string
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         std::fclose(f);
-        throw std::runtime_error("libpng failed writing " + path);
+        throw std::runtime_error("cannot write " + path + " (libpng: " + std::string(message.text) + ")");
     }
     png_init_io(png, f);
     png_set_IHDR(png, info, image.width, image.height, image.bits,

@@ -1,10 +1,15 @@
 #include "jobs/scene.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -189,22 +194,27 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         }
         comparators.push_back(c);
     }
-    const auto lut_start = std::chrono::steady_clock::now();
-    if (options.bake_seed_luts && d.comparators.seed_3d) {
-        progress("baking the seed 3D LUT", 0, 1);
-        comparators.push_back({"seed-3d-" + std::to_string(d.comparators.lut_size), true, {}, bake_seed(LutLayout::seed_3d, d, backend), nullptr});
-    }
-    if (options.bake_seed_luts && d.comparators.seed_2d) {
-        progress("baking the seed 2D LUT", 0, 1);
-        comparators.push_back({"seed-2d-" + std::to_string(d.comparators.lut_size), true, {}, bake_seed(LutLayout::seed_2d, d, backend), nullptr});
-    }
+    // Comparator files are opened, and every output name known and checked, before the seed LUTs are
+    // baked: a missing LUT or an unwritable destination is refused before any work.
     std::vector<std::string> lut_files = d.comparators.luts;
     lut_files.insert(lut_files.end(), options.luts.begin(), options.luts.end());
     std::set<std::string> used;
-    for (const auto& c : comparators) used.insert(c.name);
+    // A name is taken with its "_error" layer: `--lut A.exr --lut A_error.exr` must not give the second
+    // LUT's approximation the first one's error layer name.
+    auto take = [&used](std::string name) {
+        while (used.count(name) || used.count(name + "_error")) name += "_";
+        used.insert(name);
+        used.insert(name + "_error");
+        return name;
+    };
+    for (const auto& c : comparators) take(c.name);
+    const std::string seed_3d_name = take("seed-3d-" + std::to_string(d.comparators.lut_size));
+    const std::string seed_2d_name = take("seed-2d-" + std::to_string(d.comparators.lut_size));
+    std::vector<Comparator> file_comparators;
     for (const auto& f : lut_files) {
         std::shared_ptr<compare::Comparator> file;
         try {
+            require_regular_file(f);  // a FIFO would block in open()
             file = std::make_shared<compare::Comparator>(compare::Comparator::open_file(fs::path(f).stem().string(), f));
         } catch (const std::exception& e) {
             throw SceneError(std::string("LUT comparator: ") + e.what());
@@ -212,10 +222,36 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         std::string name = (file->is_representation() ? "repr-" : "lut-") + fs::path(f).stem().string();
         for (char& ch : name)
             if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_') ch = '_';
-        while (used.count(name)) name += "_";
-        used.insert(name);
-        comparators.push_back({name, true, {}, nullptr, file});
+        file_comparators.push_back({take(name), true, {}, nullptr, file});
     }
+    {
+        const bool seed_3d = options.bake_seed_luts && d.comparators.seed_3d, seed_2d = options.bake_seed_luts && d.comparators.seed_2d;
+        std::vector<std::string> names;
+        for (const auto& c : comparators) names.push_back(c.name);
+        if (seed_3d) names.push_back(seed_3d_name);
+        if (seed_2d) names.push_back(seed_2d_name);
+        for (const auto& c : file_comparators) names.push_back(c.name);
+        // Held to the end: the output layers (3 + 2 per comparator per light) and the mask, as floats.
+        const std::uint64_t planes = std::uint64_t(d.lights.size()) * (3 + 2 * names.size()) + 1;
+        const std::uint64_t bytes = planes * std::uint64_t(n) * sizeof(float);
+        if (options.memory_limit > 0 && bytes > options.memory_limit)
+            throw SceneError(d.source + ": the output images need about " + fmt(double(bytes) / double(1ULL << 30)) + " GiB (" +
+                             std::to_string(d.lights.size()) + " light(s) x (3 + 2 x " + std::to_string(names.size()) +
+                             " comparators) planes of " + std::to_string(result.width) + " x " + std::to_string(result.height) +
+                             " floats), more than the limit of " + fmt(double(options.memory_limit) / double(1ULL << 30)) +
+                             " GiB: use fewer lights or comparators, or a smaller image");
+        if (options.check_outputs) options.check_outputs(names);
+    }
+    const auto lut_start = std::chrono::steady_clock::now();
+    if (options.bake_seed_luts && d.comparators.seed_3d) {
+        progress("baking the seed 3D LUT", 0, 1);
+        comparators.push_back({seed_3d_name, true, {}, bake_seed(LutLayout::seed_3d, d, backend), nullptr});
+    }
+    if (options.bake_seed_luts && d.comparators.seed_2d) {
+        progress("baking the seed 2D LUT", 0, 1);
+        comparators.push_back({seed_2d_name, true, {}, bake_seed(LutLayout::seed_2d, d, backend), nullptr});
+    }
+    for (auto& c : file_comparators) comparators.push_back(std::move(c));
     result.lut_seconds = seconds_since(lut_start);
     for (const auto& c : comparators) result.comparators.push_back(c.name);
 
@@ -244,7 +280,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
     // Tiles: pixels are classified, keyed, sampled and written `tile` at a time, so the working memory
     // (the key table, the distinct queries, their estimates and the integrand's tallies) is bounded by
     // the tile, not the image. Held for the whole run: the input planes and the output layers (written
-    // at the end), and per pixel one byte of roughness band and two of material group (for the 99th
+    // at the end), and per pixel one byte of roughness band and four of material group (for the 99th
     // percentiles, taken from the error layers at the end). Deduplication finds repeats within a tile.
     const std::size_t tile = d.sampling.tile_pixels ? std::size_t(d.sampling.tile_pixels) : std::max<std::size_t>(n, 1);
     constexpr std::uint8_t kUnlit = 0xff;
@@ -268,7 +304,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         std::vector<std::vector<double>> sum_sq(comparators.size(), std::vector<double>(result.groups.size())),
             sum_sq_term(comparators.size(), std::vector<double>(result.groups.size()));
         std::vector<std::uint8_t> pixel_band(n, kUnlit);
-        std::vector<std::uint16_t> pixel_material(d.has_material ? n : 0, 0);
+        std::vector<std::uint32_t> pixel_material(d.has_material ? n : 0, 0);
 
         for (std::size_t tile_start = 0; tile_start < n; tile_start += tile) {
             const std::size_t tile_end = std::min(n, tile_start + tile);
@@ -425,16 +461,19 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                 if (d.has_material) groups[group_count++] = material_group[p.material];
                 if (lit) {
                     pixel_band[i] = std::uint8_t(groups[1]);
-                    if (d.has_material) pixel_material[i] = std::uint16_t(groups[2]);
+                    if (d.has_material) pixel_material[i] = std::uint32_t(groups[2]);
                 }
                 for (std::size_t k = 0; k < comparators.size(); ++k) {
                     double a = 0;
                     try {
                         a = comparator_value(comparators[k], p, q, w);
                     } catch (const std::domain_error& e) {
-                        // A partial LUT (bake --scene of another scene) refuses lookups outside what it baked.
-                        throw SceneError("comparator " + comparators[k].name + " at pixel (" + std::to_string(i % result.width) +
-                                         ", " + std::to_string(i / result.width) + "): " + e.what());
+                        // A LUT of bake --scene refuses lookups outside what it baked or was fitted to. A pixel the
+                        // light does not reach is no lookup a renderer makes (its weight is 0): 0 there.
+                        if (lit)
+                            throw SceneError("comparator " + comparators[k].name + " at pixel (" + std::to_string(i % result.width) +
+                                             ", " + std::to_string(i / result.width) + "): " + e.what());
+                        a = 0;
                     }
                     const double diff = a - double(li.reference[i]);
                     li.approximation[k][i] = float(a);
@@ -454,24 +493,41 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
             progress(light.name, tile_end, n);
         }
         // RMS, and the 99th percentiles from the error layers (|float(x)| = float(|x|): the same values the
-        // statistics saw), one group at a time through one scratch vector.
-        std::vector<float> scratch;
-        for (std::size_t k = 0; k < comparators.size(); ++k)
-            for (std::size_t g = 0; g < result.groups.size(); ++g) {
+        // statistics saw). Per comparator, the lit pixels' errors are bucketed by group (a counting sort:
+        // "all", the pixel's band, its material) into one scratch vector, and each group's bucket gives
+        // its percentile by nth_element: linear in pixels, whatever the number of groups.
+        const std::size_t group_count = result.groups.size();
+        std::vector<std::size_t> bucket_start(group_count + 1, 0);
+        for (std::size_t i = 0; i < n; ++i) {
+            if (pixel_band[i] == kUnlit) continue;
+            ++bucket_start[1];  // "all"
+            ++bucket_start[std::size_t(pixel_band[i]) + 1];
+            if (d.has_material) ++bucket_start[std::size_t(pixel_material[i]) + 1];
+        }
+        for (std::size_t g = 0; g < group_count; ++g) bucket_start[g + 1] += bucket_start[g];
+        std::vector<float> scratch(bucket_start[group_count]);
+        std::vector<std::size_t> fill(group_count);
+        for (std::size_t k = 0; k < comparators.size(); ++k) {
+            std::copy(bucket_start.begin(), bucket_start.end() - 1, fill.begin());
+            for (std::size_t i = 0; i < n; ++i) {
+                if (pixel_band[i] == kUnlit) continue;
+                const float e = std::fabs(li.error[k][i]);
+                scratch[fill[0]++] = e;
+                scratch[fill[pixel_band[i]]++] = e;
+                if (d.has_material) scratch[fill[pixel_material[i]]++] = e;
+            }
+            for (std::size_t g = 0; g < group_count; ++g) {
                 ErrorStats& s = stats[k][g];
                 if (!s.pixels) continue;
                 s.rms = std::sqrt(sum_sq[k][g] / double(s.pixels));
                 s.rms_term = std::sqrt(sum_sq_term[k][g] / double(s.pixels));
-                scratch.clear();
-                for (std::size_t i = 0; i < n; ++i) {
-                    if (pixel_band[i] == kUnlit) continue;
-                    if (g == 0 || pixel_band[i] == g || (d.has_material && pixel_material[i] == g))
-                        scratch.push_back(std::fabs(li.error[k][i]));
-                }
-                const std::size_t at = std::min(scratch.size() - 1, std::size_t(std::ceil(0.99 * double(scratch.size()))) - 1);
-                std::nth_element(scratch.begin(), scratch.begin() + std::ptrdiff_t(at), scratch.end());
-                s.p99 = scratch[at];
+                const auto first = scratch.begin() + std::ptrdiff_t(bucket_start[g]);
+                const std::size_t size = bucket_start[g + 1] - bucket_start[g];
+                const std::size_t at = std::min(size - 1, std::size_t(std::ceil(0.99 * double(size))) - 1);
+                std::nth_element(first, first + std::ptrdiff_t(at), first + std::ptrdiff_t(size));
+                s.p99 = first[std::ptrdiff_t(at)];
             }
+        }
         li.stats = std::move(stats);
         li.seconds = seconds_since(light_start);
         result.lights.push_back(std::move(li));
@@ -556,10 +612,118 @@ std::string markdown(const SceneResult& r) {
 
 }  // namespace
 
-void write_scene_outputs(const SceneResult& r, const std::string& dir, const json& provenance) {
+namespace {
+void write_scene_files(const SceneResult& r, const std::string& dir, const json& provenance);
+}  // namespace
+
+std::vector<std::string> scene_output_files(const std::vector<std::string>& lights, const std::vector<std::string>& comparators) {
+    std::vector<std::string> files{"scene.exr", "report.json", "report.md"};
+    for (const auto& l : lights) {
+        files.push_back(l + "_reference.png");
+        if (!comparators.empty()) files.push_back(l + "_errors.png");
+        for (const auto& c : comparators) files.push_back(l + "_" + c + ".png");
+    }
+    return files;
+}
+
+std::vector<std::string> scene_exr_layers(const std::vector<std::string>& lights, const std::vector<std::string>& comparators) {
+    std::vector<std::string> layers{"mask"};
+    for (const auto& l : lights) {
+        for (const char* plane : {".reference", ".std_error", ".weight"}) layers.push_back(l + plane);
+        for (const auto& c : comparators) {
+            layers.push_back(l + "." + c);
+            layers.push_back(l + "." + c + "_error");
+        }
+    }
+    return layers;
+}
+
+void check_output_folder(const std::string& dir) {
     std::error_code ec;
+    fs::path p = dir.empty() ? fs::path(".") : fs::path(dir);
+    if (fs::exists(p, ec)) {
+        if (!fs::is_directory(p, ec)) throw OutputError(dir + ": exists and is not a folder (it names the output folder)");
+        if (::access(p.c_str(), W_OK | X_OK) != 0)
+            throw OutputError(dir + ": cannot write in this folder (" + std::strerror(errno) + ")");
+        return;
+    }
+    // Missing: the nearest folder above it that exists must let us create it.
+    fs::path above = fs::absolute(p, ec).parent_path();
+    while (!above.empty() && !fs::exists(above, ec) && above != above.parent_path()) above = above.parent_path();
+    if (!fs::is_directory(above, ec))
+        throw OutputError(dir + ": cannot be created (" + above.string() + " is not a folder)");
+    if (::access(above.c_str(), W_OK | X_OK) != 0)
+        throw OutputError(dir + ": cannot be created (" + above.string() + ": " + std::strerror(errno) + ")");
+}
+
+void check_scene_outputs(const std::string& dir, const std::vector<std::string>& lights, const std::vector<std::string>& comparators) {
+    std::set<std::string> seen;
+    for (const auto& f : scene_output_files(lights, comparators))
+        if (!seen.insert(f).second)
+            throw OutputError(dir + ": two outputs would both be " + f + " (a light's name and a comparator's meet in one file name): rename "
+                              "the light or the LUT file");
+    seen.clear();
+    for (const auto& l : scene_exr_layers(lights, comparators))
+        if (!seen.insert(l).second) throw OutputError(dir + "/scene.exr: two layers would both be named " + l + ": rename the light or the LUT file");
+    check_output_folder(dir);
+    std::error_code ec;
+    if (fs::is_directory(dir, ec))
+        for (const auto& f : scene_output_files(lights, comparators)) check_writable_destination((fs::path(dir) / f).string());
+    else
+        for (const auto& f : scene_output_files(lights, comparators))
+            if (f.size() + 16 > 255) throw OutputError(dir + "/" + f + ": the file name is too long");
+}
+
+namespace {
+
+// The outputs of the run that last wrote DIR, from its report.json (empty when there is none or it
+// cannot be read: then nothing is removed).
+std::vector<std::string> previous_outputs(const std::string& dir) {
+    std::ifstream in(fs::path(dir) / "report.json");
+    if (!in) return {};
+    try {
+        const json j = json::parse(in);
+        std::vector<std::string> lights, comparators;
+        for (const auto& l : j.at("lights")) lights.push_back(l.at("name").get<std::string>());
+        for (const auto& c : j.at("comparators")) comparators.push_back(c.get<std::string>());
+        // Only plain names inside DIR (the report may have been edited): never a path elsewhere.
+        std::vector<std::string> files;
+        for (const auto& f : scene_output_files(lights, comparators))
+            if (!f.empty() && f[0] != '.' && f.find_first_not_of("abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_-.") == std::string::npos)
+                files.push_back(f);
+        return files;
+    } catch (const std::exception&) {
+        return {};
+    }
+}
+
+}  // namespace
+
+void write_scene_outputs(const SceneResult& r, const std::string& dir, const json& provenance) {
+    std::vector<std::string> lights;
+    for (const auto& l : r.lights) lights.push_back(l.light);
+    check_scene_outputs(dir, lights, r.comparators);
+    const std::vector<std::string> before = previous_outputs(dir);
+    std::error_code ec;
+    const bool created = !fs::exists(dir, ec);
     fs::create_directories(dir, ec);
     if (ec) throw std::invalid_argument(dir + ": cannot create the output folder (" + ec.message() + ")");
+    try {
+        write_scene_files(r, dir, provenance);
+    } catch (...) {
+        if (created) fs::remove(dir, ec);  // only if still empty: never a file of ours or anyone's
+        throw;
+    }
+    // The new set is in place: a previous run's files that it does not hold are stale.
+    const std::vector<std::string> now = scene_output_files(lights, r.comparators);
+    for (const auto& f : before)
+        if (std::find(now.begin(), now.end(), f) == now.end() && fs::is_regular_file(fs::path(dir) / f, ec))
+            fs::remove(fs::path(dir) / f, ec);
+}
+
+namespace {
+
+void write_scene_files(const SceneResult& r, const std::string& dir, const json& provenance) {
     OutputSet out;
     const auto path = [&](const std::string& name) { return (fs::path(dir) / name).string(); };
     const std::size_t exr = out.add(path("scene.exr"), true);
@@ -622,5 +786,7 @@ void write_scene_outputs(const SceneResult& r, const std::string& dir, const jso
     out.stream(report_md) << markdown(r);
     out.commit();
 }
+
+}  // namespace
 
 }  // namespace ms::scene

@@ -54,6 +54,10 @@ struct SceneRunOptions {
     std::vector<std::string> luts;     // more LUT files to compare
     bool bake_seed_luts = true;        // false: ignore comparators.seed_3d / seed_2d (tests)
     std::function<void(const std::string& phase, std::size_t done, std::size_t total)> progress;
+    // Called once the comparators' names are known (LUT files opened), before any LUT bake or sampling:
+    // the CLI checks its outputs here (check_scene_outputs), so a bad destination costs no work.
+    std::function<void(const std::vector<std::string>& comparators)> check_outputs;
+    std::uint64_t memory_limit = 0;    // > 0: refuse (SceneError) when the output images would need more bytes
 };
 
 struct SkipCounts {
@@ -116,8 +120,22 @@ Query dedup_query(const DedupKey& key, AoWeighting weighting, double step);
 
 // Writes DIR/scene.exr (every image as a layer), DIR/<light>_reference.png, DIR/<light>_<comparator>.png
 // (reference | approximation | weighted error), DIR/report.json and DIR/report.md, all or none
-// (io/atomic_file.hpp's OutputSet). DIR is created if missing.
+// (io/atomic_file.hpp's OutputSet). DIR is created if missing (and removed again if nothing could be
+// written to it). A previous run's outputs that this run does not write (other lights or comparators,
+// read from the previous report.json) are removed once the new set is in place, so the folder never
+// mixes two runs.
 void write_scene_outputs(const SceneResult& result, const std::string& dir, const nlohmann::json& provenance);
+
+// The files write_scene_outputs writes in DIR, and the layers of scene.exr, for these lights and
+// comparators (names only, in writing order).
+std::vector<std::string> scene_output_files(const std::vector<std::string>& lights, const std::vector<std::string>& comparators);
+std::vector<std::string> scene_exr_layers(const std::vector<std::string>& lights, const std::vector<std::string>& comparators);
+// Refuses (OutputError, exit status 2) before any work: two outputs or layers of the same name, a DIR
+// that exists and is not a writable folder, or one that cannot be created (the nearest existing folder
+// above it is not writable), an output name that exists as something other than a file. Creates nothing.
+void check_scene_outputs(const std::string& dir, const std::vector<std::string>& lights, const std::vector<std::string>& comparators);
+// A folder for outputs, as check_scene_outputs checks it: exists and writable, or can be created.
+void check_output_folder(const std::string& dir);
 nlohmann::json scene_report(const SceneResult& result);
 
 }  // namespace ms::scene

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <set>
 #include <sstream>
 #include <stdexcept>
@@ -196,6 +197,7 @@ SceneBakePlan plan_scene_bake(const std::vector<LightDomain>& domain, const Bake
 
     SceneBakePlan plan;
     plan.fitted = fit;
+    for (int k = 0; k < 4; ++k) plan.domain_min[k] = lo[k], plan.domain_max[k] = hi[k];
     BakeSpec& s = plan.spec;
     s = base;
     if (fit) {
@@ -288,6 +290,19 @@ json coverage_record(const SceneBakePlan& plan) {
             {"touched_texels", plan.touched_texels}};
 }
 
+json scene_lut_metadata(const SceneBakePlan& plan, const BakeResult& bake) {
+    json meta = bake_metadata(plan.spec, bake);
+    if (!plan.spec.baked_rows.empty()) meta["coverage"] = coverage_record(plan);
+    if (plan.fitted) {
+        json domain = {{"what", "a LUT fitted to one scene (microshadow bake --scene, --scene-layout fit): its axes span that scene's "
+                                "lookups only, and a lookup outside these ranges is refused, not clamped"}};
+        const char* names[4] = {"visibility", "n_dot_l", "n_dot_v", "roughness"};
+        for (int k = 0; k < 4; ++k) domain[names[k]] = {plan.domain_min[k], plan.domain_max[k]};
+        meta["domain"] = domain;
+    }
+    return meta;
+}
+
 SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<LightDomain>& domain, const BakeSpec& base,
                                TermBackend& backend, const SceneBakeOptions& options) {
     const SceneDescription& d = inputs.description();
@@ -340,8 +355,7 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     const sweep::LutLookup default_lut(lutfmt::make_lut_file({standard.visibility, standard.n_dot_l, standard.n_dot_v},
                                                              lut_channels(standard), standard_bake.value,
                                                              bake_metadata(standard, standard_bake)));
-    json meta = bake_metadata(r.plan.spec, r.bake);
-    if (!r.plan.spec.baked_rows.empty()) meta["coverage"] = coverage_record(r.plan);
+    const json meta = scene_lut_metadata(r.plan, r.bake);
     const sweep::LutLookup scene_lut(lutfmt::make_lut_file({r.plan.spec.visibility, r.plan.spec.n_dot_l, r.plan.spec.n_dot_v},
                                                            r.channels, r.bake.value, meta));
 
@@ -531,11 +545,45 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
     return m.str();
 }
 
+namespace {
+void write_scene_bake_files(const SceneBakeResult& r, const std::vector<LightDomain>& domain, const std::string& lut_path,
+                            const std::string& report_dir, const json& provenance);
+}  // namespace
+
 void write_scene_bake_outputs(const SceneBakeResult& r, const std::vector<LightDomain>& domain, const std::string& lut_path,
                               const std::string& report_dir, const json& provenance) {
     std::error_code ec;
+    // The histogram images of the run that last wrote the folder (its report.json): those of lights this
+    // run does not have are stale once the new set is in place.
+    std::vector<std::string> before;
+    if (std::ifstream in(fs::path(report_dir) / "report.json"); in) {
+        try {
+            const json previous = json::parse(in);  // named: a range over a temporary's member would dangle
+            for (const auto& l : previous.at("lights")) before.push_back("histograms_" + file_name(l.at("light").get<std::string>()) + ".png");
+        } catch (const std::exception&) {
+            before.clear();
+        }
+    }
+    const bool created = !fs::exists(report_dir, ec);
     fs::create_directories(report_dir, ec);
     if (ec) throw std::invalid_argument(report_dir + ": cannot create the report folder (" + ec.message() + ")");
+    try {
+        write_scene_bake_files(r, domain, lut_path, report_dir, provenance);
+    } catch (...) {
+        if (created) fs::remove(report_dir, ec);  // only if still empty
+        throw;
+    }
+    for (const auto& f : before) {
+        bool written = false;
+        for (const auto& ld : domain) written = written || f == "histograms_" + file_name(ld.light) + ".png";
+        if (!written && fs::is_regular_file(fs::path(report_dir) / f, ec)) fs::remove(fs::path(report_dir) / f, ec);
+    }
+}
+
+namespace {
+
+void write_scene_bake_files(const SceneBakeResult& r, const std::vector<LightDomain>& domain, const std::string& lut_path,
+                            const std::string& report_dir, const json& provenance) {
     OutputSet out;
     const auto path = [&](const std::string& name) { return (fs::path(report_dir) / name).string(); };
     const std::size_t lut = out.add(lut_path, true);
@@ -546,9 +594,8 @@ void write_scene_bake_outputs(const SceneBakeResult& r, const std::vector<LightD
     std::vector<std::size_t> pngs;
     for (const auto& ld : domain) pngs.push_back(out.add(path("histograms_" + file_name(ld.light) + ".png"), true));
 
-    json meta = bake_metadata(r.plan.spec, r.bake);
+    json meta = scene_lut_metadata(r.plan, r.bake);
     meta["scene"] = provenance.value("scene", "");
-    if (!r.plan.spec.baked_rows.empty()) meta["coverage"] = coverage_record(r.plan);
     write_lut(out.temp_path(lut), {r.plan.spec.visibility, r.plan.spec.n_dot_l, r.plan.spec.n_dot_v}, r.channels, r.bake.value, meta, false);
 
     json hist = json::array();
@@ -582,5 +629,7 @@ void write_scene_bake_outputs(const SceneBakeResult& r, const std::vector<LightD
     out.stream(report_md) << scene_bake_markdown(r, domain);
     out.commit();
 }
+
+}  // namespace
 
 }  // namespace ms::scene

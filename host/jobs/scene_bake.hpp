@@ -77,6 +77,9 @@ struct SceneBakePlan {
     std::uint64_t texels = 0, baked_texels = 0, touched_texels = 0;  // x channels; touched: in some footprint
     std::uint64_t slices = 0, baked_slices = 0;
     std::vector<std::uint32_t> channels_touched;   // channel indices some lookup reads
+    // The lookups' ranges (visibility, NdotL, NdotV, roughness): a fitted LUT records them as its
+    // "domain" and refuses lookups outside (lut/lookup.hpp).
+    double domain_min[4] = {0, 0, 0, 0}, domain_max[4] = {0, 0, 0, 0};
 };
 
 // The layout and the rows to bake (see above). `base` gives the counts, the sampling and (fit false)
@@ -85,6 +88,9 @@ SceneBakePlan plan_scene_bake(const std::vector<LightDomain>& domain, const Bake
 
 // The coverage record of a partial bake for the file's metadata (read_lut's format).
 nlohmann::json coverage_record(const SceneBakePlan& plan);
+// The LUT's metadata: bake_metadata, the coverage record of a partial bake and, for a fitted layout,
+// the "domain" record.
+nlohmann::json scene_lut_metadata(const SceneBakePlan& plan, const BakeResult& bake);
 
 struct LutErrorStats {
     std::uint64_t lookups = 0;
@@ -145,7 +151,8 @@ std::string scene_bake_markdown(const SceneBakeResult& result, const std::vector
 
 // Writes the LUT (OpenEXR, the coverage record in its metadata) and, in `report_dir` (created if
 // missing), histograms.json, histograms.csv, histograms_<light>.png, report.json and report.md: all or
-// none (io/atomic_file.hpp's OutputSet).
+// none (io/atomic_file.hpp's OutputSet). A report folder this creates is removed again if nothing could
+// be written; histograms_<light>.png of a previous run's other lights are removed after the new set is in place.
 void write_scene_bake_outputs(const SceneBakeResult& result, const std::vector<LightDomain>& domain, const std::string& lut_path,
                               const std::string& report_dir, const nlohmann::json& provenance);
 

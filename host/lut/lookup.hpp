@@ -27,7 +27,8 @@ public:
     // Reads the file (io/exr_lut.hpp's read_lut) and checks it can be sampled. Throws std::runtime_error.
     static LutLookup open(const std::string& path);
 
-    // Throws std::domain_error where the lookup touches a texel a partial bake left unbaked (NaN).
+    // Throws std::domain_error where the lookup touches a texel a partial bake left unbaked (NaN), or
+    // lies outside the "domain" its metadata records (a LUT fitted to one scene: bake --scene).
     double operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     const LutFile& file() const { return lut_; }
 
@@ -35,6 +36,8 @@ private:
     double blend(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     LutFile lut_;
     std::vector<std::uint32_t> order_;  // channel indices by increasing roughness
+    // metadata "domain": {"visibility": [lo, hi], "n_dot_l": ..., "n_dot_v": ..., "roughness": ...}; empty: none
+    std::vector<std::pair<double, double>> domain_;
 };
 
 }  // namespace ms::sweep

@@ -2,6 +2,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <set>
@@ -74,12 +75,25 @@ std::vector<std::string> strings(const Ctx& c, const toml::node& n, const std::s
     return out;
 }
 
+// A direction (nonzero: normalised here) or a position (bounded by kMaxCoordinate).
 Vec3 vec3(const Ctx& c, const toml::node& n, const std::string& key, bool nonzero = true) {
     if (!n.is_array() || n.as_array()->size() != 3) c.fail(key, "must be a list of 3 numbers");
     const auto& a = *n.as_array();
     Vec3 v{number(c, a[0], key), number(c, a[1], key), number(c, a[2], key)};
-    if (nonzero && std::hypot(v.x, v.y, v.z) == 0) c.fail(key, "must not be the zero vector");
-    return v;
+    if (!nonzero) {
+        if (std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)}) > kMaxCoordinate)
+            c.fail(key, "coordinates must be within +-1e30");
+        return v;
+    }
+    // Scaled by a power of two first, so that neither 1e-320 (subnormal: 1 / length overflows) nor
+    // 1.7e308 (the length overflows) loses the direction; the scaling is exact.
+    const double largest = std::max({std::fabs(v.x), std::fabs(v.y), std::fabs(v.z)});
+    if (largest == 0) c.fail(key, "must not be the zero vector");
+    int exponent = 0;
+    std::frexp(largest, &exponent);
+    v = {std::ldexp(v.x, -exponent), std::ldexp(v.y, -exponent), std::ldexp(v.z, -exponent)};
+    const double length = std::hypot(v.x, v.y, v.z);
+    return {v.x / length, v.y / length, v.z / length};
 }
 
 template <class T>
@@ -236,6 +250,8 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
             if (n->is_floating_point() && std::isinf(n->as_floating_point()->get())) d.mask.background = n->as_floating_point()->get();
             else d.mask.background = number(c, *n, "mask.background");
         }
+        // A PNG object-index mask reads stored indices: a palette PNG's indices, not its colours.
+        if (d.mask.kind == MaskKind::object_index && png_name(d.mask.source.file) && !t->get("channel")) d.mask.source.channel = "index";
         if (const toml::node* n = t->get("objects")) {
             if (!n->is_array()) c.fail("mask.objects", "must be a list of integers");
             for (const auto& e : *n->as_array()) {
@@ -248,6 +264,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
         reject_unknown(c, *t, "material.", {"file", "channel", "names"});
         d.has_material = true;
         d.material = scalar(c, *t, "material.", 0, true);
+        if (d.material.from_image() && png_name(d.material.file) && !t->get("channel")) d.material.channel = "index";
         if (const toml::node* n = t->get("names")) d.material_names = strings(c, *n, "material.names");
     }
 
@@ -285,13 +302,17 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
         const double cross = std::hypot(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
         if (cross <= 1e-6 * std::hypot(a.x, a.y, a.z) * std::hypot(b.x, b.y, b.z))
             c.fail("surface.tangent", "must not be parallel to surface.normal");
-        if (!(d.surface.width > 0) || !(d.surface.height > 0)) c.fail("surface.width", "width and height must be > 0");
+        if (!(d.surface.width > 0) || !(d.surface.height > 0) || d.surface.width > kMaxCoordinate || d.surface.height > kMaxCoordinate)
+            c.fail("surface.width", "width and height must be in (0, 1e30]");
     }
 
     const toml::node* lights = root.get("light");
     if (!lights || !lights->is_array_of_tables() || lights->as_array()->empty())
         c.fail("light", "missing: at least one [[light]] (type = \"directional\" with direction, or \"point\" with position)");
     std::set<std::string> names;
+    if (lights->as_array()->size() > kMaxLights)
+        c.fail("light", std::to_string(lights->as_array()->size()) + " lights, more than the limit of " + std::to_string(kMaxLights) +
+                            " (each light holds 3 + 2 x comparators full-size float images until the end of the run)");
     for (const auto& e : *lights->as_array()) {
         const toml::table& lt = *e.as_table();
         const std::string p = "light[" + std::to_string(d.lights.size()) + "].";
@@ -317,7 +338,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
         }
         if (const toml::node* n = lt.get("intensity")) {
             l.intensity = number(c, *n, p + "intensity");
-            if (!(l.intensity > 0)) c.fail(p + "intensity", "must be > 0");
+            if (!(l.intensity > 0 && l.intensity <= kMaxIntensity)) c.fail(p + "intensity", "must be in (0, 1e30]");
         }
         d.lights.push_back(l);
     }
@@ -359,7 +380,9 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
             s.form = choice<Form>(c, *n, "sampling.form", {{"height-correlated", Form::height_correlated}, {"uncorrelated", Form::uncorrelated}});
         if (const toml::node* n = t->get("dedup_step")) {
             s.dedup_step = number(c, *n, "sampling.dedup_step");
-            if (!(s.dedup_step >= 0 && s.dedup_step <= 4)) c.fail("sampling.dedup_step", "must be in [0, 4] (0: no deduplication)");
+            if (!(s.dedup_step >= 0 && s.dedup_step <= kMaxDedupStep))
+                c.fail("sampling.dedup_step", "must be in [0, 0.25] (0: no deduplication; a larger grid moves the reference by "
+                                              "more than a quarter of the tolerance, docs/scenes.md)");
         }
         if (const toml::node* n = t->get("predict_stride")) s.predict_stride = std::uint32_t(positive(c, *n, "sampling.predict_stride", 1024));
         if (const toml::node* n = t->get("tile_pixels")) {
@@ -378,7 +401,15 @@ SceneDescription load_scene(const std::string& path) {
     } catch (const InputError& e) {
         throw SceneError(e.what());
     }
-    return parse_scene(text, path, fs::path(path).parent_path().string());
+    // Relative paths resolve against the folder of the description file itself: a symlinked description
+    // is followed to its target, so the images that travel with it are found (and messages say where).
+    std::error_code ec;
+    fs::path base = fs::path(path).parent_path();
+    if (fs::is_symlink(path, ec)) {
+        const fs::path target = fs::canonical(path, ec);
+        if (!ec) base = target.parent_path();
+    }
+    return parse_scene(text, path, base.string());
 }
 
 }  // namespace ms::scene

@@ -4,10 +4,12 @@
 //
 // Every per-pixel input is either read from an image ("file" + "channel" / "channels") or a constant
 // ("value"); at least one input must come from an image (it sets the scene's size). Paths are
-// relative to the description's folder.
+// relative to the description's folder (a symlinked description: its target's folder). Directions are
+// stored normalised.
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -15,6 +17,12 @@
 #include "core/types.hpp"
 
 namespace ms::scene {
+
+// Limits of a description (each refused with the key that breaks it).
+inline constexpr std::size_t kMaxLights = 64;
+inline constexpr double kMaxCoordinate = 1e30;   // positions, camera, surface origin and size
+inline constexpr double kMaxIntensity = 1e30;
+inline constexpr double kMaxDedupStep = 0.25;    // sampling.dedup_step (docs/scenes.md: the measured shift of the key grid)
 
 struct ScalarSource {
     std::string file, channel;  // file empty: constant

@@ -14,17 +14,23 @@
 #include <png.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <filesystem>
 #include <map>
 #include <memory>
+#include <set>
+
+#include <sys/stat.h>
 
 namespace ms::scene {
 
 namespace {
 
 bool is_png(const std::string& path) {
+    require_regular_file(path);
     std::ifstream f(path, std::ios::binary);
     if (!f) throw SceneError(path + ": cannot open for reading");
     unsigned char sig[8] = {};
@@ -44,36 +50,91 @@ std::string join(const std::vector<std::string>& names, std::size_t max = 24) {
 struct PngPixels {
     std::uint32_t width = 0, height = 0, channels = 0;
     int bit_depth = 8;
+    bool palette = false;            // a palette PNG: R, G, B (A) are the palette's colours, "index" the stored index
     std::vector<std::string> names;
-    std::vector<float> data;  // interleaved, scaled to [0, 1]
+    std::vector<double> scale;       // per channel: the largest stored code (Plane::integer_scale)
+    std::vector<float> data;         // interleaved, colours scaled to [0, 1], the index as stored
 };
 
+// libpng's messages go into the exception (its default handler prints them raw on stderr).
+struct PngMessages {
+    char error[256] = {};
+};
+void png_error_to_buffer(png_structp png, png_const_charp message) {
+    auto* m = static_cast<PngMessages*>(png_get_error_ptr(png));
+    std::snprintf(m->error, sizeof m->error, "%s", message ? message : "unknown error");
+    png_longjmp(png, 1);
+}
+void png_warning_ignored(png_structp, png_const_charp) {}
+
+// What deflate can expand a byte into, at most (a run of 258-byte matches at 2 bits a match: 1032),
+// with room for the headers of a tiny file: a header that claims more pixel rows than the file could
+// hold is refused before a byte of them is allocated.
+constexpr std::uint64_t kDeflateMaxRatio = 1032;
+constexpr std::uint64_t kPngSlackBytes = 1 << 16;
+
 PngPixels read_png(const std::string& path) {
+    const std::uint64_t file_bytes = std::filesystem::file_size(path);
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) throw SceneError(path + ": cannot open for reading");
-    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+    PngMessages messages;
+    png_structp png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &messages, png_error_to_buffer, png_warning_ignored);
     png_infop info = png ? png_create_info_struct(png) : nullptr;
     if (!png || !info) {
         png_destroy_read_struct(&png, &info, nullptr);
         std::fclose(f);
         throw std::runtime_error("libpng: out of memory");
     }
-    // Rows live in a buffer allocated before setjmp, so a longjmp leaks nothing with a destructor.
+    // Everything with a destructor is constructed before setjmp; a longjmp leaks nothing. A refusal of
+    // our own is recorded in `refusal` and thrown after libpng is torn down.
     PngPixels out;
     std::vector<png_byte> buffer;
     std::vector<png_bytep> rows;
+    std::string refusal;
+    std::vector<png_color> palette;   // copied: libpng's own copy goes with the read struct
+    std::vector<png_byte> palette_alpha;
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_read_struct(&png, &info, nullptr);
         std::fclose(f);
-        throw SceneError(path + ": not a readable PNG (libpng failed)");
+        if (!refusal.empty()) throw SceneError(refusal);
+        throw SceneError(path + ": not a readable PNG (libpng: " + std::string(messages.error) + ")");
     }
     png_init_io(png, f);
     png_set_user_limits(png, 65536, 65536);
     png_read_info(png, info);
     const png_byte color = png_get_color_type(png, info);
-    if (color == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
-    if (color == PNG_COLOR_TYPE_GRAY && png_get_bit_depth(png, info) < 8) png_set_expand_gray_1_2_4_to_8(png);
-    if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+    const int stored_depth = png_get_bit_depth(png, info);
+    {
+        // The header's claim against the file's size and the pixel limit, before any pixel is allocated.
+        const std::uint64_t w = png_get_image_width(png, info), h = png_get_image_height(png, info);
+        const std::uint64_t stored_channels = png_get_channels(png, info);
+        const std::uint64_t row_bytes = (w * stored_channels * std::uint64_t(stored_depth) + 7) / 8 + 1;  // + filter byte
+        if (w * h > exr::kMaxImagePixels)
+            refusal = path + ": claims " + std::to_string(w) + " x " + std::to_string(h) + " pixels, more than the limit of " +
+                      std::to_string(exr::kMaxImagePixels) + " (16384 x 16384)";
+        else if (row_bytes * h > kDeflateMaxRatio * file_bytes + kPngSlackBytes)
+            refusal = path + ": claims " + std::to_string(w) + " x " + std::to_string(h) + " pixels (" +
+                      std::to_string(row_bytes * h) + " bytes of rows) but the file is " + std::to_string(file_bytes) +
+                      " bytes, more than compression can expand: truncated or not a PNG";
+        if (!refusal.empty()) png_longjmp(png, 1);
+    }
+    out.palette = color == PNG_COLOR_TYPE_PALETTE;
+    if (out.palette) {
+        // Indices are kept (an object-index mask is a palette's indices, not its colours); colours are
+        // looked up below.
+        png_colorp entries = nullptr;
+        int entry_count = 0;
+        png_get_PLTE(png, info, &entries, &entry_count);
+        palette.assign(entries, entries + entry_count);
+        png_bytep alpha = nullptr;
+        int alpha_count = 0;
+        if (png_get_valid(png, info, PNG_INFO_tRNS)) png_get_tRNS(png, info, &alpha, &alpha_count, nullptr);
+        if (alpha) palette_alpha.assign(alpha, alpha + alpha_count);
+        png_set_packing(png);
+    } else {
+        if (color == PNG_COLOR_TYPE_GRAY && stored_depth < 8) png_set_expand_gray_1_2_4_to_8(png);
+        if (png_get_valid(png, info, PNG_INFO_tRNS)) png_set_tRNS_to_alpha(png);
+    }
     png_read_update_info(png, info);
     out.width = png_get_image_width(png, info);
     out.height = png_get_image_height(png, info);
@@ -87,13 +148,38 @@ PngPixels read_png(const std::string& path) {
     png_read_end(png, nullptr);
     png_destroy_read_struct(&png, &info, nullptr);
     std::fclose(f);
+    const std::size_t pixels = std::size_t(out.width) * out.height;
+    if (out.palette) {
+        const bool alpha = !palette_alpha.empty();
+        const int palette_size = int(palette.size()), palette_alpha_size = int(palette_alpha.size());
+        out.names = alpha ? std::vector<std::string>{"R", "G", "B", "A", "index"} : std::vector<std::string>{"R", "G", "B", "index"};
+        out.scale.assign(out.names.size(), 255.0);
+        out.scale.back() = 1.0;
+        out.channels = std::uint32_t(out.names.size());
+        out.data.resize(pixels * out.channels);
+        for (std::size_t i = 0; i < pixels; ++i) {
+            const int index = buffer[i];
+            if (index >= palette_size)
+                throw SceneError(path + ": pixel (" + std::to_string(i % out.width) + ", " + std::to_string(i / out.width) +
+                                 "): palette index " + std::to_string(index) + " beyond the palette's " + std::to_string(palette_size) +
+                                 " entries");
+            float* px = &out.data[i * out.channels];
+            px[0] = float(palette[index].red / 255.0);
+            px[1] = float(palette[index].green / 255.0);
+            px[2] = float(palette[index].blue / 255.0);
+            if (alpha) px[3] = float((index < palette_alpha_size ? palette_alpha[index] : 255) / 255.0);
+            px[out.channels - 1] = float(index);
+        }
+        return out;
+    }
     switch (out.channels) {
         case 1: out.names = {"Y"}; break;
         case 2: out.names = {"Y", "A"}; break;
         case 3: out.names = {"R", "G", "B"}; break;
         default: out.names = {"R", "G", "B", "A"}; break;
     }
-    const std::size_t n = std::size_t(out.width) * out.height * out.channels;
+    out.scale.assign(out.names.size(), out.bit_depth == 16 ? 65535.0 : 255.0);
+    const std::size_t n = pixels * out.channels;
     out.data.resize(n);
     if (out.bit_depth == 16) {
         for (std::size_t i = 0; i < n; ++i)
@@ -108,6 +194,7 @@ int png_channel_index(const PngPixels& p, const std::string& name) {
     for (std::size_t i = 0; i < p.names.size(); ++i)
         if (p.names[i] == name) return int(i);
     if (p.names[0] == "Y" && name == "R") return 0;  // grey read as its red channel
+    if (name == "index") return 0;                   // no palette: the first channel's stored codes
     return -1;
 }
 
@@ -137,6 +224,17 @@ std::vector<std::string> exr_names(const std::vector<ExrChannel>& channels, bool
 
 }  // namespace
 
+void require_regular_file(const std::string& path) {
+    // stat, not open: opening a FIFO blocks until a writer appears, beyond the reach of SIGINT/SIGTERM.
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) throw SceneError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
+    if (S_ISREG(st.st_mode)) return;
+    const char* kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)"
+                       : S_ISCHR(st.st_mode) ? "a character device" : S_ISBLK(st.st_mode) ? "a block device"
+                       : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";
+    throw SceneError(path + ": is " + std::string(kind) + ", not a regular file (images and LUTs are read from files)");
+}
+
 std::vector<std::string> list_channels(const std::string& path) {
     if (is_png(path)) return read_png(path).names;
     try {
@@ -157,7 +255,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
             if (c < 0)
                 throw SceneError(path + ": channel '" + name + "' not found (this " + std::to_string(p.bit_depth) +
                                  "-bit PNG has " + join(p.names) + ")");
-            Plane plane{path, name, p.width, p.height, {}, p.bit_depth == 16 ? 65535.0 : 255.0};
+            Plane plane{path, name, p.width, p.height, {}, p.scale[std::size_t(c)]};
             plane.data.resize(std::size_t(p.width) * p.height);
             for (std::size_t i = 0; i < plane.data.size(); ++i) plane.data[i] = p.data[i * p.channels + std::size_t(c)];
             planes.push_back(std::move(plane));
@@ -176,10 +274,25 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
             if (found.empty())
                 throw SceneError(path + ": channel '" + name + "' not found (the file has " + join(exr_names(all, multipart)) + ")");
             if (found.size() > 1) {
-                std::vector<std::string> where;
-                for (const auto* c : found) where.push_back("part " + std::to_string(c->part) + " '" + c->part_name + "'");
-                throw SceneError(path + ": channel '" + name + "' is in several parts (" + join(where) +
-                                 "); name it as '<part name>." + name + "'");
+                // Advice that can be followed: the qualified names that pick exactly one channel (a part
+                // may lack a name, or a qualified name may equal another part's channel name).
+                std::vector<std::string> where, can_name, cannot_name;
+                for (const auto* c : found) {
+                    const std::string part = "part " + std::to_string(c->part) + (c->part_name.empty() ? "" : " '" + c->part_name + "'");
+                    where.push_back(part);
+                    const std::string q = c->part_name + "." + c->channel;
+                    std::size_t matches = 0;
+                    for (const auto& other : all)
+                        if (other.channel == q || (!other.part_name.empty() && other.part_name + "." + other.channel == q)) ++matches;
+                    if (!c->part_name.empty() && q != name && matches == 1) can_name.push_back("'" + q + "' (" + part + ")");
+                    else cannot_name.push_back(part);
+                }
+                std::string advice;
+                if (!can_name.empty()) advice = "name " + join(can_name);
+                if (!cannot_name.empty())
+                    advice += std::string(advice.empty() ? "" : "; ") + "no name picks the channel of " + join(cannot_name) +
+                              " (its part has no name, or the qualified name is taken): rename the part or the channel";
+                throw SceneError(path + ": channel '" + name + "' is in several parts (" + join(where) + "): " + advice);
             }
             const ExrChannel& c = *found.front();
             const Imf::Header& h = file.header(c.part);
@@ -190,7 +303,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
             const long w = long(dw.max.x) - dw.min.x + 1, hh = long(dw.max.y) - dw.min.y + 1;
             if (w <= 0 || hh <= 0 || w > 65536 || hh > 65536)
                 throw SceneError(path + ": data window of " + std::to_string(w) + " x " + std::to_string(hh) + " pixels");
-            Plane plane{path, name, std::uint32_t(w), std::uint32_t(hh), {}, 1.0};
+            Plane plane{path, name, std::uint32_t(w), std::uint32_t(hh), {}, 1.0, dw.min.x, dw.min.y};
             plane.data.assign(std::size_t(w) * std::size_t(hh), 0.0f);
             Imf::FrameBuffer fb;
             char* base = reinterpret_cast<char*>(plane.data.data()) -

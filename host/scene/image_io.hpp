@@ -5,7 +5,10 @@
 // ("ViewLayer.Normal.X", "roughness", "R"), or as "<part name>.<channel>" for a multi-part file whose
 // parts carry names; a name that matches channels of two parts is refused as ambiguous. PNG through
 // libpng: 8- or 16-bit grey, grey + alpha, RGB or RGBA (palettes expanded), channels "R", "G", "B",
-// "A" ("Y" or "R" for grey), values scaled to [0, 1] with no transfer function (data textures).
+// "A" ("Y" or "R" for grey), values scaled to [0, 1] with no transfer function (data textures); a
+// palette PNG has its colours as R, G, B (A) and its stored indices as "index" ("index" of any other
+// PNG is its first channel's stored codes). Only regular files are read (a FIFO would block in open),
+// and a PNG header that claims more pixels than the file could hold, or more than 2^28, is refused.
 //
 // Writing: a labelled RGB PNG (lut/bitmap_font.hpp's RgbImage) and a single-part EXR of FLOAT
 // channels, both to a path the caller gives (an OutputSet temporary).
@@ -33,8 +36,12 @@ struct Plane {
     // The largest stored code (PNG: 255 or 65535, EXR: 1): data * integer_scale is the stored integer,
     // which is how object and material indices are read from PNG.
     double integer_scale = 1;
+    int x0 = 0, y0 = 0;         // the EXR data window's corner (PNG: 0, 0): planes combine only where these agree
     float at(std::size_t x, std::size_t y) const { return data[y * width + x]; }
 };
+
+// Throws SceneError unless `path` is a regular file (or a link to one), without opening it.
+void require_regular_file(const std::string& path);
 
 // The named channels of one image file, in the order asked. Throws SceneError naming the file and
 // the channel (missing channel, with the names the file has; ambiguous name; unreadable file;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 
 namespace ms::scene {
 
@@ -62,11 +63,20 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
             if (s.size_source_.empty()) {
                 s.width_ = p.width;
                 s.height_ = p.height;
+                s.x0_ = p.x0;
+                s.y0_ = p.y0;
                 s.size_source_ = p.file + " (channel '" + p.channel + "')";
             } else if (p.width != s.width_ || p.height != s.height_) {
                 throw SceneError(p.file + ": channel '" + p.channel + "' is " + std::to_string(p.width) + " x " +
                                  std::to_string(p.height) + " pixels; the scene is " + std::to_string(s.width_) + " x " +
                                  std::to_string(s.height_) + " (set by " + s.size_source_ + ")");
+            } else if (p.x0 != s.x0_ || p.y0 != s.y0_) {
+                // Same size, other pixels: EXR parts (or files) whose data windows start elsewhere would be
+                // combined pixel by index, misaligned.
+                throw SceneError(p.file + ": channel '" + p.channel + "' has its data window at (" + std::to_string(p.x0) + ", " +
+                                 std::to_string(p.y0) + "); the scene's starts at (" + std::to_string(s.x0_) + ", " +
+                                 std::to_string(s.y0_) + ") (set by " + s.size_source_ +
+                                 "): every input must cover the same pixels (write the passes with one data window)");
             }
         }
     if (s.size_source_.empty())
@@ -88,6 +98,7 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
             if (!std::isfinite(p.data[i])) return &p;
         return static_cast<const Plane*>(nullptr);
     };
+    std::set<int> materials;
     for (std::size_t i = 0; i < s.pixels(); ++i) {
         if (!s.mask_.empty() && std::isnan(s.mask_[0].data[i]))  // infinity is a legal background (depth)
             throw SceneError(where(s.mask_[0], i) + ": NaN in the mask");
@@ -119,6 +130,27 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
             throw SceneError(where3(s.view_, i) + ": zero-length view vector");
         if (!s.position_.empty() && !(length(sub(d.view.camera, p.position)) > 0))
             throw SceneError(where3(s.position_, i) + ": the position is the camera's");
+        if (!s.material_.empty()) {
+            // Material indices are stored integers (EXR: floats holding them); beyond 2^24 a float no longer
+            // holds every integer, and an int would wrap.
+            const double m = double(s.material_[0].data[i]) * s.material_[0].integer_scale;
+            if (!(std::fabs(m) <= kMaxMaterialIndex))
+                throw SceneError(where(s.material_[0], i) + ": material index " + fmt(m) + " outside [-" + fmt(kMaxMaterialIndex) +
+                                 ", " + fmt(kMaxMaterialIndex) + "]");
+            if (materials.insert(int(std::lround(m))).second && materials.size() > kMaxMaterials)
+                throw SceneError(where(s.material_[0], i) + ": more than " + std::to_string(kMaxMaterials) +
+                                 " distinct material indices (each is a statistics group of the report)");
+        }
+        // Every light's irradiance here must be a finite number whose square sums stay finite: a point
+        // light 1e-170 above a pixel gives I / d^2 = inf.
+        for (std::size_t l = 0; l < d.lights.size(); ++l) {
+            const LightQuery q = light_query(p, d.lights[l]);
+            if (!(q.irradiance <= kMaxIrradiance))
+                throw SceneError(d.source + ": light[" + std::to_string(l) + "] '" + d.lights[l].name + "': irradiance " +
+                                 fmt(q.irradiance) + " at pixel (" + std::to_string(i % s.width_) + ", " +
+                                 std::to_string(i / s.width_) + ") is beyond " + fmt(kMaxIrradiance) +
+                                 " (a point light on or next to the surface, or too bright)");
+        }
     }
     return s;
 }
@@ -221,8 +253,8 @@ LightQuery light_query(const PixelSurface& p, const Light& light) {
             q.status = PixelStatus::light_below_horizon;
             return q;
         }
-        L = scale(d, 1 / dist);
-        intensity /= dist * dist;
+        L = {d.x / dist, d.y / dist, d.z / dist};  // not scale(d, 1 / dist): 1 / dist overflows for dist < 1e-308
+        intensity = intensity / dist / dist;       // inf where d^2 would underflow to 0; SceneInputs::load refuses it
     }
     const Vec3 n = p.normal;
     q.n_dot_v = dot(n, p.view);

@@ -26,6 +26,11 @@ namespace ms::scene {
 
 // Smallest alpha a pixel is evaluated at (roughness 0 maps here: the term is then part 1's step).
 inline constexpr double kMinAlpha = 1e-3;
+// Material indices: |index| <= 2^24 (every such integer is a float), at most kMaxMaterials distinct.
+inline constexpr double kMaxMaterialIndex = 16777216;
+inline constexpr std::size_t kMaxMaterials = 65536;
+// Largest irradiance a pixel may receive from a light (its weighted errors are squared and summed).
+inline constexpr double kMaxIrradiance = 1e100;
 
 struct PixelSurface {
     bool shaded = false;  // inside the mask
@@ -54,7 +59,9 @@ public:
     // Reads every image the description names and checks every shaded pixel. Throws SceneError naming
     // the file, the channel and the pixel (NaN or infinite values, zero-length normals or vectors,
     // visibility outside [0, 1], roughness outside [0, 1] (alpha: (0, 1]), anisotropy outside [-1, 1],
-    // images of different sizes, a missing channel).
+    // images of different sizes or data windows, a missing channel, material indices beyond
+    // kMaxMaterialIndex or more than kMaxMaterials of them, a light whose irradiance at a pixel is
+    // beyond kMaxIrradiance).
     static SceneInputs load(const SceneDescription& description);
 
     std::uint32_t width() const { return width_; }
@@ -66,6 +73,7 @@ public:
 private:
     SceneDescription d_;
     std::uint32_t width_ = 0, height_ = 0;
+    int x0_ = 0, y0_ = 0;  // the data window's corner every plane shares
     std::string size_source_;
     // Planes by role (empty: constant).
     std::vector<Plane> normal_, visibility_, roughness_, anisotropy_, tangent_, mask_, material_, view_, position_;

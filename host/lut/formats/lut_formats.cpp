@@ -80,6 +80,14 @@ LutOutput resolve_lut_output(const std::string& path, const std::string& format,
 
 void write_lut_output(const std::string& path, const LutFile& lut, const LutOutput& output) {
     check_lut_shape(lut);
+    // A partial bake marks its unbaked texels NaN (exr_lut.hpp's coverage record): a unorm texel or a
+    // C float literal cannot say NaN, and the file would read back as corrupt.
+    const bool float_texels = output.encoding == PixelEncoding::float32 || output.encoding == PixelEncoding::float16;
+    const bool binary = output.format == LutFormat::exr || output.format == LutFormat::ktx2 || output.format == LutFormat::dds;
+    if (is_partial_bake(lut) && !(float_texels && binary))
+        throw std::invalid_argument(path + ": a partial bake (unbaked texels are NaN, see \"coverage\" in its metadata) can be "
+                                    "written only as .exr, .ktx2 or .dds with float32 or float16, not " + to_string(output.format) +
+                                    " " + to_string(output.encoding));
     switch (output.format) {
         case LutFormat::exr:
             write_lut(path, lut.axes, lut.channels, lut.data, lut.metadata, output.encoding == PixelEncoding::float16);

@@ -36,7 +36,9 @@ bool extension_is(const std::string& ext, std::initializer_list<const char*> nam
     return std::any_of(names.begin(), names.end(), [&](const char* n) { return ext == n; });
 }
 
-LutFormat format_for_extension(const std::string& path) {
+}  // namespace
+
+LutFormat lut_format_for_extension(const std::string& path) {
     std::string ext = std::filesystem::path(path).extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (ext == ".exr") return LutFormat::exr;
@@ -49,6 +51,8 @@ LutFormat format_for_extension(const std::string& path) {
                                 "' (use .exr, .ktx2, .dds, .h, .hpp, .inc or .png)");
 }
 
+namespace {
+
 bool supports(LutFormat f, PixelEncoding e) {
     if (f == LutFormat::exr) return e == PixelEncoding::float32 || e == PixelEncoding::float16;
     if (f == LutFormat::png) return e == PixelEncoding::unorm8 || e == PixelEncoding::unorm16;
@@ -59,7 +63,7 @@ bool supports(LutFormat f, PixelEncoding e) {
 
 LutOutput resolve_lut_output(const std::string& path, const std::string& format, const std::string& encoding, bool half) {
     LutOutput out;
-    out.format = format_for_extension(path);
+    out.format = lut_format_for_extension(path);
     if (!format.empty() && parse_lut_format(format) != out.format)
         throw std::invalid_argument(path + ": --format " + format + " does not match the file extension (which means " +
                                     to_string(out.format) + ")");

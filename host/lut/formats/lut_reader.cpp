@@ -297,6 +297,13 @@ LutFormat detect_lut_format(const std::string& path) {
         const std::string text = read_input_file(path, kMaxTextBytes, "LUT source file");
         return text.find("_metadata[] =") != std::string::npos ? LutFormat::header : LutFormat::inc;
     }
+    // No known opening: a damaged file of a known kind gets its own reader's message ("not a readable
+    // OpenEXR file: ..."), anything else one naming the formats.
+    try {
+        const LutFormat by_name = lut_format_for_extension(path);
+        if (by_name != LutFormat::header && by_name != LutFormat::inc) return by_name;
+    } catch (const std::invalid_argument&) {
+    }
     throw WrongFileKind(path + ": not a LUT file this tool writes (OpenEXR, KTX2, DDS, C header, .inc or PNG atlas)");
 }
 

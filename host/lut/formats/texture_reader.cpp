@@ -182,7 +182,6 @@ TextureFile read_ktx2_texture(const std::string& path, std::uint64_t max_texels)
 
 nlohmann::json read_dds_metadata(const std::string& path) {
     const std::string sidecar = path + ".json";
-    std::error_code ec;
     std::string text;
     try {
         text = read_input_file(sidecar, kMaxSidecarBytes, "DDS metadata sidecar");

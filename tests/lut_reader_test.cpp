@@ -11,6 +11,7 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 #include "cli_runner.hpp"
 #include "lut/exr_lut.hpp"
@@ -171,6 +172,55 @@ TEST_F(LutReaderTest, HostileOrMismatchedFilesAreRefusedWithTheProblemNamed) {
     partial.metadata["coverage"] = {{"unbaked", "NaN"}, {"rows", nlohmann::json::array()}};
     EXPECT_THROW(write_lut_output(path("p.png"), partial, {LutFormat::png, PixelEncoding::unorm8}), std::invalid_argument);
     EXPECT_FALSE(fs::exists(path("p.png")));
+}
+
+// A small LUT made here (no bake): 3 x 2 x 2 texels, 2 channels, values in [0, 1].
+LutFile synthetic_lut() {
+    std::vector<float> data(3 * 2 * 2 * 2);
+    for (std::size_t i = 0; i < data.size(); ++i) data[i] = float(i) / float(data.size());
+    nlohmann::json meta = {{"layout", "custom"}, {"max_error", 0.001}, {"version", "test"}};
+    return make_lut_file({{"visibility", 0, 1, 3, TexelConvention::centres}, {"n_dot_l", 0, 1, 2, TexelConvention::centres},
+                          {"n_dot_v", 0, 1, 2, TexelConvention::centres}},
+                         {{"R", 0.3, 0.09, 0.09}, {"G", 0.8, 0.64, 0.64}}, data, meta);
+}
+
+TEST_F(LutReaderTest, CutOrBitFlippedFilesOfEveryFormatAreRefusedOrReadAsValidLuts) {
+    // A deterministic miniature of fuzz_lut_file: every prefix length in steps, and single-byte flips,
+    // of a file of each format either read as a LUT that passes every check or refused with
+    // std::runtime_error (never another exception, a crash or a texel outside [0, 1]).
+    const LutFile lut = synthetic_lut();
+    std::size_t refused = 0, accepted = 0;
+    for (const auto& [name, format, encoding] : std::vector<std::tuple<std::string, LutFormat, PixelEncoding>>{
+             {"l.ktx2", LutFormat::ktx2, PixelEncoding::float16}, {"l.dds", LutFormat::dds, PixelEncoding::unorm16},
+             {"l.h", LutFormat::header, PixelEncoding::float32}, {"l.inc", LutFormat::inc, PixelEncoding::unorm8},
+             {"l.png", LutFormat::png, PixelEncoding::unorm8}}) {
+        write_lut_output(path(name), lut, {format, encoding});
+        std::ifstream in(path(name), std::ios::binary);
+        const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        std::vector<std::string> variants;
+        for (std::size_t cut = 0; cut < bytes.size(); cut += 1 + bytes.size() / 23) variants.push_back(bytes.substr(0, cut));
+        for (std::size_t at = 0; at < bytes.size(); at += 1 + bytes.size() / 37)
+            for (unsigned char flip : {0x01, 0xff}) {
+                std::string v = bytes;
+                v[at] = char(static_cast<unsigned char>(v[at]) ^ flip);
+                variants.push_back(v);
+            }
+        const std::string target = path("m" + fs::path(name).extension().string());
+        if (format == LutFormat::dds) fs::copy_file(path(name) + ".json", target + ".json", fs::copy_options::overwrite_existing);
+        for (const std::string& v : variants) {
+            std::ofstream(target, std::ios::binary | std::ios::trunc) << v;
+            try {
+                const LutFile back = read_lut(target);
+                ASSERT_EQ(back.data.size(), std::size_t(back.width) * back.height * back.channels.size()) << name;
+                for (float x : back.data) ASSERT_TRUE(x >= 0 && x <= 1) << name;
+                ++accepted;
+            } catch (const std::runtime_error&) {
+                ++refused;
+            }
+        }
+    }
+    std::cout << "[ figures  ] damaged files: " << refused << " refused, " << accepted << " read as valid LUTs\n";
+    EXPECT_GT(refused, 0u);
 }
 
 TEST_F(LutReaderTest, EvalCompareShaderAndLutCommandsTakeEveryFormat) {

@@ -33,7 +33,11 @@ set(microshadow_cli_tests
   "^LutFormatsTest\\.EveryKtx2AndDdsEncodingAnd2DLayout$"
   "^LutFormatsTest\\.ExrConvertedByOpenImageIONeverDividesByAlpha$"
   "^LutFormatsTest\\.Ktx2DdsHeaderAndPngFromBakeReadBackEqualToTheExr$"
-  "^LutReaderTest\\."
+  "^LutReaderTest\\.EveryFormatAndEncodingReadsBackEqualToTheExrWithinItsStep$"
+  "^LutReaderTest\\.HostileOrMismatchedFilesAreRefusedWithTheProblemNamed$"
+  "^LutReaderTest\\.EvalCompareShaderAndLutCommandsTakeEveryFormat$"
+  "^LutReaderTest\\.WrongKindOfFileGetsOneLineNamingTheRightCommand$"
+  "^LutReaderTest\\.RepresentationDdsOpensLikeItsExr$"
   "^PreviewTest\\."
   "^Reliability\\.ABadSidecarPathFailsBeforeComputingAndKeepsTheCsv$"
   "^Reliability\\.AnInterruptedSweepSaysWhatItKeptAndNothingElse$"
@@ -68,6 +72,9 @@ set(microshadow_cli_tests
   "^SweepCli\\."
   "^SweepIntegrity\\.ASweepBegunOnOneDeviceResumesOnAllOfThem$")
 set(microshadow_slow_tests
+  "^LutReaderTest\\.CutOrBitFlippedFilesOfEveryFormatAreRefusedOrReadAsValidLuts$"
+  "^LutReaderTest\\.EvalCompareShaderAndLutCommandsTakeEveryFormat$"
+  "^LutReaderTest\\.WrongKindOfFileGetsOneLineNamingTheRightCommand$"
   "^BakeLimits\\.MemoryStaysFlatHoweverManyBatchesAToleranceAsksFor$"
   "^BakeTest\\.BadInputAndInterruptionLeaveNoFile$"
   "^BakeTest\\.TwoDevicesAndFaultInjectionGiveTheSameData$"

@@ -41,7 +41,7 @@ void add_help_command(CLI::App& app) {
         for (const std::string& word : *topic) {
             CLI::App* sub = nullptr;
             for (CLI::App* s : at->get_subcommands([](CLI::App*) { return true; }))
-                if (s->get_name() == word && s->get_name() != "help") sub = s;
+                if (s->get_name() == word) sub = s;
             if (!sub) {
                 std::string names;
                 for (CLI::App* s : at->get_subcommands([](CLI::App*) { return true; }))

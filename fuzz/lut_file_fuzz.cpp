@@ -1,4 +1,5 @@
-// libFuzzer target: LUT files as sweeps read them for comparators (issue 10, class 9). Contract:
+// libFuzzer target: LUT files as sweeps read them for comparators, in every format read_lut takes
+// (OpenEXR, KTX2, PNG, C header, .inc: told apart by content; seeds of each in fuzz/lut-seeds). Contract:
 // read_lut either refuses with std::runtime_error (or std::invalid_argument), or returns a LUT a lookup
 // can use: three axes whose counts multiply to the image size without wrapping, 1 to 4 channels with
 // roughness in (0, 1], and every texel finite and in [0, 1].

@@ -295,7 +295,7 @@ void run_bake(const BakeArgs& args) {
 
 void add_bake_command(CLI::App& app) {
     auto a = std::make_shared<BakeArgs>();
-    auto* cmd = app.add_subcommand("bake", "bake a micro-shadowing LUT (part 2's 3D/2D layouts or custom) to OpenEXR");
+    auto* cmd = app.add_subcommand("bake", "bake a micro-shadowing LUT (part 2's 3D/2D layouts or custom) to OpenEXR, KTX2, DDS, a C header or a PNG atlas");
     a->cmd = cmd;
     cmd->add_option("--layout", a->layout, "seed-3d (v, NdotL, NdotV; RGBA = roughness 0.1 0.4 0.7 1), seed-2d (NdotV = 1) or custom")
         ->check(CLI::IsMember({"seed-3d", "seed-2d", "custom"}))

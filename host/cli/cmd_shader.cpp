@@ -1,6 +1,5 @@
 // microshadow shader: GLSL or HLSL that samples a baked LUT (lut/shader/shader_gen.hpp), generated from
-// the OpenEXR's metadata (the other formats: use bake --shader-glsl/--shader-hlsl when baking).
-#include <cctype>
+// the metadata of the LUT file in any format the bake writes.
 #include <filesystem>
 #include <iostream>
 
@@ -18,14 +17,9 @@ struct ShaderArgs {
 
 void run_shader(const ShaderArgs& a) {
     const auto language = lutshader::parse_shader_language(a.lang);
-    std::string ext = std::filesystem::path(a.lut).extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext != ".exr")
-        throw std::invalid_argument(a.lut + ": `shader` reads the OpenEXR a bake wrote; for a " + ext +
-                                    " LUT pass --shader-glsl/--shader-hlsl to the bake that writes it");
     LutFile lut;
     try {
-        lut = read_lut(a.lut);
+        lut = read_lut(a.lut);  // any format the bake writes (lut/formats/lut_reader.hpp)
     } catch (const std::runtime_error& e) {
         // A bad or missing input file is bad input (exit 2), not a failure while running.
         throw std::invalid_argument(e.what());
@@ -39,8 +33,8 @@ void run_shader(const ShaderArgs& a) {
 
 void add_shader_command(CLI::App& app) {
     auto a = std::make_shared<ShaderArgs>();
-    auto* cmd = app.add_subcommand("shader", "write GLSL or HLSL that samples a baked LUT (.exr) as a renderer should");
-    cmd->add_option("lut", a->lut, "a LUT written by `microshadow bake` (OpenEXR)")->required();
+    auto* cmd = app.add_subcommand("shader", "write GLSL or HLSL that samples a baked LUT as a renderer should");
+    cmd->add_option("lut", a->lut, "a LUT written by `microshadow bake` (.exr, .ktx2, .dds, .h, .inc or .png)")->required();
     cmd->add_option("--lang", a->lang, "glsl or hlsl")->check(CLI::IsMember({"glsl", "hlsl"}))->capture_default_str();
     cmd->add_option("--out", a->out, "output file (default: standard output)");
     cmd->callback([a] { run_shader(*a); });

@@ -107,7 +107,7 @@ void add_sweep_command(CLI::App& app) {
     auto args = std::make_shared<SweepArgs>();
     auto* cmd = app.add_subcommand("sweep", "parameter study of the generic term against analytic terms and LUTs");
     args->cmd = cmd;
-    cmd->add_option("spec", args->spec, "sweep spec (TOML; see host/sweep/spec.hpp or docs/study.md)")
+    cmd->add_option("spec", args->spec, "sweep spec (TOML; its format: docs/sweep-spec.md)")
         ->required()
         ->check(CLI::ExistingFile);
     cmd->add_option("--out,-o", args->out, "output directory (default: SPEC-STEM.sweep)");

@@ -87,6 +87,7 @@ void add_bake_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
 void add_shader_command(CLI::App& app);  // issue 12 (cmd_shader.cpp)
+void add_lut_command(CLI::App& app);     // cmd_lut.cpp
 void add_repr_command(CLI::App& app);    // issue 15 (cmd_repr.cpp)
 void add_scene_command(CLI::App& app);   // issue 11 (cmd_scene.cpp)
 void add_ibl_command(CLI::App& app);     // issue 13 (cmd_ibl.cpp)

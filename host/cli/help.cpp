@@ -26,20 +26,33 @@ std::vector<std::string> known_words(CLI::App& app) {
 }  // namespace
 
 void add_help_command(CLI::App& app) {
-    auto* cmd = app.add_subcommand("help", "show the commands, or one command's options: microshadow help [COMMAND]");
-    auto topic = std::make_shared<std::string>();
-    cmd->add_option("command", *topic, "the command to describe");
+    auto* cmd = app.add_subcommand("help", "show the commands, or one command's options: microshadow help [COMMAND [SUBCOMMAND]]");
+    auto topic = std::make_shared<std::vector<std::string>>();
+    cmd->add_option("command", *topic, "the command to describe, with its subcommand for nested ones (help repr bake)");
     cmd->callback([&app, topic] {
         if (topic->empty()) {
             // app.help() would describe the running subcommand (help itself); format the top level.
             std::cout << app.get_formatter()->make_help(&app, "microshadow", CLI::AppFormatMode::Normal);
             return;
         }
-        CLI::App* sub = nullptr;
-        for (CLI::App* s : app.get_subcommands([](CLI::App*) { return true; }))
-            if (s->get_name() == *topic) sub = s;
-        if (!sub) throw std::invalid_argument("no command '" + *topic + "'" + suggestion(app, *topic));
-        std::cout << sub->help();
+        // Walk down the words: "help ibl prefilter" describes prefilter, a subcommand of ibl.
+        CLI::App* at = &app;
+        std::string path;
+        for (const std::string& word : *topic) {
+            CLI::App* sub = nullptr;
+            for (CLI::App* s : at->get_subcommands([](CLI::App*) { return true; }))
+                if (s->get_name() == word) sub = s;
+            if (!sub) {
+                std::string names;
+                for (CLI::App* s : at->get_subcommands([](CLI::App*) { return true; }))
+                    names += (names.empty() ? "" : ", ") + s->get_name();
+                throw std::invalid_argument(path.empty() ? "no command '" + word + "'" + suggestion(app, word)
+                                                         : "'" + path + "' has no subcommand '" + word + "' (it has " + names + ")");
+            }
+            path += (path.empty() ? "" : " ") + word;
+            at = sub;
+        }
+        std::cout << at->help();
     });
 }
 

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
     cli::add_bake_command(app);
     cli::add_sweep_command(app);
     cli::add_merge_command(app);
+    cli::add_lut_command(app);
     cli::add_shader_command(app);  // issue 12
     cli::add_scene_command(app);   // issue 11
     cli::add_ibl_command(app);     // issue 13

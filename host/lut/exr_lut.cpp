@@ -152,7 +152,97 @@ std::vector<std::uint8_t> coverage_rows(const nlohmann::json& meta, const std::v
 
 }  // namespace
 
-LutFile read_lut(const std::string& path) {
+LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::string>* exr_names) {
+    LutFile lut;
+    lut.metadata = metadata;
+    if (!lut.metadata.is_object()) throw std::runtime_error("the \"microshadow\" metadata is not a JSON object");
+    // Other files of this tool carry the same "microshadow" metadata: say which command reads them
+    // instead of a missing-key message.
+    if (lut.metadata.value("kind", std::string()) == "representation")
+        throw WrongFileKind("a representation file (written by `microshadow repr bake`), not a LUT: "
+                            "use `microshadow repr info|shader|export` for it");
+    if (!lut.metadata.contains("axes") || !lut.metadata.contains("channels"))
+        throw WrongFileKind("not a micro-shadowing LUT: its \"microshadow\" metadata has no axes and channels" +
+                            (lut.metadata.contains("file_format") ? " (file_format " + lut.metadata.at("file_format").dump() + ")"
+                                                                  : std::string()));
+    const auto& axes = lut.metadata.at("axes");
+    if (!axes.is_array() || axes.size() != 3) throw std::runtime_error("metadata must list 3 axes");
+    for (std::size_t i = 0; i < 3; ++i) {
+        const std::string f = "axes[" + std::to_string(i) + "]";
+        LutAxis a;
+        a.name = axes[i].at("name").get<std::string>();
+        if (a.name != kAxisNames[i]) throw std::runtime_error("axis " + std::to_string(i) + " must be " + kAxisNames[i]);
+        a.min = finite_number(axes[i].at("min"), f + ".min (" + a.name + ")");
+        a.max = finite_number(axes[i].at("max"), f + ".max (" + a.name + ")");
+        a.count = axis_count(axes[i].at("count"), f + ".count (" + a.name + ")");
+        a.texel = parse_texel_convention(axes[i].at("texel").get<std::string>());
+        // Every axis is a cosine or a visibility: a range outside [0, 1], or reversed, is a corrupt file.
+        if (a.min < 0 || a.max > 1 || a.min > a.max || (a.min == a.max && a.count > 1))
+            throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + std::to_string(a.min) + ", " +
+                                     std::to_string(a.max) + "] must satisfy 0 <= min < max <= 1");
+        lut.axes.push_back(a);
+    }
+    const auto& channels = lut.metadata.at("channels");
+    if (!channels.is_array() || channels.empty() || channels.size() > 4)
+        throw std::runtime_error("metadata must list 1 to 4 channels");
+    for (std::size_t i = 0; i < channels.size(); ++i) {
+        const auto& c = channels[i];
+        const std::string f = "channels[" + std::to_string(i) + "]";
+        LutChannel ch;
+        ch.name = c.at("name").get<std::string>();
+        ch.roughness = finite_number(c.at("roughness"), f + ".roughness");
+        ch.alpha_x = finite_number(c.at("alpha_x"), f + ".alpha_x");
+        ch.alpha_y = finite_number(c.at("alpha_y"), f + ".alpha_y");
+        if (!(ch.roughness > 0 && ch.roughness <= 1))
+            throw std::runtime_error("metadata " + f + ".roughness = " + std::to_string(ch.roughness) + " is outside (0, 1]");
+        if (!(ch.alpha_x > 0) || !(ch.alpha_y > 0))
+            throw std::runtime_error("metadata " + f + ".alpha_x/alpha_y must be > 0");
+        if (ch.name != kChannelNames[i]) throw std::runtime_error("metadata " + f + ".name must be " + kChannelNames[i]);
+        // Older files stored the roughness channels as R, G, B, A; newer ones name them (exr_channel).
+        // Both read the same.
+        if (exr_names) exr_names->push_back(c.contains("exr_channel") ? c.at("exr_channel").get<std::string>() : ch.name);
+        lut.channels.push_back(ch);
+    }
+    const std::uint64_t want_w = lut.axes[0].count, want_h = std::uint64_t(lut.axes[1].count) * lut.axes[2].count;
+    if (want_w * want_h * lut.channels.size() > kMaxValues)
+        throw std::runtime_error("metadata axes claim " + std::to_string(want_w * want_h) + " texels x " +
+                                 std::to_string(lut.channels.size()) + " channels, more than the limit of " +
+                                 std::to_string(kMaxValues) + " values");
+    lut.width = std::uint32_t(want_w);
+    lut.height = std::uint32_t(want_h);
+    return lut;
+}
+
+void check_lut_texels(const LutFile& lut) {
+    const std::size_t nc = lut.channels.size();
+    if (lut.data.size() != std::size_t(lut.width) * lut.height * nc)
+        throw std::runtime_error("the texels do not fill the " + std::to_string(lut.width) + " x " + std::to_string(lut.height) +
+                                 " x " + std::to_string(nc) + " image the axes describe");
+    // A partial bake (`bake --scene`) records the rows it baked; every other texel must be NaN, so that
+    // a lookup touching it is refused (lookup.cpp) instead of blending a stale value.
+    const std::vector<std::uint8_t> baked = coverage_rows(lut.metadata, lut.axes, nc);
+    const std::uint32_t rows = lut.axes[1].count;
+    // Every texel is a fraction of facets: NaN, infinity or a value outside [0, 1] is corruption that
+    // a lookup would otherwise blend silently into its results.
+    for (std::size_t i = 0; i < lut.data.size(); ++i) {
+        const float v = lut.data[i];
+        const std::size_t texel = i / nc, c = i % nc, y = texel / lut.width;
+        if (!baked.empty() && !baked[(y / rows * nc + c) * rows + y % rows]) {
+            if (!std::isnan(v))
+                throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) +
+                                         ") of channel " + lut_channel_label(lut, c) + " is " + std::to_string(v) +
+                                         " where the coverage record says unbaked (must be NaN)");
+            continue;
+        }
+        if (!(v >= 0.0f && v <= 1.0f))
+            throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) + ") of channel " +
+                                     lut_channel_label(lut, c) + " is " + std::to_string(v) + ", not in [0, 1]");
+    }
+}
+
+bool is_partial_bake(const LutFile& lut) { return lut.metadata.is_object() && lut.metadata.contains("coverage"); }
+
+LutFile read_exr_lut(const std::string& path) {
     LutFile lut;
     try {
         // OpenEXR 3.1 allocates what a header's attributes and offset tables claim before it knows the
@@ -171,60 +261,14 @@ LutFile read_lut(const std::string& path) {
         Imf::InputFile file(path.c_str());
         const Imf::Header& header = file.header();
         const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
-        if (!attr) throw std::runtime_error("no \"microshadow\" header attribute: not a microshadow LUT");
-        lut.metadata = nlohmann::json::parse(attr->value());
-        if (!lut.metadata.is_object()) throw std::runtime_error("the \"microshadow\" attribute is not a JSON object");
-        const auto& axes = lut.metadata.at("axes");
-        if (!axes.is_array() || axes.size() != 3) throw std::runtime_error("metadata must list 3 axes");
-        for (std::size_t i = 0; i < 3; ++i) {
-            const std::string f = "axes[" + std::to_string(i) + "]";
-            LutAxis a;
-            a.name = axes[i].at("name").get<std::string>();
-            if (a.name != kAxisNames[i]) throw std::runtime_error("axis " + std::to_string(i) + " must be " + kAxisNames[i]);
-            a.min = finite_number(axes[i].at("min"), f + ".min (" + a.name + ")");
-            a.max = finite_number(axes[i].at("max"), f + ".max (" + a.name + ")");
-            a.count = axis_count(axes[i].at("count"), f + ".count (" + a.name + ")");
-            a.texel = parse_texel_convention(axes[i].at("texel").get<std::string>());
-            // Every axis is a cosine or a visibility: a range outside [0, 1], or reversed, is a corrupt file.
-            if (a.min < 0 || a.max > 1 || a.min > a.max || (a.min == a.max && a.count > 1))
-                throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + std::to_string(a.min) + ", " +
-                                         std::to_string(a.max) + "] must satisfy 0 <= min < max <= 1");
-            lut.axes.push_back(a);
-        }
-        const auto& channels = lut.metadata.at("channels");
-        if (!channels.is_array() || channels.empty() || channels.size() > 4)
-            throw std::runtime_error("metadata must list 1 to 4 channels");
+        if (!attr) throw WrongFileKind("no \"microshadow\" header attribute: not a microshadow LUT");
         std::vector<std::string> exr_names;
-        for (std::size_t i = 0; i < channels.size(); ++i) {
-            const auto& c = channels[i];
-            const std::string f = "channels[" + std::to_string(i) + "]";
-            LutChannel ch;
-            ch.name = c.at("name").get<std::string>();
-            ch.roughness = finite_number(c.at("roughness"), f + ".roughness");
-            ch.alpha_x = finite_number(c.at("alpha_x"), f + ".alpha_x");
-            ch.alpha_y = finite_number(c.at("alpha_y"), f + ".alpha_y");
-            if (!(ch.roughness > 0 && ch.roughness <= 1))
-                throw std::runtime_error("metadata " + f + ".roughness = " + std::to_string(ch.roughness) + " is outside (0, 1]");
-            if (!(ch.alpha_x > 0) || !(ch.alpha_y > 0))
-                throw std::runtime_error("metadata " + f + ".alpha_x/alpha_y must be > 0");
-            if (ch.name != kChannelNames[i]) throw std::runtime_error("metadata " + f + ".name must be " + kChannelNames[i]);
-            // Files before issue 12 stored the roughness channels as R, G, B, A; newer ones name them
-            // (exr_channel). Both read the same.
-            exr_names.push_back(c.contains("exr_channel") ? c.at("exr_channel").get<std::string>() : ch.name);
-            lut.channels.push_back(ch);
-        }
-        const std::uint64_t want_w = lut.axes[0].count, want_h = std::uint64_t(lut.axes[1].count) * lut.axes[2].count;
-        if (want_w * want_h * lut.channels.size() > kMaxValues)
-            throw std::runtime_error("metadata axes claim " + std::to_string(want_w * want_h) + " texels x " +
-                                     std::to_string(lut.channels.size()) + " channels, more than the limit of " +
-                                     std::to_string(kMaxValues) + " values");
+        lut = lut_from_metadata(nlohmann::json::parse(attr->value()), &exr_names);
         const Imath::Box2i dw = header.dataWindow();
         const std::int64_t w = std::int64_t(dw.max.x) - dw.min.x + 1, h = std::int64_t(dw.max.y) - dw.min.y + 1;
-        if (w != std::int64_t(want_w) || h != std::int64_t(want_h))
+        if (w != std::int64_t(lut.width) || h != std::int64_t(lut.height))
             throw std::runtime_error("image size " + std::to_string(w) + "x" + std::to_string(h) + " does not match the axes (" +
-                                     std::to_string(want_w) + "x" + std::to_string(want_h) + ")");
-        lut.width = std::uint32_t(want_w);
-        lut.height = std::uint32_t(want_h);
+                                     std::to_string(lut.width) + "x" + std::to_string(lut.height) + ")");
         const std::size_t nc = lut.channels.size();
         for (std::size_t c = 0; c < nc; ++c) {
             const Imf::Channel* ch = header.channels().findChannel(exr_names[c]);
@@ -240,36 +284,22 @@ LutFile read_lut(const std::string& path) {
             fb.insert(exr_names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * lut.width));
         file.setFrameBuffer(fb);
         file.readPixels(dw.min.y, dw.max.y);
-        // A partial bake (`bake --scene`) records the rows it baked; every other texel must be NaN, so that
-        // a lookup touching it is refused (lookup.cpp) instead of blending a stale value.
-        const std::vector<std::uint8_t> baked = coverage_rows(lut.metadata, lut.axes, nc);
-        const std::uint32_t rows = lut.axes[1].count;
-        // Every texel is a fraction of facets: NaN, infinity or a value outside [0, 1] is corruption that
-        // a lookup would otherwise blend silently into its results.
-        for (std::size_t i = 0; i < lut.data.size(); ++i) {
-            const float v = lut.data[i];
-            if (!baked.empty()) {
-                const std::size_t texel = i / nc, c = i % nc, y = texel / lut.width;
-                if (!baked[(y / rows * nc + c) * rows + y % rows]) {
-                    if (!std::isnan(v))
-                        throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) +
-                                                 ") of channel " + exr_names[c] + " is " + std::to_string(v) +
-                                                 " where the coverage record says unbaked (must be NaN)");
-                    continue;
-                }
-            }
-            if (!(v >= 0.0f && v <= 1.0f)) {
-                const std::size_t texel = i / nc, c = i % nc;
-                throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(texel / lut.width) +
-                                         ") of channel " + exr_names[c] + " is " + std::to_string(v) + ", not in [0, 1]");
-            }
-        }
+        check_lut_texels(lut);
+    } catch (const WrongFileKind& e) {
+        throw WrongFileKind(path + ": " + e.what());
     } catch (const nlohmann::json::exception& e) {
         throw std::runtime_error("cannot read LUT " + path + ": bad metadata: " + e.what());
     } catch (const std::exception& e) {
         throw std::runtime_error("cannot read LUT " + path + ": " + e.what());
     }
     return lut;
+}
+
+std::string lut_channel_label(const LutFile& lut, std::size_t c) {
+    const auto& channels = lut.metadata.is_object() ? lut.metadata.value("channels", nlohmann::json::array()) : nlohmann::json::array();
+    if (c < channels.size() && channels[c].is_object() && channels[c].contains("exr_channel") && channels[c]["exr_channel"].is_string())
+        return channels[c]["exr_channel"].get<std::string>();
+    return c < lut.channels.size() ? lut.channels[c].name : std::to_string(c);
 }
 
 }  // namespace ms

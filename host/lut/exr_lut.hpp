@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -30,11 +31,36 @@ namespace ms {
 void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels,
                const std::vector<float>& data, const nlohmann::json& metadata, bool half);
 
-// Reads and checks a LUT file. Throws std::runtime_error naming the file and the problem
+// A file of this tool that is not a LUT (a representation, an IBL output) or a file with no
+// "microshadow" metadata at all, given where a LUT is expected: the message names the file and,
+// where it knows one, the command that reads it.
+class WrongFileKind : public std::runtime_error {
+public:
+    using std::runtime_error::runtime_error;
+};
+
+// Reads and checks a LUT file in any format the tool writes (OpenEXR, KTX2, DDS with its .dds.json,
+// C header, .inc, PNG atlas; lut/formats/lut_reader.hpp tells them apart by content). Throws
+// std::runtime_error naming the file and the problem (WrongFileKind for another kind of file).
+LutFile read_lut(const std::string& path);
+
+// The OpenEXR reader behind read_lut. Throws std::runtime_error naming the file and the problem
 // (not an EXR, missing "microshadow" attribute, axes that do not match the image size, axis counts
 // that are not integers in [1, 65536], ranges outside [0, 1], roughness outside (0, 1], texels that
 // are NaN, infinite or outside [0, 1], ...).
-LutFile read_lut(const std::string& path);
+LutFile read_exr_lut(const std::string& path);
+
+// The pieces every reader shares. lut_from_metadata: axes, channels, width and height from the
+// "microshadow" metadata, each field checked (no data; exr_names receives the EXR channel names);
+// throws std::runtime_error or nlohmann::json::exception naming the field, WrongFileKind for a
+// representation or metadata without axes. check_lut_texels: the data fill the image, every texel is
+// in [0, 1], and a partial bake's unbaked texels (its "coverage" record) are NaN; std::runtime_error.
+LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::string>* exr_names = nullptr);
+void check_lut_texels(const LutFile& lut);
+// True for a partial bake (`bake --scene`): its metadata has a coverage record and unbaked texels are NaN.
+bool is_partial_bake(const LutFile& lut);
+// The name of channel c in messages: its EXR channel name when the metadata has one, else R/G/B/A.
+std::string lut_channel_label(const LutFile& lut, std::size_t c);
 
 // The OpenEXR channel name of a roughness ("roughness_0p1": no '.', which tools read as a layer).
 std::string exr_channel_name(double roughness, int significant_digits = 6);

@@ -18,6 +18,8 @@
 
 #include "io/exr_preflight.hpp"
 #include "io/input_file.hpp"
+#include "lut/formats/lut_reader.hpp"
+#include "lut/formats/texture_reader.hpp"
 #include "repr/texture_repr.hpp"
 
 namespace ms::repr {
@@ -211,9 +213,55 @@ std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, 
     return r;
 }
 
+// A DDS of `Representation::write_dds` read back: its metadata from the sidecar `<file>.json`, its
+// one level through lut/formats/texture_reader.hpp (every size checked against the file).
+Ktx2Representation read_dds_representation(const std::string& path) {
+    lutfmt::TextureFile f = lutfmt::read_dds_texture(path, kMaxReprTexels);
+    const nlohmann::json& meta = f.texture.metadata;
+    if (!meta.is_object() || meta.value("kind", std::string()) != "representation")
+        throw std::runtime_error("no metadata of kind \"representation\" in its sidecar " + path + ".json");
+    if (f.texture.faces != 1 || f.texture.levels.size() != 1) throw std::runtime_error("not one face and one level");
+    if (f.encoding != lutfmt::PixelEncoding::float32 && f.encoding != lutfmt::PixelEncoding::float16)
+        throw std::runtime_error("texels are " + lutfmt::to_string(f.encoding) + ", not RGBA16F or RGBA32F");
+    Ktx2Representation out;
+    out.metadata = meta;
+    Texture3D& t = out.texture;
+    const auto& tex = meta.at("texture");
+    t.width = count_field(tex, "width", 1 << 16);
+    t.height = count_field(tex, "height", 4096);
+    t.depth = count_field(tex, "depth", 1 << 16);
+    if (f.texture.width != t.width || f.texture.height != t.height || f.texture.depth != t.depth)
+        throw std::runtime_error("the DDS size does not match the metadata's texture");
+    t.texels = std::move(f.texture.levels[0]);
+    for (std::size_t i = 0; i < t.texels.size(); ++i)
+        if (!std::isfinite(t.texels[i])) throw std::runtime_error("texel " + std::to_string(i / 4) + " is not finite");
+    return out;
+}
+
+// A LUT given where a representation is expected: a one-line pointer to the commands that read it.
+void refuse_lut(const std::string& path) {
+    nlohmann::json meta;
+    try {
+        meta = lutfmt::read_file_metadata(path);
+    } catch (const std::exception&) {
+        return;  // unreadable as anything: the caller's own message says so
+    }
+    if (meta.is_object() && meta.contains("axes") && meta.contains("channels") && meta.value("kind", std::string()) != "representation")
+        throw std::runtime_error("a LUT (written by `microshadow bake`), not a representation: use `microshadow lut info|export` "
+                                 "or `microshadow shader` for it");
+}
+
 }  // namespace
 
 bool is_representation_file(const std::string& path) {
+    if (lutfmt::has_dds_magic(path)) {
+        try {
+            read_dds_representation(path);
+            return true;
+        } catch (const std::exception&) {
+            return false;
+        }
+    }
     if (is_ktx2(path)) {
         try {
             read_ktx2_representation(path);
@@ -234,12 +282,17 @@ bool is_representation_file(const std::string& path) {
 
 std::unique_ptr<Representation> open_representation(const std::string& path) {
     try {
+        refuse_lut(path);
+        if (lutfmt::has_dds_magic(path)) {
+            Ktx2Representation d = read_dds_representation(path);
+            return make_representation(d.metadata, std::move(d.texture));
+        }
         if (is_ktx2(path)) {
             Ktx2Representation k = read_ktx2_representation(path);
             const auto channels = metadata_channels(k.metadata.at("texture"));
             return make_representation(k.metadata, std::move(k.texture), channels);
         }
-        if (!is_exr(path)) throw std::runtime_error("neither an OpenEXR nor a KTX2 file");
+        if (!is_exr(path)) throw std::runtime_error("neither an OpenEXR, a KTX2 nor a DDS file");
         // Claims the file cannot hold are refused before OpenEXR allocates them (io/exr_preflight.hpp).
         exr::preflight_image(path, kMaxReprTexels);
         Imf::InputFile file(path.c_str());

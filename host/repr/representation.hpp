@@ -142,10 +142,11 @@ std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake)
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
 std::vector<std::string> representation_kinds();
 
-// Reads a representation file: the OpenEXR of write(), or the KTX2 of write_ktx2() (its metadata from
-// the key/value data; the DDS is not read). Throws std::runtime_error naming the file and problem.
+// Reads a representation file: the OpenEXR of write(), the KTX2 of write_ktx2() (its metadata from
+// the key/value data) or the DDS of write_dds() (its metadata from `<file>.json`). Throws
+// std::runtime_error naming the file and problem (for a LUT: the commands that read LUTs).
 std::unique_ptr<Representation> open_representation(const std::string& path);
-// True when the file is an OpenEXR or KTX2 whose "microshadow" metadata has "kind": "representation".
+// True when the file is an OpenEXR, KTX2 or DDS whose "microshadow" metadata has "kind": "representation".
 bool is_representation_file(const std::string& path);
 
 // Roughness nodes chosen by error: from the bake's roughness nodes (a dense reference, increasing), keep

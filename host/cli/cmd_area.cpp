@@ -47,7 +47,8 @@ void run_area_eval(const AreaEvalArgs& args) {
     const SamplingPlan plan = args.sampling.plan();
     const area::LightShape shape = area::parse_light_shape(args.light);
     const area::Lobe lobe = area::parse_lobe(args.lobe);
-    const std::vector<area::AreaQuery> queries = area::read_area_csv(args.in, shape, lobe);
+    std::vector<std::vector<double>> raw;
+    const std::vector<area::AreaQuery> queries = area::read_area_csv(args.in, shape, lobe, &raw);
     OutputSet outputs;
     const std::size_t csv_out = outputs.add(args.out, false, /*allow_stdout=*/true);
     const bool sidecar = !outputs.to_stdout(csv_out);
@@ -65,14 +66,7 @@ void run_area_eval(const AreaEvalArgs& args) {
     out << "term,std_error\n";
     double max_error = 0;
     for (std::size_t i = 0; i < queries.size(); ++i) {
-        const area::AreaQuery& q = queries[i];
-        std::vector<double> v{q.visibility, q.alpha_x, q.alpha_y, q.wi.x, q.wi.y, q.wi.z};
-        if (shape == area::LightShape::sphere) {
-            const Vec3& c = q.light.sphere.centre;
-            v.insert(v.end(), {c.x, c.y, c.z, area::degrees(q.light.sphere.half_angle)});
-        } else {
-            for (const Vec3& p : q.light.rect.corners) v.insert(v.end(), {p.x, p.y, p.z});
-        }
+        const std::vector<double>& v = raw[i];  // the input columns as written
         for (double x : v) out << format_number(x) << ",";
         out << format_number(results[i].term.term) << "," << format_number(results[i].term.std_error) << "\n";
         max_error = std::max(max_error, results[i].term.std_error);
@@ -126,7 +120,7 @@ void run_area_sweep(AreaSweepArgs args) {
            "centre_error,representative_error,taps_error,lobe_integral\n";
     for (const auto& r : rows) {
         const auto& q = r.point.query;
-        out << area::to_string(q.lobe) << "," << format_number(area::degrees(q.light.sphere.half_angle)) << ","
+        out << area::to_string(q.lobe) << "," << format_number(r.point.half_angle_deg) << ","
             << format_number(r.point.roughness) << "," << format_number(q.visibility) << "," << format_number(r.point.n_dot_v)
             << "," << format_number(r.point.elevation_deg) << "," << format_number(r.point.azimuth_deg) << ","
             << format_number(r.area.term.term) << "," << format_number(r.area.term.std_error) << ","

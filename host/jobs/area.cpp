@@ -25,7 +25,8 @@ Vec3 unit(const Vec3& v) {
 Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 }  // namespace
 
-std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, Lobe lobe) {
+std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, Lobe lobe,
+                                     std::vector<std::vector<double>>* raw) {
     const NumericCsv table = read_numeric_csv(path, shape == LightShape::sphere ? kSphereColumns : kRectColumns);
     std::vector<AreaQuery> queries;
     queries.reserve(table.rows.size());
@@ -55,6 +56,7 @@ std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, 
         }
         queries.push_back(q);
     }
+    if (raw) *raw = table.rows;
     return queries;
 }
 
@@ -83,25 +85,64 @@ std::vector<AreaEstimate> evaluate_area(TermBackend& backend, const std::vector<
     return integrand.results();
 }
 
+namespace {
+double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+double angle_between(const Vec3& a, const Vec3& b) {
+    const Vec3 c = cross(a, b);
+    return std::atan2(std::hypot(c.x, c.y, c.z), dot(a, b));
+}
+// The unit direction at angle t from unit a on the great circle towards unit b (slerp by angle).
+Vec3 towards(const Vec3& a, const Vec3& b, double t) {
+    const double total = angle_between(a, b);
+    if (!(total > 0)) return a;
+    const double sa = std::sin(total - t) / std::sin(total), sb = std::sin(t) / std::sin(total);
+    return unit({sa * a.x + sb * b.x, sa * a.y + sb * b.y, sa * a.z + sb * b.z});
+}
+}  // namespace
+
+TapCone tap_cone(const AreaQuery& query) {
+    const AreaQuery q = normalised(query);
+    const Vec3 c = q.light.sphere.centre;
+    const double gamma = q.light.sphere.half_angle;
+    if (q.lobe == Lobe::lambert) return {c, gamma};
+    // 80 % of GGX's half vectors lie within atan(2 alpha) of the normal (P = tan^2 / (alpha^2 + tan^2));
+    // the reflected lobe is about twice as wide.
+    // When the mirror direction R is outside the light, the light sees the lobe's tail, which falls
+    // off over the angle d between R and the light (D ~ d^-4): the tap cone is then at least d wide.
+    const Vec3 wi = q.wi;
+    const Vec3 mirror{-wi.x, -wi.y, wi.z};
+    const double outside = std::max(0.0, angle_between(c, mirror) - gamma);
+    const double lobe = std::max(2 * std::atan(2 * std::sqrt(q.alpha_x * q.alpha_y)), outside);
+    if (lobe >= gamma) return {c, gamma};
+    // From Karis's point, pulled towards the centre until the tap cone lies inside the light.
+    const Vec3 r = representative_direction(q);
+    const double off = angle_between(c, r), limit = gamma - lobe;
+    return {off <= limit ? r : towards(c, r, limit), lobe};
+}
+
 std::vector<Tap> sphere_taps(const AreaQuery& query) {
     if (query.light.shape != LightShape::sphere) throw std::invalid_argument("the tap approximation is for sphere lights");
     const AreaQuery q = normalised(query);
-    const Vec3 c = q.light.sphere.centre;
+    const TapCone cone = tap_cone(q);
+    const Vec3 c = cone.centre;
     const Vec3 helper = std::fabs(c.z) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
     const Vec3 t1 = unit(cross(helper, c)), t2 = cross(c, t1);
-    // Equal-area map of the unit disc onto the cone: disc radius rho -> 1 - cos(theta) = rho^2 (1 - cos gamma).
-    const double sh = std::sin(q.light.sphere.half_angle / 2);
-    const double one_minus_cos_gamma = 2 * sh * sh;
+    // Equal-area map of the unit disc onto the cone: disc radius rho -> 1 - cos(theta) = rho^2 (1 - cos radius).
+    const double sh = std::sin(cone.half_angle / 2);
+    const double one_minus_cos_radius = 2 * sh * sh;
+    const Vec3 light = q.light.sphere.centre;
+    const double cos_gamma = std::cos(q.light.sphere.half_angle);
     std::vector<Tap> taps;
     auto add = [&](double rho, double phi, double rule_weight) {
-        const double one_minus_cos = rho * rho * one_minus_cos_gamma;
+        const double one_minus_cos = rho * rho * one_minus_cos_radius;
         const double sin_t = std::sqrt(std::max(0.0, one_minus_cos * (2 - one_minus_cos)));
         const double cos_t = 1 - one_minus_cos;
-        // Azimuth 0 of the rule towards the normal's side (t1 x c ... any fixed choice is a valid rule).
         const Vec3 wo = unit({sin_t * (std::cos(phi) * t1.x + std::sin(phi) * t2.x) + cos_t * c.x,
                               sin_t * (std::cos(phi) * t1.y + std::sin(phi) * t2.y) + cos_t * c.y,
                               sin_t * (std::cos(phi) * t1.z + std::sin(phi) * t2.z) + cos_t * c.z});
-        taps.push_back({wo, rule_weight * lobe_weight(q, wo)});
+        // The tap cone lies inside the light up to rounding; a tap outside it would not be the light's.
+        const bool inside = dot(wo, light) >= cos_gamma - 1e-12;
+        taps.push_back({wo, inside ? rule_weight * lobe_weight(q, wo) : 0.0});
     };
     add(0, 0, 0.25);
     for (int k = 0; k < 6; ++k) add(std::sqrt(2.0 / 3.0), k * kPi / 3, 0.125);
@@ -118,7 +159,7 @@ std::vector<StudyPoint> grid_points(const StudyGrid& g) {
                         for (double e : g.elevations_deg)
                             for (double phi : g.azimuths_deg) {
                                 StudyPoint p;
-                                p.n_dot_v = nv, p.elevation_deg = e, p.azimuth_deg = phi, p.roughness = rough;
+                                p.n_dot_v = nv, p.elevation_deg = e, p.azimuth_deg = phi, p.roughness = rough, p.half_angle_deg = gamma;
                                 AreaQuery& q = p.query;
                                 q.lobe = lobe;
                                 q.visibility = v;

@@ -18,7 +18,9 @@ namespace ms::area {
 extern const std::vector<std::string> kSphereColumns;  // visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,light_x,light_y,light_z,half_angle_deg
 extern const std::vector<std::string> kRectColumns;    // ... p0_x,p0_y,p0_z,p1_x,...,p3_z
 // Reads and validates every row (CsvError naming the file, line and column). lobe applies to every row.
-std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, Lobe lobe);
+// raw (optional): each row's numbers as written, for outputs that repeat the input columns.
+std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, Lobe lobe,
+                                     std::vector<std::vector<double>>* raw = nullptr);
 
 struct AreaEvalStats {
     std::size_t sampled = 0, below_horizon = 0, zero_region = 0, visibility_one = 0, rerun = 0;
@@ -31,21 +33,30 @@ std::vector<AreaEstimate> evaluate_area(TermBackend& backend, const std::vector<
                                         AreaRoutineConfig config = {}, AreaEvalStats* stats = nullptr,
                                         const std::function<void(std::size_t, std::size_t)>& progress = {});
 
-// The tap approximation of a sphere light: the point term at seven directions of the light (Radon's
+// The tap approximation of a sphere light: the point term at seven directions of a tap cone (Radon's
 // degree-5 rule on the disc, mapped onto the cone by equal area: the centre with weight 1/4 and six
 // directions at sqrt(2/3) of the cone's area radius, 1/8 each), each weighted by the rule's weight times
 // the lobe's f cos there (0 below the horizon):  T_taps = sum_k w_k W_k T(wo_k) / sum_k w_k W_k.
-// A renderer evaluates it with seven point lookups. Returns the directions and their weights.
+// The tap cone is the light itself, except for a GGX lobe narrower than the light (reflected lobe
+// radius 2 atan(2 alpha), which holds about 80 % of it, or, when the mirror direction R misses the light,
+// the angle from R to the light, over which the lobe's tail falls off): then a cone of that radius around Karis's
+// representative point, moved towards the light's centre until it lies inside the light. A renderer
+// evaluates it with seven point lookups (LUT fetches) and the f cos it already computes.
 struct Tap {
     Vec3 wo;
     double weight = 0;
 };
+struct TapCone {
+    Vec3 centre;
+    double half_angle = 0;
+};
+TapCone tap_cone(const AreaQuery& q);
 std::vector<Tap> sphere_taps(const AreaQuery& q);
 
 // One point of the representative-point study.
 struct StudyPoint {
     AreaQuery query;
-    double n_dot_v = 1, elevation_deg = 90, azimuth_deg = 0, roughness = 0.5;
+    double n_dot_v = 1, elevation_deg = 90, azimuth_deg = 0, roughness = 0.5, half_angle_deg = 10;  // as given
 };
 struct StudyRow {
     StudyPoint point;

@@ -387,3 +387,70 @@ TEST_F(AreaLightCli, EvalWritesTermsAndRefusesBadLights) {
 
 }  // namespace
 }  // namespace ms
+
+namespace ms {
+namespace {
+
+TEST(AreaLightTaps, RuleIsExactForConstantsAndShrinksToThePoint) {
+    // The taps' weights: 1/4 + 6 x 1/8 = 1 of the rule, times f cos; every tap inside the light.
+    for (Lobe lobe : {Lobe::lambert, Lobe::ggx})
+        for (double gamma : {0.5, 10.0, 30.0}) {
+            const AreaQuery q = area::normalised(sphere(0.5, 0.04, 0.7, 40, 180, gamma, lobe));
+            const auto taps = area::sphere_taps(q);
+            ASSERT_EQ(taps.size(), 7u);
+            const Vec3 c = q.light.sphere.centre;
+            for (const auto& t : taps) {
+                EXPECT_GE(t.wo.x * c.x + t.wo.y * c.y + t.wo.z * c.z, std::cos(q.light.sphere.half_angle) - 1e-12);
+                EXPECT_GT(t.weight, 0);
+            }
+        }
+    // A narrow GGX lobe whose mirror direction lies inside a wide light: the tap cone has the lobe's
+    // radius; a Lambert lobe or a wide GGX lobe uses the light itself.
+    const AreaQuery narrow = area::normalised(sphere(0.5, 0.01, std::cos(area::radians(40)), 50, 180, 20, Lobe::ggx));
+    EXPECT_NEAR(area::tap_cone(narrow).half_angle, 2 * std::atan(0.02), 1e-12);
+    EXPECT_EQ(area::tap_cone(area::normalised(sphere(0.5, 0.64, 0.7, 50, 180, 20, Lobe::ggx))).half_angle, area::radians(20));
+    EXPECT_EQ(area::tap_cone(area::normalised(sphere(0.5, 0.01, 0.7, 50, 180, 20, Lobe::lambert))).half_angle, area::radians(20));
+    // Below the horizon a tap weighs nothing.
+    const auto straddling = area::sphere_taps(sphere(0.5, 0.25, 0.7, 0, 0, 20, Lobe::lambert));
+    int below = 0;
+    for (const auto& t : straddling) below += t.wo.z <= 0 && t.weight == 0;
+    EXPECT_GE(below, 2);
+}
+
+TEST(AreaLightTaps, SweepAgreesWithTheAreaTermForSmallLights) {
+    if (!have_device()) GTEST_SKIP() << "no OpenCL device";
+    // At gamma = 0.2 degrees the taps, the centre and T_area agree within their bars.
+    area::StudyGrid g;
+    g.half_angles_deg = {0.2};
+    g.roughness = {0.5};
+    g.visibility = {0.6};
+    g.elevations_deg = {35};
+    auto device = kernels();
+    const auto rows = area::run_study(*device, area::grid_points(g), {}, plan(8 * 65536, 11));
+    ASSERT_EQ(rows.size(), 2u);
+    for (const auto& r : rows) {
+        EXPECT_NEAR(r.taps.term, r.area.term.term, bar(r.taps.std_error, r.area.term.std_error, 4));
+        EXPECT_NEAR(r.centre.term, r.area.term.term, bar(r.centre.std_error, r.area.term.std_error, 4));
+    }
+}
+
+TEST_F(AreaLightCli, SweepWritesItsColumnsAndRefusesBadAxes) {
+    const std::string cli = MICROSHADOW_CLI;
+    auto ok = testing::run_shell(cli + " area sweep -q --samples 4096 --half-angles 5 --roughness 0.5 --visibility 0.5 "
+                                       "--elevations 40 --lobes ggx --out " + path("s.csv") + " 2>&1");
+    ASSERT_EQ(ok.exit_code, 0) << ok.output;
+    std::ifstream in(path("s.csv"));
+    std::string header, row;
+    std::getline(in, header), std::getline(in, row);
+    EXPECT_EQ(header.substr(0, 40), "lobe,half_angle_deg,roughness,visibility");
+    EXPECT_EQ(row.substr(0, 8), "ggx,5,0.");
+    for (const std::string& bad : {std::string("--half-angles 90"), std::string("--roughness 0"), std::string("--visibility 1.5"),
+                                   std::string("--random 3 --max-half-angle 0")}) {
+        auto r = testing::run_shell(cli + " area sweep -q " + bad + " --out " + path("b.csv") + " 2>&1");
+        EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.output;
+        EXPECT_FALSE(std::filesystem::exists(path("b.csv")));
+    }
+}
+
+}  // namespace
+}  // namespace ms

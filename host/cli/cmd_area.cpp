@@ -11,6 +11,7 @@
 #include "io/csv.hpp"
 #include "io/text.hpp"
 #include "jobs/area.hpp"
+#include "jobs/area_shader.hpp"
 
 namespace ms::cli {
 
@@ -145,7 +146,7 @@ void run_area_sweep(AreaSweepArgs args) {
 }  // namespace
 
 void add_area_command(CLI::App& app) {
-    auto* area_cmd = app.add_subcommand("area", "micro-shadowing of area lights (sphere and rectangle): eval, sweep");
+    auto* area_cmd = app.add_subcommand("area", "micro-shadowing of area lights (sphere and rectangle): eval, sweep, shader");
     area_cmd->require_subcommand(1);
 
     auto eval = std::make_shared<AreaEvalArgs>();
@@ -178,6 +179,19 @@ void add_area_command(CLI::App& app) {
     s->add_option("--lobes", sweep->lobes, "lambert,ggx")->delimiter(',')->check(CLI::IsMember({"ggx", "lambert"}));
     add_sampling_options(s, sweep->sampling);
     s->callback([sweep] { run_area_sweep(*sweep); });
+
+    auto lang = std::make_shared<std::string>("glsl");
+    auto shader_out = std::make_shared<std::string>("-");
+    auto* sh = area_cmd->add_subcommand("shader", "GLSL or HLSL of the 7-tap approximation for sphere lights "
+                                                  "(calls the engine's float ms_point_term(wi, wo), defined before it)");
+    sh->add_option("--lang", *lang, "glsl | hlsl")->check(CLI::IsMember({"glsl", "hlsl"}));
+    sh->add_option("--out", *shader_out, "output file ('-': standard output, the default)");
+    sh->callback([lang, shader_out] {
+        OutputSet outputs;
+        const std::size_t i = outputs.add(*shader_out, false, /*allow_stdout=*/true);
+        outputs.stream(i) << area::taps_shader(*lang == "glsl" ? area::ShaderLanguage::glsl : area::ShaderLanguage::hlsl);
+        outputs.commit();
+    });
 }
 
 }  // namespace ms::cli

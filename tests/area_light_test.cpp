@@ -14,6 +14,7 @@
 #include "core/estimate.hpp"
 #include "integrands/area_light/area_light_integrand.hpp"
 #include "integrands/area_light/light_geometry.hpp"
+#include "integrands/dfg/dfg_quadrature.hpp"
 #include "jobs/area.hpp"
 #include "jobs/eval.hpp"
 #include "oracle/oracle.hpp"
@@ -449,6 +450,43 @@ TEST_F(AreaLightCli, SweepWritesItsColumnsAndRefusesBadAxes) {
         auto r = testing::run_shell(cli + " area sweep -q " + bad + " --out " + path("b.csv") + " 2>&1");
         EXPECT_EQ(r.exit_code, 2) << bad << ": " << r.output;
         EXPECT_FALSE(std::filesystem::exists(path("b.csv")));
+    }
+}
+
+}  // namespace
+}  // namespace ms
+
+
+namespace ms {
+namespace {
+
+// The GGX lobe integral of a light covering the hemisphere is the directional albedo E = scale + bias of
+// the split-sum DFG, whose quadrature oracle (integrands/dfg/) is independent of both light samplers:
+// this checks the kernel's and the host's multiple importance sampling weights.
+TEST(AreaLightLobe, HemisphereGgxLobeIntegralIsTheDirectionalAlbedo) {
+    for (const auto& [n_dot_v, alpha] : {std::pair{0.7, 0.25}, std::pair{0.3, 0.5}, std::pair{0.9, 0.04}}) {
+        const AreaQuery q = sphere(0.5, alpha, n_dot_v, 90, 0, 89.999, Lobe::ggx);
+        const dfg::DfgQuadrature e = dfg::dfg_quadrature(n_dot_v, alpha);
+        // The band above 89.999 degrees is missing from the light: its solid angle times the largest
+        // f cos on it (sampled along the band; f cos vanishes at the horizon, so this bounds it).
+        double band_max = 0;
+        const AreaQuery nq = area::normalised(q);
+        for (int k = 0; k < 360; ++k)
+            for (double el : {0.0005, 0.001}) band_max = std::max(band_max, area::lobe_weight(nq, direction(el, k)));
+        const double band = 2 * area::kPi * std::sin(area::radians(0.001)) * band_max;
+        const double albedo = e.scale + e.bias, quadrature = e.scale_error + e.bias_error;
+        area::AreaRoutineConfig one;
+        one.inner_term = [](const Query&) { return 1.0; };
+        auto oracle = make_oracle_backend(1);
+        const auto host = area::evaluate_area(*oracle, {q}, {}, plan(8 * 8192, 12), one);
+        EXPECT_NEAR(host[0].lobe_integral.term, albedo, bar(host[0].lobe_integral.std_error, 0, 6) + quadrature + band)
+            << "host sampler, NdotV " << n_dot_v << " alpha " << alpha;
+        if (!have_device()) continue;
+        auto device = kernels();
+        const auto k = area::evaluate_area(*device, {q}, {}, plan(8 * 65536, 13));
+        EXPECT_NEAR(k[0].lobe_integral.term, albedo, bar(k[0].lobe_integral.std_error, 0, 6) + quadrature + band)
+            << "kernel, NdotV " << n_dot_v << " alpha " << alpha << ": " << k[0].lobe_integral.term << " +- "
+            << k[0].lobe_integral.std_error;
     }
 }
 

@@ -520,3 +520,25 @@ TEST(AreaLightKernel, UniformAoAndLightsAcrossTheHorizonAgreeWithTheOracle) {
 
 }  // namespace
 }  // namespace ms
+
+namespace ms {
+namespace {
+
+TEST(AreaLightGeometry, RectRepresentativePointIsTheClampedMirrorHit) {
+    // A 2 x 2 square on the plane z = 1 centred over the shaded point; wi at 30 degrees from the normal.
+    AreaQuery q = rect(0.5, 0.25, std::cos(area::radians(30)), {0, 0, 1}, 2, Lobe::ggx);
+    const Vec3 r = area::representative_direction(q);  // the mirror direction hits the square (tan 30 < 1)
+    EXPECT_NEAR(r.x, -q.wi.x, 1e-12);
+    EXPECT_NEAR(r.z, q.wi.z, 1e-12);
+    q.wi = {std::sin(area::radians(60)), 0, std::cos(area::radians(60))};  // tan 60 > 1: clamped to x = -1
+    const Vec3 c = area::representative_direction(q);
+    EXPECT_NEAR(c.x / c.z, -1.0, 1e-12);
+    EXPECT_NEAR(c.y, 0.0, 1e-12);
+    q.lobe = Lobe::lambert;  // Lambert: the centre
+    const Vec3 l = area::representative_direction(q);
+    EXPECT_NEAR(l.z, 1.0, 1e-12);
+    EXPECT_NEAR(area::max_height(q.light), 1.0, 0);
+}
+
+}  // namespace
+}  // namespace ms

@@ -17,7 +17,7 @@ if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]]; then
     -DMICROSHADOW_FUZZ=ON -DMICROSHADOW_SANITIZE=ON \
     -DMICROSHADOW_BUILD_TESTS=OFF -DMICROSHADOW_BUILD_BENCH=OFF >/dev/null
 fi
-cmake --build "$BUILD_DIR" -j"$JOBS" --target fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene
+cmake --build "$BUILD_DIR" -j"$JOBS" --target fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv
 
 seed_dirs() {  # the seeds of one target, as directories libFuzzer reads (read-only; never written)
   case "$1" in
@@ -29,13 +29,14 @@ seed_dirs() {  # the seeds of one target, as directories libFuzzer reads (read-o
     fuzz_lut_file) echo fuzz/lut-seeds tests/data/hostile/exr ;;
     fuzz_repr_file) echo fuzz/repr-seeds ;;
     fuzz_scene) echo fuzz/scene-seeds ;;
+    fuzz_area_csv) echo fuzz/area-seeds ;;
   esac
 }
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 status=0
-for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene; do
+for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv; do
   corpus="$BUILD_DIR/fuzz-corpus/$target"
   artifacts="$BUILD_DIR/fuzz-artifacts/$target/"
   mkdir -p "$corpus" "$artifacts"

@@ -92,6 +92,7 @@ void add_repr_command(CLI::App& app);    // issue 15 (cmd_repr.cpp)
 void add_scene_command(CLI::App& app);   // issue 11 (cmd_scene.cpp)
 void add_ibl_command(CLI::App& app);     // issue 13 (cmd_ibl.cpp)
 void add_design_command(CLI::App& app);  // issue 15 (cmd_design.cpp)
+void add_area_command(CLI::App& app);    // cmd_area.cpp
 void add_help_command(CLI::App& app);
 // "; did you mean --size?" for the closest command or long option within 3 edits of `word`, or "".
 std::string suggestion(CLI::App& app, const std::string& word);

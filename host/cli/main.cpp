@@ -27,6 +27,7 @@ int main(int argc, char** argv) {
     cli::add_ibl_command(app);     // issue 13
     cli::add_design_command(app);  // issue 15
     cli::add_repr_command(app);    // issue 15
+    cli::add_area_command(app);
     repr::install_comparators();   // eval --compare FILE opens representation files
     cli::add_help_command(app);
     cli::install_interrupt_handlers();

@@ -85,4 +85,34 @@ typedef struct ms_bake_slice {
  * increments of one bin (frequent: t is concentrated) do not form one long store-to-load chain. */
 #define MS_BAKE_SUBHISTOGRAMS 4
 
+
+/*
+ * Area lights (kernels/area_light/area_light.cl): one query = a surface (visibility cone, alpha, wi), a
+ * light (sphere: a cone of directions; rect: a rectangle of positions) and the BRDF lobe that weights
+ * the light's directions. The host fills every derived quantity in double (core/area_light.hpp and
+ * integrands/area_light/ say what each means).
+ */
+#define MS_LIGHT_SPHERE 0
+#define MS_LIGHT_RECT 1
+#define MS_LOBE_LAMBERT 0
+#define MS_LOBE_GGX 1
+
+typedef struct ms_area_query {
+    float cos_theta, sin2_cone, cot2_cone; /* the visibility cone */
+    float alpha_x, alpha_y;
+    float wi_x, wi_y, wi_z;
+    float wis_x, wis_y, wis_z; /* the stretched view normalize(ax wi.x, ay wi.y, wi.z) */
+    float lambda_i;            /* Smith Lambda of wi (GGX lobe) */
+    float a_x, a_y, a_z;       /* sphere: the centre direction c;  rect: corner p0 */
+    float b_x, b_y, b_z;       /* sphere: frame vector t1 (unit, perpendicular to c);  rect: edge e1 = p1 - p0 */
+    float c_x, c_y, c_z;       /* sphere: t2 = c x t1;  rect: edge e2 = p3 - p0 */
+    float n_x, n_y, n_z;       /* rect: the plane's unit normal, oriented so that n.p0 > 0;  sphere: unused */
+    float s0;                  /* sphere: 1 - cos gamma;  rect: n.p0, the plane's distance */
+    float s1;                  /* sphere: sin^2 gamma;  rect: unused */
+    float inv_measure;         /* sphere: 1 / solid angle;  rect: 1 / area */
+    ms_u32 shape;              /* MS_LIGHT_* */
+    ms_u32 lobe;               /* MS_LOBE_* */
+    ms_u32 pad1, pad2, pad3;   /* 128 bytes */
+} ms_area_query;
+
 #endif /* MICROSHADOW_SHARED_H */

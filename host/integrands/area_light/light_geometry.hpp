@@ -1,0 +1,40 @@
+// Host-side geometry of area lights (double precision): what the integrand needs to classify a query
+// before sampling (no direction above the horizon, every direction in the term's zero region), the
+// directions engines use in place of the light (its centre, Karis's most representative point), and
+// the light sampler of the host's own estimator (outer light sampling with a given inner term).
+#pragma once
+
+#include "core/area_light.hpp"
+#include "core/types.hpp"
+
+namespace ms::area {
+
+// The unit direction to the light's centre (a rectangle's centre of area).
+Vec3 centre_direction(const Light& light);
+// The largest wo.z over the light's directions (1 when the normal is inside the light). The light has
+// a direction above the horizon exactly when this is > 0.
+double max_height(const Light& light);
+// Solid angle of the whole light (both sides of the horizon), steradians.
+double solid_angle(const Light& light);
+
+// Karis 2013's most representative point for a GGX lobe, as engines pick it: the point of the light
+// closest to the mirror direction R = reflect(-wi, z). Sphere (unit distance, radius sin gamma):
+// c + t (R (c.R) - c) with t = min(1, sin gamma / |R (c.R) - c|), normalised. Rectangle: R's hit point on
+// the plane clamped to the rectangle (or, when R runs parallel to or away from the plane, the rectangle
+// point furthest along R's in-plane direction), normalised. lambert lobes use the centre.
+Vec3 representative_direction(const AreaQuery& q);
+
+// f(wi, wo) cos(wo) of the query's lobe (core/area_light.hpp), 0 at or below the horizon; wi unit.
+double lobe_weight(const AreaQuery& q, const Vec3& wo);
+
+// The host's estimator of T_area over an outer set of light directions, with T(wo) supplied (a
+// deterministic evaluator plugs in here). It samples the light exactly as the kernel does (the
+// light's own sampler; for ggx u < 1/2 the light's sampler, u >= 1/2 the lobe's, balance heuristic),
+// from (u, v) in [0,1)^2.
+struct LightSample {
+    Vec3 wo;
+    double weight = 0;  // W(wo) / p(wo): f cos / density, 0 below the horizon or outside the light
+};
+LightSample sample_light(const AreaQuery& q, double u, double v);
+
+}  // namespace ms::area

@@ -1,0 +1,243 @@
+#include "jobs/area.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <stdexcept>
+
+#include "integrands/area_light/light_geometry.hpp"
+#include "io/csv.hpp"
+
+namespace ms::area {
+
+const std::vector<std::string> kSphereColumns = {"visibility", "alpha_x", "alpha_y", "wi_x", "wi_y", "wi_z",
+                                                 "light_x", "light_y", "light_z", "half_angle_deg"};
+const std::vector<std::string> kRectColumns = {"visibility", "alpha_x", "alpha_y", "wi_x", "wi_y", "wi_z",
+                                               "p0_x", "p0_y", "p0_z", "p1_x", "p1_y", "p1_z",
+                                               "p2_x", "p2_y", "p2_z", "p3_x", "p3_y", "p3_z"};
+
+namespace {
+Vec3 unit(const Vec3& v) {
+    const double l = std::hypot(v.x, v.y, v.z);
+    return {v.x / l, v.y / l, v.z / l};
+}
+Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+}  // namespace
+
+std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, Lobe lobe,
+                                     std::vector<std::vector<double>>* raw) {
+    const NumericCsv table = read_numeric_csv(path, shape == LightShape::sphere ? kSphereColumns : kRectColumns);
+    std::vector<AreaQuery> queries;
+    queries.reserve(table.rows.size());
+    for (std::size_t i = 0; i < table.rows.size(); ++i) {
+        const auto& r = table.rows[i];
+        const std::string where = path + ":" + std::to_string(table.lines[i]) + " (row " + std::to_string(i + 1) + "): ";
+        AreaQuery q;
+        q.visibility = r[0];
+        q.alpha_x = r[1];
+        q.alpha_y = r[2];
+        q.wi = {r[3], r[4], r[5]};
+        q.lobe = lobe;
+        q.light.shape = shape;
+        if (shape == LightShape::sphere) {
+            q.light.sphere.centre = {r[6], r[7], r[8]};
+            // Checked in degrees as written, so the message quotes the file's value.
+            if (!(r[9] > 0 && r[9] < 90))
+                throw CsvError(where + "column 'half_angle_deg': " + format_number(r[9]) + " must be in (0, 90) degrees");
+            q.light.sphere.half_angle = radians(r[9]);
+        } else {
+            for (int k = 0; k < 4; ++k) q.light.rect.corners[k] = {r[6 + 3 * k], r[7 + 3 * k], r[8 + 3 * k]};
+        }
+        try {
+            validate(q);
+        } catch (const std::invalid_argument& e) {
+            throw CsvError(where + e.what());
+        }
+        queries.push_back(q);
+    }
+    if (raw) *raw = table.rows;
+    return queries;
+}
+
+std::vector<AreaEstimate> evaluate_area(TermBackend& backend, const std::vector<AreaQuery>& queries,
+                                        const TermOptions& options, const SamplingPlan& plan, AreaRoutineConfig config,
+                                        AreaEvalStats* stats, const std::function<void(std::size_t, std::size_t)>& progress) {
+    const auto start = std::chrono::steady_clock::now();
+    if (queries.empty()) return {};
+    if (!config.inner_term) config.build = backend.config().build;
+    const std::size_t per_item = area_queries_per_item(backend.scheduler().is_oracle(), plan, config);
+    AreaIntegrand integrand(queries, options, plan, config, per_item);
+    schedule::RunCallbacks callbacks;
+    if (progress)
+        callbacks.progress = [&](std::uint64_t done, std::uint64_t) {
+            progress(std::min<std::size_t>(queries.size(), std::size_t(done * per_item)), queries.size());
+        };
+    const schedule::RunReport report = backend.scheduler().run(integrand, {}, callbacks);
+    if (stats) {
+        stats->sampled = integrand.stats().sampled;
+        stats->below_horizon = integrand.stats().below_horizon;
+        stats->zero_region = integrand.stats().zero_region;
+        stats->visibility_one = integrand.stats().visibility_one;
+        stats->rerun = report.rerun;
+        stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    return integrand.results();
+}
+
+namespace {
+double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+double angle_between(const Vec3& a, const Vec3& b) {
+    const Vec3 c = cross(a, b);
+    return std::atan2(std::hypot(c.x, c.y, c.z), dot(a, b));
+}
+// The unit direction at angle t from unit a on the great circle towards unit b (slerp by angle).
+Vec3 towards(const Vec3& a, const Vec3& b, double t) {
+    const double total = angle_between(a, b);
+    if (!(total > 0)) return a;
+    const double sa = std::sin(total - t) / std::sin(total), sb = std::sin(t) / std::sin(total);
+    return unit({sa * a.x + sb * b.x, sa * a.y + sb * b.y, sa * a.z + sb * b.z});
+}
+}  // namespace
+
+TapCone tap_cone(const AreaQuery& query) {
+    const AreaQuery q = normalised(query);
+    const Vec3 c = q.light.sphere.centre;
+    const double gamma = q.light.sphere.half_angle;
+    if (q.lobe == Lobe::lambert) return {c, gamma};
+    // 80 % of GGX's half vectors lie within atan(2 alpha) of the normal (P = tan^2 / (alpha^2 + tan^2));
+    // the reflected lobe is about twice as wide.
+    // When the mirror direction R is outside the light, the light sees the lobe's tail, which falls
+    // off over the angle d between R and the light (D ~ d^-4): the tap cone is then at least d wide.
+    const Vec3 wi = q.wi;
+    const Vec3 mirror{-wi.x, -wi.y, wi.z};
+    const double outside = std::max(0.0, angle_between(c, mirror) - gamma);
+    const double lobe = std::max(2 * std::atan(2 * std::sqrt(q.alpha_x * q.alpha_y)), outside);
+    if (lobe >= gamma) return {c, gamma};
+    // From Karis's point, pulled towards the centre until the tap cone lies inside the light.
+    const Vec3 r = representative_direction(q);
+    const double off = angle_between(c, r), limit = gamma - lobe;
+    return {off <= limit ? r : towards(c, r, limit), lobe};
+}
+
+std::vector<Tap> sphere_taps(const AreaQuery& query) {
+    if (query.light.shape != LightShape::sphere) throw std::invalid_argument("the tap approximation is for sphere lights");
+    const AreaQuery q = normalised(query);
+    const TapCone cone = tap_cone(q);
+    const Vec3 c = cone.centre;
+    const Vec3 helper = std::fabs(c.z) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
+    const Vec3 t1 = unit(cross(helper, c)), t2 = cross(c, t1);
+    // Equal-area map of the unit disc onto the cone: disc radius rho -> 1 - cos(theta) = rho^2 (1 - cos radius).
+    const double sh = std::sin(cone.half_angle / 2);
+    const double one_minus_cos_radius = 2 * sh * sh;
+    const Vec3 light = q.light.sphere.centre;
+    const double cos_gamma = std::cos(q.light.sphere.half_angle);
+    std::vector<Tap> taps;
+    auto add = [&](double rho, double phi, double rule_weight) {
+        const double one_minus_cos = rho * rho * one_minus_cos_radius;
+        const double sin_t = std::sqrt(std::max(0.0, one_minus_cos * (2 - one_minus_cos)));
+        const double cos_t = 1 - one_minus_cos;
+        const Vec3 wo = unit({sin_t * (std::cos(phi) * t1.x + std::sin(phi) * t2.x) + cos_t * c.x,
+                              sin_t * (std::cos(phi) * t1.y + std::sin(phi) * t2.y) + cos_t * c.y,
+                              sin_t * (std::cos(phi) * t1.z + std::sin(phi) * t2.z) + cos_t * c.z});
+        // The tap cone lies inside the light up to rounding; a tap outside it would not be the light's.
+        const bool inside = dot(wo, light) >= cos_gamma - 1e-12;
+        taps.push_back({wo, inside ? rule_weight * lobe_weight(q, wo) : 0.0});
+    };
+    add(0, 0, 0.25);
+    for (int k = 0; k < 6; ++k) add(std::sqrt(2.0 / 3.0), k * kPi / 3, 0.125);
+    return taps;
+}
+
+std::vector<StudyPoint> grid_points(const StudyGrid& g) {
+    std::vector<StudyPoint> points;
+    for (Lobe lobe : g.lobes)
+        for (double gamma : g.half_angles_deg)
+            for (double rough : g.roughness)
+                for (double v : g.visibility)
+                    for (double nv : g.n_dot_v)
+                        for (double e : g.elevations_deg)
+                            for (double phi : g.azimuths_deg) {
+                                StudyPoint p;
+                                p.n_dot_v = nv, p.elevation_deg = e, p.azimuth_deg = phi, p.roughness = rough, p.half_angle_deg = gamma;
+                                AreaQuery& q = p.query;
+                                q.lobe = lobe;
+                                q.visibility = v;
+                                q.alpha_x = q.alpha_y = rough * rough;
+                                q.wi = {std::sqrt(std::max(0.0, 1 - nv * nv)), 0, nv};
+                                const double el = radians(e), az = radians(phi);
+                                q.light.shape = LightShape::sphere;
+                                q.light.sphere.centre = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+                                q.light.sphere.half_angle = radians(gamma);
+                                points.push_back(p);
+                            }
+    return points;
+}
+
+std::vector<StudyPoint> random_points(std::size_t count, double max_half_angle_deg, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<StudyPoint> points;
+    for (std::size_t i = 0; i < count; ++i) {
+        StudyGrid g;
+        g.lobes = {u(rng) < 0.5 ? Lobe::lambert : Lobe::ggx};
+        g.half_angles_deg = {std::max(1e-3, max_half_angle_deg * u(rng))};
+        g.roughness = {0.1 + 0.9 * u(rng)};
+        g.visibility = {0.05 + 0.93 * u(rng)};
+        g.n_dot_v = {0.1 + 0.9 * u(rng)};
+        g.elevations_deg = {-g.half_angles_deg[0] + (90 + g.half_angles_deg[0]) * u(rng)};
+        g.azimuths_deg = {360 * u(rng)};
+        points.push_back(grid_points(g).front());
+    }
+    return points;
+}
+
+std::vector<StudyRow> run_study(TermBackend& backend, const std::vector<StudyPoint>& points, const TermOptions& options,
+                                const SamplingPlan& plan, const std::function<void(std::size_t, std::size_t)>& progress) {
+    std::vector<AreaQuery> area_queries;
+    for (const StudyPoint& p : points) area_queries.push_back(p.query);
+    const std::vector<AreaEstimate> area = evaluate_area(backend, area_queries, options, plan, {}, nullptr, progress);
+    // Point terms: centre, representative point, seven taps per point (a light below the horizon is a
+    // legal point query and gives 0).
+    std::vector<Query> point_queries;
+    std::vector<std::vector<Tap>> taps;
+    for (const StudyPoint& p : points) {
+        const AreaQuery q = normalised(p.query);
+        Query base;
+        base.visibility = q.visibility;
+        base.alpha_x = q.alpha_x;
+        base.alpha_y = q.alpha_y;
+        base.wi = q.wi;
+        base.wo = centre_direction(q.light);
+        point_queries.push_back(base);
+        base.wo = representative_direction(q);
+        point_queries.push_back(base);
+        taps.push_back(sphere_taps(q));
+        for (const Tap& t : taps.back()) {
+            base.wo = t.wo;
+            point_queries.push_back(base);
+        }
+    }
+    const std::vector<Estimate> terms = evaluate(backend, point_queries, options, plan);
+    std::vector<StudyRow> rows(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) {
+        const Estimate* t = &terms[i * 9];
+        StudyRow& row = rows[i];
+        row.point = points[i];
+        row.area = area[i];
+        row.centre = t[0];
+        row.representative = t[1];
+        double num = 0, den = 0, se = 0;
+        for (int k = 0; k < 7; ++k) den += taps[i][k].weight;
+        for (int k = 0; k < 7; ++k) {
+            num += taps[i][k].weight * t[2 + k].term;
+            // The taps share one point set, so their errors are correlated: sum w_k se_k bounds the
+            // standard error of the weighted mean whatever the correlation (Cauchy-Schwarz).
+            se += (den > 0 ? taps[i][k].weight / den : 0.0) * t[2 + k].std_error;
+        }
+        row.taps = {den > 0 ? num / den : 0.0, se};
+    }
+    return rows;
+}
+
+}  // namespace ms::area

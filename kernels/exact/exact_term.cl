@@ -64,6 +64,15 @@ typedef float2 ms_complex;
 
 inline real ms_exact_join(float hi, float lo) { return (real)hi + (real)lo; }
 
+/* The cone's cosine as the caps need it. A narrow cone's circle is fixed by c and s together, and the
+ * float pair carrying c (~48 bits) leaves c^2 + s^2 - 1 ~ 2^-48, a relative error 2^-48 / s^2 of the
+ * circle (3.5e-9 at v = 1e-6): there c = sqrt(1 - s^2) from the exactly carried s^2 is consistent to
+ * an ulp. A wide cone's (s^2 >= 1/2) needs c's own digits, which the pair keeps. */
+inline real ms_exact_cone_cos(real carried_cos, real s2)
+{
+    return s2 < MS_R(0.5) ? sqrt(MS_R(1.0) - s2) : carried_cos;
+}
+
 /* ---- complex arithmetic on (re, im) pairs --------------------------------------------------------- */
 inline ms_complex cx_mul(ms_complex a, ms_complex b) { return (ms_complex)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
 inline real cx_norm(ms_complex a) { return a.x * a.x + a.y * a.y; }
@@ -544,7 +553,9 @@ __kernel void ms_exact_term(__global const ms_exact_query* queries, uint count, 
     const real3 wo = (real3)(ms_exact_join(q.wo_x_hi, q.wo_x_lo), ms_exact_join(q.wo_y_hi, q.wo_y_lo),
                              ms_exact_join(q.wo_z_hi, q.wo_z_lo));
     const exact_sum v = exact_term_of(ms_exact_join(q.alpha_x_hi, q.alpha_x_lo), ms_exact_join(q.alpha_y_hi, q.alpha_y_lo),
-                                      wi, wo, ms_exact_join(q.cos_theta_hi, q.cos_theta_lo),
+                                      wi, wo,
+                                      ms_exact_cone_cos(ms_exact_join(q.cos_theta_hi, q.cos_theta_lo),
+                                                        ms_exact_join(q.sin2_cone_hi, q.sin2_cone_lo)),
                                       ms_exact_join(q.sin2_cone_hi, q.sin2_cone_lo),
                                       ms_exact_join(rule.tolerance_hi, rule.tolerance_lo), &rules, gauss);
     exact_store(out + g, v);
@@ -644,7 +655,8 @@ __kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint 
     if (g >= count) return;
     const ms_exact_texel t = texels[g];
     const exact_rules rules = exact_rules_of(rule);
-    const real c = ms_exact_join(t.cos_theta_hi, t.cos_theta_lo), s2 = ms_exact_join(t.sin2_cone_hi, t.sin2_cone_lo);
+    const real s2 = ms_exact_join(t.sin2_cone_hi, t.sin2_cone_lo);
+    const real c = ms_exact_cone_cos(ms_exact_join(t.cos_theta_hi, t.cos_theta_lo), s2);
     const real alpha = ms_exact_join(t.alpha_hi, t.alpha_lo);
     const real n_dot_v = ms_exact_join(t.n_dot_v_hi, t.n_dot_v_lo), n_dot_l = ms_exact_join(t.n_dot_l_hi, t.n_dot_l_lo);
     const real tolerance = ms_exact_join(rule.tolerance_hi, rule.tolerance_lo);

@@ -252,10 +252,14 @@ TEST(ExactKernel, FloatKernelReachesItsMeasuredAccuracy) {
     const auto queries = as_pairs(stress_queries(1000, 19));
     const auto texels = as_pairs(stress_texels(500, 23));
     const AoWeighting ao = AoWeighting::cosine;
-    const auto cpp_q = cpp_terms(queries, ao, exact::kDefaultTolerance);
-    const auto cpp_t = cpp_means(texels, ao, exact::kDefaultTolerance);
-    std::vector<ExactValue> out_q, out_t;
     auto t0 = std::chrono::steady_clock::now();
+    const auto cpp_q = cpp_terms(queries, ao, exact::kDefaultTolerance);
+    const double cpp_query_s = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    const auto cpp_t = cpp_means(texels, ao, exact::kDefaultTolerance);
+    const double cpp_texel_s = seconds_since(t0);
+    std::vector<ExactValue> out_q, out_t;
+    t0 = std::chrono::steady_clock::now();
     kernel.terms(queries, ao, exact::kDefaultTolerance, out_q);
     const double query_s = seconds_since(t0);
     t0 = std::chrono::steady_clock::now();
@@ -276,10 +280,39 @@ TEST(ExactKernel, FloatKernelReachesItsMeasuredAccuracy) {
     std::cout << "float kernel: worst |error| " << worst_q << " on queries (" << beyond_q << " beyond the estimates), "
               << worst_t << " on azimuth means, " << worst_narrow << " on narrow cones lit near the normal ("
               << beyond_t << " beyond the estimates); " << queries.size() / query_s << " queries/s, "
-              << texels.size() / texel_s << " texels/s\n";
+              << texels.size() / texel_s << " texels/s (C++ one thread: " << queries.size() / cpp_query_s << " queries/s, "
+              << texels.size() / cpp_texel_s << " texels/s)\n";
     EXPECT_LE(worst_q, kFloatQueryBound);
     EXPECT_LE(worst_t, kFloatTexelBound);
     EXPECT_LE(worst_narrow, kFloatNarrowTexelBound);
+}
+
+TEST(ExactKernel, FullSubdivisionStackFinishesThePieceAndWidensItsEstimate) {
+    // Stacks of 3 arc pieces and 2 azimuth pieces (the default holds the C++ evaluator's whole depth):
+    // smooth surfaces need deeper subdivisions, so values are finished early. They must stay finite
+    // and in [0, 1], be counted, and keep the C++ value within the widened estimates.
+    ocl::Device& device = pocl_device();
+    if (!device.info().fp64) GTEST_SKIP() << device.info().label() << " has no cl_khr_fp64";
+    ocl::BuildConfig shallow = build(true);
+    shallow.defines["MS_EXACT_ARC_STACK"] = "3";
+    shallow.defines["MS_EXACT_AZIMUTH_STACK"] = "2";
+    exact::ExactKernel kernel(device, shallow);
+    auto queries = as_pairs(stress_queries(200, 37));
+    for (Query& q : queries) q.alpha_x = as_pair(0.002 + 0.01 * q.alpha_x), q.alpha_y = as_pair(0.002 + 0.01 * q.alpha_y);
+    std::vector<ExactValue> out;
+    kernel.terms(queries, AoWeighting::cosine, exact::kDefaultTolerance, out);
+    EXPECT_GT(kernel.stack_limited(), 20u);
+    for (const ExactValue& v : out) {
+        ASSERT_TRUE(std::isfinite(v.term) && std::isfinite(v.error));
+        ASSERT_GE(v.term, 0.0);
+        ASSERT_LE(v.term, 1.0);
+    }
+    expect_within_estimates(out, cpp_terms(queries, AoWeighting::cosine, exact::kDefaultTolerance), "query");
+    const auto texels = as_pairs(stress_texels(16, 41));
+    kernel.azimuth_means(texels, AoWeighting::cosine, exact::kDefaultTolerance, out);
+    EXPECT_GT(kernel.stack_limited(), 0u);
+    const auto cpp = cpp_means(texels, AoWeighting::cosine, exact::kDefaultTolerance);
+    expect_within_estimates(out, cpp, "texel", texel_conditioning(texels, cpp));
 }
 
 }  // namespace

@@ -109,18 +109,6 @@ std::vector<double> azimuth_breakpoints(double c, double s, double n_dot_v, doub
     return points;
 }
 
-struct AzimuthRule {
-    int high, low;
-};
-AzimuthRule azimuth_rule_for(double tolerance) {
-    // The low rule must integrate the substitution's Jacobian sin u on [0, pi] well below the tolerance
-    // (Gauss-Legendre's relative error there: 3 nodes 1.4e-3, 4 nodes 1.6e-5, 6 nodes 4e-10, 8 nodes 3e-15),
-    // or its difference to the high rule would never fall below the tolerance however small the piece.
-    if (tolerance >= 1e-5) return {6, 4};
-    if (tolerance >= 1e-8) return {8, 6};
-    return {12, 8};
-}
-
 struct MeanSum {
     double integral = 0, error = 0;
     int pieces = 0;
@@ -164,6 +152,16 @@ void integrate_azimuth_piece(const Term& term, double lo, double hi, const Azimu
 }
 
 }  // namespace
+
+AzimuthRule azimuth_rule_for(double tolerance) {
+    // The low rule must integrate the substitution's Jacobian sin u on [0, pi] well below the tolerance
+    // (Gauss-Legendre's relative error there: 3 nodes 1.4e-3, 4 nodes 1.6e-5, 6 nodes 4e-10, 8 nodes 3e-15),
+    // or its difference to the high rule would never fall below the tolerance however small the piece.
+    if (tolerance >= 1e-5) return {6, 4};
+    if (tolerance >= 1e-8) return {8, 6};
+    return {12, 8};
+}
+
 
 ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance) {
     const Vec3 wi = unit(q.wi), wo = unit(q.wo);

@@ -36,6 +36,13 @@ ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance = 
 ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, double n_dot_l, AoWeighting weighting,
                               double tolerance = kDefaultTolerance);
 
+// The Gauss-Legendre pair on every azimuth piece of exact_azimuth_mean for a tolerance of the mean
+// (the OpenCL kernel takes the same).
+struct AzimuthRule {
+    int high, low;
+};
+AzimuthRule azimuth_rule_for(double tolerance);
+
 // The term at one relative azimuth (radians) in the LUT's parameters: wi = (sqrt(1 - NdotV^2), 0, NdotV),
 // wo = (sin_l cos phi, sin_l sin phi, NdotL).
 ExactValue exact_term_at_azimuth(double visibility, double alpha, double n_dot_v, double n_dot_l, double phi,

@@ -115,4 +115,52 @@ typedef struct ms_area_query {
     ms_u32 pad1, pad2, pad3;   /* 128 bytes */
 } ms_area_query;
 
+/*
+ * The exact (deterministic) evaluator of the term (kernels/exact/exact_term.cl). Doubles travel as
+ * float pairs: value = (double)hi + (double)lo, ~48 bits, so the double kernel keeps the host's digits
+ * and the float kernel simply reads hi. Directions are unit vectors (the host normalises in double).
+ */
+typedef struct ms_exact_query {
+    float cos_theta_hi, cos_theta_lo; /* the cone's cosine and squared sine, mapped from visibility */
+    float sin2_cone_hi, sin2_cone_lo;
+    float alpha_x_hi, alpha_x_lo;
+    float alpha_y_hi, alpha_y_lo;
+    float wi_x_hi, wi_x_lo, wi_y_hi, wi_y_lo, wi_z_hi, wi_z_lo;
+    float wo_x_hi, wo_x_lo, wo_y_hi, wo_y_lo, wo_z_hi, wo_z_lo; /* 80 bytes */
+} ms_exact_query;
+
+/* One LUT texel of the azimuth mean: wi = (sqrt(1 - NdotV^2), 0, NdotV), wo at every relative azimuth. */
+typedef struct ms_exact_texel {
+    float cos_theta_hi, cos_theta_lo;
+    float sin2_cone_hi, sin2_cone_lo;
+    float alpha_hi, alpha_lo;
+    float n_dot_v_hi, n_dot_v_lo;
+    float n_dot_l_hi, n_dot_l_lo;
+    float pad1, pad2; /* 48 bytes */
+} ms_exact_texel;
+
+/* The rules of one launch: Gauss-Legendre node counts and their offsets in the rule buffer (n nodes
+ * at [at, at + n), their weights at [at + n, at + 2n)), the Bernstein-ellipse parameter of the arc
+ * splitting and the requested absolute tolerance of each value. */
+typedef struct ms_exact_rule {
+    ms_i32 arc_high, arc_low, arc_high_at, arc_low_at;
+    ms_i32 azimuth_high, azimuth_low, azimuth_high_at, azimuth_low_at;
+    float arc_rho;
+    float tolerance_hi, tolerance_lo;
+    ms_u32 pad1; /* 48 bytes */
+} ms_exact_rule;
+
+/* A value with its estimated absolute error. */
+typedef struct ms_exact_value {
+    float term_hi, term_lo;
+    float error_hi, error_lo;
+    ms_u32 quadrature_pieces;
+    ms_u32 flags; /* MS_EXACT_FLAG_* */
+    ms_u32 pad1, pad2; /* 32 bytes */
+} ms_exact_value;
+
+/* A piece met the bound of the kernel's fixed-size subdivision stack and was finished with the rule
+ * as it stood; its integral of |f| was added to the error estimate. */
+#define MS_EXACT_FLAG_STACK_FULL 1u
+
 #endif /* MICROSHADOW_SHARED_H */

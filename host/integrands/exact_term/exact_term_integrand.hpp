@@ -14,6 +14,7 @@
 #include "core/types.hpp"
 #include "device/runtime.hpp"
 #include "exact/exact_term.hpp"
+#include "integrands/exact_term/exact_kernel.hpp"
 #include "integrands/term/term_integrand.hpp"
 #include "schedule/integrand.hpp"
 #include "schedule/scheduler.hpp"
@@ -21,9 +22,7 @@
 namespace ms::exact_term {
 
 // One isotropic LUT texel: the term (or its azimuth mean) at these parameters.
-struct ExactTexel {
-    double visibility = 0, alpha = 0, n_dot_v = 1, n_dot_l = 1;
-};
+using ExactTexel = exact::ExactTexel;
 
 // What one place evaluates with.
 class Evaluator {

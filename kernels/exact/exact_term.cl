@@ -1,0 +1,733 @@
+/*
+ * exact_term.cl - the generic micro-shadowing term without sampling, one work-item per query
+ * (ms_exact_term) or per LUT texel (ms_exact_azimuth_mean, the mean over the relative azimuth).
+ *
+ * The same algorithm as the host's deterministic evaluator (host/exact/, whose cap_region.cpp carries
+ * the derivation): T = P(cone) / P(hemisphere) under the VNDF of wi, each probability the closed line
+ * integral of a.(v x dv) / |v|^2 over the boundary of an intersection of spherical caps, v = S^-1 m.
+ * The boundary is arcs of the caps' circles with closed-form ends; great circles and the isotropic
+ * circle round e_z integrate in closed form, every other arc by Gauss-Legendre pieces split until the
+ * complex poles of 1 / |v|^2 (Durand-Kerner roots of a quartic) lie outside each piece's Bernstein
+ * ellipse, then while the difference to a lower-order rule (the error estimate) exceeds the piece's
+ * share of the tolerance. The azimuth mean integrates T between its non-analytic azimuths in a cosine
+ * substitution, with the same high/low pair.
+ *
+ * OpenCL C has no recursion: the host's recursive bisections are depth-first walks over explicit
+ * stacks of piece ends (pieces are finished left to right, so a piece's start is the previous one's
+ * end and only ends are stacked). The stacks hold the host's whole depth (60 pole splits, 30 azimuth
+ * levels); should one fill, the piece is finished with the rule as it stands, its integral of |f| is
+ * added to the error and MS_EXACT_FLAG_STACK_FULL is set. Nothing is written out of bounds.
+ *
+ * Precision: `real` (common/real.cl). The thresholds that the host states in ulps of double are
+ * stated here in ulps of `real`, so the float variant stops refining where float rounding, not the
+ * quadrature, dominates, and its error estimate carries float's rounding floor.
+ */
+/* Preamble (prepended by the host, device/runtime.cpp): common/microshadow_shared.h, real.cl, ... */
+
+#if MS_REAL_IS_DOUBLE
+typedef double2 ms_complex;
+#define MS_EXACT_EPS DBL_EPSILON
+/* Durand-Kerner stops when every squared relative step is below this. */
+#define MS_EXACT_ROOT_STOP 1e-30
+/* |c4|^2 (or |c3|^2) below this times k0^2: the quartic has lower degree. */
+#define MS_EXACT_NEGLIGIBLE 1e-26
+/* Caps closer than this (squared axis distance, cosine difference) are one cap. */
+#define MS_EXACT_SAME_AXIS 1e-30
+#define MS_EXACT_SAME_COS 1e-16
+/* Azimuth breakpoints closer than this to each other or to 0 and pi are one. */
+#define MS_EXACT_SAME_AZIMUTH 1e-12
+#else
+typedef float2 ms_complex;
+#define MS_EXACT_EPS FLT_EPSILON
+#define MS_EXACT_ROOT_STOP 1e-13f
+#define MS_EXACT_NEGLIGIBLE 1e-11f
+#define MS_EXACT_SAME_AXIS 1e-13f
+#define MS_EXACT_SAME_COS 1e-7f
+#define MS_EXACT_SAME_AZIMUTH 1e-6f
+#endif
+
+#define MS_EXACT_PI MS_R(3.14159265358979323846)
+#define MS_EXACT_TWO_PI MS_R(6.28318530717958647692)
+
+/* Stack capacities: the host's depth limits plus one. A build may lower them (-D) to test the guard. */
+#ifndef MS_EXACT_ARC_STACK
+#define MS_EXACT_ARC_STACK 61
+#endif
+#ifndef MS_EXACT_AZIMUTH_STACK
+#define MS_EXACT_AZIMUTH_STACK 31
+#endif
+#define MS_EXACT_POLE_DEPTH 60      /* pole-driven splits of an arc piece */
+#define MS_EXACT_ERROR_DEPTH 40     /* tolerance-driven splits of an arc piece */
+#define MS_EXACT_AZIMUTH_DEPTH 30   /* tolerance-driven splits of an azimuth piece */
+#define MS_EXACT_MAX_ARCS 4         /* a circle inside two other caps: at most two arcs */
+#define MS_EXACT_MAX_BREAKPOINTS 10 /* 0, pi and up to 2 x 2 + 2 x 2 events */
+
+inline real ms_exact_join(float hi, float lo) { return (real)hi + (real)lo; }
+
+/* The cone's cosine as the caps need it. A narrow cone's circle is fixed by c and s together, and the
+ * float pair carrying c (~48 bits) leaves c^2 + s^2 - 1 ~ 2^-48, a relative error 2^-48 / s^2 of the
+ * circle (3.5e-9 at v = 1e-6): there c = sqrt(1 - s^2) from the exactly carried s^2 is consistent to
+ * an ulp. A wide cone's (s^2 >= 1/2) needs c's own digits, which the pair keeps. */
+inline real ms_exact_cone_cos(real carried_cos, real s2)
+{
+    return s2 < MS_R(0.5) ? sqrt(MS_R(1.0) - s2) : carried_cos;
+}
+
+/* ---- complex arithmetic on (re, im) pairs --------------------------------------------------------- */
+inline ms_complex cx_mul(ms_complex a, ms_complex b) { return (ms_complex)(a.x * b.x - a.y * b.y, a.x * b.y + a.y * b.x); }
+inline real cx_norm(ms_complex a) { return a.x * a.x + a.y * a.y; }
+inline ms_complex cx_conj(ms_complex a) { return (ms_complex)(a.x, -a.y); }
+/* a / b through the conjugate (b != 0). */
+inline ms_complex cx_div(ms_complex a, ms_complex b) { return cx_mul(a, cx_conj(b)) / cx_norm(b); }
+/* The principal square root, without cancellation in either component. */
+inline ms_complex cx_sqrt(ms_complex a)
+{
+    const real r = hypot(a.x, a.y);
+    if (r == MS_R(0.0)) return (ms_complex)(MS_R(0.0), MS_R(0.0));
+    if (a.x >= MS_R(0.0)) {
+        const real t = sqrt(MS_R(0.5) * (r + a.x));
+        return (ms_complex)(t, a.y / (MS_R(2.0) * t));
+    }
+    const real t = sqrt(MS_R(0.5) * (r - a.x));
+    return (ms_complex)(fabs(a.y) / (MS_R(2.0) * t), copysign(t, a.y));
+}
+
+/* ---- caps and their boundary arcs ----------------------------------------------------------------- */
+
+/* The cap {m : m.n > c}, s = sqrt(1 - c^2) given separately (narrow cones keep its digits). */
+typedef struct exact_cap {
+    real3 n;
+    real c, s;
+} exact_cap;
+
+inline exact_cap exact_cap_make(real3 n, real c, real s)
+{
+    exact_cap cap;
+    cap.n = n;
+    cap.c = c;
+    cap.s = s;
+    return cap;
+}
+
+/* An orthonormal pair (e1, e2) with e1 x e2 = n (Frisvad / Duff et al.'s branchless basis). */
+inline void exact_basis(real3 n, real3* e1, real3* e2)
+{
+    const real sign = copysign(MS_R(1.0), n.z);
+    const real a = MS_R(-1.0) / (sign + n.z);
+    const real b = n.x * n.y * a;
+    *e1 = (real3)(MS_R(1.0) + sign * n.x * n.x * a, sign * b, -sign * n.x);
+    *e2 = (real3)(b, sign + n.y * n.y * a, -n.y);
+}
+
+/* The parts of circle k inside every other cap, as psi intervals; returns their number. */
+inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1, real3 e2, real* arc_lo, real* arc_hi)
+{
+    int arcs = 1;
+    arc_lo[0] = MS_R(0.0);
+    arc_hi[0] = MS_EXACT_TWO_PI;
+    int full = 1;
+    for (int j = 0; j < count; ++j) {
+        if (j == k) continue;
+        const exact_cap ck = caps[k], cj = caps[j];
+        const real3 dn = cj.n - ck.n; /* e1.n_j = e1.(n_j - n_k): no cancellation for close axes */
+        const real A = ck.s * dot(e1, dn), B = ck.s * dot(e2, dn);
+        /* C = c_j - c_k n_k.n_j as (c_j - c_k) + c_k |n_j - n_k|^2 / 2 */
+        const real C = (cj.c - ck.c) + ck.c * MS_R(0.5) * dot(dn, dn);
+        const real R = sqrt(A * A + B * B);
+        if (C < -R) continue;     /* circle k lies inside cap j */
+        if (C >= R) return 0;     /* outside, or touching only */
+        const real centre = atan2(B, A);
+        const real half_angle = acos(C / R);
+        const real allowed_lo = centre - half_angle, allowed_hi = centre + half_angle;
+        if (full) {
+            arc_lo[0] = allowed_lo;
+            arc_hi[0] = allowed_hi;
+            full = 0;
+            continue;
+        }
+        real next_lo[MS_EXACT_MAX_ARCS], next_hi[MS_EXACT_MAX_ARCS];
+        int next = 0;
+        for (int i = 0; i < arcs; ++i)
+            for (int shift = -1; shift <= 1; ++shift) {
+                const real lo = fmax(arc_lo[i], allowed_lo + shift * MS_EXACT_TWO_PI);
+                const real hi = fmin(arc_hi[i], allowed_hi + shift * MS_EXACT_TWO_PI);
+                if (hi > lo && next < MS_EXACT_MAX_ARCS) {
+                    next_lo[next] = lo;
+                    next_hi[next] = hi;
+                    ++next;
+                }
+            }
+        for (int i = 0; i < next; ++i) {
+            arc_lo[i] = next_lo[i];
+            arc_hi[i] = next_hi[i];
+        }
+        arcs = next;
+        if (arcs == 0) return 0;
+    }
+    return arcs;
+}
+
+/* ---- poles of the arc integrand ------------------------------------------------------------------- */
+
+/* The poles of 1 / |v(psi)|^2 in the upper half plane, from the roots of z^2 |v|^2 (z = e^{i psi})
+ * inside the unit disc; returns their number (<= 4). */
+inline int exact_poles(real3 p, real3 q, real3 r, real* pole_re, real* pole_im)
+{
+    const real k0 = dot(p, p) + MS_R(0.5) * (dot(q, q) + dot(r, r));
+    const real k1 = MS_R(2.0) * dot(p, q), k2 = MS_R(2.0) * dot(p, r);
+    const real k3 = MS_R(0.5) * (dot(q, q) - dot(r, r)), k4 = dot(q, r);
+    const ms_complex c4 = (ms_complex)(MS_R(0.5) * k3, MS_R(-0.5) * k4), c3 = (ms_complex)(MS_R(0.5) * k1, MS_R(-0.5) * k2);
+    const ms_complex c2 = (ms_complex)(k0, MS_R(0.0)), c1 = (ms_complex)(MS_R(0.5) * k1, MS_R(0.5) * k2);
+    const ms_complex c0 = (ms_complex)(MS_R(0.5) * k3, MS_R(0.5) * k4);
+    ms_complex roots[4];
+    int found = 0;
+    const real negligible = MS_EXACT_NEGLIGIBLE * k0 * k0;
+    if (cx_norm(c4) > negligible) {
+        /* Durand-Kerner on the monic quartic from starts off the real axis. */
+        const ms_complex inv4 = cx_conj(c4) / cx_norm(c4);
+        const ms_complex a3 = cx_mul(c3, inv4), a2 = cx_mul(c2, inv4), a1 = cx_mul(c1, inv4), a0 = cx_mul(c0, inv4);
+        const real radius = pow(hypot(a0.x, a0.y), MS_R(0.25));
+        const ms_complex seed = (ms_complex)(MS_R(0.4), MS_R(0.9));
+        ms_complex w = (ms_complex)(MS_R(1.0), MS_R(0.0));
+        for (int i = 0; i < 4; ++i) {
+            roots[i] = radius * w;
+            w = cx_mul(w, seed);
+        }
+        for (int iter = 0; iter < 200; ++iter) {
+            real change = MS_R(0.0);
+            for (int i = 0; i < 4; ++i) {
+                const ms_complex x = roots[i];
+                const ms_complex value = cx_mul(cx_mul(cx_mul(x + a3, x) + a2, x) + a1, x) + a0;
+                ms_complex denom = (ms_complex)(MS_R(1.0), MS_R(0.0));
+                for (int j = 0; j < 4; ++j)
+                    if (j != i) denom = cx_mul(denom, x - roots[j]);
+                const real dn = cx_norm(denom);
+                const ms_complex step = dn > MS_R(0.0) ? cx_mul(value, cx_conj(denom)) / dn : (ms_complex)(MS_R(1e-3), MS_R(1e-3));
+                roots[i] -= step;
+                change = fmax(change, cx_norm(step) / (MS_R(1.0) + cx_norm(roots[i])));
+            }
+            if (change < MS_EXACT_ROOT_STOP) break;
+        }
+        found = 4;
+    } else if (cx_norm(c3) > negligible) {
+        /* z (c3 z^2 + c2 z + c1): two roots (z = 0 and infinity are no poles). */
+        const ms_complex disc = cx_sqrt(cx_mul(c2, c2) - MS_R(4.0) * cx_mul(c3, c1));
+        const real aligned = c2.x * disc.x + c2.y * disc.y; /* Re(conj(c2) disc) */
+        const ms_complex big = MS_R(-0.5) * (c2 + (aligned >= MS_R(0.0) ? disc : -disc));
+        roots[found++] = cx_div(big, c3);
+        if (big.x != MS_R(0.0) || big.y != MS_R(0.0)) roots[found++] = cx_div(c1, big);
+    }
+    int poles = 0;
+    for (int i = 0; i < found; ++i) {
+        const real m2 = cx_norm(roots[i]);
+        if (!(m2 < MS_R(1.0)) || m2 == MS_R(0.0)) continue;
+        const real im = MS_R(-0.5) * log(m2);
+        if (im > MS_R(12.0)) continue; /* farther than any piece's ellipse reaches */
+        pole_re[poles] = atan2(roots[i].y, roots[i].x);
+        pole_im[poles] = im;
+        ++poles;
+    }
+    return poles;
+}
+
+/* Whether a 2 pi translate of the pole lies inside the Bernstein ellipse E_rho of [lo, hi]
+ * (|t - 1| + |t + 1| < rho + 1 / rho for the pole t mapped to [-1, 1]). */
+inline int exact_pole_inside_ellipse(real lo, real hi, real re, real im, real rho)
+{
+    const real mid = MS_R(0.5) * (lo + hi), inv_half = MS_R(2.0) / (hi - lo);
+    const real limit = rho + MS_R(1.0) / rho;
+    const real shift = round((mid - re) / MS_EXACT_TWO_PI) * MS_EXACT_TWO_PI;
+    const real y = im * inv_half, y2 = y * y;
+    for (int k = -1; k <= 1; ++k) {
+        const real x = (re + shift + k * MS_EXACT_TWO_PI - mid) * inv_half;
+        if (sqrt((x - 1) * (x - 1) + y2) + sqrt((x + 1) * (x + 1) + y2) < limit) return 1;
+    }
+    return 0;
+}
+
+/* The real part of the nearest pole translate inside the piece's ellipse, if any. */
+inline int exact_pole_near_piece(real lo, real hi, const real* pole_re, const real* pole_im, int poles, real rho,
+                                 real* real_part)
+{
+    int found = 0;
+    real best = INFINITY;
+    const real mid = MS_R(0.5) * (lo + hi);
+    for (int i = 0; i < poles; ++i) {
+        if (!exact_pole_inside_ellipse(lo, hi, pole_re[i], pole_im[i], rho)) continue;
+        const real x = pole_re[i] + round((mid - pole_re[i]) / MS_EXACT_TWO_PI) * MS_EXACT_TWO_PI;
+        const real distance = fabs(x - mid) + pole_im[i];
+        if (distance < best) {
+            best = distance;
+            *real_part = x;
+            found = 1;
+        }
+    }
+    return found;
+}
+
+/* ---- the arc integrand and its pieces ------------------------------------------------------------- */
+
+/* v = p + q cos psi + r sin psi; the integrand (k + bc cos psi - bs sin psi) / |v|^2. */
+typedef struct exact_arc {
+    real3 p, q, r;
+    real k, bc, bs;
+} exact_arc;
+
+inline real exact_arc_integrand(const exact_arc* f, real psi)
+{
+    real c;
+    const real s = sincos(psi, &c);
+    const real3 v = f->p + f->q * c + f->r * s;
+    return (f->k + f->bc * c - f->bs * s) / dot(v, v);
+}
+
+typedef struct exact_sum {
+    real value, error;
+    uint pieces, flags;
+} exact_sum;
+
+/* The rule's offsets into the Gauss-Legendre buffer. */
+typedef struct exact_rules {
+    int arc_high, arc_low, arc_high_at, arc_low_at;
+    int azimuth_high, azimuth_low, azimuth_high_at, azimuth_low_at;
+    real rho;
+} exact_rules;
+
+/* One arc [arc_lo, arc_hi]: pole-aware, then tolerance-driven subdivision, depth first, left first. */
+inline void exact_integrate_arc(const exact_arc* f, const real* pole_re, const real* pole_im, int poles, real arc_lo,
+                                real arc_hi, const exact_rules* rule, __global const real* gauss,
+                                real tolerance_per_radian, exact_sum* out)
+{
+    real stack_hi[MS_EXACT_ARC_STACK];
+    int stack_depth[MS_EXACT_ARC_STACK];
+    int top = 1;
+    stack_hi[0] = arc_hi;
+    stack_depth[0] = 0;
+    real lo = arc_lo;
+    while (top > 0) {
+        const real hi = stack_hi[top - 1];
+        const int depth = stack_depth[top - 1];
+        const real half_width = MS_R(0.5) * (hi - lo), mid = MS_R(0.5) * (hi + lo);
+        int stack_full = 0;
+        real pole_x = MS_R(0.0);
+        if (depth < MS_EXACT_POLE_DEPTH && exact_pole_near_piece(lo, hi, pole_re, pole_im, poles, rule->rho, &pole_x)) {
+            if (top < MS_EXACT_ARC_STACK) {
+                /* At the pole's real part when well inside, else graded towards it by 1 : 1.7. */
+                real split;
+                const real margin = MS_R(0.25) * (hi - lo);
+                if (pole_x > lo + margin && pole_x < hi - margin) split = pole_x;
+                else if (pole_x <= lo + margin) split = lo + (hi - lo) / MS_R(2.7);
+                else split = hi - (hi - lo) / MS_R(2.7);
+                stack_depth[top - 1] = depth + 1; /* [split, hi] stays below [lo, split] */
+                stack_hi[top] = split;
+                stack_depth[top] = depth + 1;
+                ++top;
+                continue;
+            }
+            stack_full = 1;
+        }
+        real qh = MS_R(0.0), ql = MS_R(0.0), magnitude = MS_R(0.0);
+        for (int i = 0; i < rule->arc_high; ++i) {
+            const real w = gauss[rule->arc_high_at + rule->arc_high + i];
+            const real fx = exact_arc_integrand(f, mid + half_width * gauss[rule->arc_high_at + i]);
+            qh += w * fx;
+            magnitude += w * fabs(fx);
+        }
+        for (int i = 0; i < rule->arc_low; ++i)
+            ql += gauss[rule->arc_low_at + rule->arc_low + i] * exact_arc_integrand(f, mid + half_width * gauss[rule->arc_low_at + i]);
+        qh *= half_width;
+        ql *= half_width;
+        /* The difference is the low rule's error: a conservative estimate for the high rule's value. */
+        const real difference = fabs(qh - ql);
+        /* Below ~1e3 ulps of the piece's magnitude the difference is rounding, not truncation. */
+        const real rounding_floor = MS_R(1e3) * MS_EXACT_EPS * half_width * magnitude;
+        /* As the C++ evaluator: at most 4096 pieces on one circle. */
+        if (!stack_full && difference > tolerance_per_radian * (hi - lo) && difference > rounding_floor &&
+            depth < MS_EXACT_ERROR_DEPTH && out->pieces < 4096u) {
+            if (top < MS_EXACT_ARC_STACK) {
+                stack_depth[top - 1] = depth + 1;
+                stack_hi[top] = mid;
+                stack_depth[top] = depth + 1;
+                ++top;
+                continue;
+            }
+            stack_full = 1;
+        }
+        out->value += qh;
+        out->error += difference + MS_R(64.0) * MS_EXACT_EPS * half_width * magnitude;
+        out->pieces += 1;
+        if (stack_full) {
+            out->error += half_width * magnitude;
+            out->flags |= MS_EXACT_FLAG_STACK_FULL;
+        }
+        lo = hi;
+        --top;
+    }
+}
+
+/* The angle v sweeps round `axis` over [lo, hi] on a great circle, through pieces shorter than pi. */
+inline real exact_swept_angle(real3 q, real3 r, real3 axis, real lo, real hi)
+{
+    if (hi - lo >= MS_EXACT_TWO_PI * (MS_R(1.0) - MS_EXACT_EPS * MS_R(4.5))) return MS_EXACT_TWO_PI;
+    const int pieces = (int)ceil((hi - lo) / (MS_R(0.75) * MS_EXACT_PI));
+    real total = MS_R(0.0);
+    real c0;
+    real s0 = sincos(lo, &c0);
+    real3 v0 = q * c0 + r * s0;
+    for (int i = 1; i <= pieces; ++i) {
+        const real psi1 = i == pieces ? hi : lo + (hi - lo) * i / pieces;
+        real c;
+        const real s = sincos(psi1, &c);
+        const real3 v1 = q * c + r * s;
+        total += atan2(dot(cross(v0, v1), axis), dot(v0, v1));
+        v0 = v1;
+    }
+    return total;
+}
+
+/* ---- the boundary integral of a region ------------------------------------------------------------ */
+
+typedef struct exact_surface {
+    real ax, ay;
+    real3 a; /* normalize(ax wi.x, ay wi.y, wi.z) */
+} exact_surface;
+
+inline exact_surface exact_surface_make(real ax, real ay, real3 wi)
+{
+    exact_surface m;
+    m.ax = ax;
+    m.ay = ay;
+    const real3 a = (real3)(ax * wi.x, ay * wi.y, wi.z);
+    m.a = a * (MS_R(1.0) / sqrt(dot(a, a)));
+    return m;
+}
+
+/* The closed integral of a.(v x dv) / |v|^2 over the boundary of the intersection of `count` (<= 3)
+ * caps; `absolute_tolerance` applies to the value. */
+inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap* caps, int count,
+                                         const exact_rules* rule, __global const real* gauss, real absolute_tolerance)
+{
+    /* Coincident caps (wo = e_z, wo = wi, wi = e_z) would exclude each other's circle: keep one. */
+    for (int i = 0; i < count; ++i)
+        for (int j = count - 1; j > i; --j) {
+            const real3 dn = caps[i].n - caps[j].n;
+            if (dot(dn, dn) < MS_EXACT_SAME_AXIS && fabs(caps[i].c - caps[j].c) < MS_EXACT_SAME_COS) {
+                for (int m = j; m + 1 < count; ++m) caps[m] = caps[m + 1];
+                --count;
+            }
+        }
+    const real ax = surface->ax, ay = surface->ay;
+    const real3 a = surface->a;
+    exact_sum result = {MS_R(0.0), MS_R(0.0), 0u, 0u};
+    real rounding = MS_R(0.0);
+    const real tolerance_per_radian = absolute_tolerance / (MS_EXACT_TWO_PI * count);
+    for (int k = 0; k < count; ++k) {
+        real3 e1, e2;
+        exact_basis(caps[k].n, &e1, &e2);
+        real arc_lo[MS_EXACT_MAX_ARCS], arc_hi[MS_EXACT_MAX_ARCS];
+        const int arcs = exact_boundary_arcs(caps, count, k, e1, e2, arc_lo, arc_hi);
+        if (arcs == 0) continue;
+        const exact_cap cap = caps[k];
+        /* m / (ax, ay, 1) componentwise, as the host divides */
+        const real3 p = (real3)(cap.n.x / ax, cap.n.y / ay, cap.n.z) * cap.c;
+        const real3 q = (real3)(e1.x / ax, e1.y / ay, e1.z) * cap.s;
+        const real3 r = (real3)(e2.x / ax, e2.y / ay, e2.z) * cap.s;
+        if (cap.c == MS_R(0.0)) {
+            /* A great circle: v stays in the plane normal to S n, the integral is a.n^ times the angle. */
+            const real3 sn = (real3)(ax * cap.n.x, ay * cap.n.y, cap.n.z);
+            const real3 axis = sn * (MS_R(1.0) / sqrt(dot(sn, sn)));
+            const real weight = dot(a, axis);
+            for (int i = 0; i < arcs; ++i) {
+                const real part = weight * exact_swept_angle(q, r, axis, arc_lo[i], arc_hi[i]);
+                result.value += part;
+                rounding += fabs(part);
+            }
+            continue;
+        }
+        const real k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
+        if (ax == ay && cap.n.x == MS_R(0.0) && cap.n.y == MS_R(0.0)) {
+            /* Round e_z on an isotropic surface |v|^2 is constant: integrate the numerator. */
+            const real norm2 = dot(p, p) + dot(q, q);
+            for (int i = 0; i < arcs; ++i) {
+                const real part = (k_const * (arc_hi[i] - arc_lo[i]) + bc * (sin(arc_hi[i]) - sin(arc_lo[i])) +
+                                   bs * (cos(arc_hi[i]) - cos(arc_lo[i]))) /
+                                  norm2;
+                result.value += part;
+                rounding += fabs(k_const * (arc_hi[i] - arc_lo[i]) / norm2) + (fabs(bc) + fabs(bs)) * MS_R(2.0) / norm2;
+            }
+            continue;
+        }
+        exact_arc f;
+        f.p = p;
+        f.q = q;
+        f.r = r;
+        f.k = k_const;
+        f.bc = bc;
+        f.bs = bs;
+        real pole_re[4], pole_im[4];
+        const int poles = exact_poles(p, q, r, pole_re, pole_im);
+        exact_sum sum = {MS_R(0.0), MS_R(0.0), 0u, 0u};
+        for (int i = 0; i < arcs; ++i)
+            exact_integrate_arc(&f, pole_re, pole_im, poles, arc_lo[i], arc_hi[i], rule, gauss, tolerance_per_radian, &sum);
+        result.value += sum.value;
+        result.error += sum.error;
+        result.pieces += sum.pieces;
+        result.flags |= sum.flags;
+    }
+    result.error += MS_R(32.0) * MS_EXACT_EPS * rounding;
+    return result;
+}
+
+/* ---- the term ------------------------------------------------------------------------------------- */
+
+/* T for unit wi above the horizon and unit wo, the cone given by its cosine c and squared sine s2. */
+inline exact_sum exact_term_of(real ax, real ay, real3 wi, real3 wo, real c, real s2, real tolerance,
+                               const exact_rules* rule, __global const real* gauss)
+{
+    exact_sum out = {MS_R(0.0), MS_R(0.0), 0u, 0u};
+    if (!(wo.z > MS_R(0.0))) return out; /* light at or below the horizon: G1(wo) = 0 */
+    if (c <= MS_R(0.0)) {                /* visibility 1: the cone is the hemisphere */
+        out.value = MS_R(1.0);
+        return out;
+    }
+    /* The provable zero region NdotL <= cos(2 theta) = 1 - 2 sin^2 (host/core/cone.hpp). */
+    if (wo.z <= MS_R(1.0) - MS_R(2.0) * s2) return out;
+    const exact_surface surface = exact_surface_make(ax, ay, wi);
+    const real3 ez = (real3)(MS_R(0.0), MS_R(0.0), MS_R(1.0));
+    exact_cap caps[3];
+    caps[0] = exact_cap_make(ez, MS_R(0.0), MS_R(1.0));
+    caps[1] = exact_cap_make(wo, MS_R(0.0), MS_R(1.0));
+    caps[2] = exact_cap_make(wi, MS_R(0.0), MS_R(1.0));
+    const exact_sum hemisphere = exact_boundary_integral(&surface, caps, 3, rule, gauss, MS_R(0.0));
+    if (!(hemisphere.value > MS_R(0.0))) return out;
+    const real s = sqrt(s2);
+    caps[0] = exact_cap_make(ez, c, s);
+    caps[1] = exact_cap_make(wo, c, s);
+    caps[2] = exact_cap_make(wi, MS_R(0.0), MS_R(1.0));
+    const exact_sum cone = exact_boundary_integral(&surface, caps, 3, rule, gauss, tolerance * hemisphere.value);
+    const real t = cone.value / hemisphere.value;
+    out.value = clamp(t, MS_R(0.0), MS_R(1.0));
+    out.error = (cone.error + fabs(t) * hemisphere.error) / hemisphere.value;
+    out.pieces = cone.pieces + hemisphere.pieces;
+    out.flags = cone.flags | hemisphere.flags;
+    return out;
+}
+
+inline exact_rules exact_rules_of(const ms_exact_rule rule)
+{
+    exact_rules r;
+    r.arc_high = rule.arc_high;
+    r.arc_low = rule.arc_low;
+    r.arc_high_at = rule.arc_high_at;
+    r.arc_low_at = rule.arc_low_at;
+    r.azimuth_high = rule.azimuth_high;
+    r.azimuth_low = rule.azimuth_low;
+    r.azimuth_high_at = rule.azimuth_high_at;
+    r.azimuth_low_at = rule.azimuth_low_at;
+    r.rho = rule.arc_rho;
+    return r;
+}
+
+inline void exact_store(__global ms_exact_value* out, exact_sum v)
+{
+    ms_exact_value o;
+    o.term_hi = (float)v.value;
+    o.term_lo = (float)(v.value - (real)o.term_hi);
+    o.error_hi = (float)v.error;
+    o.error_lo = (float)(v.error - (real)o.error_hi);
+    o.quadrature_pieces = v.pieces;
+    o.flags = v.flags;
+    o.pad1 = 0u;
+    o.pad2 = 0u;
+    *out = o;
+}
+
+__kernel void ms_exact_term(__global const ms_exact_query* queries, uint count, const ms_exact_rule rule,
+                            __global const real* gauss, __global ms_exact_value* out)
+{
+    const uint g = get_global_id(0);
+    if (g >= count) return;
+    const ms_exact_query q = queries[g];
+    const exact_rules rules = exact_rules_of(rule);
+    const real3 wi = (real3)(ms_exact_join(q.wi_x_hi, q.wi_x_lo), ms_exact_join(q.wi_y_hi, q.wi_y_lo),
+                             ms_exact_join(q.wi_z_hi, q.wi_z_lo));
+    const real3 wo = (real3)(ms_exact_join(q.wo_x_hi, q.wo_x_lo), ms_exact_join(q.wo_y_hi, q.wo_y_lo),
+                             ms_exact_join(q.wo_z_hi, q.wo_z_lo));
+    const exact_sum v = exact_term_of(ms_exact_join(q.alpha_x_hi, q.alpha_x_lo), ms_exact_join(q.alpha_y_hi, q.alpha_y_lo),
+                                      wi, wo,
+                                      ms_exact_cone_cos(ms_exact_join(q.cos_theta_hi, q.cos_theta_lo),
+                                                        ms_exact_join(q.sin2_cone_hi, q.sin2_cone_lo)),
+                                      ms_exact_join(q.sin2_cone_hi, q.sin2_cone_lo),
+                                      ms_exact_join(rule.tolerance_hi, rule.tolerance_lo), &rules, gauss);
+    exact_store(out + g, v);
+}
+
+/* ---- the azimuth mean ----------------------------------------------------------------------------- */
+
+/* Solutions in (0, pi) of x cos phi + y sin phi = k (the term is even in phi), and the real part of a
+ * nearly-real complex pair (|Im phi| < 0.5) that still steers the splitting. */
+inline void exact_add_azimuths(real x, real y, real k, real* points, int* count)
+{
+    const real r = hypot(x, y);
+    if (r == MS_R(0.0)) return;
+    const real centre = atan2(y, x);
+    const real ratio = k / r;
+    real found[2];
+    int n = 0;
+    if (fabs(ratio) <= MS_R(1.0)) {
+        const real w = acos(ratio);
+        found[n++] = centre - w;
+        found[n++] = centre + w;
+    } else if (acosh(fabs(ratio)) < MS_R(0.5)) {
+        found[n++] = ratio > MS_R(0.0) ? centre : centre + MS_EXACT_PI;
+    }
+    for (int i = 0; i < n; ++i) {
+        const real phi = fabs(remainder(found[i], MS_EXACT_TWO_PI));
+        if (phi > MS_EXACT_SAME_AZIMUTH && phi < MS_EXACT_PI - MS_EXACT_SAME_AZIMUTH && *count < MS_EXACT_MAX_BREAKPOINTS)
+            points[(*count)++] = phi;
+    }
+}
+
+/* The azimuths in [0, pi] where the term is not analytic, sorted and deduplicated; returns the count. */
+inline int exact_azimuth_breakpoints(real c, real s, real s2, real n_dot_v, real n_dot_l, real* points)
+{
+    int count = 2;
+    points[0] = MS_R(0.0);
+    points[1] = MS_EXACT_PI;
+    const real sv = sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_v * n_dot_v));
+    const real sl = sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_l * n_dot_l));
+    if (sv == MS_R(0.0) || sl == MS_R(0.0)) return count;
+    /* The cap round wo touches the great circle normal to wi: wi.wo = +-s. */
+    exact_add_azimuths(sv * sl, MS_R(0.0), -s - n_dot_v * n_dot_l, points, &count);
+    exact_add_azimuths(sv * sl, MS_R(0.0), s - n_dot_v * n_dot_l, points, &count);
+    /* The circle round wo passes through a meeting point (x, +-y, c) of the circle round e_z and the
+     * great circle normal to wi. */
+    const real x = -c * n_dot_v / sv;
+    const real y2 = s2 - x * x;
+    if (y2 > MS_R(0.0)) {
+        const real y = sqrt(y2);
+        exact_add_azimuths(x, -y, c * (MS_R(1.0) - n_dot_l) / sl, points, &count);
+        exact_add_azimuths(x, y, c * (MS_R(1.0) - n_dot_l) / sl, points, &count);
+    }
+    for (int i = 1; i < count; ++i) /* insertion sort */
+        for (int j = i; j > 0 && points[j - 1] > points[j]; --j) {
+            const real t = points[j];
+            points[j] = points[j - 1];
+            points[j - 1] = t;
+        }
+    int kept = 1; /* std::unique: each point against the last one kept */
+    for (int i = 1; i < count; ++i)
+        if (!(points[i] - points[kept - 1] < MS_EXACT_SAME_AZIMUTH)) points[kept++] = points[i];
+    return kept;
+}
+
+inline real3 exact_lut_light(real n_dot_l, real phi)
+{
+    const real sl = sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_l * n_dot_l));
+    real c;
+    const real s = sincos(phi, &c);
+    return (real3)(sl * c, sl * s, n_dot_l);
+}
+
+/* One rule of the azimuth pair over [lo, hi] in the substitution phi = mid - half_width cos u, u in [0, pi]. */
+inline real exact_azimuth_rule(int n, int at, real mid, real half_width, real alpha, real3 wi, real c, real s2, real n_dot_l,
+                               real value_tolerance, const exact_rules* rule, __global const real* gauss,
+                               real* value_error, uint* flags)
+{
+    real sum = MS_R(0.0);
+    for (int i = 0; i < n; ++i) {
+        const real u = MS_R(0.5) * MS_EXACT_PI * (MS_R(1.0) + gauss[at + i]);
+        real cu;
+        const real su = sincos(u, &cu);
+        const real jacobian = half_width * su * MS_R(0.5) * MS_EXACT_PI;
+        const exact_sum v =
+            exact_term_of(alpha, alpha, wi, exact_lut_light(n_dot_l, mid - half_width * cu), c, s2, value_tolerance, rule, gauss);
+        sum += gauss[at + n + i] * jacobian * v.value;
+        *value_error += gauss[at + n + i] * jacobian * v.error;
+        *flags |= v.flags;
+    }
+    return sum;
+}
+
+__kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint count, const ms_exact_rule rule,
+                                    __global const real* gauss, __global ms_exact_value* out)
+{
+    const uint g = get_global_id(0);
+    if (g >= count) return;
+    const ms_exact_texel t = texels[g];
+    const exact_rules rules = exact_rules_of(rule);
+    const real s2 = ms_exact_join(t.sin2_cone_hi, t.sin2_cone_lo);
+    const real c = ms_exact_cone_cos(ms_exact_join(t.cos_theta_hi, t.cos_theta_lo), s2);
+    const real alpha = ms_exact_join(t.alpha_hi, t.alpha_lo);
+    const real n_dot_v = ms_exact_join(t.n_dot_v_hi, t.n_dot_v_lo), n_dot_l = ms_exact_join(t.n_dot_l_hi, t.n_dot_l_lo);
+    const real tolerance = ms_exact_join(rule.tolerance_hi, rule.tolerance_lo);
+    exact_sum result = {MS_R(0.0), MS_R(0.0), 0u, 0u};
+    if (!(n_dot_l > MS_R(0.0)) || s2 <= MS_R(0.0)) { /* light below the horizon, or visibility 0 */
+        exact_store(out + g, result);
+        return;
+    }
+    if (c <= MS_R(0.0)) { /* visibility 1 */
+        result.value = MS_R(1.0);
+        exact_store(out + g, result);
+        return;
+    }
+    if (n_dot_l <= MS_R(1.0) - MS_R(2.0) * s2) {
+        exact_store(out + g, result);
+        return;
+    }
+    const real3 wi = (real3)(sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_v * n_dot_v)), MS_R(0.0), n_dot_v);
+    /* Each value's tolerance is a quarter of the mean's; the azimuth quadrature takes half. */
+    const real value_tolerance = MS_R(0.25) * tolerance;
+    const real sv2 = MS_R(1.0) - n_dot_v * n_dot_v, sl2 = MS_R(1.0) - n_dot_l * n_dot_l;
+    if (sv2 <= MS_R(0.0) || sl2 <= MS_R(0.0)) { /* the azimuth does not change the term */
+        exact_store(out + g, exact_term_of(alpha, alpha, wi, exact_lut_light(n_dot_l, MS_R(0.0)), c, s2, value_tolerance,
+                                           &rules, gauss));
+        return;
+    }
+    real points[MS_EXACT_MAX_BREAKPOINTS];
+    const int count_points = exact_azimuth_breakpoints(c, sqrt(s2), s2, n_dot_v, n_dot_l, points);
+    real integral = MS_R(0.0);
+    for (int piece = 0; piece + 1 < count_points; ++piece) {
+        real stack_hi[MS_EXACT_AZIMUTH_STACK];
+        int stack_depth[MS_EXACT_AZIMUTH_STACK];
+        int top = 1;
+        stack_hi[0] = points[piece + 1];
+        stack_depth[0] = 0;
+        real lo = points[piece];
+        while (top > 0) {
+            const real hi = stack_hi[top - 1];
+            const int depth = stack_depth[top - 1];
+            const real mid = MS_R(0.5) * (lo + hi), half_width = MS_R(0.5) * (hi - lo);
+            real error_high = MS_R(0.0), error_low = MS_R(0.0);
+            const real high = exact_azimuth_rule(rules.azimuth_high, rules.azimuth_high_at, mid, half_width, alpha, wi, c, s2,
+                                                 n_dot_l, value_tolerance, &rules, gauss, &error_high, &result.flags);
+            const real low = exact_azimuth_rule(rules.azimuth_low, rules.azimuth_low_at, mid, half_width, alpha, wi, c, s2,
+                                                n_dot_l, value_tolerance, &rules, gauss, &error_low, &result.flags);
+            const real estimate = fabs(high - low);
+            /* A difference at the level of the values' own errors or of rounding cannot be split away. */
+            const real floor_level = error_high + error_low + MS_R(1e3) * MS_EXACT_EPS * (hi - lo);
+            /* As the C++ evaluator: pieces of at least 1e-7 rad, at most 512 pieces per mean. */
+            if (estimate > MS_R(0.5) * tolerance * (hi - lo) && estimate > floor_level && depth < MS_EXACT_AZIMUTH_DEPTH &&
+                hi - lo > (real)1e-7 && (int)result.pieces + depth < 512) {
+                if (top < MS_EXACT_AZIMUTH_STACK) {
+                    stack_depth[top - 1] = depth + 1;
+                    stack_hi[top] = mid;
+                    stack_depth[top] = depth + 1;
+                    ++top;
+                    continue;
+                }
+                /* Stack full: keep the piece, and its whole magnitude as error. */
+                result.error += fabs(high);
+                result.flags |= MS_EXACT_FLAG_STACK_FULL;
+            }
+            integral += high;
+            result.error += estimate + error_high;
+            result.pieces += 1;
+            lo = hi;
+            --top;
+        }
+    }
+    result.value = clamp(integral / MS_EXACT_PI, MS_R(0.0), MS_R(1.0));
+    result.error = result.error / MS_EXACT_PI;
+    exact_store(out + g, result);
+}

@@ -285,7 +285,8 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
         refuse_lut(path);
         if (lutfmt::has_dds_magic(path)) {
             Ktx2Representation d = read_dds_representation(path);
-            return make_representation(d.metadata, std::move(d.texture));
+            const auto channels = metadata_channels(d.metadata.at("texture"));
+            return make_representation(d.metadata, std::move(d.texture), channels);
         }
         if (is_ktx2(path)) {
             Ktx2Representation k = read_ktx2_representation(path);

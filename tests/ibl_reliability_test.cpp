@@ -22,6 +22,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -43,6 +44,13 @@ namespace {
 namespace fs = std::filesystem;
 using namespace ms;
 using Clock = std::chrono::steady_clock;
+
+// The CLI under test: this build's, or another (MICROSHADOW_CLI_UNDER_TEST, e.g. an older build, to
+// see which of these checks it fails).
+std::string cli_binary() {
+    const char* other = std::getenv("MICROSHADOW_CLI_UNDER_TEST");
+    return other && *other ? other : MICROSHADOW_CLI;
+}
 
 std::string slurp(const fs::path& p) {
     std::ifstream in(p, std::ios::binary);
@@ -90,7 +98,7 @@ protected:
     IblReliability() : ScratchDirTest("ibl_reliability") {}
 
     ms::testing::RunResult cli(const std::string& args, const std::string& env = "") {
-        return ms::testing::run_shell("cd '" + dir_.string() + "' && env " + env + " timeout 120 " + std::string(MICROSHADOW_CLI) + " " +
+        return ms::testing::run_shell("cd '" + dir_.string() + "' && env " + env + " timeout 120 " + cli_binary() + " " +
                                       args + " 2>&1");
     }
     // The three environment commands on ENV, each into its own destination under `tag`.
@@ -189,7 +197,7 @@ TEST_F(IblReliability, RadianceExposureMustBeAFinitePositiveFactorThatKeepsTexel
 
 // Peak resident memory of `args` run in dir, in MiB (wait4's ru_maxrss), and its exit status.
 std::pair<int, double> run_measured(const fs::path& dir, const std::string& args) {
-    const std::string cmd = "cd '" + dir.string() + "' && exec " + std::string(MICROSHADOW_CLI) + " " + args + " >log.txt 2>&1";
+    const std::string cmd = "cd '" + dir.string() + "' && exec " + cli_binary() + " " + args + " >log.txt 2>&1";
     const char* argv[] = {"sh", "-c", cmd.c_str(), nullptr};
     pid_t pid = 0;
     if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return {-1, 0};
@@ -362,7 +370,7 @@ TEST_F(IblReliability, ASignalDuringTheWritesCommitsNothing) {
 
 // Starts `args` in dir (stdout and stderr to dir/log.txt); returns the CLI's own pid.
 pid_t spawn_cli(const fs::path& dir, const std::string& args) {
-    const std::string cmd = "cd '" + dir.string() + "' && exec " + std::string(MICROSHADOW_CLI) + " " + args + " >log.txt 2>&1 </dev/null";
+    const std::string cmd = "cd '" + dir.string() + "' && exec " + cli_binary() + " " + args + " >log.txt 2>&1 </dev/null";
     const char* argv[] = {"sh", "-c", cmd.c_str(), nullptr};
     pid_t pid = 0;
     if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return -1;

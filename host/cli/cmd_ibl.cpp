@@ -173,7 +173,6 @@ public:
         to_make_.clear();
     }
     void keep() { kept_ = true; }
-    const std::string& path() const { return dir_; }
 
 private:
     std::string dir_;

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, ASan + UBSan) and runs each for a bounded time.
 #   fuzz/run.sh [SECONDS_PER_TARGET]      (default 25; env BUILD_DIR, default build-fuzz; JOBS, default 2)
-# Seeds: the hand-made corpus in tests/data/hostile, fuzz/{csv,spec,cli}-seeds (encodings, control
+# Seeds: the hand-made corpus in tests/data/hostile, fuzz/{csv,spec,cli,env,...}-seeds (encodings, control
 # bytes, huge counts and integers of issue 10) plus examples/. New inputs found go to
 # $BUILD_DIR/fuzz-corpus/<target> (kept between runs); crashes to $BUILD_DIR/fuzz-artifacts/.
 # Exit status: non-zero if any target crashed, leaked, timed out on one input or ran out of memory.
@@ -17,7 +17,7 @@ if [[ ! -f "$BUILD_DIR/CMakeCache.txt" ]]; then
     -DMICROSHADOW_FUZZ=ON -DMICROSHADOW_SANITIZE=ON \
     -DMICROSHADOW_BUILD_TESTS=OFF -DMICROSHADOW_BUILD_BENCH=OFF >/dev/null
 fi
-cmake --build "$BUILD_DIR" -j"$JOBS" --target fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv
+cmake --build "$BUILD_DIR" -j"$JOBS" --target fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv fuzz_environment
 
 seed_dirs() {  # the seeds of one target, as directories libFuzzer reads (read-only; never written)
   case "$1" in
@@ -30,13 +30,14 @@ seed_dirs() {  # the seeds of one target, as directories libFuzzer reads (read-o
     fuzz_repr_file) echo fuzz/repr-seeds ;;
     fuzz_scene) echo fuzz/scene-seeds ;;
     fuzz_area_csv) echo fuzz/area-seeds ;;
+    fuzz_environment) echo fuzz/env-seeds tests/data/hostile/exr ;;
   esac
 }
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 status=0
-for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv; do
+for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv fuzz_environment; do
   corpus="$BUILD_DIR/fuzz-corpus/$target"
   artifacts="$BUILD_DIR/fuzz-artifacts/$target/"
   mkdir -p "$corpus" "$artifacts"

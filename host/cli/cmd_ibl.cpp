@@ -5,10 +5,16 @@
 //                                              irradiance cubemap faces through the clamped-cosine convolution
 //   ibl irradiance ENV --out DIR               irradiance cubemap (E / pi) by direct convolution, with error bounds and SH comparison
 //   (ENV, for sh / prefilter / irradiance, may instead be six face files: --faces PX NX PY NY PZ NZ)
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <iomanip>
 #include <iostream>
+#include <optional>
+#include <set>
 #include <sstream>
 
 #include "cli/common.hpp"
@@ -28,6 +34,10 @@
 namespace ms::cli {
 
 namespace {
+
+// An optional output: its index in the set, or kNoFile when the option was not given.
+constexpr std::size_t kNoFile = ~std::size_t(0);
+std::size_t add_if_given(OutputSet& outputs, const std::string& path) { return path.empty() ? kNoFile : outputs.add(path); }
 
 struct DfgArgs {
     std::string out, preview, compare, texel = "centres", backend = "opencl", device = "default";
@@ -58,10 +68,12 @@ void run_dfg(const DfgArgs& a) {
     if (spec.oracle && (a.fast_math || a.double_kernels))
         throw std::invalid_argument("--fast-math and --double-kernels build kernels; the oracle has none");
     spec.command_line = command_line();
+    spec.fault = fault_injection_from_environment();
     validate(spec);
-    check_dfg_lut_format(a.out);
-    check_writable_destination(a.out);
-    if (!a.preview.empty()) check_writable_destination(a.preview);
+    // Every output checked, and two at one path refused, before the bake.
+    OutputSet outputs;
+    const DfgLutFiles lut_files = add_dfg_lut_files(outputs, a.out);
+    const std::size_t preview = add_if_given(outputs, a.preview);
 
     Progress progress("ibl dfg", a.quiet);
     DfgBakeCallbacks cb;
@@ -89,8 +101,9 @@ void run_dfg(const DfgArgs& a) {
                            {"max_abs", {cmp.max_abs[0], cmp.max_abs[1], cmp.max_abs[2]}},
                            {"rms", {cmp.rms[0], cmp.rms[1], cmp.rms[2]}}};
     }
-    if (!a.preview.empty()) write_dfg_preview(a.preview, result, spec);
-    write_dfg_lut(a.out, result, meta, a.half);
+    if (preview != kNoFile) write_dfg_preview_file(outputs.temp_path(preview), result, spec);
+    write_dfg_lut(outputs, lut_files, result, meta, a.half);
+    commit_outputs(outputs);
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl dfg: " << result.width << " x " << result.height << " (NdotV x roughness), "
                   << (spec.oracle ? "quadrature" : std::to_string(spec.plan.samples) + " samples per texel")
@@ -117,6 +130,63 @@ std::string environment_name(const std::string& env, const std::vector<std::stri
     return s;
 }
 
+const char* const kShCrossCaption =
+    "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)";
+
+// The --out folder of `ibl prefilter` / `ibl irradiance`: checked before any work (it is a folder, or
+// can be made in a writable parent), made only once the inputs are read, and removed again by a run
+// that made it and then failed (an empty folder is no output).
+class OutputFolder {
+public:
+    explicit OutputFolder(std::string dir) : dir_(std::move(dir)) {
+        namespace fs = std::filesystem;
+        if (dir_.empty()) throw OutputError("--out: empty folder name");
+        std::error_code ec;
+        fs::path p = fs::path(dir_).lexically_normal();
+        if (fs::exists(p, ec)) {
+            if (!fs::is_directory(p, ec)) throw OutputError("--out " + dir_ + " exists and is not a directory");
+            if (::access(p.c_str(), W_OK) != 0) throw OutputError("--out " + dir_ + ": the folder is not writable (" + std::strerror(errno) + ")");
+            return;
+        }
+        // The folders to make, deepest first, up to the first that exists.
+        for (fs::path q = p; !q.empty() && !fs::exists(q, ec); q = q.parent_path()) {
+            to_make_.push_back(q);
+            if (q == q.parent_path()) break;
+        }
+        const fs::path parent = to_make_.back().parent_path().empty() ? fs::path(".") : to_make_.back().parent_path();
+        if (!fs::is_directory(parent, ec)) throw OutputError("--out " + dir_ + ": " + parent.string() + " is not a directory");
+        if (::access(parent.c_str(), W_OK) != 0)
+            throw OutputError("--out " + dir_ + ": cannot create it in " + parent.string() + " (" + std::strerror(errno) + ")");
+    }
+    ~OutputFolder() {
+        if (kept_) return;
+        std::error_code ec;
+        for (const auto& q : made_) std::filesystem::remove(q, ec);  // only empty folders go (remove fails on others)
+    }
+    void make() {
+        for (auto it = to_make_.rbegin(); it != to_make_.rend(); ++it) {
+            std::error_code ec;
+            if (!std::filesystem::create_directory(*it, ec) && ec)
+                throw OutputError("--out " + dir_ + ": cannot create " + it->string() + " (" + ec.message() + ")");
+            made_.insert(made_.begin(), *it);
+        }
+        to_make_.clear();
+    }
+    void keep() { kept_ = true; }
+
+private:
+    std::string dir_;
+    std::vector<std::filesystem::path> to_make_, made_;  // deepest first
+    bool kept_ = false;
+};
+
+// File names (no folder) of a set's outputs inside `dir`, for the stale-file checks.
+std::set<std::string> names_in(const OutputSet& outputs, std::size_t count) {
+    std::set<std::string> names;
+    for (std::size_t i = 0; i < count; ++i) names.insert(std::filesystem::path(outputs.target(i).named).filename().string());
+    return names;
+}
+
 struct ShArgs {
     std::string env, out, irradiance, preview;
     std::vector<std::string> faces;
@@ -126,9 +196,10 @@ struct ShArgs {
 
 void run_sh(const ShArgs& a) {
     check_environment_arguments(a.env, a.faces);
-    check_writable_destination(a.out);
-    if (!a.irradiance.empty()) check_writable_destination(a.irradiance);
-    if (!a.preview.empty()) check_writable_destination(a.preview);
+    OutputSet outputs;  // all three files or none; two at one path refused here
+    const std::size_t json = outputs.add(a.out);
+    const std::size_t irradiance = add_if_given(outputs, a.irradiance);
+    const std::size_t preview = add_if_given(outputs, a.preview);
     // Equirectangular images are projected texel by texel (exact texel integrals); crosses and face files as cubemaps.
     // The cross is needed for the EXR and for the preview alike.
     const std::uint32_t faces = a.irradiance.empty() && a.preview.empty() ? 0 : a.face_size;
@@ -138,12 +209,10 @@ void run_sh(const ShArgs& a) {
                                : image.width == 2 * image.height ? compute_irradiance(image, faces)
                                                                  : compute_irradiance(env::cubemap_from_image(image), faces);
     nlohmann::json meta = irradiance_metadata(r, environment_name(a.env, a.faces), command_line());
-    AtomicFile json(a.out);
-    json.stream() << meta.dump(2) << "\n";
-    if (!a.irradiance.empty()) env::write_exr(a.irradiance, r.irradiance_cross, meta);
-    if (!a.preview.empty()) env::write_png_preview(a.preview, r.irradiance_cross, 1.0,
-                                                     "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)");
-    json.commit();
+    outputs.stream(json) << meta.dump(2) << "\n";
+    if (irradiance != kNoFile) env::write_exr_file(outputs.temp_path(irradiance), a.irradiance, r.irradiance_cross, meta);
+    if (preview != kNoFile) env::write_png_file(outputs.temp_path(preview), env::preview_canvas(r.irradiance_cross, 1.0, kShCrossCaption));
+    commit_outputs(outputs);
     if (!a.quiet)
         std::cerr << "ibl sh: " << (a.faces.empty() ? std::to_string(image.width) + " x " + std::to_string(image.height) + " environment"
                                                     : "six " + std::to_string(r.face_size) + "^2 faces")
@@ -165,9 +234,8 @@ struct PrefilterArgs {
 };
 
 void run_prefilter(const PrefilterArgs& a) {
-    namespace fs = std::filesystem;
     check_environment_arguments(a.env, a.faces);
-    if (fs::exists(a.out) && !fs::is_directory(a.out)) throw std::invalid_argument("--out " + a.out + " exists and is not a directory");
+    OutputFolder folder(a.out);
     if (a.size && (a.size & (a.size - 1))) throw std::invalid_argument("--size must be a power of two");
     PrefilterSpec spec;
     spec.mapping = env::parse_roughness_mapping(a.mapping);
@@ -185,6 +253,7 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.device = a.device;
     spec.source = environment_name(a.env, a.faces);
     spec.command_line = command_line();
+    spec.fault = fault_injection_from_environment();
 
     env::Cubemap source = a.faces.empty() ? env::cubemap_from_image(env::read_environment_image(a.env), a.size)
                                           : env::read_cubemap_faces(a.faces);
@@ -195,7 +264,23 @@ void run_prefilter(const PrefilterArgs& a) {
     if (a.size && source.size != a.size) source = env::mip_chain(source).at(std::size_t(std::log2(double(source.size) / a.size)));
     if (spec.levels && (source.size >> (spec.levels - 1)) == 0)
         throw std::invalid_argument("--levels " + std::to_string(spec.levels) + " is too many for faces of " + std::to_string(source.size));
-    fs::create_directories(a.out);
+    const std::uint32_t levels = spec.levels ? spec.levels : default_levels(source.size);
+
+    // Every file of the run is one set, checked before the work: this run's files, or the previous ones.
+    folder.make();
+    OutputSet outputs;
+    const PrefilterFiles specular = add_prefilter_files(outputs, a.out, levels, a.format, a.encoding);
+    const std::size_t irradiance_exr = outputs.add(a.out + "/irradiance.exr");
+    const std::size_t irradiance_png = outputs.add(a.out + "/irradiance_preview.png");
+    const std::size_t sh_json = outputs.add(a.out + "/sh.json");
+    const std::size_t ibl_json = outputs.add(a.out + "/ibl.json");
+    DfgLutFiles dfg_files;
+    std::size_t dfg_preview = kNoFile;
+    if (a.dfg_size > 0) {
+        dfg_files = add_dfg_lut_files(outputs, a.out + "/dfg." + a.format);
+        dfg_preview = outputs.add(a.out + "/dfg_preview.png");
+    }
+    const std::size_t file_count = dfg_preview != kNoFile ? dfg_preview + 1 : ibl_json + 1;
 
     Progress progress("ibl prefilter", a.quiet);
     PrefilterCallbacks cb;
@@ -214,33 +299,26 @@ void run_prefilter(const PrefilterArgs& a) {
     }
     const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
     nlohmann::json irr_meta = irradiance_metadata(irr, spec.source, command_line());
-    if (a.format == "exr")
-        write_prefilter_files(a.out, result, meta);
-    else
-        write_prefilter_cubemap(a.out + "/specular." + a.format, result, meta, a.format, a.encoding);
-    write_prefilter_preview(a.out + "/specular_preview.png", result, a.exposure);
-    env::write_exr(a.out + "/irradiance.exr", irr.irradiance_cross, irr_meta);
-    env::write_png_preview(a.out + "/irradiance_preview.png", irr.irradiance_cross, a.exposure,
-                           "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)");
-    {
-        AtomicFile sh(a.out + "/sh.json");
-        sh.stream() << irr_meta.dump(2) << "\n";
-        sh.commit();
-    }
-    {
-        nlohmann::json all = {{"specular", meta}, {"irradiance", irr_meta}};
-        AtomicFile f(a.out + "/ibl.json");
-        f.stream() << all.dump(2) << "\n";
-        f.commit();
-    }
+    std::optional<DfgBakeResult> dfg;
+    DfgBakeSpec dspec;
     if (a.dfg_size > 0) {
-        DfgBakeSpec dspec;
         dspec.n_dot_v.count = dspec.roughness.count = a.dfg_size;
         dspec.command_line = command_line();
-        const DfgBakeResult dfg = bake_dfg(dspec);
-        write_dfg_preview(a.out + "/dfg_preview.png", dfg, dspec);
-        write_dfg_lut(a.out + "/dfg." + a.format, dfg, dfg_metadata(dspec, dfg));  // --format ktx2 / dds: float32
+        dspec.fault = spec.fault;
+        dfg = bake_dfg(dspec);
     }
+
+    write_prefilter_files(outputs, specular, result, meta, a.exposure);
+    env::write_exr_file(outputs.temp_path(irradiance_exr), outputs.target(irradiance_exr).named, irr.irradiance_cross, irr_meta);
+    env::write_png_file(outputs.temp_path(irradiance_png), env::preview_canvas(irr.irradiance_cross, a.exposure, kShCrossCaption));
+    outputs.stream(sh_json) << irr_meta.dump(2) << "\n";
+    outputs.stream(ibl_json) << nlohmann::json{{"specular", meta}, {"irradiance", irr_meta}}.dump(2) << "\n";
+    if (dfg) {
+        write_dfg_preview_file(outputs.temp_path(dfg_preview), *dfg, dspec);
+        write_dfg_lut(outputs, dfg_files, *dfg, dfg_metadata(dspec, *dfg));  // --format ktx2 / dds: float32
+    }
+    commit_outputs(outputs, stale_prefilter_files(a.out, names_in(outputs, file_count)));
+    folder.keep();
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
                   << to_string(spec.mapping) << " roughness), " << spec.plan.samples << " samples per texel, "
@@ -263,9 +341,8 @@ struct IrradianceArgs {
 };
 
 void run_irradiance(const IrradianceArgs& a) {
-    namespace fs = std::filesystem;
     check_environment_arguments(a.env, a.faces);
-    if (fs::exists(a.out) && !fs::is_directory(a.out)) throw std::invalid_argument("--out " + a.out + " exists and is not a directory");
+    OutputFolder folder(a.out);
     IrradianceMapSpec spec;
     spec.face_size = a.face_size;
     spec.source_size = a.source_size;
@@ -274,9 +351,12 @@ void run_irradiance(const IrradianceArgs& a) {
     spec.threads = a.threads;
     spec.source = environment_name(a.env, a.faces);
     spec.command_line = command_line();
+    spec.fault = fault_injection_from_environment();
     // Equirectangular images are resampled to a cubemap of height / 2 (a power of two), crosses and faces kept.
     const env::Cubemap source = a.faces.empty() ? env::cubemap_from_image(env::read_environment_image(a.env)) : env::read_cubemap_faces(a.faces);
-    fs::create_directories(a.out);
+    folder.make();
+    OutputSet outputs;  // this run's files or the previous ones, checked before the work
+    const IrradianceFiles files = add_irradiance_files(outputs, a.out, a.format, a.encoding);
     Progress progress("ibl irradiance", a.quiet);
     const IrradianceMapResult r = compute_irradiance_map(source, spec, [&](std::uint64_t d, std::uint64_t t) { progress.update(d, t); });
     progress.finish();
@@ -291,11 +371,9 @@ void run_irradiance(const IrradianceArgs& a) {
                                      " texels differ from the exact convolution by more than their bound (" + check.worst_texel +
                                      "); nothing was written");
     }
-    write_irradiance_map(a.out, r, meta, a.format, a.encoding);
-    char caption[160];
-    std::snprintf(caption, sizeof caption, "irradiance E / pi by direct convolution (%u^2 source), cross: +Y top; -X, +Z, +X, -Z; -Y bottom",
-                  r.convolution_size);
-    env::write_png_preview(a.out + "/irradiance_preview.png", env::cross_image(r.map), a.exposure, caption);
+    write_irradiance_files(outputs, files, r, meta, a.exposure);
+    commit_outputs(outputs, stale_irradiance_files(a.out, names_in(outputs, files.preview + 1)));
+    folder.keep();
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl irradiance: " << r.map.size << "^2 faces from " << r.source_size << "^2 (convolved at "
                   << r.convolution_size << "^2), " << r.seconds << " s on " << r.backend << "; max relative error bound "
@@ -371,12 +449,14 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--replicates", p->replicates, "independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
     pf->add_option("--seed", p->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
     pf->add_flag("--no-fis", p->no_fis, "read every sample from the full-resolution source (brute-force importance sampling)");
-    pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias")->capture_default_str();
+    pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias, -16 to 16 (beyond, every read clamps to an end of the chain)")
+        ->check(real_range(-16, 16))
+        ->capture_default_str();
     pf->add_option("--bright-threshold", p->bright_threshold,
                    "sum texels brighter than this many times the mean radiance explicitly (the sun), sample the rest; 0: off")
-        ->check(CLI::Range(0.0, 1e12));
+        ->check(real_range(0, 1e12));
     pf->add_option("--bright-min-roughness", p->bright_min_roughness, "the wide-lobe mips (bright texels, --wide-samples-factor): roughness at least this")
-        ->check(CLI::Range(0.0, 1.0))
+        ->check(real_range(0, 1))
         ->capture_default_str();
     pf->add_option("--wide-samples-factor", p->wide_samples_factor, "multiply --samples on the mips of roughness >= --bright-min-roughness")
         ->transform(decimal_range(1, 64))
@@ -397,7 +477,7 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--irradiance-size", p->irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
     pf->add_option("--dfg-size", p->dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (exr, ktx2 or dds)")
         ->transform(decimal_range(0, 4096));
-    pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map")->capture_default_str();
+    pf->add_option("--exposure", p->exposure, "previews: exposure before the tone map (0 to 1e12)")->check(real_range(0, 1e12))->capture_default_str();
     pf->add_flag("-q,--quiet", p->quiet, "no progress or summary");
     pf->callback([p] { run_prefilter(*p); });
 
@@ -421,7 +501,7 @@ void add_ibl_command(CLI::App& app) {
     ir->add_option("--threads", q->threads, "oracle threads (0: all)")->transform(decimal_range(0, 1024));
     ir->add_option("--verify", q->verify, "compare K random texels with the exact convolution; fail if one exceeds its bound")
         ->transform(decimal_range(0, 100000));
-    ir->add_option("--exposure", q->exposure, "preview: exposure before the tone map")->capture_default_str();
+    ir->add_option("--exposure", q->exposure, "preview: exposure before the tone map (0 to 1e12)")->check(real_range(0, 1e12))->capture_default_str();
     ir->add_flag("-q,--quiet", q->quiet, "no progress or summary");
     ir->callback([q] { run_irradiance(*q); });
 }

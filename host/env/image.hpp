@@ -4,11 +4,25 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cfloat>
 #include <cstdint>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 namespace ms::env {
+
+// Bad environment input (exit status 2 in the CLI): the message names the file and, where it applies,
+// the texel, the channel or the header line.
+class EnvironmentError : public std::invalid_argument {
+public:
+    using std::invalid_argument::invalid_argument;
+};
+
+// The largest radiance a reader accepts: 2^-32 of the largest float, so a sum of up to 2^32 texels
+// weighted by at most 1 each (a prefiltered texel, a convolved irradiance texel, a mip average) stays
+// finite in the float kernels.
+inline constexpr float kMaxRadiance = FLT_MAX / 4294967296.0f;
 
 struct Image {
     std::uint32_t width = 0, height = 0, channels = 0;
@@ -27,16 +41,30 @@ struct Image {
 // the metadata JSON as the string attribute "microshadow" and its scalar fields as typed
 // "microshadow.<field>" attributes. Throws std::invalid_argument or std::runtime_error.
 void write_exr(const std::string& path, const Image& image, const nlohmann::json& metadata, bool half = false);
+// The same written to `file` as it is (an OutputSet's temporary; `named` in messages), not atomically.
+void write_exr_file(const std::string& file, const std::string& named, const Image& image, const nlohmann::json& metadata,
+                    bool half = false);
 
-// Reads an OpenEXR as RGB (R, G, B; a single Y channel is copied to all three; missing channels are 0),
-// whatever its data window and pixel types. The "microshadow" attribute, if present, goes to *metadata.
+// The checks every reader applies, in this order, each refusal an EnvironmentError:
+//   - the path is a regular file (a FIFO, a device or a directory is refused without blocking in open());
+//   - the header's claims fit the file: at most kMaxImagePixels (2^28) pixels, and no more pixels than its
+//     bytes can encode (OpenEXR: io/exr_preflight.hpp; Radiance: the smallest run-length encoding);
+//   - channels (OpenEXR): R, G and B, or a single Y (copied to all three); others (A, Z, ...) are ignored;
+//     a file without them is refused naming what is missing and the channels it has ("diffuse.R" is not R);
+//   - every value finite, non-negative and at most kMaxRadiance: the first texel that is not is named
+//     with its (x, y) from the top-left of the image and its channel.
+// OpenEXR: whatever its data window and pixel types (part 0 of a multi-part file). The "microshadow"
+// attribute, if present, goes to *metadata.
 Image read_exr_rgb(const std::string& path, nlohmann::json* metadata = nullptr);
 
 // Reads a Radiance RGBE (.hdr / .pic) file: "#?RADIANCE" or "#?RGBE" header, FORMAT=32-bit_rle_rgbe,
-// orientation "-Y h +X w", flat or new-style run-length encoded scanlines. Applies EXPOSURE if given.
+// orientation "-Y h +X w", flat or new-style run-length encoded scanlines. Divides by EXPOSURE (each
+// EXPOSURE line a finite positive number; their product is the file's exposure).
 Image read_rgbe(const std::string& path);
+// The same from the file's bytes (`name` in messages): what read_rgbe does after reading the file.
+Image decode_rgbe(const std::string& bytes, const std::string& name);
 
-// By extension: .exr -> read_exr_rgb, .hdr / .pic -> read_rgbe. Throws std::invalid_argument otherwise.
+// By extension: .exr -> read_exr_rgb, .hdr / .pic -> read_rgbe. Throws EnvironmentError otherwise.
 Image read_environment_image(const std::string& path);
 
 }  // namespace ms::env

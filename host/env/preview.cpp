@@ -134,19 +134,22 @@ void Canvas::line(std::int64_t x0, std::int64_t y0, std::int64_t x1, std::int64_
     }
 }
 
+void write_png_file(const std::string& file, const Canvas& c) { ms::write_png(file, PngImage{c.width, c.height, 3, 8, c.rgb.data()}); }
+
 void write_png(const std::string& path, const Canvas& c) {
     check_writable_destination(path);
     AtomicPath atomic(path);
-    ms::write_png(atomic.temp_path(), PngImage{c.width, c.height, 3, 8, c.rgb.data()});
+    write_png_file(atomic.temp_path(), c);
     atomic.commit();
 }
 
 void write_png_preview(const std::string& path, const Image& img, double exposure, const std::string& caption) {
-    const Canvas mapped = tone_map(img, exposure);
-    if (caption.empty() && img.width >= 384) {
-        write_png(path, mapped);
-        return;
-    }
+    write_png(path, preview_canvas(img, exposure, caption));
+}
+
+Canvas preview_canvas(const Image& img, double exposure, const std::string& caption) {
+    Canvas mapped = tone_map(img, exposure);
+    if (caption.empty() && img.width >= 384) return mapped;
     // Small images (a 32-texel irradiance cross is 128 x 96) are magnified by whole texels to at least
     // 384 pixels across, so a person sees the faces; the caption goes on a dark strip below.
     const std::uint32_t zoom = std::max(1u, (384 + img.width - 1) / img.width);
@@ -158,7 +161,7 @@ void write_png_preview(const std::string& path, const Image& img, double exposur
             c.set(x, y, p[0], p[1], p[2]);
         }
     if (!caption.empty()) c.text(8, img.height * zoom + 8, caption, 1, 220);
-    write_png(path, c);
+    return c;
 }
 
 Canvas tone_map(const Image& img, double exposure) {
@@ -178,6 +181,11 @@ Canvas tone_map(const Image& img, double exposure) {
 
 void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles, const std::string& x_label,
                     const std::string& y_label, const std::string& caption) {
+    write_png(path, plot_canvas(tiles, x_label, y_label, caption));
+}
+
+Canvas plot_canvas(const std::vector<PlotTile>& tiles, const std::string& x_label, const std::string& y_label,
+                   const std::string& caption) {
     if (tiles.empty()) throw std::invalid_argument("write_plot_png: no tiles");
     const std::uint32_t tw = tiles[0].width, th = tiles[0].height;
     const std::uint32_t zoom = std::max(1u, 256 / std::max(tw, th));
@@ -226,7 +234,7 @@ void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles,
     const char* bar_labels[3] = {"1", "0.5", "0"};
     for (int k = 0; k < 3; ++k) c.text(bx + 22, top + std::int64_t(k * (ph - 1) / 2) - 7, bar_labels[k]);
     c.text(left, height - 20, caption, 1, 80);
-    write_png(path, c);
+    return c;
 }
 
 }  // namespace ms::env

@@ -22,13 +22,18 @@ struct Canvas {
 };
 std::uint32_t text_width(const std::string& s, std::uint32_t scale = 2);
 
+// Atomically (checked destination, temporary, rename).
 void write_png(const std::string& path, const Canvas& canvas);
+// To `file` as it is, not atomically: for a temporary of an OutputSet whose files are committed together.
+void write_png_file(const std::string& file, const Canvas& canvas);
 
 // An HDR image (first three channels) tone-mapped onto a canvas: x * exposure, Reinhard, sRGB.
 Canvas tone_map(const Image& image, double exposure = 1.0);
 // An HDR image (first three channels) as PNG: x * exposure, Reinhard x / (1 + x), sRGB encoded.
 // Images narrower than 384 pixels are magnified by whole texels; a caption, if any, goes below.
 void write_png_preview(const std::string& path, const Image& image, double exposure = 1.0, const std::string& caption = "");
+// That preview's canvas (write it with write_png or write_png_file).
+Canvas preview_canvas(const Image& image, double exposure = 1.0, const std::string& caption = "");
 
 // One tile of a labelled plot: a w x h grid of values in [0, 1] (grey), title above, x axis label
 // below, y axis label to the left, ticks at 0, 0.5 and 1 of both axes (y increasing downwards).
@@ -39,5 +44,7 @@ struct PlotTile {
 };
 void write_plot_png(const std::string& path, const std::vector<PlotTile>& tiles, const std::string& x_label,
                     const std::string& y_label, const std::string& caption);
+Canvas plot_canvas(const std::vector<PlotTile>& tiles, const std::string& x_label, const std::string& y_label,
+                   const std::string& caption);
 
 }  // namespace ms::env

@@ -35,30 +35,34 @@ void insert_metadata(Imf::Header& header, const nlohmann::json& metadata) {
     }
 }
 
-void write_interleaved(const std::string& path, const Imf::Header& header, const std::vector<std::string>& names,
-                       const std::vector<float>& data, std::size_t floats_per_pixel, bool half) {
+void write_interleaved_file(const std::string& file, const std::string& named, const Imf::Header& header,
+                            const std::vector<std::string>& names, const std::vector<float>& data, std::size_t floats_per_pixel,
+                            bool half) {
     const Imath::Box2i dw = header.dataWindow();
     const std::size_t width = std::size_t(dw.max.x - dw.min.x + 1), height = std::size_t(dw.max.y - dw.min.y + 1);
     if (names.size() > floats_per_pixel || data.size() != width * height * floats_per_pixel)
-        throw std::invalid_argument("write_interleaved: " + path + ": data do not match the header");
+        throw std::invalid_argument("write_interleaved: " + named + ": data do not match the header");
+    std::vector<Imath::half> halves;
+    if (half) halves.assign(data.begin(), data.end());
+    const std::size_t elem = half ? sizeof(Imath::half) : sizeof(float), stride = floats_per_pixel * elem;
+    char* base = half ? reinterpret_cast<char*>(halves.data()) : const_cast<char*>(reinterpret_cast<const char*>(data.data()));
+    Imf::FrameBuffer fb;
+    for (std::size_t c = 0; c < names.size(); ++c)
+        fb.insert(names[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
+    try {
+        Imf::OutputFile out(file.c_str(), header);
+        out.setFrameBuffer(fb);
+        out.writePixels(int(height));
+    } catch (const std::exception& e) {
+        throw std::runtime_error("cannot write " + named + ": " + e.what());
+    }
+}
+
+void write_interleaved(const std::string& path, const Imf::Header& header, const std::vector<std::string>& names,
+                       const std::vector<float>& data, std::size_t floats_per_pixel, bool half) {
     check_writable_destination(path);
     AtomicPath atomic(path);
-    {
-        std::vector<Imath::half> halves;
-        if (half) halves.assign(data.begin(), data.end());
-        const std::size_t elem = half ? sizeof(Imath::half) : sizeof(float), stride = floats_per_pixel * elem;
-        char* base = half ? reinterpret_cast<char*>(halves.data()) : const_cast<char*>(reinterpret_cast<const char*>(data.data()));
-        Imf::FrameBuffer fb;
-        for (std::size_t c = 0; c < names.size(); ++c)
-            fb.insert(names[c], Imf::Slice(half ? Imf::HALF : Imf::FLOAT, base + c * elem, stride, stride * width));
-        try {
-            Imf::OutputFile file(atomic.temp_path().c_str(), header);
-            file.setFrameBuffer(fb);
-            file.writePixels(int(height));
-        } catch (const std::exception& e) {
-            throw std::runtime_error("cannot write " + path + ": " + e.what());
-        }
-    }
+    write_interleaved_file(atomic.temp_path(), path, header, names, data, floats_per_pixel, half);
     atomic.commit();
 }
 

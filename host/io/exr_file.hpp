@@ -26,5 +26,10 @@ void insert_metadata(Imf::Header& header, const nlohmann::json& metadata);
 // Throws std::runtime_error "cannot write PATH: ...".
 void write_interleaved(const std::string& path, const Imf::Header& header, const std::vector<std::string>& names,
                        const std::vector<float>& data, std::size_t floats_per_pixel, bool half);
+// The same written to `file` as it is, not atomically: for a temporary of an OutputSet whose files
+// are committed together. Throws std::runtime_error "cannot write NAMED: ..." (`named`: the output's name).
+void write_interleaved_file(const std::string& file, const std::string& named, const Imf::Header& header,
+                            const std::vector<std::string>& names, const std::vector<float>& data, std::size_t floats_per_pixel,
+                            bool half);
 
 }  // namespace ms::exr

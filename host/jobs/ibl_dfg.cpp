@@ -63,7 +63,9 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
         dfg::DfgIntegrand integrand(points, result.width, spec.plan, spec.routine);
         schedule::RunCallbacks cb;
         cb.progress = callbacks.progress;
-        scheduler.run(integrand, {}, cb);
+        const schedule::RunReport report = scheduler.run(integrand, {}, cb);
+        result.rerun_items = report.rerun;
+        result.failed_devices = report.failed_places;
         const auto& values = integrand.values();
         for (std::size_t k = 0; k < points.size(); ++k) {
             result.values[where[k]] = values[k];
@@ -77,6 +79,7 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
 
 DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callbacks) {
     schedule::Scheduler scheduler(dfg_backend(spec));
+    scheduler.set_fault_injection(spec.fault);
     return bake_dfg(spec, scheduler, callbacks);
 }
 
@@ -108,6 +111,8 @@ nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result
     m["fast_math"] = spec.routine.build.fast_math;
     m["double_kernels"] = spec.routine.build.double_precision;
     m["device"] = result.backend;
+    m["rerun_items"] = result.rerun_items;  // rerun on another device after one failed (failover)
+    m["failed_devices"] = result.failed_devices;
     m["seconds"] = result.seconds;
     m["version"] = MICROSHADOW_VERSION;
     m["command_line"] = spec.command_line;
@@ -129,13 +134,21 @@ void check_dfg_lut_format(const std::string& path) {
     throw std::invalid_argument("DFG LUT " + path + ": the extension picks the format: .exr, .ktx2, .dds or .h (C header)");
 }
 
-void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half) {
+DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path) {
     check_dfg_lut_format(path);
+    DfgLutFiles files;
+    files.lut = outputs.add(path, /*binary=*/true);
+    if (extension(path) == ".dds") files.sidecar = outputs.add(path + ".json");
+    return files;
+}
+
+void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
+                   bool half) {
+    const std::string path = outputs.target(files.lut).named;
     if (extension(path) == ".h") {
         // A C/C++ header: the metadata as a comment, then float texels [roughness][NdotV][scale, bias, E],
         // printed with 9 significant digits (float round trip).
-        AtomicFile file(path);
-        std::ostream& out = file.stream();
+        std::ostream& out = outputs.stream(files.lut);
         std::string meta = metadata.dump(2);
         for (std::size_t p = meta.find("*/"); p != std::string::npos; p = meta.find("*/", p)) meta.replace(p, 2, "* /");
         out << "/* microshadow DFG LUT (generated; do not edit)\n" << meta << "\n*/\n";
@@ -155,7 +168,6 @@ void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const n
             out << "}" << (y + 1 < result.height ? "," : "") << "\n";
         }
         out << "};\n";
-        file.commit();
         return;
     }
     if (extension(path) == ".exr") {
@@ -167,7 +179,7 @@ void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const n
                 img.at(x, y, 1) = float(v.bias.term);
                 img.at(x, y, 2) = float(v.albedo.term);
             }
-        env::write_exr(path, img, metadata, half);
+        env::write_exr_file(outputs.temp_path(files.lut), path, img, metadata, half);
         return;
     }
     // KTX2 / DDS (lut/formats/texture.hpp): a 2D RGBA texture, x = NdotV, y = roughness, R G B = scale
@@ -197,10 +209,16 @@ void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const n
     // The sampling term of the error budget: the largest per-texel replicate standard error.
     if (!t.metadata.contains("max_error") && t.metadata.contains("max_std_error")) t.metadata["max_error"] = t.metadata["max_std_error"];
     lutfmt::add_error_budget(t.metadata, data, encoding);
-    if (ktx2)
-        lutfmt::write_ktx2_texture(path, t, encoding);
-    else
-        lutfmt::write_dds_texture(path, t, encoding);
+    const std::vector<std::uint8_t> bytes = ktx2 ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
+    outputs.stream(files.lut).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (!ktx2) outputs.stream(files.sidecar.value()) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
+}
+
+void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half) {
+    OutputSet outputs;
+    const DfgLutFiles files = add_dfg_lut_files(outputs, path);
+    write_dfg_lut(outputs, files, result, metadata, half);
+    outputs.commit();
 }
 
 DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed) {
@@ -252,7 +270,8 @@ DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result,
 
 namespace ms {
 
-void write_dfg_preview(const std::string& path, const DfgBakeResult& result, const DfgBakeSpec& spec) {
+namespace {
+env::Canvas dfg_preview_canvas(const DfgBakeResult& result, const DfgBakeSpec& spec) {
     std::vector<env::PlotTile> tiles(3);
     const char* titles[3] = {"scale", "bias", "E = scale + bias"};
     for (int c = 0; c < 3; ++c) {
@@ -267,7 +286,16 @@ void write_dfg_preview(const std::string& path, const DfgBakeResult& result, con
     }
     const std::string caption = "DFG LUT " + std::to_string(result.width) + " x " + std::to_string(result.height) +
                                 ", " + to_string(spec.n_dot_v.texel) + ", alpha = roughness^2, values 0 (black) to 1 (white)";
-    env::write_plot_png(path, tiles, "NdotV", "roughness", caption);
+    return env::plot_canvas(tiles, "NdotV", "roughness", caption);
+}
+}  // namespace
+
+void write_dfg_preview(const std::string& path, const DfgBakeResult& result, const DfgBakeSpec& spec) {
+    env::write_png(path, dfg_preview_canvas(result, spec));
+}
+
+void write_dfg_preview_file(const std::string& file, const DfgBakeResult& result, const DfgBakeSpec& spec) {
+    env::write_png_file(file, dfg_preview_canvas(result, spec));
 }
 
 }  // namespace ms

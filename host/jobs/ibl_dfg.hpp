@@ -13,6 +13,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,8 @@
 #include "schedule/scheduler.hpp"
 
 namespace ms {
+
+class OutputSet;
 
 constexpr double kMinNdotV = 1e-4;
 
@@ -34,6 +37,7 @@ struct DfgBakeSpec {
     bool oracle = false;  // the quadrature on oracle threads
     unsigned oracle_threads = 0;
     std::string command_line;  // provenance
+    schedule::FaultInjection fault;  // test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE
 };
 
 struct DfgBakeResult {
@@ -43,6 +47,9 @@ struct DfgBakeResult {
     double max_std_error = 0;             // over sampled texels and the three channels
     double seconds = 0;
     std::string backend;
+    // Failover (schedule/scheduler.hpp): items rerun on another device after one failed, and the failures.
+    std::uint64_t rerun_items = 0;
+    std::vector<std::string> failed_devices;
     const dfg::DfgValue& at(std::uint32_t x, std::uint32_t y) const { return values[std::size_t(y) * width + x]; }
 };
 
@@ -66,6 +73,17 @@ nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result
 // gains the error budget with the float16 rounding), or a C header (".h": the metadata as a
 // comment, float microshadow_dfg[height][width][3]). Other extensions are refused.
 void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work
+// The LUT's files as entries of an output set (io/atomic_file.hpp), added before any work so a bad or
+// colliding destination is refused first: the file, and for DDS its "<file>.json".
+struct DfgLutFiles {
+    std::size_t lut = 0;
+    std::optional<std::size_t> sidecar;
+};
+DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path);
+// Writes the LUT into those entries' temporaries (the caller commits the set).
+void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
+                   bool half = false);
+// One LUT on its own, committed at once.
 void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half = false);
 
 // Re-checks k random sampled texels with the quadrature oracle: a texel fails when
@@ -92,4 +110,6 @@ DfgComparison compare_dfg(const DfgBakeResult& result, const std::string& refere
 
 // A PNG of the three channels (scale, bias, E) with axes (NdotV across, roughness down) and titles.
 void write_dfg_preview(const std::string& path, const DfgBakeResult& result, const DfgBakeSpec& spec);
+// The same PNG written to `file` as it is (an OutputSet's temporary).
+void write_dfg_preview_file(const std::string& file, const DfgBakeResult& result, const DfgBakeSpec& spec);
 }  // namespace ms

@@ -1,8 +1,15 @@
 #include "jobs/ibl_env.hpp"
 
+#include <dirent.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+
+#include "core/cancel.hpp"
+#include "io/atomic_file.hpp"
 
 namespace ms {
 
@@ -96,6 +103,32 @@ nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string&
     m["version"] = MICROSHADOW_VERSION;
     m["command_line"] = command_line;
     return m;
+}
+
+std::vector<std::string> stale_job_files(const std::string& dir, const std::set<std::string>& written,
+                                         const std::function<bool(const std::string&)>& is_job_file) {
+    std::vector<std::string> stale;
+    DIR* d = ::opendir(dir.c_str());
+    if (!d) return stale;  // a new folder: nothing of an earlier run
+    while (const dirent* e = ::readdir(d)) {
+        const std::string name = e->d_name;
+        if (written.count(name) || !is_job_file(name)) continue;
+        const std::string path = dir + "/" + name;
+        struct stat st {};
+        // Only regular files: a link or a folder of that name is the user's, not an earlier output.
+        if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) stale.push_back(path);
+    }
+    ::closedir(d);
+    std::sort(stale.begin(), stale.end());
+    return stale;
+}
+
+void commit_outputs(OutputSet& outputs, const std::vector<std::string>& stale) {
+    // The writes take a while (a chain of mips, previews): a SIGINT / SIGTERM during them stops the run
+    // here, before any file is replaced.
+    throw_if_cancelled();
+    outputs.commit();
+    for (const auto& path : stale) ::unlink(path.c_str());
 }
 
 }  // namespace ms

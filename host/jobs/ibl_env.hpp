@@ -4,7 +4,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <functional>
+#include <set>
 #include <string>
+#include <vector>
 
 #include "env/cubemap.hpp"
 #include "env/image.hpp"
@@ -28,5 +31,18 @@ void cross_face_origin(int face, std::uint32_t n, std::uint32_t& x, std::uint32_
 IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t face_size);
 IrradianceResult compute_irradiance(const env::Cubemap& cube, std::uint32_t face_size);
 nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string& source, const std::string& command_line);
+
+// The outputs of an `ibl` command into a folder are one set (io/atomic_file.hpp's OutputSet): all of
+// this run's files, or the previous ones. stale_job_files lists the regular files directly in `dir`
+// that `is_job_file` claims for the job and whose names are not in `written` (an earlier run's mips
+// beyond this run's count, another format's file); commit_outputs commits the set, unless a signal
+// came during the writes (then ms::Cancelled, and nothing changes), and then removes those files.
+std::vector<std::string> stale_job_files(const std::string& dir, const std::set<std::string>& written,
+                                         const std::function<bool(const std::string&)>& is_job_file);
+}  // namespace ms
+
+namespace ms {
+class OutputSet;
+void commit_outputs(OutputSet& outputs, const std::vector<std::string>& stale = {});
 
 }  // namespace ms

@@ -11,6 +11,7 @@
 #include "env/sh.hpp"
 #include "integrands/irradiance/irradiance_integrand.hpp"
 #include "io/atomic_file.hpp"
+#include "jobs/ibl_env.hpp"
 #include "lut/formats/texture.hpp"
 #include "schedule/scheduler.hpp"
 
@@ -109,9 +110,12 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
     });
     schedule::Scheduler scheduler(spec.oracle ? schedule::Backend::oracle(spec.threads)
                                               : schedule::Backend::opencl(ocl::select_devices(spec.device)));
+    scheduler.set_fault_injection(spec.fault);
     schedule::RunCallbacks cb;
     cb.progress = progress;
-    scheduler.run(integrand, {}, cb);
+    const schedule::RunReport report = scheduler.run(integrand, {}, cb);
+    r.rerun_items = report.rerun;
+    r.failed_devices = report.failed_places;
     r.backend = spec.oracle ? "oracle: exact convolution of the full-resolution source (C++ double)"
                             : "opencl: " + spec.device + " (kernels/irradiance/irradiance.cl, float)";
     r.map = env::Cubemap(n);
@@ -190,6 +194,8 @@ nlohmann::json irradiance_map_metadata(const IrradianceMapSpec& spec, const Irra
     m["source_size"] = r.source_size;
     m["convolution_size"] = r.convolution_size;
     m["backend"] = r.backend;
+    m["rerun_items"] = r.rerun_items;  // rerun on another device after one failed (failover)
+    m["failed_devices"] = r.failed_devices;
     m["error_bound"] = {{"meaning", "per texel |value - exact convolution of the full-resolution source| <= bound "
                                     "(reduction: sum of texel diameter x spread; float rounding)"},
                         {"max_relative", r.max_relative_bound}};
@@ -206,14 +212,40 @@ nlohmann::json irradiance_map_metadata(const IrradianceMapSpec& spec, const Irra
     return m;
 }
 
-void write_irradiance_map(const std::string& dir, const IrradianceMapResult& r, const nlohmann::json& metadata, const std::string& format,
-                          const std::string& encoding_name) {
+namespace {
+lutfmt::PixelEncoding irradiance_encoding(const std::string& encoding_name) {
+    const lutfmt::PixelEncoding encoding = lutfmt::parse_pixel_encoding(encoding_name);
+    if (encoding != lutfmt::PixelEncoding::float16 && encoding != lutfmt::PixelEncoding::float32)
+        throw std::invalid_argument("irradiance encoding " + encoding_name + ": float16 or float32");
+    return encoding;
+}
+}  // namespace
+
+IrradianceFiles add_irradiance_files(OutputSet& outputs, const std::string& dir, const std::string& format,
+                                     const std::string& encoding) {
+    IrradianceFiles files;
+    files.format = format;
+    files.encoding = encoding;
     if (format == "exr") {
-        env::write_exr(dir + "/irradiance.exr", env::cross_image(r.map), metadata);
+        files.map = outputs.add(dir + "/irradiance.exr");
     } else if (format == "ktx2" || format == "dds") {
-        const lutfmt::PixelEncoding encoding = lutfmt::parse_pixel_encoding(encoding_name);
-        if (encoding != lutfmt::PixelEncoding::float16 && encoding != lutfmt::PixelEncoding::float32)
-            throw std::invalid_argument("irradiance encoding " + encoding_name + ": float16 or float32");
+        irradiance_encoding(encoding);
+        files.map = outputs.add(dir + "/irradiance." + format, /*binary=*/true);
+        if (format == "dds") files.sidecar = outputs.add(dir + "/irradiance.dds.json");
+    } else {
+        throw std::invalid_argument("irradiance format " + format + ": exr, ktx2 or dds");
+    }
+    files.json = outputs.add(dir + "/irradiance.json");
+    files.preview = outputs.add(dir + "/irradiance_preview.png");
+    return files;
+}
+
+void write_irradiance_files(OutputSet& outputs, const IrradianceFiles& files, const IrradianceMapResult& r,
+                            const nlohmann::json& metadata, double exposure) {
+    if (files.format == "exr") {
+        env::write_exr_file(outputs.temp_path(files.map), outputs.target(files.map).named, env::cross_image(r.map), metadata);
+    } else {
+        const lutfmt::PixelEncoding encoding = irradiance_encoding(files.encoding);
         lutfmt::TextureData t;
         t.width = t.height = r.map.size;
         t.faces = 6;
@@ -223,20 +255,25 @@ void write_irradiance_map(const std::string& dir, const IrradianceMapResult& r, 
         for (int f = 0; f < 6; ++f) level.insert(level.end(), r.map.faces[f].data.begin(), r.map.faces[f].data.end());
         t.levels.push_back(std::move(level));
         t.metadata = metadata;
-        t.metadata["file_format"] = format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
+        t.metadata["file_format"] = files.format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
         t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
         t.metadata["padding"] = "A = 1";
         t.metadata["encoding"] = lutfmt::to_string(encoding);
-        if (format == "ktx2")
-            lutfmt::write_ktx2_texture(dir + "/irradiance.ktx2", t, encoding);
-        else
-            lutfmt::write_dds_texture(dir + "/irradiance.dds", t, encoding);
-    } else {
-        throw std::invalid_argument("irradiance format " + format + ": exr, ktx2 or dds");
+        const std::vector<std::uint8_t> bytes =
+            files.format == "ktx2" ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
+        outputs.stream(files.map).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+        if (files.sidecar) outputs.stream(*files.sidecar) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
     }
-    AtomicFile json(dir + "/irradiance.json");
-    json.stream() << metadata.dump(2) << "\n";
-    json.commit();
+    outputs.stream(files.json) << metadata.dump(2) << "\n";
+    char caption[160];
+    std::snprintf(caption, sizeof caption, "irradiance E / pi by direct convolution (%u^2 source), cross: +Y top; -X, +Z, +X, -Z; -Y bottom",
+                  r.convolution_size);
+    env::write_png_file(outputs.temp_path(files.preview), env::preview_canvas(env::cross_image(r.map), exposure, caption));
+}
+
+std::vector<std::string> stale_irradiance_files(const std::string& dir, const std::set<std::string>& written) {
+    static const std::set<std::string> kMaps = {"irradiance.exr", "irradiance.ktx2", "irradiance.dds", "irradiance.dds.json"};
+    return stale_job_files(dir, written, [](const std::string& name) { return kMaps.count(name) > 0; });
 }
 
 }  // namespace ms

@@ -10,12 +10,18 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <set>
 #include <string>
+#include <vector>
 
 #include "env/cubemap.hpp"
 #include "env/irradiance.hpp"
+#include "schedule/scheduler.hpp"
 
 namespace ms {
+
+class OutputSet;
 
 namespace irradiance { struct Source; }
 
@@ -26,6 +32,7 @@ struct IrradianceMapSpec {
     std::string device = "default";   // OpenCL devices for the kernel (ocl::select_devices)
     unsigned threads = 0;             // oracle threads (0: all)
     std::string source, command_line;
+    schedule::FaultInjection fault;   // test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE
 };
 
 struct IrradianceMapResult {
@@ -34,6 +41,9 @@ struct IrradianceMapResult {
     std::uint32_t source_size = 0, convolution_size = 0;
     double seconds = 0;
     std::string backend;
+    // Failover (schedule/scheduler.hpp): items rerun after a device failed, and the failures.
+    std::uint64_t rerun_items = 0;
+    std::vector<std::string> failed_devices;
     double max_relative_bound = 0;  // max over texels and channels of bound / value
     // Against order-2 SH of the same source (env/sh.hpp) at the output texels, E / pi units:
     double sh_max_abs = 0, sh_max_relative = 0, sh_rms_relative = 0;  // relative to the map's largest value
@@ -60,9 +70,22 @@ IrradianceVerification verify_irradiance_map(const env::Cubemap& source, const I
                                              std::uint64_t seed = 1);
 
 nlohmann::json irradiance_map_metadata(const IrradianceMapSpec& spec, const IrradianceMapResult& result);
-// DIR/irradiance.exr (horizontal cross) or DIR/irradiance.ktx2 / .dds (one cubemap level, RGBA, A = 1,
-// float16 or float32), and DIR/irradiance.json.
-void write_irradiance_map(const std::string& dir, const IrradianceMapResult& result, const nlohmann::json& metadata,
-                          const std::string& format, const std::string& encoding = "float16");
+// The files of `ibl irradiance` in DIR, as entries of one output set (io/atomic_file.hpp), added before
+// any work so a bad or colliding destination is refused first: DIR/irradiance.exr (horizontal cross) or
+// DIR/irradiance.ktx2 / .dds (one cubemap level, RGBA, A = 1, float16 or float32; .dds with its
+// "<file>.json"), DIR/irradiance.json and DIR/irradiance_preview.png.
+struct IrradianceFiles {
+    std::string format, encoding;
+    std::size_t map = 0, json = 0, preview = 0;
+    std::optional<std::size_t> sidecar;
+};
+// format: exr, ktx2 or dds; encoding (ktx2 / dds): float16 or float32; else std::invalid_argument.
+IrradianceFiles add_irradiance_files(OutputSet& outputs, const std::string& dir, const std::string& format,
+                                     const std::string& encoding = "float16");
+// Writes them into the set's temporaries (the caller commits the set). `exposure`: the preview's.
+void write_irradiance_files(OutputSet& outputs, const IrradianceFiles& files, const IrradianceMapResult& result,
+                            const nlohmann::json& metadata, double exposure = 1.0);
+// An earlier run's irradiance.<format> (and irradiance.dds.json) of another format than this run's.
+std::vector<std::string> stale_irradiance_files(const std::string& dir, const std::set<std::string>& written);
 
 }  // namespace ms

@@ -16,6 +16,8 @@
 
 #include "core/cancel.hpp"
 #include "env/preview.hpp"
+#include "io/atomic_file.hpp"
+#include "jobs/ibl_env.hpp"
 #include "integrands/prefilter/prefilter_integrand.hpp"
 #include "lut/formats/texture.hpp"
 #include "schedule/scheduler.hpp"
@@ -57,9 +59,12 @@ void prefilter_on_devices(const std::vector<env::Cubemap>& chain, const Prefilte
         return prefilter::Value{v.value, v.std_error};
     });
     schedule::Scheduler scheduler(schedule::Backend::opencl(ocl::select_devices(spec.device)));
+    scheduler.set_fault_injection(spec.fault);
     schedule::RunCallbacks rcb;
     rcb.progress = cb.progress;
-    scheduler.run(integrand, {}, rcb);
+    const schedule::RunReport report = scheduler.run(integrand, {}, rcb);
+    r.rerun_items = report.rerun;
+    r.failed_devices = report.failed_places;
     std::size_t k = 0;
     for (std::size_t m = 1; m < r.mips.size(); ++m) {
         const std::uint32_t n = r.mips[m].size;
@@ -285,26 +290,24 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["seconds"] = result.seconds;
     m["cpu_seconds"] = result.cpu_seconds;  // summed over the threads: stable on a shared machine
     m["device"] = spec.device.empty() ? "CPU threads (C++ double)" : "opencl: " + spec.device + " (kernels/prefilter/prefilter.cl, float)";
+    m["rerun_items"] = result.rerun_items;  // rerun on another device after one failed (failover)
+    m["failed_devices"] = result.failed_devices;
     m["version"] = MICROSHADOW_VERSION;
     m["command_line"] = spec.command_line;
     return m;
 }
 
-void write_prefilter_files(const std::string& dir, const PrefilterResult& result, const nlohmann::json& metadata) {
-    for (std::size_t m = 0; m < result.mips.size(); ++m) {
-        nlohmann::json meta = metadata;
-        meta["mip"] = m;
-        meta["mip_roughness"] = result.roughness[m];
-        env::write_exr(dir + "/specular_m" + std::to_string(m) + ".exr", env::cross_image(result.mips[m]), meta);
-    }
-}
+namespace {
 
-void write_prefilter_cubemap(const std::string& path, const PrefilterResult& result, const nlohmann::json& metadata,
-                             const std::string& format, const std::string& encoding_name) {
-    if (format != "ktx2" && format != "dds") throw std::invalid_argument("cubemap format " + format + ": ktx2 or dds");
+lutfmt::PixelEncoding cubemap_encoding(const std::string& encoding_name) {
     const lutfmt::PixelEncoding encoding = lutfmt::parse_pixel_encoding(encoding_name);
     if (encoding != lutfmt::PixelEncoding::float16 && encoding != lutfmt::PixelEncoding::float32)
         throw std::invalid_argument("cubemap encoding " + encoding_name + ": float16 or float32 (unorm clips radiance above 1)");
+    return encoding;
+}
+
+lutfmt::TextureData prefilter_texture(const PrefilterResult& result, const nlohmann::json& metadata, const std::string& format,
+                                      lutfmt::PixelEncoding encoding) {
     if (result.mips.empty()) throw std::invalid_argument("cubemap: no mips");
     lutfmt::TextureData t;
     t.width = t.height = result.mips[0].size;
@@ -333,13 +336,10 @@ void write_prefilter_cubemap(const std::string& path, const PrefilterResult& res
     t.metadata["padding"] = "A = 1 (RGB radiance)";
     t.metadata["encoding"] = lutfmt::to_string(encoding);
     t.metadata["quantisation"] = {{"kind", lutfmt::quantisation_kind(encoding)}, {"max_abs", max_abs}, {"max_relative", max_rel}};
-    if (format == "ktx2")
-        lutfmt::write_ktx2_texture(path, t, encoding);
-    else
-        lutfmt::write_dds_texture(path, t, encoding);
+    return t;
 }
 
-void write_prefilter_preview(const std::string& path, const PrefilterResult& result, double exposure) {
+env::Canvas prefilter_preview_canvas(const PrefilterResult& result, double exposure) {
     // Each mip's cross magnified (nearest) to the base size, side by side in two rows.
     const std::uint32_t n = result.mips[0].size;
     const std::uint32_t cols = std::uint32_t((result.mips.size() + 1) / 2);
@@ -361,7 +361,68 @@ void write_prefilter_preview(const std::string& path, const PrefilterResult& res
         const std::int64_t ox = std::int64_t(m % cols) * cw, oy = std::int64_t(m / cols) * ch;
         canvas.text(ox + 2, oy + 3 * n + 4, label, n >= 64 ? 2 : 1, 255);
     }
-    env::write_png(path, canvas);
+    return canvas;
+}
+
+// "specular_m<digits>.exr"
+bool is_mip_file(const std::string& name) {
+    const std::string head = "specular_m", tail = ".exr";
+    if (name.size() <= head.size() + tail.size() || name.compare(0, head.size(), head) != 0 ||
+        name.compare(name.size() - tail.size(), tail.size(), tail) != 0)
+        return false;
+    for (std::size_t i = head.size(); i < name.size() - tail.size(); ++i)
+        if (name[i] < '0' || name[i] > '9') return false;
+    return true;
+}
+
+}  // namespace
+
+PrefilterFiles add_prefilter_files(OutputSet& outputs, const std::string& dir, std::uint32_t levels, const std::string& format,
+                                   const std::string& encoding) {
+    PrefilterFiles files;
+    files.format = format;
+    files.encoding = encoding;
+    if (format == "exr") {
+        for (std::uint32_t m = 0; m < levels; ++m) files.mips.push_back(outputs.add(dir + "/specular_m" + std::to_string(m) + ".exr"));
+    } else if (format == "ktx2" || format == "dds") {
+        cubemap_encoding(encoding);
+        files.cubemap = outputs.add(dir + "/specular." + format, /*binary=*/true);
+        if (format == "dds") files.cubemap_sidecar = outputs.add(dir + "/specular.dds.json");
+    } else {
+        throw std::invalid_argument("cubemap format " + format + ": exr, ktx2 or dds");
+    }
+    files.preview = outputs.add(dir + "/specular_preview.png");
+    return files;
+}
+
+void write_prefilter_files(OutputSet& outputs, const PrefilterFiles& files, const PrefilterResult& result,
+                           const nlohmann::json& metadata, double exposure) {
+    if (files.format == "exr") {
+        if (files.mips.size() != result.mips.size())
+            throw std::logic_error("write_prefilter_files: " + std::to_string(files.mips.size()) + " mip files for " +
+                                   std::to_string(result.mips.size()) + " mips");
+        for (std::size_t m = 0; m < result.mips.size(); ++m) {
+            throw_if_cancelled();  // a signal during a long chain of writes stops it here (nothing is committed)
+            nlohmann::json meta = metadata;
+            meta["mip"] = m;
+            meta["mip_roughness"] = result.roughness[m];
+            env::write_exr_file(outputs.temp_path(files.mips[m]), outputs.target(files.mips[m]).named, env::cross_image(result.mips[m]), meta);
+        }
+    } else {
+        const lutfmt::PixelEncoding encoding = cubemap_encoding(files.encoding);
+        const lutfmt::TextureData t = prefilter_texture(result, metadata, files.format, encoding);
+        const std::vector<std::uint8_t> bytes =
+            files.format == "ktx2" ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
+        outputs.stream(files.cubemap.value()).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+        if (files.cubemap_sidecar) outputs.stream(*files.cubemap_sidecar) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
+    }
+    env::write_png_file(outputs.temp_path(files.preview), prefilter_preview_canvas(result, exposure));
+}
+
+std::vector<std::string> stale_prefilter_files(const std::string& dir, const std::set<std::string>& written) {
+    static const std::set<std::string> kOthers = {"specular.ktx2", "specular.dds", "specular.dds.json", "dfg.exr", "dfg.ktx2",
+                                                  "dfg.dds",       "dfg.dds.json", "dfg_preview.png"};
+    return stale_job_files(dir, written, [](const std::string& name) { return is_mip_file(name) || kOthers.count(name) > 0; });
 }
 
 }  // namespace ms

@@ -8,14 +8,19 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
 #include "core/types.hpp"
 #include "env/cubemap.hpp"
 #include "env/prefilter.hpp"
+#include "schedule/scheduler.hpp"
 
 namespace ms {
+
+class OutputSet;
 
 struct PrefilterSpec {
     std::uint32_t levels = 0;  // 0: down to 4 x 4 faces (log2(size) - 1 levels)
@@ -35,6 +40,7 @@ struct PrefilterSpec {
     unsigned threads = 0;  // 0: every hardware thread
     std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
     std::string source, command_line;  // provenance
+    schedule::FaultInjection fault;    // test hook (OpenCL devices), set by the CLI from MICROSHADOW_FAIL_DEVICE
 };
 
 struct PrefilterResult {
@@ -44,6 +50,9 @@ struct PrefilterResult {
     double seconds = 0;
     double cpu_seconds = 0;  // CPU time of the worker threads, summed
     std::uint64_t texels = 0, samples = 0;
+    // Failover on OpenCL devices (schedule/scheduler.hpp): items rerun after a device failed, and the failures.
+    std::uint64_t rerun_items = 0;
+    std::vector<std::string> failed_devices;
     std::size_t bright_texels = 0;       // summed explicitly (bright_threshold > 0)
     double bright_power_fraction = 0;    // their share of the environment's power (mean of RGB)
 };
@@ -75,16 +84,29 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
 
 nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResult& result);
 
-// Files: DIR/specular_m<m>.exr (horizontal cross per mip, metadata with the mip's roughness) and a preview
-// PNG of the whole chain unfolded (crosses side by side, each mip magnified to the base size, Reinhard).
-void write_prefilter_files(const std::string& dir, const PrefilterResult& result, const nlohmann::json& metadata);
-// The whole mip chain as one cubemap file (lut/formats/texture.hpp): KTX2 (faceCount 6, levelCount = mips, faces
-// +X -X +Y -Y +Z -Z) or DDS (DDSCAPS2_CUBEMAP_ALLFACES, DX10 miscFlag TEXTURECUBE, dwMipMapCount = mips; metadata
-// in "<file>.json"), RGBA with A = 1, float16 (default) or float32. The metadata gains "mip_roughness" (one per
-// mip), "encoding" and "quantisation" (measured max absolute and relative rounding error over the RGB data).
-// format: "ktx2" or "dds"; encoding: float16 or float32 (unorm would clip radiance), else std::invalid_argument.
-void write_prefilter_cubemap(const std::string& path, const PrefilterResult& result, const nlohmann::json& metadata,
-                             const std::string& format, const std::string& encoding = "float16");
-void write_prefilter_preview(const std::string& path, const PrefilterResult& result, double exposure = 1.0);
+// The specular files of `ibl prefilter` in DIR, as entries of one output set (io/atomic_file.hpp), added
+// before any work so a bad or colliding destination is refused first:
+//   format "exr": DIR/specular_m<m>.exr, one horizontal cross per mip, metadata with the mip's roughness;
+//   format "ktx2" / "dds": DIR/specular.<format>, the whole chain as one cubemap (KTX2 faceCount 6,
+//     levelCount = mips; DDS DDSCAPS2_CUBEMAP_ALLFACES, dwMipMapCount = mips, metadata in "<file>.json"),
+//     RGBA with A = 1, float16 or float32; the metadata gains "mip_roughness", "encoding" and
+//     "quantisation" (the measured max absolute and relative rounding error over the RGB data);
+//   DIR/specular_preview.png: the chain unfolded (crosses side by side, each mip magnified to the base size).
+struct PrefilterFiles {
+    std::string format, encoding;
+    std::vector<std::size_t> mips;                         // exr
+    std::optional<std::size_t> cubemap, cubemap_sidecar;   // ktx2 / dds (sidecar: dds)
+    std::size_t preview = 0;
+};
+// format: exr, ktx2 or dds; encoding (ktx2 / dds): float16 or float32; else std::invalid_argument.
+PrefilterFiles add_prefilter_files(OutputSet& outputs, const std::string& dir, std::uint32_t levels, const std::string& format,
+                                   const std::string& encoding = "float16");
+// Writes them into the set's temporaries (the caller commits the set). `exposure`: the preview's.
+void write_prefilter_files(OutputSet& outputs, const PrefilterFiles& files, const PrefilterResult& result,
+                           const nlohmann::json& metadata, double exposure = 1.0);
+// The files of an earlier run into DIR that this run does not write (their names are in `written`):
+// specular_m<m>.exr of mips this run does not have, specular.ktx2 / .dds (+ .json) of another format,
+// dfg.<format>, dfg.dds.json and dfg_preview.png when this run writes no DFG LUT there.
+std::vector<std::string> stale_prefilter_files(const std::string& dir, const std::set<std::string>& written);
 
 }  // namespace ms

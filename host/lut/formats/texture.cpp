@@ -83,7 +83,7 @@ std::vector<float> rgba_level(const TextureData& t, std::size_t p) {
     return out;
 }
 
-void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
+std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncoding encoding) {
     check_texture(t);
     const bool three_d = t.depth > 1;
     const std::uint32_t comp_bytes = bytes_per_component(encoding), texel_bytes = 4 * comp_bytes;
@@ -144,10 +144,14 @@ void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEnco
     w.patch_u32(index_at + 4, std::uint32_t(dfd.size()));
     w.patch_u32(index_at + 8, std::uint32_t(kvd_at));
     w.patch_u32(index_at + 12, std::uint32_t(kvd_length));
-    write_file_atomically(path, w.bytes);
+    return std::move(w.bytes);
 }
 
-void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
+void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
+    write_file_atomically(path, encode_ktx2_texture(t, encoding));
+}
+
+std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding encoding) {
     check_texture(t);
     const bool volume = t.depth > 1, cube = t.faces == 6, mipped = t.levels.size() > 1;
     const std::uint32_t texel_bytes = 4 * bytes_per_component(encoding);
@@ -192,11 +196,19 @@ void write_dds_texture(const std::string& path, const TextureData& t, PixelEncod
                                           rgba[p].begin() + std::ptrdiff_t((f + 1) * face_floats));
             append_encoded(w.bytes, face, encoding);
         }
+    return std::move(w.bytes);
+}
 
+nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding) {
     nlohmann::json meta = t.metadata;
     meta["dds_dxgi_format"] = dxgi_format(encoding);
-    write_text_atomically(path + ".json", meta.dump(2) + "\n");
-    write_file_atomically(path, w.bytes);
+    return meta;
+}
+
+void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
+    const std::vector<std::uint8_t> bytes = encode_dds_texture(t, encoding);
+    write_text_atomically(path + ".json", dds_sidecar_json(t, encoding).dump(2) + "\n");
+    write_file_atomically(path, bytes);
 }
 
 }  // namespace ms::lutfmt

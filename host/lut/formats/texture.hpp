@@ -56,6 +56,12 @@ void check_texture(const TextureData& t);
 // Level p's texels as RGBA (the padding above), faces one after the other.
 std::vector<float> rgba_level(const TextureData& t, std::size_t p);
 
+// The file's bytes, for callers that write several files as one set (io/atomic_file.hpp's OutputSet).
+// A DDS file's metadata (its `<file>.json` sidecar, with "dds_dxgi_format") comes from dds_sidecar_json.
+std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncoding encoding);
+std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding encoding);
+nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding);
+
 // Write atomically. std::invalid_argument (bad texture) or std::runtime_error (I/O), naming the file.
 void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);
 void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);

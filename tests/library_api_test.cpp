@@ -85,12 +85,22 @@ TEST(LibraryApi, BadOptionsAreRefusedWithTheFieldNamed) {
     microshadow::SamplingOptions exact;
     exact.method = microshadow::Method::exact;
     exact.backend = microshadow::Backend::oracle;
+    exact.tolerance = 1e-20;  // below what the evaluator is asked for
     try {
         microshadow::evaluate({microshadow::Query{}}, exact);
-        ADD_FAILURE() << "Method::exact accepted";
+        ADD_FAILURE() << "tolerance 1e-20 accepted";
     } catch (const std::invalid_argument& e) {
-        EXPECT_NE(std::string(e.what()).find("exact is not available"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("tolerance"), std::string::npos) << e.what();
     }
+    exact.tolerance = 1e-9;
+    microshadow::Query q;
+    q.visibility = 0.6;
+    q.wi = {0.6, 0, 0.8};
+    q.wo = {0, 0.6, 0.8};
+    const auto values = microshadow::evaluate({q}, exact);
+    ASSERT_EQ(values.size(), 1u);
+    EXPECT_GT(values[0].value, 0.0);
+    EXPECT_LE(values[0].std_error, 1e-9);
     microshadow::SamplingOptions one;
     one.replicates = 1;
     one.backend = microshadow::Backend::oracle;

@@ -21,12 +21,6 @@ struct Lut::Data {
 
 namespace {
 
-// The exact method is not wired into the facade yet: refuse it clearly rather than sample silently.
-void require_sampled(Method method, const char* where) {
-    if (method != Method::sampled)
-        throw std::invalid_argument(std::string(where) + ": method exact is not available in this version of the library "
-                                                         "(use Method::sampled)");
-}
 
 ms::TermOptions term_options(const SamplingOptions& o) {
     ms::TermOptions t;
@@ -55,8 +49,7 @@ Lut make_lut(ms::LutFile file) {
 std::string version() { return MICROSHADOW_VERSION; }
 
 std::vector<Estimate> evaluate(const std::vector<Query>& queries, const SamplingOptions& options) {
-    require_sampled(options.method, "microshadow::evaluate");
-    check_replicates(options.replicates, "microshadow::evaluate");
+    if (options.method == Method::sampled) check_replicates(options.replicates, "microshadow::evaluate");
     std::vector<ms::Query> qs;
     qs.reserve(queries.size());
     for (const Query& q : queries)
@@ -65,6 +58,10 @@ std::vector<Estimate> evaluate(const std::vector<Query>& queries, const Sampling
     plan.samples = ms::round_up_samples(options.samples, options.replicates);
     plan.replicates = options.replicates;
     plan.seed = options.seed;
+    if (options.method == Method::exact) {
+        plan.method = ms::Method::exact;
+        plan.tolerance = options.tolerance > 0 ? options.tolerance : 1e-10;
+    }
     auto backend = make_backend(options);
     const std::vector<ms::Estimate> got = ms::evaluate(*backend, qs, term_options(options), plan);
     std::vector<Estimate> out;
@@ -75,8 +72,7 @@ std::vector<Estimate> evaluate(const std::vector<Query>& queries, const Sampling
 
 Lut bake(const BakeOptions& options) {
     const SamplingOptions& o = options.sampling;
-    require_sampled(o.method, "microshadow::bake");
-    check_replicates(o.replicates, "microshadow::bake");
+    if (o.method == Method::sampled) check_replicates(o.replicates, "microshadow::bake");
     const ms::LutLayout layout = ms::parse_lut_layout(options.layout);
     ms::BakeSpec spec = ms::default_bake_spec(layout, options.size);
     if (options.visibility_count) spec.visibility.count = options.visibility_count;
@@ -92,6 +88,10 @@ Lut bake(const BakeOptions& options) {
     spec.seed = o.seed;
     spec.samples = o.samples ? ms::round_up_samples(o.samples, o.replicates) : 0;
     spec.tolerance = options.tolerance;
+    if (o.method == Method::exact) {
+        spec.method = ms::Method::exact;
+        if (options.tolerance == 0 && o.tolerance > 0) spec.tolerance = o.tolerance;
+    }
     spec.device = o.device;
     spec.oracle = o.backend == Backend::oracle;
     spec.command_line = "microshadow::bake (library " + version() + ")";

@@ -1,5 +1,7 @@
 #include "jobs/scene.hpp"
 
+#include "integrands/exact_term/exact_term_integrand.hpp"
+
 #include <unistd.h>
 
 #include <algorithm>
@@ -173,7 +175,12 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
     result.width = inputs.width();
     result.height = inputs.height();
     result.backend = backend.name();
-    result.tolerance = options.tolerance > 0 ? options.tolerance : d.sampling.tolerance;
+    const Method method = options.method_given ? options.method : d.sampling.method;
+    result.method = method;
+    result.tolerance = options.tolerance > 0 ? options.tolerance
+                       : (d.sampling.tolerance_given || !options.method_given) ? d.sampling.tolerance
+                                                                              : default_scene_tolerance(method);
+    if (method == Method::exact) exact_term::validate_tolerance(result.tolerance);
     const double tol = result.tolerance;
     const double step = options.skip ? d.sampling.dedup_step * tol : 0;
     const AoWeighting w = d.ao_weighting;
@@ -297,7 +304,8 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         SamplingPlan plan;
         plan.replicates = d.sampling.replicates;
         plan.seed = d.sampling.seed;
-        const double t = student_t_999(plan.replicates);
+        // The exact method's std_error is its estimated error itself: the bound is that, not t times it.
+        const double t = method == Method::exact ? 1.0 : student_t_999(plan.replicates);
         li.t = t;
         const std::uint64_t first = round_up_samples(d.sampling.min_samples, plan.replicates);
         std::vector<std::vector<ErrorStats>> stats(comparators.size(), std::vector<ErrorStats>(result.groups.size()));
@@ -426,8 +434,27 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                     }
                 }
             };
+            if (method == Method::exact) {
+                // One pass: every distinct query to the tolerance by the exact evaluator.
+                SamplingPlan exact_plan;
+                exact_plan.method = Method::exact;
+                exact_plan.tolerance = tol;
+                EvalStats eval_stats;
+                estimates = evaluate_each(backend, queries, std::vector<TermOptions>(queries.size(), term_options), exact_plan,
+                                          &eval_stats, [&](std::size_t done, std::size_t total) {
+                                              if (total) progress(light.name, tile_start + (tile_end - tile_start) * done / total, n);
+                                          });
+                c.sampled += eval_stats.sampled;
+                if (!options.skip) {
+                    c.zero_region += eval_stats.exact_zero;
+                    c.v_one += eval_stats.exact_one;
+                }
+                for (const Estimate& e : estimates)
+                    if (e.std_error > tol) ++c.tolerance_missed;
+            }
             const std::size_t stride = std::max<std::size_t>(1, d.sampling.predict_stride);
             Passes leaders, followers;
+            if (method == Method::sampled) {
             for (std::size_t k = 0; k < queries.size(); k += stride) leaders[first].push_back(std::uint32_t(k));
             sample(std::move(leaders));
             for (std::size_t k = 0; k < queries.size(); ++k)
@@ -441,6 +468,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                     followers[std::max(first, predicted)].push_back(std::uint32_t(k));
                 }
             sample(std::move(followers));
+            }
             result.sampling_seconds += seconds_since(sampling_start);
 
             // Per-pixel reference, comparators and weighted errors of the tile.
@@ -540,6 +568,13 @@ json scene_report(const SceneResult& r) {
     json j;
     j["size"] = {r.width, r.height};
     j["tolerance"] = r.tolerance;
+    j["method"] = to_string(r.method);
+    if (r.method == Method::exact) {
+        SamplingPlan p;
+        p.method = Method::exact;
+        p.tolerance = r.tolerance;
+        j["exact"] = exact_provenance(p);
+    }
     j["backend"] = json_safe(r.backend);
     const SkipCounts& c = r.counts;
     // What sampling every pixel-light that has a query would have cost at the measured time per sampled

@@ -51,6 +51,9 @@ namespace ms::scene {
 struct SceneRunOptions {
     bool skip = true;                  // false: every unmasked pixel's own query is sent to the integrand
     double tolerance = 0;              // > 0 overrides the description's
+    // Overrides sampling.method when set (the tolerance then defaults to that method's, unless given).
+    bool method_given = false;
+    Method method = Method::exact;
     std::vector<std::string> luts;     // more LUT files to compare
     bool bake_seed_luts = true;        // false: ignore comparators.seed_3d / seed_2d (tests)
     std::function<void(const std::string& phase, std::size_t done, std::size_t total)> progress;
@@ -97,6 +100,7 @@ struct SceneResult {
     std::vector<LightImages> lights;
     SkipCounts counts;
     double tolerance = 0;
+    Method method = Method::exact;  // how the per-pixel reference was computed
     double seconds = 0, lut_seconds = 0, sampling_seconds = 0;
     std::string backend;
 };

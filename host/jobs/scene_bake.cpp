@@ -365,7 +365,10 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     plan.samples = options.reference_samples;
     plan.replicates = d.sampling.replicates;
     plan.seed = d.sampling.seed;
-    const double t = student_t_999(plan.replicates);
+    // The scene's method decides the reference too; the exact one's std_error is its estimate itself.
+    plan.method = d.sampling.method;
+    if (plan.method == Method::exact) plan.tolerance = d.sampling.tolerance;
+    const double t = plan.method == Method::exact ? 1.0 : student_t_999(plan.replicates);
     TermOptions term;
     term.form = d.sampling.form;
     term.ao_weighting = d.ao_weighting;

@@ -358,13 +358,21 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
     }
 
     if ((t = table_at(c, root, "sampling"))) {
-        reject_unknown(c, *t, "sampling.", {"tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step",
+        reject_unknown(c, *t, "sampling.", {"method", "tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step",
                                              "tile_pixels", "predict_stride"});
         auto& s = d.sampling;
+        if (const toml::node* n = t->get("method"))
+            s.method = choice<Method>(c, *n, "sampling.method", {{"exact", Method::exact}, {"sampled", Method::sampled}});
         if (const toml::node* n = t->get("tolerance")) {
             s.tolerance = number(c, *n, "sampling.tolerance");
-            if (!(s.tolerance >= 1e-5 && s.tolerance <= 0.5)) c.fail("sampling.tolerance", "must be in [1e-5, 0.5]");
+            s.tolerance_given = true;
+            if (s.method == Method::exact) {
+                if (!(s.tolerance >= 1e-12 && s.tolerance <= 0.5)) c.fail("sampling.tolerance", "must be in [1e-12, 0.5] with method = \"exact\"");
+            } else if (!(s.tolerance >= 1e-5 && s.tolerance <= 0.5)) {
+                c.fail("sampling.tolerance", "must be in [1e-5, 0.5] with method = \"sampled\"");
+            }
         }
+        if (!s.tolerance_given) s.tolerance = default_scene_tolerance(s.method);
         if (const toml::node* n = t->get("min_samples")) s.min_samples = positive(c, *n, "sampling.min_samples", 1ULL << 24);
         if (const toml::node* n = t->get("max_samples")) s.max_samples = positive(c, *n, "sampling.max_samples", 1ULL << 26);
         if (const toml::node* n = t->get("seed")) {

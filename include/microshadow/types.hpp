@@ -8,8 +8,8 @@
 namespace microshadow {
 
 // How the term is integrated. sampled: randomised quasi-Monte Carlo VNDF sampling, an estimate with
-// its replicate standard error. exact: the deterministic method (not available in this version:
-// asking for it throws std::invalid_argument).
+// its replicate standard error. exact: the deterministic boundary-integral evaluator, a value with its
+// estimated quadrature error (to SamplingOptions::tolerance).
 enum class Method { sampled, exact };
 // The ambient-occlusion cone's weighting of the visibility v (cosine: the cone's half angle has
 // cos = sqrt(1 - v); uniform: cos = 1 - v).
@@ -49,6 +49,8 @@ struct SamplingOptions {
     std::uint64_t seed = 0;
     AoWeighting ao_weighting = AoWeighting::cosine;
     Form form = Form::height_correlated;
+    // exact only: the estimated absolute error asked of each value (0: 1e-10 for evaluate, 1e-6 for bake).
+    double tolerance = 0;
 };
 
 }  // namespace microshadow

@@ -1,0 +1,224 @@
+// The exact method (host/exact/) against the two sampled methods and against itself.
+//
+// Tolerances: exact values against sampled estimates use the Bonferroni-corrected two-sided Student-t
+// quantile (family-wise 99.9 % over all queries of a test) times the replicate standard error, plus the
+// exact value's own estimated error; exact against exact at another tolerance uses the sum of both
+// estimated errors plus a rounding allowance of 64 ulps of 1.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "core/estimate.hpp"
+#include "core/types.hpp"
+#include "exact/exact_term.hpp"
+#include "jobs/bake.hpp"
+#include "jobs/eval.hpp"
+#include "oracle/oracle.hpp"
+#include "sampling/point_set.hpp"
+
+namespace {
+
+using namespace ms;
+constexpr double kPi = 3.14159265358979323846;
+
+Vec3 direction(double cos_theta, double phi) {
+    const double s = std::sqrt(std::max(0.0, 1 - cos_theta * cos_theta));
+    return {s * std::cos(phi), s * std::sin(phi), cos_theta};
+}
+
+// Queries from every family the method must hold on: isotropic and anisotropic to 1:1000, grazing
+// views (z 0.01) and lights, tiny (v 1e-4) and full (v 0.9999) cones, alpha at 1e-3 and 1, and the
+// coincident directions wo = e_z, wo = wi, wi = e_z.
+std::vector<Query> stress_queries(std::size_t count, unsigned seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<Query> out;
+    for (std::size_t i = 0; out.size() < count; ++i) {
+        Query q;
+        const int family = int(i % 8);
+        q.visibility = family == 3 ? 1e-4 * (1 + u(rng)) : family == 4 ? 1 - 1e-4 * u(rng) : 0.02 + 0.97 * u(rng);
+        const double r = std::exp(std::log(0.03) * u(rng));  // roughness 0.03 .. 1: alpha 1e-3 .. 1
+        q.alpha_x = r * r;
+        const double ratio = family == 1 ? std::exp(std::log(1000.0) * (2 * u(rng) - 1)) : 1.0;
+        q.alpha_y = std::clamp(q.alpha_x * ratio, 1e-3, 1.0);
+        const double phi_i = 2 * kPi * u(rng);
+        const double cos_i = family == 2 ? 0.01 + 0.02 * u(rng) : 0.05 + 0.95 * u(rng);
+        q.wi = direction(cos_i, phi_i);
+        const double phi_o = 2 * kPi * u(rng);
+        const double cos_o = family == 5 ? 0.005 + 0.03 * u(rng) : 0.02 + 0.98 * u(rng);
+        q.wo = direction(cos_o, phi_o);
+        if (family == 6) q.wo = (i / 8) % 2 ? Vec3{0, 0, 1} : q.wi;      // wo = e_z or wo = wi
+        if (family == 7) q.wi = Vec3{0, 0, 1};                           // wi = e_z
+        out.push_back(q);
+    }
+    return out;
+}
+
+TEST(ExactTerm, AgreesWithTheSampledKernelWithinBonferroniBars) {
+    const std::vector<Query> queries = stress_queries(2000, 19);
+    SamplingPlan sampled;
+    sampled.samples = 1 << 18;
+    sampled.replicates = 16;
+    sampled.seed = 5;
+    auto backend = make_opencl_backend(ocl::select_devices("default"));
+    const std::vector<Estimate> mc = evaluate(*backend, queries, TermOptions{}, sampled);
+    const double t = student_t_quantile(1 - 1e-3 / double(queries.size()), int(sampled.replicates) - 1);
+    std::size_t interior = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        const exact::ExactValue e = exact::exact_term(queries[i], AoWeighting::cosine);
+        if (e.term > 0 && e.term < 1) ++interior;
+        EXPECT_LE(std::fabs(e.term - mc[i].term), t * mc[i].std_error + e.error + 1e-12)
+            << "query " << i << ": exact " << e.term << " +- " << e.error << ", sampled " << mc[i].term << " +- "
+            << mc[i].std_error << " (t " << t << ")";
+    }
+    EXPECT_GT(interior, queries.size() / 2);  // the families are not all trivial
+}
+
+TEST(ExactTerm, AgreesWithTheScalarOracleOnAnisotropicAndUniformQueries) {
+    // The oracle keeps the Smith weights the exact method drops: both forms, both AO weightings.
+    const std::vector<Query> queries = stress_queries(96, 23);
+    SamplingPlan plan;
+    plan.samples = 1 << 16;
+    plan.replicates = 16;
+    plan.seed = 9;
+    const PointSet points = make_point_set(plan);
+    const double t = student_t_quantile(1 - 1e-3 / double(4 * queries.size()), 15);
+    for (Form form : {Form::height_correlated, Form::uncorrelated})
+        for (AoWeighting weighting : {AoWeighting::cosine, AoWeighting::uniform})
+            for (std::size_t i = 0; i < queries.size(); ++i) {
+                TermOptions options;
+                options.form = form;
+                options.ao_weighting = weighting;
+                const Estimate o = oracle::generic_m_g(queries[i], options, points);
+                const exact::ExactValue e = exact::exact_term(queries[i], weighting);
+                double bar = t * o.std_error;
+                if (o.std_error == 0) {
+                    // The replicates agree exactly (no sample, or every sample, passed the cone): the exact
+                    // binomial bound on the pass fraction at the same family-wise confidence.
+                    const oracle::Tally tally = oracle::tally(queries[i], options, points);
+                    double passed = 0, total = 0;
+                    for (std::size_t r = 0; r < tally.cone_count.size(); ++r) {
+                        passed += tally.cone_count[r];
+                        total += tally.hemisphere_count[r];
+                    }
+                    bar = binomial_agreement_bound(passed, total, 1 - 1e-3 / double(4 * queries.size()));
+                }
+                EXPECT_LE(std::fabs(e.term - o.term), bar + e.error + 1e-12)
+                    << "query " << i << " form " << to_string(form) << " weighting " << to_string(weighting) << ": exact " << e.term << " oracle " << o.term << " +- " << o.std_error << " t " << t;
+            }
+}
+
+TEST(ExactTerm, AgreesWithItselfAtAHigherOrder) {
+    const std::vector<Query> queries = stress_queries(3000, 29);
+    double worst = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i)
+        for (double tolerance : {1e-6, 1e-10}) {
+            const exact::ExactValue a = exact::exact_term(queries[i], AoWeighting::cosine, tolerance);
+            const exact::ExactValue b = exact::exact_term(queries[i], AoWeighting::cosine, 1e-13);
+            const double d = std::fabs(a.term - b.term);
+            worst = std::max(worst, d);
+            EXPECT_LE(d, a.error + b.error + 64 * 2.2e-16) << "query " << i << " at tolerance " << tolerance;
+            EXPECT_LE(a.error, tolerance) << "query " << i << ": the estimate must meet the tolerance asked";
+        }
+    EXPECT_LT(worst, 1e-6);
+}
+
+TEST(ExactTerm, ExactCasesAndSymmetries) {
+    Query q;
+    q.visibility = 1;
+    q.wi = direction(0.3, 0.2);
+    q.wo = direction(0.4, 2.0);
+    EXPECT_EQ(exact::exact_term(q, AoWeighting::cosine).term, 1.0);
+    q.visibility = 0.2;  // 2 v + NdotL = 0.8 <= 1: the zero region
+    EXPECT_EQ(exact::exact_term(q, AoWeighting::cosine).term, 0.0);
+    q.wo = {0.6, 0, -0.8};  // below the horizon
+    q.visibility = 0.7;
+    EXPECT_EQ(exact::exact_term(q, AoWeighting::cosine).term, 0.0);
+    // An isotropic surface depends on the relative azimuth only; mirroring wo across the view plane is a
+    // symmetry of every surface whose axes contain that plane.
+    q.alpha_x = q.alpha_y = 0.3;
+    q.wi = direction(0.5, 0.0);
+    q.wo = direction(0.7, 1.1);
+    const double base = exact::exact_term(q, AoWeighting::cosine).term;
+    Query rotated = q;
+    rotated.wi = direction(0.5, 0.9);
+    rotated.wo = direction(0.7, 2.0);
+    EXPECT_NEAR(exact::exact_term(rotated, AoWeighting::cosine).term, base, 1e-12);
+    q.alpha_y = 0.05;
+    Query mirrored = q;
+    mirrored.wo.y = -q.wo.y;
+    EXPECT_NEAR(exact::exact_term(mirrored, AoWeighting::cosine).term, exact::exact_term(q, AoWeighting::cosine).term, 1e-12);
+}
+
+TEST(ExactTerm, AzimuthMeanMatchesACompositeRuleOfItsTerms) {
+    // An independent quadrature of the mean: composite Simpson on 1024 intervals of the exact term (its
+    // error at the kinks where a cap meets a circle is O(h^1.5), ~ 2e-5 for h = pi / 1024 at unit slope).
+    std::mt19937_64 rng(31);
+    std::uniform_real_distribution<double> u(0, 1);
+    for (int k = 0; k < 12; ++k) {
+        const double v = 0.3 + 0.69 * u(rng), r = 0.1 + 0.9 * u(rng), nv = 0.05 + 0.95 * u(rng), nl = 0.05 + 0.95 * u(rng);
+        const exact::ExactValue mean = exact::exact_azimuth_mean(v, r * r, nv, nl, AoWeighting::cosine, 1e-9);
+        const int n = 1024;
+        double sum = 0;
+        for (int i = 0; i <= n; ++i) {
+            const double w = (i == 0 || i == n) ? 1 : (i % 2 ? 4 : 2);
+            sum += w * exact::exact_term_at_azimuth(v, r * r, nv, nl, kPi * i / n, AoWeighting::cosine, 1e-12).term;
+        }
+        const double simpson = sum / (3.0 * n);
+        EXPECT_NEAR(mean.term, simpson, 1e-4) << "v " << v << " r " << r << " NdotV " << nv << " NdotL " << nl;
+        EXPECT_LE(mean.error, 1e-9);
+    }
+}
+
+TEST(ExactTerm, ExactBakeAgreesWithTheSampledBake) {
+    // A small layout at a fixed azimuth (no azimuth quadrature on either side): every texel within the
+    // sampled texel's Bonferroni bar plus the exact estimate.
+    BakeSpec spec = default_bake_spec(LutLayout::custom, 6);
+    spec.azimuth_mean = false;
+    spec.azimuth_degrees = 60;
+    spec.roughness = {0.2, 0.7};
+    spec.samples = 1 << 18;
+    spec.replicates = 16;
+    spec.oracle = false;
+    const BakeResult sampled = bake_lut(spec);
+    BakeSpec exact_spec = spec;
+    exact_spec.method = Method::exact;
+    exact_spec.tolerance = 1e-7;  // the float texels' resolution (the spec refuses less)
+    exact_spec.oracle = true;     // the C++ evaluator
+    const BakeResult exact = bake_lut(exact_spec);
+    ASSERT_EQ(sampled.value.size(), exact.value.size());
+    const double t = student_t_quantile(1 - 1e-3 / double(exact.value.size()), 15);
+    for (std::size_t i = 0; i < exact.value.size(); ++i)
+        EXPECT_LE(std::fabs(double(exact.value[i]) - sampled.value[i]),
+                  t * sampled.std_error[i] + exact.std_error[i] + 1e-7 /* float texels */)
+            << "texel " << i;
+    EXPECT_LE(exact.max_std_error, 1e-7);  // quadrature estimate plus the float rounding of each texel
+    EXPECT_TRUE(exact.tolerance_met);
+}
+
+TEST(ExactTerm, EvalRecordsTheMethodAndRefusesBadTolerances) {
+    std::vector<Query> queries = stress_queries(40, 37);
+    auto backend = make_oracle_backend(2);
+    SamplingPlan plan;
+    plan.method = Method::exact;
+    plan.tolerance = 1e-9;
+    EvalStats stats;
+    const std::vector<Estimate> results = evaluate(*backend, queries, TermOptions{}, plan, &stats);
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        const exact::ExactValue e = exact::exact_term(queries[i], AoWeighting::cosine, 1e-9);
+        // The integrand normalises the query before the evaluator does: the same value to rounding.
+        EXPECT_NEAR(results[i].term, e.term, 1e-14 + e.error);
+        EXPECT_LE(results[i].std_error, 1e-9);
+    }
+    EXPECT_EQ(exact_provenance(plan).at("method"), "exact");
+    plan.tolerance = 1e-20;
+    EXPECT_THROW(evaluate(*backend, queries, TermOptions{}, plan), std::invalid_argument);
+    Query bad = queries[0];
+    bad.alpha_x = 0;  // the same query checks as the sampled method
+    plan.tolerance = 1e-9;
+    EXPECT_THROW(evaluate(*backend, {bad}, TermOptions{}, plan), std::invalid_argument);
+}
+
+}  // namespace

@@ -359,7 +359,7 @@ TEST_F(AreaLightCli, EvalWritesTermsAndRefusesBadLights) {
           "0.5,0.25,0.25,0.6,0,0.8,-0.5,0,0.8,10\n"
           "0.5,0.25,0.25,0.6,0,0.8,0,0,-1,10\n");
     const std::string cli = MICROSHADOW_CLI;
-    auto ok = testing::run_shell(cli + " area eval -q --backend oracle --samples 2048 --in " + path("q.csv") + " --out " +
+    auto ok = testing::run_shell(cli + " area eval --method sampled -q --backend oracle --samples 2048 --in " + path("q.csv") + " --out " +
                                  path("r.csv") + " 2>&1");
     ASSERT_EQ(ok.exit_code, 0) << ok.output;
     std::ifstream in(path("r.csv"));
@@ -372,7 +372,7 @@ TEST_F(AreaLightCli, EvalWritesTermsAndRefusesBadLights) {
     for (const std::string& bad : {std::string("0"), std::string("90"), std::string("-3")}) {
         write("bad.csv", "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,light_x,light_y,light_z,half_angle_deg\n"
                          "0.5,0.25,0.25,0.6,0,0.8,-0.5,0,0.8," + bad + "\n");
-        auto r = testing::run_shell(cli + " area eval -q --backend oracle --in " + path("bad.csv") + " --out " + path("b.csv") + " 2>&1");
+        auto r = testing::run_shell(cli + " area eval --method sampled -q --backend oracle --in " + path("bad.csv") + " --out " + path("b.csv") + " 2>&1");
         EXPECT_EQ(r.exit_code, 2) << r.output;
         EXPECT_NE(r.output.find("bad.csv:2 (row 1): column 'half_angle_deg': " + bad + " must be in (0, 90) degrees"), std::string::npos)
             << r.output;
@@ -380,7 +380,7 @@ TEST_F(AreaLightCli, EvalWritesTermsAndRefusesBadLights) {
     }
     write("rect.csv", "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,p0_x,p0_y,p0_z,p1_x,p1_y,p1_z,p2_x,p2_y,p2_z,p3_x,p3_y,p3_z\n"
                       "0.5,0.25,0.25,0.6,0,0.8,0,0,1,1,0,1,1,0,1,0,0,1\n");
-    auto r = testing::run_shell(cli + " area eval -q --light rect --backend oracle --in " + path("rect.csv") + " --out " + path("b.csv") + " 2>&1");
+    auto r = testing::run_shell(cli + " area eval --method sampled -q --light rect --backend oracle --in " + path("rect.csv") + " --out " + path("b.csv") + " 2>&1");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("rect.csv:2 (row 1): degenerate rect light: a side (p1 - p0 or p3 - p0) has zero length"), std::string::npos) << r.output;
     EXPECT_FALSE(std::filesystem::exists(path("b.csv")));

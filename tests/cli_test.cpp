@@ -42,7 +42,7 @@ TEST_F(CliTest, EvalWritesInputColumnsPlusTermAndError) {
                                        "1,0.3,0.1,0,0,1,0.3,0.3,0.5\n");      // v = 1: exactly 1
     for (const std::string backend : {"opencl", "oracle"}) {
         const auto out = path("r_" + backend + ".csv");
-        const auto r = run("eval --in " + in + " --out " + out + " --backend " + backend + " --samples 16384");
+        const auto r = run("eval --method sampled --in " + in + " --out " + out + " --backend " + backend + " --samples 16384");
         ASSERT_EQ(r.exit_code, 0) << r.output;
         const auto table = ms::read_numeric_csv(out, [] {
             auto c = ms::kQueryColumns;
@@ -94,7 +94,7 @@ TEST_F(CliTest, BadInputGetsAClearMessageAndNoOutputFile) {
     for (const auto& c : cases) {
         const auto in = write(std::string(c.name) + ".csv", c.text);
         const auto out = path(std::string(c.name) + "_out.csv");
-        const auto r = run("eval --in " + in + " --out " + out + " --samples 1024");
+        const auto r = run("eval --method sampled --in " + in + " --out " + out + " --samples 1024");
         EXPECT_EQ(r.exit_code, 2) << c.name << ": " << r.output;
         EXPECT_NE(r.output.find(c.expected), std::string::npos) << c.name << ": " << r.output;
         EXPECT_FALSE(fs::exists(out)) << c.name;
@@ -109,16 +109,16 @@ TEST_F(CliTest, BadCommandLinesExitWithUsageErrors) {
     const auto in = write("q.csv", kHeader + "0.5,0.2,0.2,0,0,1,0.5,0,0.8\n");
     EXPECT_EQ(run("").exit_code, 2);
     EXPECT_EQ(run("frobnicate").exit_code, 2);
-    EXPECT_EQ(run("eval --in " + in).exit_code, 2);  // --out missing
-    EXPECT_EQ(run("eval --in " + in + " --out " + path("o.csv") + " --form wrong").exit_code, 2);
-    EXPECT_EQ(run("eval --in " + in + " --out " + path("o.csv") + " --samples -5").exit_code, 2);
-    const auto missing = run("eval --in " + path("does_not_exist.csv") + " --out " + path("o.csv"));
+    EXPECT_EQ(run("eval --method sampled --in " + in).exit_code, 2);  // --out missing
+    EXPECT_EQ(run("eval --method sampled --in " + in + " --out " + path("o.csv") + " --form wrong").exit_code, 2);
+    EXPECT_EQ(run("eval --method sampled --in " + in + " --out " + path("o.csv") + " --samples -5").exit_code, 2);
+    const auto missing = run("eval --method sampled --in " + path("does_not_exist.csv") + " --out " + path("o.csv"));
     EXPECT_EQ(missing.exit_code, 2);
     EXPECT_NE(missing.output.find("cannot open"), std::string::npos);
-    const auto baddir = run("eval --in " + in + " --out /nonexistent_dir/o.csv");
+    const auto baddir = run("eval --method sampled --in " + in + " --out /nonexistent_dir/o.csv");
     EXPECT_NE(baddir.exit_code, 0);
     EXPECT_NE(baddir.output.find("does not exist"), std::string::npos) << baddir.output;
-    const auto device = run("eval --in " + in + " --out " + path("o.csv") + " --device no-such-device");
+    const auto device = run("eval --method sampled --in " + in + " --out " + path("o.csv") + " --device no-such-device");
     EXPECT_EQ(device.exit_code, 1);
     EXPECT_NE(device.output.find("no OpenCL device matches"), std::string::npos) << device.output;
     EXPECT_FALSE(fs::exists(path("o.csv")));

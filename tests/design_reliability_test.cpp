@@ -91,12 +91,12 @@ TEST(AgreementBound, IsTheClopperPearsonIntervalAndTheZeroBoundAtTheEnds) {
 TEST_F(DesignReliability, AnInteriorTermWhoseReplicatesAgreeHasANonZeroErrorBarThatHoldsTheTruth) {
     // v 0.95, alpha 0.05, wi = wo = normal: every replicate of the default point set fails exactly one
     // of its 8192 samples, so the replicate spread is 0 while the term is 0.9998685 (1 - 1.315e-4, from
-    // eval --samples 16777216 --seed 7: 0.99986845 +- 6e-8; the agreeing estimate is 1 - 1/8192 = 0.9998779).
+    // eval --method sampled --samples 16777216 --seed 7: 0.99986845 +- 6e-8; the agreeing estimate is 1 - 1/8192 = 0.9998779).
     {
         std::ofstream q(path("q.csv"));
         q << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.95,0.05,0.05,0,0,1,0,0,1\n";
     }
-    const ChildRun r = cli("eval --in q.csv --out r.csv -q");
+    const ChildRun r = cli("eval --method sampled --in q.csv --out r.csv -q");
     ASSERT_EQ(r.exit_code, 0) << r.log;
     std::ifstream in(path("r.csv"));
     std::string header, row;
@@ -466,7 +466,7 @@ Job job_named(const std::string& name, const fs::path& dir) {
         for (int i = 0; i < 128; ++i)  // 2 items of 64 queries at 2^22 samples
             q << 0.5 + 0.45 * u(rng) << "," << u(rng) << "," << u(rng) << "," << u(rng) << ",0.1," << u(rng) << "," << u(rng)
               << ",0.2," << u(rng) << "\n";
-        return {"eval --in q.csv --out OUT.csv --samples 4194304 --seed 3", "OUT.csv",
+        return {"eval --method sampled --in q.csv --out OUT.csv --samples 4194304 --seed 3", "OUT.csv",
                 [](const fs::path& f) { return slurp_file(f.string() + ".csv"); }};
     }
     if (name == "bake")  // 16 slices

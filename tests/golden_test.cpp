@@ -195,13 +195,13 @@ TEST_F(Failover, EvalWithAFailingDeviceGivesTheSameBytes) {
     int trial = 0;
     for (const std::string& in : {golden_in, golden_in, std::string("many.csv")}) {
         const std::string clean_out = "clean" + std::to_string(trial) + ".csv", out = "faulty" + std::to_string(trial) + ".csv";
-        const CliRun clean = run_cli(dir_, "eval --in " + in + " --out " + clean_out + " -q");
+        const CliRun clean = run_cli(dir_, "eval --method sampled --in " + in + " --out " + clean_out + " -q");
         ASSERT_EQ(clean.exit_code, 0) << clean.log;
         const std::string expected = slurp(dir_ / clean_out);
         ASSERT_FALSE(expected.empty());
         const CliRun faulty =
-            run_cli(dir_, "eval --in " + in + " --out " + out + " --device all", kTwoDevices + " MICROSHADOW_FAIL_DEVICE=0:0");
-        ASSERT_EQ(faulty.exit_code, 0) << "eval --in " << in << " (124: hung, see SchedulerFailover.FailoverWhenTheOtherPlacesHaveFinished)\n"
+            run_cli(dir_, "eval --method sampled --in " + in + " --out " + out + " --device all", kTwoDevices + " MICROSHADOW_FAIL_DEVICE=0:0");
+        ASSERT_EQ(faulty.exit_code, 0) << "eval --method sampled --in " << in << " (124: hung, see SchedulerFailover.FailoverWhenTheOtherPlacesHaveFinished)\n"
                                        << faulty.log;
         EXPECT_EQ(slurp(dir_ / out), expected) << in;
         // The metadata names both devices: the run really had two places.
@@ -212,7 +212,7 @@ TEST_F(Failover, EvalWithAFailingDeviceGivesTheSameBytes) {
 
 TEST_F(Failover, EvalWithItsOnlyDeviceFailingWritesNothing) {
     const std::string in = std::string(MICROSHADOW_GOLDEN_DIR) + "/bench_queries.csv";
-    const CliRun dead = run_cli(dir_, "eval --in '" + in + "' --out dead.csv -q", "MICROSHADOW_FAIL_DEVICE=0:0");
+    const CliRun dead = run_cli(dir_, "eval --method sampled --in '" + in + "' --out dead.csv -q", "MICROSHADOW_FAIL_DEVICE=0:0");
     EXPECT_EQ(dead.exit_code, 1) << dead.log;
     EXPECT_NE(dead.log.find("error"), std::string::npos) << dead.log;
     EXPECT_NE(dead.log.find("injected failure"), std::string::npos) << dead.log;
@@ -317,7 +317,7 @@ protected:
 TEST_F(Signals, EvalOnTheOracleStopsOnSigintAndSigterm) {
     write_queries(dir_ / "q.csv", 300, 8);
     for (const int sig : {SIGINT, SIGTERM})
-        interrupt("eval --in q.csv --out r.csv --backend oracle --samples 1048576 -q", sig, "r.csv");
+        interrupt("eval --method sampled --in q.csv --out r.csv --backend oracle --samples 1048576 -q", sig, "r.csv");
 }
 
 TEST_F(Signals, BakeWithVerifyStopsOnSigintAndSigterm) {

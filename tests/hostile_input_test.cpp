@@ -121,7 +121,7 @@ TEST_F(HostileInput, BadQueryFilesFailCleanly) {
     for (const auto& [name, message] : expected) {
         const fs::path out = dir_ / "out.csv";
         // The oracle backend: no device start-up per file (the reader runs before any backend anyway).
-        const auto r = run_cli("eval --in " + (kCorpus / name).string() + " --out " + out.string() + " --backend oracle -q");
+        const auto r = run_cli("eval --method sampled --in " + (kCorpus / name).string() + " --out " + out.string() + " --backend oracle -q");
         EXPECT_EQ(r.exit_code, 2) << name << ": bad input is exit code 2\n" << r.output;
         expect_clean_failure(r, message, name);
         EXPECT_NE(r.output.find(name), std::string::npos) << name << ": the message must name the file\n" << r.output;
@@ -140,7 +140,7 @@ TEST_F(HostileInput, OddButValidQueryFilesWork) {
         const auto rows_in = ms::read_query_csv(e.path().string()).size();
         for (const std::string backend : {"opencl", "oracle"}) {
             const fs::path out = dir_ / (name + "." + backend + ".csv");
-            const auto r = run_cli("eval --in " + e.path().string() + " --out " + out.string() + " --backend " + backend +
+            const auto r = run_cli("eval --method sampled --in " + e.path().string() + " --out " + out.string() + " --backend " + backend +
                                    " --samples 4096 -q");
             ASSERT_EQ(r.exit_code, 0) << name << " " << backend << "\n" << r.output;
             const auto table = ms::read_numeric_csv(out.string(), columns);  // rejects NaN and infinity itself
@@ -216,22 +216,22 @@ TEST_F(HostileInput, BadCommandLinesFailCleanly) {
         {"", "A subcommand is required", 2},
         {"frobnicate", "A subcommand is required", 2},
         {"eval", "--in is required", 2},
-        {"eval --in " + q, "--out is required", 2},
-        {"eval --in " + q + " --out " + out + ".csv --samples 0", "--samples: Value 0 not in range", 2},
-        {"eval --in " + q + " --out " + out + ".csv --samples -5", "--samples", 2},
-        {"eval --in " + q + " --out " + out + ".csv --samples 1e20", "--samples", 2},
-        {"eval --in " + q + " --out " + out + ".csv --samples 18446744073709551617", "--samples", 2},
-        {"eval --in " + q + " --out " + out + ".csv --replicates 1", "--replicates", 2},
-        {"eval --in " + q + " --out " + out + ".csv --replicates 100000", "--replicates", 2},
-        {"eval --in " + q + " --out " + out + ".csv --form bogus", "--form", 2},
-        {"eval --in " + q + " --out " + out + ".csv --backend cuda", "--backend", 2},
-        {"eval --in " + q + " --out " + out + ".csv --unknown-flag", "--unknown-flag", 2},
-        {"eval --in /nonexistent-microshadow.csv --out " + out + ".csv", "cannot open for reading", 2},
-        {"eval --in " + q + " --out " + out + ".csv --device 999", "no OpenCL device 999; the devices are", 1},
-        {"eval --in " + q + " --out " + out + ".csv --device nosuchdevice", "no OpenCL device matches 'nosuchdevice'", 1},
+        {"eval --method sampled --in " + q, "--out is required", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --samples 0", "--samples: Value 0 not in range", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --samples -5", "--samples", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --samples 1e20", "--samples", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --samples 18446744073709551617", "--samples", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --replicates 1", "--replicates", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --replicates 100000", "--replicates", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --form bogus", "--form", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --backend cuda", "--backend", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --unknown-flag", "--unknown-flag", 2},
+        {"eval --method sampled --in /nonexistent-microshadow.csv --out " + out + ".csv", "cannot open for reading", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --device 999", "no OpenCL device 999; the devices are", 1},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --device nosuchdevice", "no OpenCL device matches 'nosuchdevice'", 1},
         // A bad destination is bad input (exit 2), refused before any work.
-        {"eval --in " + q + " --out /nonexistent-microshadow/dir/o.csv", "does not exist", 2},
-        {"eval --in " + q + " --out " + dir_.string(), "it is a directory", 2},
+        {"eval --method sampled --in " + q + " --out /nonexistent-microshadow/dir/o.csv", "does not exist", 2},
+        {"eval --method sampled --in " + q + " --out " + dir_.string(), "it is a directory", 2},
         // Absurd sizes: a 10^6-texel axis is refused before anything is allocated.
         {"bake --out " + out + ".exr --size 1000000", "--size: Value 1000000 not in range 1 to 4096", 2},
         {"bake --out " + out + ".exr --size-visibility 1000000", "--size-visibility", 2},

@@ -232,7 +232,7 @@ TEST_F(LutReaderTest, EvalCompareShaderAndLutCommandsTakeEveryFormat) {
     write_lut_output(path("lut8.png"), exr, {LutFormat::png, PixelEncoding::unorm8});
     std::ofstream(path("q.csv")) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n"
                                     "0.5,0.16,0.16,0.9797959,0,0.2,0.6,0,0.8\n0.7,0.3,0.3,0,0.6,0.8,0.3,0,0.9539392\n";
-    RunResult r = cli("eval -q --backend oracle --samples 256 --in " + path("q.csv") + " --out " + path("r.csv") + " --compare exr=" +
+    RunResult r = cli("eval --method sampled -q --backend oracle --samples 256 --in " + path("q.csv") + " --out " + path("r.csv") + " --compare exr=" +
                       path("lut.exr") + " --compare ktx2=" + path("lut.ktx2") + " --compare dds=" + path("lut.dds") +
                       " --compare h=" + path("lut.h") + " --compare png=" + path("lut8.png"));
     ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -316,7 +316,7 @@ TEST_F(LutReaderTest, RepresentationDdsOpensLikeItsExr) {
     EXPECT_EQ(r.exit_code, 0) << r.output;
     // And from the command line, as a comparator.
     std::ofstream(path("q.csv")) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.8,0.25,0.25,0.6,0,0.8,-0.6,0,0.8\n";
-    r = cli("eval -q --backend oracle --samples 256 --in " + path("q.csv") + " --out " + path("o.csv") + " --compare e=" + path("r.exr") +
+    r = cli("eval --method sampled -q --backend oracle --samples 256 --in " + path("q.csv") + " --out " + path("o.csv") + " --compare e=" + path("r.exr") +
             " --compare d=" + path("r.dds"));
     ASSERT_EQ(r.exit_code, 0) << r.output;
     auto cols = read_columns(path("o.csv"));

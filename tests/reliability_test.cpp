@@ -103,7 +103,7 @@ bool contains(const std::string& haystack, const std::string& needle) { return h
 
 #define EXPECT_CONTAINS(out, text) EXPECT_TRUE(contains(out, text)) << "expected '" << (text) << "' in:\n" << (out)
 
-const std::string kEval = "eval --backend oracle --samples 64 -q --in " + kQueries;
+const std::string kEval = "eval --method sampled --backend oracle --samples 64 -q --in " + kQueries;
 
 // --- 1. outputs are what the user named ------------------------------------------------------------
 
@@ -280,7 +280,7 @@ TEST_F(Reliability, PlotScriptIsFoundFromTheExecutableNotACompiledInPath) {
 // --- 12. sizes that cannot run ---------------------------------------------------------------------
 
 TEST_F(Reliability, DeviceAndOversizedInputsAreRefusedBeforeReading) {
-    auto r = run("eval --in /dev/zero --out r.csv --backend oracle");
+    auto r = run("eval --method sampled --in /dev/zero --out r.csv --backend oracle");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_CONTAINS(r.output, "/dev/zero: is a device, not a regular file");
     r = run("sweep /dev/zero --out o --backend oracle");
@@ -288,7 +288,7 @@ TEST_F(Reliability, DeviceAndOversizedInputsAreRefusedBeforeReading) {
     EXPECT_CONTAINS(r.output, "/dev/zero: is a device");
     // Sparse files one byte over each limit: refused by size, not read.
     ASSERT_EQ(::truncate(write("big.csv", "").c_str(), (off_t(1) << 30) + 1), 0);
-    r = run("eval --in big.csv --out r.csv --backend oracle");
+    r = run("eval --method sampled --in big.csv --out r.csv --backend oracle");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_CONTAINS(r.output, "more than the limit of 1 GiB");
     ASSERT_EQ(::truncate(write("big.toml", "").c_str(), (off_t(16) << 20) + 1), 0);
@@ -303,7 +303,7 @@ TEST_F(Reliability, PointSetsThatCannotFitAreRefusedWithTheFigure) {
     const double memory = double(pages) * double(page);
     // 2^34 samples x 8 bytes = 128 GiB: refused by memory on any machine with less than 256 GiB.
     if (memory < 256.0 * (1ull << 30)) {
-        for (const std::string cmd : {"eval --backend oracle -q --in " + kQueries + " --out r.csv", std::string("bake --out l.exr --size 2 -q"),
+        for (const std::string cmd : {"eval --method sampled --backend oracle -q --in " + kQueries + " --out r.csv", std::string("bake --out l.exr --size 2 -q"),
                                       std::string("sweep s.toml --out o --backend oracle -q")}) {
             write("s.toml", kTinySpec);
             const auto r = run(cmd + " --samples 17179869184 --replicates 64");
@@ -313,12 +313,12 @@ TEST_F(Reliability, PointSetsThatCannotFitAreRefusedWithTheFigure) {
         }
     }
     // More points per replicate than the generator takes (2^28): refused with the way out.
-    const auto r = run("eval --backend oracle -q --in " + kQueries + " --out r.csv --samples 4294967296");
+    const auto r = run("eval --method sampled --backend oracle -q --in " + kQueries + " --out r.csv --samples 4294967296");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_CONTAINS(r.output, "at most 2^28");
     EXPECT_FALSE(fs::exists(dir_ / "r.csv"));
     // --help states the range that is accepted.
-    EXPECT_CONTAINS(run("eval --help").output, "16 to replicates x 2^28");
+    EXPECT_CONTAINS(run("eval --method sampled --help").output, "16 to replicates x 2^28");
 }
 
 // --- 13. non-UTF-8 bytes in arguments --------------------------------------------------------------
@@ -377,7 +377,7 @@ TEST_F(Reliability, AnUnwritableHomeStillFindsTheDevice) {
 
 TEST_F(Reliability, DamagedKernelCacheEntriesAreNamedInsteadOfAborting) {
     const std::string env = "env POCL_CACHE_DIR=" + sq((dir_ / "cache").string());
-    const std::string eval = "eval --in " + kQueries + " --out r.csv --samples 256 -q";
+    const std::string eval = "eval --method sampled --in " + kQueries + " --out r.csv --samples 256 -q";
     ASSERT_EQ(run(eval, env).exit_code, 0);  // fills the cache
     int damaged = 0;
     for (const auto& e : fs::recursive_directory_iterator(dir_ / "cache")) {
@@ -417,7 +417,7 @@ TEST_F(Reliability, IntegerOptionsAreDecimal) {
 }
 
 TEST_F(Reliability, MessagesForHugeNumbersAreClear) {
-    auto r = run("eval --in " + kQueries + " --out r.csv --device 99999999999999999999999");
+    auto r = run("eval --method sampled --in " + kQueries + " --out r.csv --device 99999999999999999999999");
     EXPECT_EQ(r.exit_code, 1) << r.output;
     EXPECT_CONTAINS(r.output, "no OpenCL device 99999999999999999999999; the devices are");
     EXPECT_FALSE(contains(r.output, "stoul"));
@@ -442,10 +442,10 @@ TEST_F(Reliability, QueryFileEncodingsAreReportedAtTheFirstBadByte) {
     const std::string header = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z";
     const std::string row = "0.5,0.16,0.16,0,0,1,0,0,1";
     write("bom.csv", "\xEF\xBB\xBF" + header + "\n" + row + "\n");
-    auto r = run("eval --in bom.csv --out r.csv --backend oracle --samples 64 -q");
+    auto r = run("eval --method sampled --in bom.csv --out r.csv --backend oracle --samples 64 -q");
     EXPECT_EQ(r.exit_code, 0) << "a UTF-8 byte-order mark is accepted\n" << r.output;
     write("crlf.csv", header + "\r\n" + row + "\r\n");
-    EXPECT_EQ(run("eval --in crlf.csv --out r.csv --backend oracle --samples 64 -q").exit_code, 0);
+    EXPECT_EQ(run("eval --method sampled --in crlf.csv --out r.csv --backend oracle --samples 64 -q").exit_code, 0);
     const std::vector<std::pair<std::string, std::string>> bad = {
         {header + "\r" + row + "\r", "cr.csv:1: a carriage return without a line feed at column 57: CR-only"},
         {"\xFF\xFEv\0i\0"s, "utf16.csv:1: binary data, not CSV text (a UTF-16 byte-order mark)"},
@@ -456,7 +456,7 @@ TEST_F(Reliability, QueryFileEncodingsAreReportedAtTheFirstBadByte) {
     const char* names[] = {"cr.csv", "utf16.csv", "ctl.csv", "latin1.csv", "nul.csv"};
     for (std::size_t i = 0; i < bad.size(); ++i) {
         write(names[i], bad[i].first);
-        r = run(std::string("eval --in ") + names[i] + " --out r.csv --backend oracle");
+        r = run(std::string("eval --method sampled --in ") + names[i] + " --out r.csv --backend oracle");
         EXPECT_EQ(r.exit_code, 2) << names[i] << "\n" << r.output;
         EXPECT_CONTAINS(r.output, bad[i].second);
     }
@@ -467,7 +467,7 @@ TEST_F(Reliability, FuzzSeedsAreAcceptedOrRefusedCleanly) {
     // one works (exit 0) or is bad input (exit 2) with a message naming the file; never a crash.
     const fs::path fuzz = fs::path(MICROSHADOW_SOURCE_DIR) / "fuzz";
     std::size_t seen = 0;
-    for (const auto& [sub, command] : {std::pair<std::string, std::string>{"csv-seeds", "eval --out r.csv --in "},
+    for (const auto& [sub, command] : {std::pair<std::string, std::string>{"csv-seeds", "eval --method sampled --out r.csv --in "},
                                        std::pair<std::string, std::string>{"spec-seeds", "sweep --out o "}}) {
         for (const auto& e : fs::directory_iterator(fuzz / sub)) {
             ++seen;

@@ -1,5 +1,5 @@
 // Issue 15 part C: representation files as sweep comparators. A spec names a representation file as it
-// names a LUT ([[comparators.lut]]); its column must equal what `microshadow eval --compare` computes at
+// names a LUT ([[comparators.lut]]); its column must equal what `microshadow eval --method sampled --compare` computes at
 // the same points (eval reads the relative azimuth from the query's directions, the sweep from
 // delta_phi: they agree to rounding, 1e-9 is far above it and far below any lookup's slope times a
 // wrong azimuth), the summary reports it, and resume refuses a re-baked (changed) representation file.
@@ -110,7 +110,7 @@ TEST_F(ReprSweepTest, RepresentationColumnsEqualEvalCompareAndResumeRefusesAChan
               << x.wo.x << "," << x.wo.y << "," << x.wo.z << "\n";
         }
     }
-    const auto r = ms::testing::run_shell(std::string(MICROSHADOW_CLI) + " eval -q --backend oracle --samples 64 --replicates 2 --in " +
+    const auto r = ms::testing::run_shell(std::string(MICROSHADOW_CLI) + " eval --method sampled -q --backend oracle --samples 64 --replicates 2 --in " +
                                           path("q.csv") + " --out " + path("r.csv") + " --compare harm=" + path("harm.exr") +
                                           " --compare axis=" + path("axis.exr") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;

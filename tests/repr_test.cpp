@@ -361,7 +361,7 @@ TEST_F(ReprCliTest, BakeWritesFileAndShadersAndEvalComparesIt) {
     EXPECT_TRUE(std::filesystem::exists(path("h.glsl")));
     EXPECT_EQ(repr::open_representation(path("h.exr"))->grid().roughness.size(), 2u);
     std::ofstream(path("q.csv")) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.8,0.25,0.25,0.6,0,0.8,-0.6,0,0.8\n";
-    r = run_shell(cli + " eval -q --samples 1024 --in " + path("q.csv") + " --out " + path("r.csv") + " --compare " + path("h.exr") + " 2>&1");
+    r = run_shell(cli + " eval --method sampled -q --samples 1024 --in " + path("q.csv") + " --out " + path("r.csv") + " --compare " + path("h.exr") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     std::ifstream in(path("r.csv"));
     std::string header;

@@ -90,7 +90,7 @@ void write_queries(const fs::path& path, int count) {
 
 TEST_F(Resilience, EvalKilledAtRandomMomentsLeavesThePreviousFileIntact) {
     write_queries(dir_ / "q.csv", 400);
-    const std::string args = "eval --in q.csv --out r.csv --samples 65536 --seed 3 -q";
+    const std::string args = "eval --method sampled --in q.csv --out r.csv --samples 65536 --seed 3 -q";
     const CliRun reference = run_cli(dir_, args);
     ASSERT_EQ(reference.exit_code, 0) << reference.log;
     const std::string expected = slurp(dir_ / "r.csv");
@@ -181,12 +181,12 @@ TEST_F(Resilience, EvalIsTheSameAcrossDeviceCountsAndComputeUnits) {
     // chunks, and the number of chunks follows the device's compute units.
     write_queries(dir_ / "q.csv", 3);
     const std::string args = " --in q.csv --samples 65536 --replicates 4 --seed 11 -q";
-    ASSERT_EQ(run_cli(dir_, "eval --out a.csv" + args).exit_code, 0);
-    const CliRun two = run_cli(dir_, "eval --out b.csv --device all" + args, "POCL_DEVICES='pthread pthread'");
+    ASSERT_EQ(run_cli(dir_, "eval --method sampled --out a.csv" + args).exit_code, 0);
+    const CliRun two = run_cli(dir_, "eval --method sampled --out b.csv --device all" + args, "POCL_DEVICES='pthread pthread'");
     ASSERT_EQ(two.exit_code, 0) << two.log;
-    const CliRun one_cu = run_cli(dir_, "eval --out c.csv" + args, "POCL_MAX_PTHREAD_COUNT=1 POCL_CPU_MAX_CU_COUNT=1");
+    const CliRun one_cu = run_cli(dir_, "eval --method sampled --out c.csv" + args, "POCL_MAX_PTHREAD_COUNT=1 POCL_CPU_MAX_CU_COUNT=1");
     ASSERT_EQ(one_cu.exit_code, 0) << one_cu.log;
-    const CliRun many_cu = run_cli(dir_, "eval --out d.csv" + args, "POCL_MAX_PTHREAD_COUNT=64 POCL_CPU_MAX_CU_COUNT=64");
+    const CliRun many_cu = run_cli(dir_, "eval --method sampled --out d.csv" + args, "POCL_MAX_PTHREAD_COUNT=64 POCL_CPU_MAX_CU_COUNT=64");
     ASSERT_EQ(many_cu.exit_code, 0) << many_cu.log;
     const std::string a = slurp(dir_ / "a.csv");
     EXPECT_EQ(a, slurp(dir_ / "b.csv")) << "two devices";
@@ -225,12 +225,12 @@ TEST_F(Resilience, NoOpenClPlatformGivesAClearMessageAndTheOracleStillWorks) {
     const CliRun devices = run_cli(dir_, "devices", env);
     EXPECT_EQ(devices.exit_code, 1) << devices.log;
     EXPECT_NE(devices.log.find("OpenCL"), std::string::npos) << devices.log;
-    const CliRun cl = run_cli(dir_, "eval --in q.csv --out cl.csv -q", env);
+    const CliRun cl = run_cli(dir_, "eval --method sampled --in q.csv --out cl.csv -q", env);
     EXPECT_EQ(cl.exit_code, 1) << cl.log;
     EXPECT_NE(cl.log.find("OpenCL"), std::string::npos) << cl.log;
     EXPECT_EQ(cl.log.find("terminate called"), std::string::npos) << cl.log;
     EXPECT_FALSE(fs::exists(dir_ / "cl.csv"));
-    const CliRun oracle = run_cli(dir_, "eval --in q.csv --out or.csv --backend oracle --samples 1024 -q", env);
+    const CliRun oracle = run_cli(dir_, "eval --method sampled --in q.csv --out or.csv --backend oracle --samples 1024 -q", env);
     EXPECT_EQ(oracle.exit_code, 0) << oracle.log;
     EXPECT_TRUE(fs::exists(dir_ / "or.csv"));
 }

@@ -151,7 +151,15 @@ void add_eval_command(CLI::App& app) {
                          "Default exact: at its default tolerance 1e-10 it takes ~10 us a query per core, less "
                          "than the sampled default's 65536 samples (~45 us a query per core for ~5e-4)");
     add_tolerance_option(cmd, args->sampling);
-    cmd->callback([args] { run_eval(*args); });
+    cmd->callback([args, cmd] {
+        // Sampling settings with the exact method would be ignored: refuse them, naming the way out.
+        if (args->sampling.method == "exact")
+            for (const char* o : {"--samples", "--seed", "--replicates", "--sequence", "--double-kernels", "--fast-math"})
+                if (cmd->count(o) > 0)
+                    throw std::invalid_argument(std::string(o) + " applies to --method sampled only (the exact method "
+                                                "does not sample; its accuracy is --tolerance)");
+        run_eval(*args);
+    });
 }
 
 }  // namespace ms::cli

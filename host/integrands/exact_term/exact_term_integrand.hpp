@@ -79,7 +79,7 @@ private:
     Stats stats_;
 };
 
-// Queries per work item: ~0.2 s of one CPU thread (about 10 us a query) or one device batch.
+// Queries per work item: ~20 ms of one CPU thread (about 10 us a query), 4x that on a device.
 std::uint64_t queries_per_item(const schedule::Scheduler& scheduler);
 
 // The build a device gets for the exact kernel under `config`.

@@ -377,7 +377,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         if (m.value("spec_hash", "") != result.spec_hash) {
             if (!config.restart)
                 throw std::invalid_argument(entry.path().string() +
-                                            ": this directory holds a different sweep (spec, sampling, backend or comparator "
+                                            ": this directory holds a different sweep (spec, method, sampling, backend or comparator "
                                             "files changed); use another --out, or --restart to discard it");
             continue;
         }

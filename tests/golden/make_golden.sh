@@ -16,7 +16,7 @@ q bake --layout seed-2d --out b2d.exr
 q bake --layout custom --texel endpoints --azimuth 60 --size 9 --roughness 0.3 0.8 \
   --visibility-range 0.05 0.95 --n-dot-v-range 0.1 1 --samples 16384 --out custom.exr
 q eval --in "$here/bench_queries.csv" --out eval_opencl.csv --method sampled
-q eval --in "$here/bench_queries.csv" --out eval_oracle.csv --backend oracle --method sampled --samples 16384
+q eval --in "$here/bench_queries.csv" --out eval_oracle.csv --method sampled --backend oracle --samples 16384
 cp "$here/sweep.toml" sweep.toml
 q sweep sweep.toml --out sweep --method sampled --samples 16384
 for f in b16.exr b32.exr b2d.exr custom.exr; do echo "$f $("$exrhash" "$f")"; done

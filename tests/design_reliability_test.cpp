@@ -96,7 +96,7 @@ TEST_F(DesignReliability, AnInteriorTermWhoseReplicatesAgreeHasANonZeroErrorBarT
         std::ofstream q(path("q.csv"));
         q << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.95,0.05,0.05,0,0,1,0,0,1\n";
     }
-    const ChildRun r = cli("eval --in q.csv --out r.csv --method sampled -q");
+    const ChildRun r = cli("eval --method sampled --in q.csv --out r.csv -q");
     ASSERT_EQ(r.exit_code, 0) << r.log;
     std::ifstream in(path("r.csv"));
     std::string header, row;

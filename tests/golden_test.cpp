@@ -317,7 +317,7 @@ protected:
 TEST_F(Signals, EvalOnTheOracleStopsOnSigintAndSigterm) {
     write_queries(dir_ / "q.csv", 300, 8);
     for (const int sig : {SIGINT, SIGTERM})
-        interrupt("eval --in q.csv --out r.csv --backend oracle --samples 1048576 -q", sig, "r.csv");
+        interrupt("eval --method sampled --in q.csv --out r.csv --backend oracle --samples 1048576 -q", sig, "r.csv");
 }
 
 TEST_F(Signals, BakeWithVerifyStopsOnSigintAndSigterm) {

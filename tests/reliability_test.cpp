@@ -303,7 +303,7 @@ TEST_F(Reliability, PointSetsThatCannotFitAreRefusedWithTheFigure) {
     const double memory = double(pages) * double(page);
     // 2^34 samples x 8 bytes = 128 GiB: refused by memory on any machine with less than 256 GiB.
     if (memory < 256.0 * (1ull << 30)) {
-        for (const std::string cmd : {"eval --backend oracle --method sampled -q --in " + kQueries + " --out r.csv", std::string("bake --out l.exr --size 2 -q"),
+        for (const std::string cmd : {"eval --method sampled --backend oracle -q --in " + kQueries + " --out r.csv", std::string("bake --out l.exr --size 2 -q"),
                                       std::string("sweep s.toml --out o --backend oracle --method sampled -q")}) {
             write("s.toml", kTinySpec);
             const auto r = run(cmd + " --samples 17179869184 --replicates 64");
@@ -313,7 +313,7 @@ TEST_F(Reliability, PointSetsThatCannotFitAreRefusedWithTheFigure) {
         }
     }
     // More points per replicate than the generator takes (2^28): refused with the way out.
-    const auto r = run("eval --backend oracle --method sampled -q --in " + kQueries + " --out r.csv --samples 4294967296");
+    const auto r = run("eval --method sampled --backend oracle -q --in " + kQueries + " --out r.csv --samples 4294967296");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_CONTAINS(r.output, "at most 2^28");
     EXPECT_FALSE(fs::exists(dir_ / "r.csv"));
@@ -377,7 +377,7 @@ TEST_F(Reliability, AnUnwritableHomeStillFindsTheDevice) {
 
 TEST_F(Reliability, DamagedKernelCacheEntriesAreNamedInsteadOfAborting) {
     const std::string env = "env POCL_CACHE_DIR=" + sq((dir_ / "cache").string());
-    const std::string eval = "eval --in " + kQueries + " --out r.csv --method sampled --samples 256 -q";
+    const std::string eval = "eval --method sampled --in " + kQueries + " --out r.csv --samples 256 -q";
     ASSERT_EQ(run(eval, env).exit_code, 0);  // fills the cache
     int damaged = 0;
     for (const auto& e : fs::recursive_directory_iterator(dir_ / "cache")) {

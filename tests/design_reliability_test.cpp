@@ -274,17 +274,17 @@ void write_reference(const fs::path& dir, const std::string& name, const std::st
 bool folder_is_empty_or_absent(const fs::path& p) { return !fs::exists(p) || fs::is_empty(p); }
 
 TEST_F(DesignReliability, BadSamplingBadNamesAndMalformedBudgetsAreRefusedBeforeAnyWork) {
-    write_reference(dir_, "ref.toml", "samples = 1024\n");
+    write_reference(dir_, "ref.toml", "method = \"sampled\"\nsamples = 1024\n");
     // A fit reference whose point set cannot be held (2^31 points per replicate): refused before the
     // evaluation set is computed, not after.
-    write_reference(dir_, "huge.toml", "samples = 4294967296\nreplicates = 2\n");
+    write_reference(dir_, "huge.toml", "method = \"sampled\"\nsamples = 4294967296\nreplicates = 2\n");
     const ChildRun huge = cli("design -q --backend oracle --reference ref.toml --fit-reference huge.toml --cache cache --out out");
     EXPECT_EQ(huge.exit_code, 2) << huge.log;
     EXPECT_NE(huge.log.find("huge.toml"), std::string::npos) << huge.log;
     EXPECT_TRUE(folder_is_empty_or_absent(dir_ / "cache")) << "work was done before the refusal";
     // Samples below 16 a replicate are rounded up as every sampling command rounds them (they used to fail
     // after the work and leave a chunks folder behind).
-    write_reference(dir_, "few.toml", "samples = 64\nreplicates = 8\n");
+    write_reference(dir_, "few.toml", "method = \"sampled\"\nsamples = 64\nreplicates = 8\n");
     const ChildRun few = cli("design -q --backend oracle --reference few.toml --cache cache");
     EXPECT_EQ(few.exit_code, 0) << few.log;
     for (const auto& e : fs::directory_iterator(dir_ / "cache"))
@@ -438,7 +438,7 @@ TEST_F(DesignReliability, SweepNamesAMissingOrDamagedComparatorBeforeStarting) {
         std::ofstream(path("s.toml"), std::ios::trunc)
             << "[parameters]\nvisibility = [0.5, 0.9]\nn_dot_l = [0.5]\nroughness = [0.4]\nn_dot_v = [0.7]\n"
             << "[comparators]\nanalytic = [\"reference-step\"]\n[[comparators.lut]]\nname = \"mine\"\nfile = \"" << file << "\"\n";
-        const ChildRun r = cli("sweep s.toml --out out -q --samples 1024");
+        const ChildRun r = cli("sweep s.toml --out out -q --method sampled --samples 1024");
         EXPECT_EQ(r.exit_code, 2) << file << "\n" << r.log;
         EXPECT_NE(r.log.find("comparators.lut[0] 'mine'"), std::string::npos) << file << "\n" << r.log;
         EXPECT_NE(r.log.find(file), std::string::npos) << r.log;
@@ -479,18 +479,18 @@ Job job_named(const std::string& name, const fs::path& dir) {
         s << "[sweep]\nchunk_size = 16\n[parameters]\nvisibility = { start = 0.5, stop = 1.0, count = 8 }\n"
           << "n_dot_l = { start = 0.1, stop = 1.0, count = 8 }\nroughness = [0.4]\nn_dot_v = [0.6]\n"
           << "[comparators]\nanalytic = [\"reference-step\"]\n";
-        return {"sweep s.toml --out OUT --samples 65536 --seed 9", "OUT/sweep.csv",
+        return {"sweep s.toml --out OUT --method sampled --samples 65536 --seed 9", "OUT/sweep.csv",
                 [](const fs::path& f) { return slurp_file(f / "sweep.csv"); }};
     }
     if (name == "repr-bake")  // 768 texel x node queries at 2^20 samples: 3 items
         return {"repr bake --kind azimuth-axis --visibility-count 4 --n-dot-l-count 4 --n-dot-v-count 4 --azimuth-nodes 3 "
-                "--samples 1048576 --out OUT.exr",
+                "--method sampled --samples 1048576 --out OUT.exr",
                 "OUT.exr", [](const fs::path& f) {
                     const auto r = ms::repr::open_representation(f.string() + ".exr");
                     return std::string(reinterpret_cast<const char*>(r->texels().data()), r->texels().size() * sizeof(float));
                 }};
     // design: 24 reference points at 2^24 samples, 16 queries an item: 2 items.
-    write_reference(dir, "ref.toml", "samples = 16777216\n");
+    write_reference(dir, "ref.toml", "method = \"sampled\"\nsamples = 16777216\n");
     return {"design --reference ref.toml --cache OUT.cache --out OUT", "OUT/pareto.csv", [](const fs::path& f) {
                 std::string bits = slurp_file(f / "pareto.csv");
                 for (const auto& e : fs::directory_iterator(f.string() + ".cache"))

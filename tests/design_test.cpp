@@ -159,7 +159,7 @@ TEST_F(DesignTest, CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput) {
             f << 0.55 + 0.4 * ((i * 7) % 48) / 47.0 << "," << 0.1 + 0.85 * ((i * 5) % 48) / 47.0 << ","
               << 0.3 + 0.6 * (i % 4) / 3.0 << ",0.4,0," << 1 + i % 3 << "\n";
         std::ofstream s(path("ref.toml"));
-        s << "name = \"tiny\"\n[points]\ncsv = \"points.csv\"\n[sampling]\nsamples = 16384\n";
+        s << "name = \"tiny\"\n[points]\ncsv = \"points.csv\"\n[sampling]\nmethod = \"sampled\"\nsamples = 16384\n";
     }
     const RunResult az0 = cli("bake -q --layout custom --size 16 --roughness 0.4 --azimuth 0 --samples 16384 --out " + path("az0.exr"));
     ASSERT_EQ(az0.exit_code, 0) << az0.output;

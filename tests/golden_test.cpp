@@ -225,7 +225,7 @@ TEST_F(Failover, EvalWithItsOnlyDeviceFailingWritesNothing) {
 
 TEST_F(Failover, SweepWithAFailingDeviceGivesTheSameBytes) {
     std::ofstream(dir_ / "s.toml") << kSmallSweep;  // 256 points: 8 chunks of 32
-    const std::string args = " --samples 4096 --seed 4 -q";
+    const std::string args = " --method sampled --samples 4096 --seed 4 -q";
     const CliRun clean = run_cli(dir_, "sweep s.toml --out clean" + args);
     ASSERT_EQ(clean.exit_code, 0) << clean.log;
     const CliRun faulty =
@@ -239,7 +239,7 @@ TEST_F(Failover, SweepWithAFailingDeviceGivesTheSameBytes) {
 
 TEST_F(Failover, SweepWithItsOnlyDeviceFailingWritesNoResult) {
     std::ofstream(dir_ / "s.toml") << kSmallSweep;
-    const CliRun dead = run_cli(dir_, "sweep s.toml --out dead --samples 4096 -q", "MICROSHADOW_FAIL_DEVICE=0:0");
+    const CliRun dead = run_cli(dir_, "sweep s.toml --out dead --method sampled --samples 4096 -q", "MICROSHADOW_FAIL_DEVICE=0:0");
     EXPECT_EQ(dead.exit_code, 1) << dead.log;
     EXPECT_NE(dead.log.find("injected failure"), std::string::npos) << dead.log;
     EXPECT_EQ(dead.log.find("terminate called"), std::string::npos) << dead.log;
@@ -333,7 +333,7 @@ TEST_F(Signals, SweepOnTheOracleStopsOnSigint) {
     std::ofstream(dir_ / "s.toml") << kSmallSweep;
     // A sweep keeps its finished chunks on purpose (rerun to resume): files under out/ may appear, but
     // never sweep.csv, and the previous file beside it stays.
-    const std::string log = interrupt("sweep s.toml --out out --backend oracle --samples 1048576 -q", SIGINT, "previous.csv",
+    const std::string log = interrupt("sweep s.toml --out out --backend oracle --method sampled --samples 1048576 -q", SIGINT, "previous.csv",
                                       {"out/chunks/", "out/manifest"});
     EXPECT_FALSE(fs::exists(dir_ / "out" / "sweep.csv"));
     EXPECT_NE(log.find("rerun the same command to resume"), std::string::npos) << log;

@@ -255,7 +255,7 @@ TEST_F(Reliability, PlotFileNamesAreNeverParsedByAShell) {
     write(spec, kTinySpec);
     const std::string out = "inj'; touch PWNED2; echo '";
     const auto r = run_shell("cd " + sq(dir_.string()) + " && ./bin/microshadow sweep " + sq(spec) + " --out " + sq(out) +
-                             " --plot --backend oracle --samples 64 -q 2>&1");
+                             " --plot --backend oracle --method sampled --samples 64 -q 2>&1");
     EXPECT_FALSE(fs::exists(dir_ / "PWNED")) << r.output;
     EXPECT_FALSE(fs::exists(dir_ / "PWNED2")) << r.output;
     EXPECT_EQ(r.exit_code, 3) << "the plotter's exit status\n" << r.output;
@@ -304,7 +304,7 @@ TEST_F(Reliability, PointSetsThatCannotFitAreRefusedWithTheFigure) {
     // 2^34 samples x 8 bytes = 128 GiB: refused by memory on any machine with less than 256 GiB.
     if (memory < 256.0 * (1ull << 30)) {
         for (const std::string cmd : {"eval --method sampled --backend oracle -q --in " + kQueries + " --out r.csv", std::string("bake --out l.exr --size 2 -q"),
-                                      std::string("sweep s.toml --out o --backend oracle -q")}) {
+                                      std::string("sweep s.toml --out o --backend oracle --method sampled -q")}) {
             write("s.toml", kTinySpec);
             const auto r = run(cmd + " --samples 17179869184 --replicates 64");
             EXPECT_EQ(r.exit_code, 2) << cmd << "\n" << r.output;
@@ -332,7 +332,7 @@ TEST_F(Reliability, NonUtf8FileNamesWorkAndAreEscapedInTheProvenance) {
     EXPECT_CONTAINS(recorded, "$'r\\xE9.csv'");
     // The sweep records its spec's name in the manifest.
     write("s\xE9.toml", kTinySpec);
-    r = run("sweep " + sq("s\xE9.toml") + " --out o --backend oracle --samples 64 -q");
+    r = run("sweep " + sq("s\xE9.toml") + " --out o --backend oracle --method sampled --samples 64 -q");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_CONTAINS(nlohmann::json::parse(slurp(dir_ / "o" / "manifest.json")).at("spec").get<std::string>(), "s\\xE9.toml");
     // A bake records the command line in the EXR header.
@@ -499,7 +499,7 @@ TEST_F(Reliability, SpecDomainsAreCheckedBeforeTheRun) {
     };
     for (const auto& [text, message] : cases) {
         write("s.toml", text);
-        const auto r = run("sweep s.toml --out o --backend oracle --samples 64 -q");
+        const auto r = run("sweep s.toml --out o --backend oracle --method sampled --samples 64 -q");
         EXPECT_EQ(r.exit_code, 2) << text << "\n" << r.output;
         EXPECT_CONTAINS(r.output, message);
         EXPECT_FALSE(fs::exists(dir_ / "o")) << text << ": the run started";
@@ -512,7 +512,7 @@ TEST_F(Reliability, AnInterruptedSweepSaysWhatItKeptAndNothingElse) {
           "[sweep]\nchunk_size = 16\n[parameters]\nvisibility = { start = 0.0, stop = 1.0, count = 64 }\n"
           "n_dot_l = { start = 0.05, stop = 1.0, count = 64 }\nroughness = [0.5]\n");
     const std::string cmd = "cd " + sq(dir_.string()) + " && exec " + sq(cli()) +
-                            " sweep s.toml --out o --backend oracle --samples 4096 >log.txt 2>&1 </dev/null";
+                            " sweep s.toml --out o --backend oracle --method sampled --samples 4096 >log.txt 2>&1 </dev/null";
     const char* argv[] = {"sh", "-c", cmd.c_str(), nullptr};
     pid_t pid = 0;
     ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);

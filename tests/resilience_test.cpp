@@ -131,7 +131,7 @@ const char* kSweepSpec =
 
 TEST_F(Resilience, SweepKilledAtRandomMomentsResumesToTheSameBytes) {
     std::ofstream(dir_ / "s.toml") << kSweepSpec;
-    const std::string args = "sweep s.toml --out ref --samples 16384 --seed 9 -q";
+    const std::string args = "sweep s.toml --out ref --method sampled --samples 16384 --seed 9 -q";
     const CliRun reference = run_cli(dir_, args);
     ASSERT_EQ(reference.exit_code, 0) << reference.log;
     const std::string expected = slurp(dir_ / "ref" / "sweep.csv");
@@ -142,7 +142,7 @@ TEST_F(Resilience, SweepKilledAtRandomMomentsResumesToTheSameBytes) {
     int trials = 0, killed_midway = 0, same = 0;
     for (int trial = 0; trial < 3; ++trial) {
         const std::string out = "t" + std::to_string(trial);
-        const std::string targs = "sweep s.toml --out " + out + " --samples 16384 --seed 9 -q";
+        const std::string targs = "sweep s.toml --out " + out + " --method sampled --samples 16384 --seed 9 -q";
         const pid_t pid = spawn_cli(dir_, targs);
         std::this_thread::sleep_for(std::chrono::duration<double>(when(rng)));
         kill(pid, SIGKILL);
@@ -169,8 +169,8 @@ TEST_F(Resilience, SweepIsTheSameAcrossChunkSizesAndDeviceCounts) {
     std::string other = kSweepSpec;
     other.replace(other.find("chunk_size = 64"), 15, "chunk_size = 29");
     std::ofstream(dir_ / "b.toml") << other;
-    ASSERT_EQ(run_cli(dir_, "sweep a.toml --out a --samples 4096 --seed 1 -q").exit_code, 0);
-    const CliRun b = run_cli(dir_, "sweep b.toml --out b --samples 4096 --seed 1 -q --device all",
+    ASSERT_EQ(run_cli(dir_, "sweep a.toml --out a --method sampled --samples 4096 --seed 1 -q").exit_code, 0);
+    const CliRun b = run_cli(dir_, "sweep b.toml --out b --method sampled --samples 4096 --seed 1 -q --device all",
                           "POCL_DEVICES='pthread pthread'");
     ASSERT_EQ(b.exit_code, 0) << b.log;
     EXPECT_EQ(slurp(dir_ / "a" / "sweep.csv"), slurp(dir_ / "b" / "sweep.csv"));

@@ -233,13 +233,13 @@ TEST(SweepIntegrity, ASweepBegunOnOneDeviceResumesOnAllOfThem) {
     const std::string bin = MICROSHADOW_CLI;
     const std::string env = "POCL_CACHE_DIR=" + (fs::temp_directory_path() / "pocl-cache-integrity").string() + " ";
     const auto one = testing::run_shell(env + bin + " sweep " + spec + " --out " + (dir / "a").string() +
-                                        " --samples 1024 --max-chunks 1 -q 2>&1");
+                                        " --method sampled --samples 1024 --max-chunks 1 -q 2>&1");
     ASSERT_EQ(one.exit_code, 0) << one.output;
     const auto all = testing::run_shell(env + "POCL_DEVICES='pthread pthread' " + bin + " sweep " + spec + " --out " +
-                                        (dir / "a").string() + " --samples 1024 --device all -q 2>&1");
+                                        (dir / "a").string() + " --method sampled --samples 1024 --device all -q 2>&1");
     ASSERT_EQ(all.exit_code, 0) << all.output;
     const auto whole = testing::run_shell(env + bin + " sweep " + spec + " --out " + (dir / "b").string() +
-                                          " --samples 1024 -q 2>&1");
+                                          " --method sampled --samples 1024 -q 2>&1");
     ASSERT_EQ(whole.exit_code, 0) << whole.output;
     EXPECT_EQ(slurp(dir / "a" / "sweep.csv"), slurp(dir / "b" / "sweep.csv"));
 }

@@ -305,7 +305,7 @@ TEST(SweepRun, ShardsMergeToTheUnsplitFile) {
 TEST(SweepCli, AnisotropicSweepMatchesTheOracle) {
     const fs::path dir = fresh_dir("cli");
     const std::string spec_text =
-        "[sweep]\nchunk_size = 16\n[sampling]\nsamples = 1024\nreplicates = 8\nseed = 5\n[parameters]\n"
+        "[sweep]\nchunk_size = 16\n[sampling]\nmethod = \"sampled\"\nsamples = 1024\nreplicates = 8\nseed = 5\n[parameters]\n"
         "visibility = [0.3, 0.6, 0.9]\nn_dot_l = [0.4, 0.9]\nn_dot_v = [0.3, 0.8]\nalpha_x = [0.08]\nalpha_y = [0.6]\n"
         "phi_i = [0, 75]\nphi_o = [20, 200]\n[comparators]\nanalytic = [\"naughty-dog\"]\n";
     std::ofstream(dir / "aniso.toml") << spec_text;

@@ -172,6 +172,13 @@ void add_tolerance_option(CLI::App* app, SamplingOptions& o) {
         ->check(CLI::PositiveNumber);
 }
 
+void note_unused_sampling_options(CLI::App* app, const SamplingOptions& o) {
+    if (o.method != "exact" || o.quiet) return;
+    for (const char* name : {"--samples", "--replicates", "--seed", "--sequence"})
+        if (app->get_option(name)->count() > 0)
+            std::cerr << "note: " << name << " is unused by the exact method (add --method sampled to sample)\n";
+}
+
 void add_sampling_options(CLI::App* app, SamplingOptions& o, const std::string& method_why) {
     app->add_option("--method", o.method,
                     "exact: the deterministic boundary-integral evaluator (quadrature error estimate in std_error, "

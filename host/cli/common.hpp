@@ -60,6 +60,10 @@ CLI::Validator real_range(double min, double max);
 void add_sampling_options(CLI::App* app, SamplingOptions& options, const std::string& method_why = "");
 // --tolerance E for commands whose sampling options do not already define one.
 void add_tolerance_option(CLI::App* app, SamplingOptions& o);
+// Under the exact method, a note on stderr (unless --quiet) for each of --samples --replicates --seed
+// --sequence given on `app`'s command line: they are unused, and a recipe written for the sampled
+// method should say --method sampled.
+void note_unused_sampling_options(CLI::App* app, const SamplingOptions& o);
 
 // MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
 // its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.

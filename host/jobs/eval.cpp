@@ -49,6 +49,17 @@ nlohmann::json exact_provenance(const SamplingPlan& plan) {
                       "difference plus a rounding floor), not a standard deviation"}};
 }
 
+std::string exact_cache_key(const SamplingPlan& plan) {
+    if (plan.method != Method::exact) return "";
+    const double tolerance = plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
+    const exact::ArcRule rule = exact::arc_rule_for(tolerance);
+    char text[160];
+    // %.17g: two tolerances that differ in any bit are two keys.
+    std::snprintf(text, sizeof text, "method=exact tolerance=%.17g rule=gauss-legendre-%d-%d rho=%.17g precision=%s",
+                  tolerance, rule.high, rule.low, rule.rho, plan.single_precision ? "float" : "auto");
+    return text;
+}
+
 namespace {
 
 // The exact method (host/exact/) on the same scheduler: fixed batches of queries, each value with its

@@ -22,6 +22,8 @@
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "io/input_file.hpp"
+#include "exact/exact_term.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "io/text.hpp"
 #include "sampling/point_set.hpp"
 
@@ -290,8 +292,14 @@ std::string ReferenceDefinition::canonical_text() const {
         for (const auto& p : csv_points) all += row_text(p, Estimate{});
         s << "points " << csv_points.size() << " fnv1a " << fnv1a(all) << "\n";
     }
-    s << "samples " << plan.samples << " replicates " << plan.replicates << " seed " << plan.seed << " sequence "
-      << to_string(plan.sequence) << "\nform " << to_string(options.form) << " ao_weighting "
+    // The exact method's tolerance and rule decide its values, the sampled method's point set decides
+    // its: a set made by one method is never the cache of the other. (The sampled line is the one
+    // earlier sets were keyed by, so their caches stay valid.)
+    if (plan.method == Method::exact) s << exact_cache_key(plan);
+    else
+        s << "samples " << plan.samples << " replicates " << plan.replicates << " seed " << plan.seed << " sequence "
+          << to_string(plan.sequence);
+    s << "\nform " << to_string(options.form) << " ao_weighting "
       << to_string(options.ao_weighting) << " backend " << backend_label << "\n";
     return s.str();
 }
@@ -336,7 +344,10 @@ ReferenceDefinition parse_reference_spec(const std::string& text, const std::str
                                     std::string(e.description()));
     }
     reject_unknown(source, root, "", {"name", "points", "sampling"});
+    // References need accuracy: the exact method (1e-10 at ~10 us a point per core) is the default; the
+    // sampled one needs 65536 samples (~45 us a point per core) for ~5e-4.
     ReferenceDefinition def;
+    def.plan.method = Method::exact;
     if (const toml::node* n = root.get("name")) {
         if (!n->is_string() || n->as_string()->get().empty()) fail(source, "name", "must be a non-empty string");
         def.name = n->as_string()->get();
@@ -371,7 +382,7 @@ ReferenceDefinition parse_reference_spec(const std::string& text, const std::str
     if (const toml::node* s = root.get("sampling")) {
         if (!s->is_table()) fail(source, "sampling", "must be a table [sampling]");
         const toml::table& st = *s->as_table();
-        reject_unknown(source, st, "sampling.", {"samples", "replicates", "seed", "ao_weighting", "form"});
+        reject_unknown(source, st, "sampling.", {"samples", "replicates", "seed", "ao_weighting", "form", "method", "tolerance"});
         if (const toml::node* n = st.get("samples")) def.plan.samples = positive_integer(source, *n, "sampling.samples", 1ull << 32);
         if (const toml::node* n = st.get("replicates"))
             def.plan.replicates = std::uint32_t(positive_integer(source, *n, "sampling.replicates", 1024));
@@ -379,6 +390,20 @@ ReferenceDefinition parse_reference_spec(const std::string& text, const std::str
         if (const toml::node* n = st.get("seed")) {
             if (!n->is_integer() || n->as_integer()->get() < 0) fail(source, "sampling.seed", "must be an integer >= 0");
             def.plan.seed = std::uint64_t(n->as_integer()->get());
+        }
+        if (const toml::node* n = st.get("method")) {
+            const auto text = n->value<std::string>();
+            if (!text || (*text != "exact" && *text != "sampled"))
+                fail(source, "sampling.method", "must be \"exact\" or \"sampled\"");
+            def.plan.method = parse_method(*text);
+        }
+        if (const toml::node* n = st.get("tolerance")) {
+            const auto value = n->value<double>();
+            if (!value || !(*value >= exact_term::kMinTolerance && *value <= 0.1))
+                fail(source, "sampling.tolerance", "must be a number in [1e-13, 0.1] (the exact method's estimated error)");
+            if (def.plan.method != Method::exact)
+                fail(source, "sampling.tolerance", "applies to the exact method; a sampled reference takes samples");
+            def.plan.tolerance = *value;
         }
         try {
             if (const toml::node* n = st.get("ao_weighting"); n && n->is_string())
@@ -444,6 +469,14 @@ std::string cache_file(const ReferenceDefinition& def, const std::string& dir) {
 
 void check_plan(const ReferenceDefinition& def) {
     const SamplingPlan& p = def.plan;
+    if (p.method == Method::exact) {
+        try {
+            exact_term::validate_tolerance(p.tolerance > 0 ? p.tolerance : exact::kDefaultTolerance);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument("reference set '" + def.name + "': " + e.what());
+        }
+        return;  // no point set: the sampling fields are unused
+    }
     const std::uint64_t per = p.replicates ? p.samples / p.replicates : 0;
     // What the point set accepts (sampling/point_set.hpp), and two replicates for a standard error.
     if (p.replicates < 2 || p.replicates > 1024 || p.samples % p.replicates != 0 || per < 16 || per > (1ull << 28) ||
@@ -578,6 +611,14 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
                            {"rms_std_error", result.rms_std_error},
                            {"seconds", rep.seconds}};
     if (!def.points_csv.empty()) meta["points_csv"] = json_safe(def.points_csv);
+    // What decided the values (and what the std_error column means): the method with its parameters.
+    meta["method"] = to_string(def.plan.method);
+    if (def.plan.method == Method::exact) meta["exact"] = exact_provenance(def.plan);
+    else
+        meta["sampling"] = {{"samples", def.plan.samples},
+                            {"replicates", def.plan.replicates},
+                            {"seed", def.plan.seed},
+                            {"sequence", to_string(def.plan.sequence)}};
     outputs.stream(json_out) << dump_json(meta, 2) << "\n";
     outputs.commit();
     // The finished file holds everything the chunks did. Only this run (holding the lock) ever wrote

@@ -5,14 +5,60 @@
 #include <sstream>
 
 #include "core/estimate.hpp"
+#include "exact/exact_term.hpp"
 #include "integrands/term/term_integrand.hpp"
+#include "jobs/eval.hpp"
 #include "sampling/point_set.hpp"
 
 namespace ms {
 
+namespace {
+
+// Float storage rounds the value by at most half an ulp (2^-24 relative).
+double storage_rounding(double lut) { return 6e-8 * std::max(1.0, std::abs(lut)); }
+
+// One azimuth rule (degrees, weights summing to 1) the bake may have estimated a texel with.
+struct AzimuthRule {
+    std::vector<double> degrees, weights;
+};
+
+// The rules a texel of this bake was estimated with: the adaptive default ends each row at its own K
+// (nested trapezoids), and the result says which K occurred; every other policy has one rule.
+std::vector<AzimuthRule> bake_rules(const BakeSpec& spec, const BakeResult& result) {
+    std::vector<AzimuthRule> rules;
+    const bool adaptive = spec.azimuth_mean && spec.azimuth_quadrature == AzimuthQuadrature::nodes &&
+                          spec.azimuth_intervals == 0 && effective_azimuth_cells(spec) == 0;
+    if (adaptive)
+        for (const auto& [intervals, rows] : result.azimuth_rows_by_intervals) {
+            if (rows == 0 || intervals == 0) continue;
+            BakeSpec fixed = spec;
+            fixed.azimuth_intervals = intervals;
+            AzimuthRule r;
+            azimuth_nodes(fixed, r.degrees, r.weights);
+            rules.push_back(std::move(r));
+        }
+    if (rules.empty()) {
+        AzimuthRule r;
+        azimuth_nodes(spec, r.degrees, r.weights);
+        rules.push_back(std::move(r));
+    }
+    return rules;
+}
+
+std::string texel_name(const BakeResult& result, std::size_t at) {
+    const std::size_t texel = at / result.channels, y = texel / result.width;
+    std::ostringstream s;
+    s << "channel " << at % result.channels << ", visibility " << texel % result.width << ", n_dot_l "
+      << y % result.n_dot_l_count << ", n_dot_v " << y / result.n_dot_l_count;
+    return s.str();
+}
+
+}  // namespace
+
 BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std::size_t count, std::uint64_t samples,
-                             unsigned threads) {
+                             unsigned threads, Method reference) {
     BakeVerification v;
+    v.reference = reference;
     if (count == 0) return v;
     std::vector<double> degrees, weights;
     azimuth_nodes(spec, degrees, weights);
@@ -33,6 +79,67 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
     for (std::size_t i = 0; i < k; ++i) std::swap(candidates[i], candidates[i + next() % (candidates.size() - i)]);
     candidates.resize(k);
 
+    auto texel_indices = [&](std::size_t at, std::uint32_t& c, std::uint32_t& iv, std::uint32_t& il, std::uint32_t& ivv) {
+        c = std::uint32_t(at % result.channels);
+        const std::size_t texel = at / result.channels;
+        iv = std::uint32_t(texel % result.width);
+        const std::size_t y = texel / result.width;
+        il = std::uint32_t(y % result.n_dot_l_count);
+        ivv = std::uint32_t(y / result.n_dot_l_count);
+    };
+    v.threshold = student_t_quantile(1.0 - 0.001 / double(std::max<std::size_t>(k, 1)), int(spec.replicates) - 1);
+
+    if (reference == Method::exact) {
+        // Every (texel, rule, node) query through the exact method on oracle-backend threads.
+        const std::vector<AzimuthRule> rules = bake_rules(spec, result);
+        std::vector<Query> queries;
+        for (std::size_t i = 0; i < k; ++i) {
+            std::uint32_t c, iv, il, ivv;
+            texel_indices(candidates[i], c, iv, il, ivv);
+            for (const AzimuthRule& rule : rules)
+                for (double deg : rule.degrees) queries.push_back(texel_query(spec, c, iv, il, ivv, deg));
+        }
+        SamplingPlan plan;
+        plan.method = Method::exact;
+        plan.tolerance = exact::kDefaultTolerance;
+        const auto backend = make_oracle_backend(threads);
+        const std::vector<Estimate> values = evaluate(*backend, queries, spec.term, plan);
+        std::size_t q = 0;
+        for (std::size_t i = 0; i < k; ++i) {
+            const std::size_t at = candidates[i];
+            const double lut = result.value[at], se_lut = result.std_error[at];
+            // The texel is judged against the rule it is closest to (one rule unless adaptive).
+            double best_slack = HUGE_VAL, best_ref = 0, best_error = 0;
+            for (const AzimuthRule& rule : rules) {
+                double ref = 0, error = 0;
+                for (std::size_t a = 0; a < rule.degrees.size(); ++a, ++q) {
+                    ref += rule.weights[a] * values[q].term;
+                    error += rule.weights[a] * values[q].std_error;  // the estimated errors add (weights >= 0)
+                }
+                const double slack = std::abs(lut - ref) - error - storage_rounding(lut);
+                if (slack < best_slack) {
+                    best_slack = slack;
+                    best_ref = ref;
+                    best_error = error;
+                }
+            }
+            const double diff = std::abs(lut - best_ref);
+            const double z = best_slack <= 0 ? 0.0 : se_lut > 0 ? best_slack / se_lut : HUGE_VAL;
+            ++v.checked;
+            if (z > v.threshold) ++v.failed;
+            v.worst_abs_diff = std::max(v.worst_abs_diff, diff);
+            v.max_reference_error = std::max(v.max_reference_error, best_error);
+            if (z >= v.worst_z) {
+                v.worst_z = z;
+                std::ostringstream s;
+                s << texel_name(result, at) << ": lut " << lut << " +- " << se_lut << ", exact " << best_ref << " (error "
+                  << best_error << ")";
+                v.worst_texel = s.str();
+            }
+        }
+        return v;
+    }
+
     SamplingPlan plan;
     plan.sequence = spec.sequence;
     plan.replicates = spec.replicates;
@@ -41,7 +148,6 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
     plan.seed = spec.seed ^ 0x0a11ce5eed5ull;
     const PointSet points = make_point_set(plan);
     const std::size_t R = plan.replicates;
-    v.threshold = student_t_quantile(1.0 - 0.001 / double(std::max<std::size_t>(k, 1)), int(R) - 1);
 
     // Every (texel, node) query, tallied by the term integrand on the oracle scheduler (cancellable,
     // one work item per few queries), then reduced like the bake: pooled ratio per node, node-weighted
@@ -73,9 +179,8 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
         const std::size_t at = candidates[i];
         const double lut = result.value[at], se_lut = result.std_error[at];
         const double diff = std::abs(lut - oracle_rows[i].term);
-        // Float storage rounds the value by at most half an ulp (2^-24 relative).
         const double sigma = std::sqrt(se_lut * se_lut + oracle_rows[i].std_error * oracle_rows[i].std_error);
-        const double slack = diff - 6e-8 * std::max(1.0, std::abs(lut));
+        const double slack = diff - storage_rounding(lut);
         const double z = slack <= 0 ? 0.0 : sigma > 0 ? slack / sigma : HUGE_VAL;
         ++v.checked;
         if (z > v.threshold) ++v.failed;

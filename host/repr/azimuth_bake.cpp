@@ -92,14 +92,23 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
         max_se = std::max(max_se, estimates[i].std_error);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    bake.metadata = {{"samples", spec.plan.samples},   {"replicates", spec.plan.replicates},
-                     {"seed", spec.plan.seed},         {"sequence", to_string(spec.plan.sequence)},
+    bake.metadata = {{"method", to_string(spec.plan.method)},
                      {"form", to_string(spec.term.form)}, {"ao_weighting", to_string(spec.term.ao_weighting)},
                      {"azimuth_nodes", spec.azimuth_nodes}, {"queries", n},
                      {"sampled", stats.sampled},       {"exact_zero", stats.exact_zero},
                      {"exact_one", stats.exact_one},   {"max_std_error", max_se},
                      {"seconds", seconds},             {"device", backend.name()},
                      {"command_line", spec.command_line}, {"version", MICROSHADOW_VERSION}};
+    // What decided the texels and what their std_error holds: the exact method's tolerance and rule (an
+    // estimated error), or the sampled method's point set (a replicate standard error).
+    if (spec.plan.method == Method::exact) {
+        bake.metadata["exact"] = exact_provenance(spec.plan);
+    } else {
+        bake.metadata["samples"] = spec.plan.samples;
+        bake.metadata["replicates"] = spec.plan.replicates;
+        bake.metadata["seed"] = spec.plan.seed;
+        bake.metadata["sequence"] = to_string(spec.plan.sequence);
+    }
     return bake;
 }
 

@@ -120,6 +120,9 @@ nlohmann::json TextureRepresentation::provenance() const {
                  {"storage", c.storage}};
     for (const char* key : {"version", "command_line"})
         if (metadata_.contains(key)) j[key] = metadata_[key];
+    // How its texels were computed (exact or sampled): what a comparator column of it stands on.
+    if (metadata_.contains("bake") && metadata_["bake"].is_object() && metadata_["bake"].contains("method"))
+        j["method"] = metadata_["bake"]["method"];
     return j;
 }
 

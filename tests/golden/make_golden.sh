@@ -18,7 +18,7 @@ q bake --layout custom --texel endpoints --azimuth 60 --size 9 --roughness 0.3 0
 q eval --in "$here/bench_queries.csv" --out eval_opencl.csv --method sampled
 q eval --in "$here/bench_queries.csv" --out eval_oracle.csv --method sampled --backend oracle --samples 16384
 cp "$here/sweep.toml" sweep.toml
-q sweep sweep.toml --out sweep --samples 16384
+q sweep sweep.toml --out sweep --method sampled --samples 16384
 for f in b16.exr b32.exr b2d.exr custom.exr; do echo "$f $("$exrhash" "$f")"; done
 for f in eval_opencl.csv eval_oracle.csv sweep/sweep.csv sweep/summary.csv; do echo "$f $(sha256sum < "$f" | cut -c1-16)"; done
 # The term column alone: the estimates, apart from their error bars (issue 10 gave honest error bars to

@@ -17,6 +17,7 @@
 
 #include "analytic/part1_terms.hpp"
 #include "core/cancel.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "integrands/term/term_integrand.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
@@ -176,6 +177,9 @@ std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
       << "\nseed=" << c.plan.seed << "\nsequence=" << to_string(c.plan.sequence)
       << "\ndefault_form=" << to_string(c.defaults.form) << "\ndefault_ao=" << to_string(c.defaults.ao_weighting)
       << "\nbackend=" << c.backend_label << "\nfast_math=" << c.fast_math << "\n";
+    // The exact method's tolerance and rule decide its bits; a sampled sweep's text is unchanged, so its
+    // earlier runs still resume, and an exact run never resumes sampled chunks (nor the reverse).
+    if (c.plan.method == Method::exact) s << exact_cache_key(c.plan) << "\n";
     std::uint64_t h = fnv1a(s.str());
     for (const auto& l : spec.luts) h = fnv1a(read_all(l.file), h);
     return hex(h);
@@ -198,6 +202,16 @@ std::vector<compare::Comparator> open_comparator_files(const Spec& spec) {
         }
     }
     return files;
+}
+
+// What decided the values: the exact method's tolerance and rule, or the sampled method's point set.
+json sampling_provenance(const SamplingPlan& plan) {
+    if (plan.method == Method::exact) return exact_provenance(plan);
+    return {{"method", "sampled"},
+            {"samples", plan.samples},
+            {"replicates", plan.replicates},
+            {"seed", plan.seed},
+            {"sequence", to_string(plan.sequence)}};
 }
 
 class ChunkComputer {
@@ -363,7 +377,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         if (m.value("spec_hash", "") != result.spec_hash) {
             if (!config.restart)
                 throw std::invalid_argument(entry.path().string() +
-                                            ": this directory holds a different sweep (spec, sampling, backend or comparator "
+                                            ": this directory holds a different sweep (spec, method, sampling, backend or comparator "
                                             "files changed); use another --out, or --restart to discard it");
             continue;
         }
@@ -400,11 +414,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
                      {"chunk_size", spec.chunk_size},
                      {"chunks", result.chunks},
                      {"shard", {{"index", config.shard.index}, {"count", config.shard.count}}},
-                     {"sampling",
-                      {{"samples", config.plan.samples},
-                       {"replicates", config.plan.replicates},
-                       {"seed", config.plan.seed},
-                       {"sequence", to_string(config.plan.sequence)}}},
+                     {"sampling", sampling_provenance(config.plan)},
                      {"backend", config.backend_label},
                      {"fast_math", config.fast_math},
                      {"command_line", config.command_line},
@@ -459,18 +469,27 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     auto chunk_done = [&](std::uint64_t c) { return finished.count(c) > 0; };
     std::mutex digest_mutex;
     std::map<std::uint64_t, json> fresh;  // digests of chunks written in this run, until on_done records them
-    term::TermIntegrand integrand(
-        result.chunks,
-        [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); },
-        [&](std::uint64_t c, std::vector<Estimate>&& est) {
-            const std::string rows = computer.rows(c * chunk_size, chunk_end(c), est);
-            AtomicFile f(chunk_path(config.out_dir, c), true);
-            f.stream() << rows;
-            f.commit();
-            std::lock_guard<std::mutex> lock(digest_mutex);
-            fresh[c] = chunk_digest(rows);
-        },
-        config.plan, config.backend->config());
+    auto chunk_queries = [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); };
+    auto write_chunk = [&](std::uint64_t c, std::vector<Estimate>&& est) {
+        const std::string rows = computer.rows(c * chunk_size, chunk_end(c), est);
+        AtomicFile f(chunk_path(config.out_dir, c), true);
+        f.stream() << rows;
+        f.commit();
+        std::lock_guard<std::mutex> lock(digest_mutex);
+        fresh[c] = chunk_digest(rows);
+    };
+    // One work item per chunk either way: the exact integrand has the sampled one's source/sink contract.
+    std::unique_ptr<schedule::Integrand> integrand;
+    if (config.plan.method == Method::exact) {
+        exact_term::ExactConfig exact;
+        exact.tolerance = config.plan.tolerance > 0 ? config.plan.tolerance : exact::kDefaultTolerance;
+        exact.build = config.backend->config().build;
+        exact.force_float = config.plan.single_precision;
+        integrand = std::make_unique<exact_term::ExactTermIntegrand>(result.chunks, chunk_queries, write_chunk, exact);
+    } else {
+        integrand = std::make_unique<term::TermIntegrand>(result.chunks, chunk_queries, write_chunk, config.plan,
+                                                          config.backend->config());
+    }
     schedule::WorkSelection selection;
     selection.shard_index = config.shard.index;
     selection.shard_count = config.shard.count;
@@ -489,7 +508,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     };
     if (config.progress)
         callbacks.progress = [&](std::uint64_t done, std::uint64_t) { config.progress(found + done, result.shard_chunks); };
-    config.backend->scheduler().run(integrand, selection, callbacks);
+    config.backend->scheduler().run(*integrand, selection, callbacks);
     std::uint64_t mine = 0;
     for (std::uint64_t c : finished) mine += (c % config.shard.count == config.shard.index && c < result.chunks);
     result.complete = mine == result.shard_chunks;

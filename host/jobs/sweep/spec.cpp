@@ -225,7 +225,7 @@ Spec parse_spec(const std::string& text, const std::string& source_name, const s
             spec.max_points = positive_integer(spec, *n, "sweep.max_points", kHardMaxPoints);
     }
     if (const auto* t = subtable(spec, root, "sampling")) {
-        reject_unknown_keys(spec, *t, "sampling.", {"samples", "replicates", "seed", "sequence"});
+        reject_unknown_keys(spec, *t, "sampling.", {"samples", "replicates", "seed", "sequence", "method", "tolerance"});
         if (const auto* n = t->get("samples")) spec.samples = positive_integer(spec, *n, "sampling.samples", 1ULL << 34);
         if (const auto* n = t->get("replicates")) {
             spec.replicates = std::uint32_t(positive_integer(spec, *n, "sampling.replicates", 1024));
@@ -242,6 +242,18 @@ Spec parse_spec(const std::string& text, const std::string& source_name, const s
             } catch (const std::invalid_argument& e) {
                 fail(spec, "sampling.sequence", e.what());
             }
+        }
+        if (const auto* n = t->get("method")) {
+            const std::string text = string_value(spec, *n, "sampling.method");
+            if (text != "exact" && text != "sampled") fail(spec, "sampling.method", "must be \"exact\" or \"sampled\"");
+            spec.method = parse_method(text);
+        }
+        if (const auto* n = t->get("tolerance")) {
+            const auto value = n->value<double>();
+            // The exact evaluator's range (integrands/exact_term/): below 1e-13 rounding dominates.
+            if (!value || !(*value >= 1e-13 && *value <= 0.1))
+                fail(spec, "sampling.tolerance", "must be a number in [1e-13, 0.1]");
+            spec.tolerance = *value;
         }
     }
 

@@ -8,8 +8,10 @@
 //   chunk_size = 4096             # points per chunk (the unit of streaming, resume and sharding)
 //   max_points = 50000000         # raises the default safety limit of 20,000,000 points
 //
-//   [sampling]                    # defaults for the CLI's --samples --replicates --seed --sequence;
-//   samples = 16384               # a flag given on the command line overrides the value here
+//   [sampling]                    # defaults for the CLI's --method --tolerance --samples --replicates
+//   method = "exact"              # --seed --sequence; a flag given on the command line overrides the
+//   tolerance = 1e-10             # value here. method: "exact" (the default) or "sampled"; tolerance:
+//   samples = 16384               # the exact method's estimated error of each value
 //   replicates = 8
 //   seed = 1
 //   sequence = "sobol"
@@ -97,6 +99,8 @@ struct Spec {
     std::optional<std::uint64_t> samples, seed;
     std::optional<std::uint32_t> replicates;
     std::optional<std::string> sequence;
+    std::optional<Method> method;
+    std::optional<double> tolerance;
 };
 
 // Parses and validates; throws SpecError naming the file and the key. Unknown keys are errors.

@@ -1,0 +1,60 @@
+#!/usr/bin/env python3
+"""Error against run time of the exact and sampled methods, from docs/bench/exact_{eval,bake,scene}.csv
+(docs/bench/exact_bench.sh): one panel per job, log-log, each point labelled with its setting."""
+import csv
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+
+bench = sys.argv[1] if len(sys.argv) > 1 else "docs/bench"
+out = sys.argv[2] if len(sys.argv) > 2 else f"{bench}/exact_vs_sampled.png"
+
+
+def rows(name):
+    with open(f"{bench}/{name}") as f:
+        return list(csv.DictReader(f))
+
+
+fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+colours = {"exact": "tab:blue", "sampled": "tab:orange"}
+# eval: max error against the 1e-13 run.
+ax = axes[0]
+for r in rows("exact_eval.csv"):
+    kind = "exact" if r["method"].startswith("exact") else "sampled"
+    x, y = float(r["eval_s"]), max(float(r["max_error"]), 1e-16)
+    ax.loglog(x, y, "o", color=colours[kind])
+    ax.annotate(f"{r['method'].replace('sampled-opencl', 'sampled')} {r['setting']}", (x, y), fontsize=7,
+                xytext=(4, 3), textcoords="offset points")
+ax.set_title("eval: 20,000 stress queries")
+ax.set_ylabel("max |error| against exact at 1e-13")
+# bake: max error against the exact 1e-6 bake (that bake's own bound: its tolerance).
+ax = axes[1]
+for r in rows("exact_bake.csv"):
+    kind = "exact" if r["method"].startswith("exact") else "sampled"
+    err = float(r["max_error_vs_exact_1e-6"])
+    y = err if err > 0 else float(r["setting"])  # the reference itself: plotted at its tolerance
+    x = float(r["wall_s"])
+    ax.loglog(x, max(y, 1e-13), "o", color=colours[kind])
+    ax.annotate(f"{r['method']} {r['setting']}", (x, max(y, 1e-13)), fontsize=7, xytext=(4, 3), textcoords="offset points")
+ax.set_title("bake: 64^3 x 4 azimuth-mean LUT")
+ax.set_ylabel("max |error| (exact 1e-6 bake: its tolerance)")
+# scene: the per-pixel bound reached.
+ax = axes[2]
+for r in rows("exact_scene.csv"):
+    x, y = float(r["wall_s"]), float(r["max_bound"])
+    ax.loglog(x, y, "o", color=colours[r["method"]])
+    ax.annotate(f"{r['method']} to {r['tolerance']}", (x, y), fontsize=7, xytext=(4, 3), textcoords="offset points")
+ax.set_title("scene: 1024^2 example, one light")
+ax.set_ylabel("largest per-pixel error bound")
+for ax in axes:
+    ax.set_xlabel("wall time (s), 2 CPU cores")
+    ax.grid(True, which="both", alpha=0.3)
+handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=k) for k, c in colours.items()]
+axes[0].legend(handles=handles, loc="center right")
+fig.suptitle("Error against run time: exact method (blue) and VNDF sampling (orange)")
+fig.tight_layout()
+fig.savefig(out, dpi=110)
+print(f"wrote {out}")

@@ -62,20 +62,18 @@ std::string exact_cache_key(const SamplingPlan& plan) {
 
 namespace {
 
-// The exact method (host/exact/) on the same scheduler: fixed batches of queries, each value with its
-// estimated error in std_error.
-std::vector<Estimate> evaluate_exact(TermBackend& backend, const std::vector<Query>& queries,
-                                     const std::vector<TermOptions>& options, const SamplingPlan& plan, EvalStats* stats,
-                                     const std::function<void(std::size_t, std::size_t)>& progress,
-                                     std::chrono::steady_clock::time_point start) {
-    const std::uint64_t per_item = exact_term::queries_per_item(backend.scheduler());
+// Runs queries in fixed batches of `per_item` through an integrand with the term integrands' Source/Sink
+// contract (term::TermIntegrand, exact_term::ExactTermIntegrand), with progress in queries and the run's
+// report in `stats`. `make` builds the integrand from (items, source, sink); `count` reads its
+// (evaluated, exact_zero, exact_one) after the run.
+template <class Make, class Count>
+std::vector<Estimate> run_batches(TermBackend& backend, const std::vector<Query>& queries,
+                                  const std::vector<TermOptions>& options, std::uint64_t per_item, EvalStats* stats,
+                                  const std::function<void(std::size_t, std::size_t)>& progress,
+                                  std::chrono::steady_clock::time_point start, Make make, Count count) {
     const std::uint64_t items = (queries.size() + per_item - 1) / per_item;
     std::vector<Estimate> results(queries.size());
-    exact_term::ExactConfig config;
-    config.tolerance = plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
-    config.build = backend.config().build;
-    config.force_float = plan.single_precision;
-    exact_term::ExactTermIntegrand integrand(
+    auto integrand = make(
         items,
         [&](std::uint64_t item) {
             const std::size_t first = std::size_t(item * per_item);
@@ -85,23 +83,41 @@ std::vector<Estimate> evaluate_exact(TermBackend& backend, const std::vector<Que
         },
         [&](std::uint64_t item, std::vector<Estimate>&& estimates) {
             std::copy(estimates.begin(), estimates.end(), results.begin() + std::size_t(item * per_item));
-        },
-        config);
+        });
     schedule::RunCallbacks callbacks;
     if (progress)
         callbacks.progress = [&](std::uint64_t done, std::uint64_t) {
             progress(std::min<std::size_t>(queries.size(), std::size_t(done * per_item)), queries.size());
         };
-    const schedule::RunReport report = backend.scheduler().run(integrand, {}, callbacks);
+    const schedule::RunReport report = backend.scheduler().run(*integrand, {}, callbacks);
     if (stats) {
-        stats->sampled = integrand.stats().evaluated;
-        stats->exact_zero = integrand.stats().exact_zero;
-        stats->exact_one = integrand.stats().exact_one;
+        count(*integrand, *stats);
         stats->rerun = report.rerun;
         stats->failed_devices = report.failed_places;
         stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     }
     return results;
+}
+
+// The exact method (host/exact/) on the same scheduler: each value with its estimated error in std_error.
+std::vector<Estimate> evaluate_exact(TermBackend& backend, const std::vector<Query>& queries,
+                                     const std::vector<TermOptions>& options, const SamplingPlan& plan, EvalStats* stats,
+                                     const std::function<void(std::size_t, std::size_t)>& progress,
+                                     std::chrono::steady_clock::time_point start) {
+    exact_term::ExactConfig config;
+    config.tolerance = plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
+    config.build = backend.config().build;
+    config.force_float = plan.single_precision;
+    return run_batches(
+        backend, queries, options, exact_term::queries_per_item(backend.scheduler()), stats, progress, start,
+        [&](std::uint64_t items, term::TermIntegrand::Source source, term::TermIntegrand::Sink sink) {
+            return std::make_unique<exact_term::ExactTermIntegrand>(items, std::move(source), std::move(sink), config);
+        },
+        [](const exact_term::ExactTermIntegrand& integrand, EvalStats& s) {
+            s.sampled = integrand.stats().evaluated;
+            s.exact_zero = integrand.stats().exact_zero;
+            s.exact_one = integrand.stats().exact_one;
+        });
 }
 
 }  // namespace
@@ -163,36 +179,17 @@ std::vector<Estimate> evaluate_sampled(TermBackend& backend, const std::vector<Q
                                        const std::vector<TermOptions>& options, const SamplingPlan& plan, EvalStats* stats,
                                        const std::function<void(std::size_t, std::size_t)>& progress,
                                        std::chrono::steady_clock::time_point start) {
-    const std::uint64_t per_item = term::queries_per_item(backend.scheduler(), plan, backend.config());
-    const std::uint64_t items = (queries.size() + per_item - 1) / per_item;
-    std::vector<Estimate> results(queries.size());
-    term::TermIntegrand integrand(
-        items,
-        [&](std::uint64_t item) {
-            const std::size_t first = std::size_t(item * per_item);
-            const std::size_t last = std::min(queries.size(), std::size_t(first + per_item));
-            return term::Batch{{queries.begin() + first, queries.begin() + last},
-                               {options.begin() + first, options.begin() + last}};
+    return run_batches(
+        backend, queries, options, term::queries_per_item(backend.scheduler(), plan, backend.config()), stats, progress,
+        start,
+        [&](std::uint64_t items, term::TermIntegrand::Source source, term::TermIntegrand::Sink sink) {
+            return std::make_unique<term::TermIntegrand>(items, std::move(source), std::move(sink), plan, backend.config());
         },
-        [&](std::uint64_t item, std::vector<Estimate>&& estimates) {
-            std::copy(estimates.begin(), estimates.end(), results.begin() + std::size_t(item * per_item));
-        },
-        plan, backend.config());
-    schedule::RunCallbacks callbacks;
-    if (progress)
-        callbacks.progress = [&](std::uint64_t done, std::uint64_t) {
-            progress(std::min<std::size_t>(queries.size(), std::size_t(done * per_item)), queries.size());
-        };
-    const schedule::RunReport report = backend.scheduler().run(integrand, {}, callbacks);
-    if (stats) {
-        stats->sampled = integrand.stats().sampled;
-        stats->exact_zero = integrand.stats().exact_zero;
-        stats->exact_one = integrand.stats().exact_one;
-        stats->rerun = report.rerun;
-        stats->failed_devices = report.failed_places;
-        stats->seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    }
-    return results;
+        [](const term::TermIntegrand& integrand, EvalStats& s) {
+            s.sampled = integrand.stats().sampled;
+            s.exact_zero = integrand.stats().exact_zero;
+            s.exact_one = integrand.stats().exact_one;
+        });
 }
 
 }  // namespace

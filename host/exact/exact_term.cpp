@@ -24,8 +24,6 @@ namespace ms::exact {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-// The azimuth quadrature's share of a mean's tolerance, per radian (the values take a quarter).
-constexpr double kAzimuthShare = 0.125;
 
 double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 Vec3 unit(const Vec3& a) {
@@ -143,9 +141,7 @@ void integrate_azimuth_piece(const Term& term, double lo, double hi, const Azimu
     const double floor = value_error_high + value_error_low + 1e3 * std::numeric_limits<double>::epsilon() * (hi - lo);
     // Splitting stops at pieces of 1e-7 rad (no event is resolved more finely than the inputs) and after
     // 512 pieces per mean: the estimate then reports what was not reached.
-    // The pieces' share is kAzimuthShare of the tolerance: the low rule's difference underestimated the
-    // error of a 64^3 bake at 1e-4 by up to 1.7x with a share of 1/2 (worst texel 1.7e-4).
-    if (estimate > kAzimuthShare * tolerance * (hi - lo) && estimate > floor && hi - lo > 1e-7 && out.pieces + depth < 512) {
+    if (estimate > 0.5 * tolerance * (hi - lo) && estimate > floor && hi - lo > 1e-7 && out.pieces + depth < 512) {
         integrate_azimuth_piece(term, lo, mid, rule, tolerance, depth + 1, out);
         integrate_azimuth_piece(term, mid, hi, rule, tolerance, depth + 1, out);
         return;

@@ -707,7 +707,7 @@ __kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint 
             /* A difference at the level of the values' own errors or of rounding cannot be split away. */
             const real floor_level = error_high + error_low + MS_R(1e3) * MS_EXACT_EPS * (hi - lo);
             /* As the C++ evaluator: pieces of at least 1e-7 rad, at most 512 pieces per mean. */
-            if (estimate > MS_R(0.125) * tolerance * (hi - lo) && estimate > floor_level && depth < MS_EXACT_AZIMUTH_DEPTH &&
+            if (estimate > MS_R(0.5) * tolerance * (hi - lo) && estimate > floor_level && depth < MS_EXACT_AZIMUTH_DEPTH &&
                 hi - lo > (real)1e-7 && (int)result.pieces + depth < 512) {
                 if (top < MS_EXACT_AZIMUTH_STACK) {
                     stack_depth[top - 1] = depth + 1;

@@ -136,7 +136,7 @@ void run_eval(const EvalArgs& args) {
 
 void add_eval_command(CLI::App& app) {
     auto args = std::make_shared<EvalArgs>();
-    auto* cmd = app.add_subcommand("eval", "evaluate the generic term for the queries of a CSV file");
+    auto* cmd = app.add_subcommand("eval", "evaluate the generic term for the queries of a CSV file (exact by default, or sampled)");
     cmd->add_option("--in", args->in, "query CSV: " "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z")->required();
     cmd->add_option("--out", args->out, "result CSV: the input columns plus term,std_error (and the --compare columns), and its provenance in OUT.json "
                                        "(a symlink is followed; '-' writes the CSV to standard output, without the .json)")->required();

@@ -13,7 +13,7 @@ int main(int argc, char** argv) {
     using namespace ms;
     cli::set_command_line(argc, argv);
     CLI::App app{"microshadow " MICROSHADOW_VERSION
-                 " - the generic VNDF-based micro-shadowing term (GGX), by OpenCL VNDF sampling"};
+                 " - the generic VNDF-based micro-shadowing term (GGX), exact (deterministic quadrature) or by OpenCL VNDF sampling"};
     app.require_subcommand(1);
     app.set_version_flag("--version", "microshadow " MICROSHADOW_VERSION);
     cli::add_devices_command(app);

@@ -183,7 +183,7 @@ Image read_exr_rgb(const std::string& path, nlohmann::json* metadata) {
         image = Image(std::uint32_t(w), std::uint32_t(h), {"R", "G", "B"});
         Imf::FrameBuffer fb;
         const std::size_t stride = 3 * sizeof(float);
-        char* base = (char*)image.data.data() - (std::ptrdiff_t(dw.min.x) * stride + std::ptrdiff_t(dw.min.y) * stride * w);
+        char* base = exr::frame_base(image.data.data(), dw.min.x, dw.min.y, stride, stride * w);
         for (std::size_t c = 0; c < used.size(); ++c)
             fb.insert(used[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * w, 1, 1, 0.0));
         file.setFrameBuffer(fb);

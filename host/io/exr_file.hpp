@@ -32,4 +32,13 @@ void write_interleaved_file(const std::string& file, const std::string& named, c
                             const std::vector<std::string>& names, const std::vector<float>& data, std::size_t floats_per_pixel,
                             bool half);
 
+// The base pointer OpenEXR's Slice wants for a buffer that holds the data window starting at (min_x,
+// min_y): data - (min_x x_stride + min_y y_stride), computed in integers. The pointer lies outside the
+// buffer whenever the window does not start at the origin, and forming it by pointer arithmetic is
+// undefined behaviour (UBSan: "pointer overflow"); OpenEXR only adds the offsets back.
+inline char* frame_base(void* data, std::int64_t min_x, std::int64_t min_y, std::size_t x_stride, std::size_t y_stride) {
+    const std::uintptr_t offset = std::uintptr_t(min_x * std::int64_t(x_stride) + min_y * std::int64_t(y_stride));
+    return reinterpret_cast<char*>(reinterpret_cast<std::uintptr_t>(data) - offset);
+}
+
 }  // namespace ms::exr

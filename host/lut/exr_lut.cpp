@@ -279,7 +279,7 @@ LutFile read_exr_lut(const std::string& path) {
         Imf::FrameBuffer fb;
         const std::size_t stride = nc * sizeof(float);
         // Data window may not start at (0, 0): offset the base pointer as OpenEXR expects.
-        char* base = (char*)lut.data.data() - (std::ptrdiff_t(dw.min.x) * stride + std::ptrdiff_t(dw.min.y) * stride * lut.width);
+        char* base = exr::frame_base(lut.data.data(), dw.min.x, dw.min.y, stride, stride * lut.width);
         for (std::size_t c = 0; c < nc; ++c)
             fb.insert(exr_names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * lut.width));
         file.setFrameBuffer(fb);

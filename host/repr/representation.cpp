@@ -16,6 +16,7 @@
 #include <optional>
 #include <stdexcept>
 
+#include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
 #include "io/input_file.hpp"
 #include "lut/formats/lut_reader.hpp"
@@ -313,7 +314,7 @@ std::unique_ptr<Representation> open_representation(const std::string& path) {
         t.texels.assign(texels * 4, 0.0f);
         Imf::FrameBuffer fb;
         const std::size_t stride = 4 * sizeof(float);
-        char* base = reinterpret_cast<char*>(t.texels.data()) - (std::size_t(dw.min.y) * t.width + dw.min.x) * stride;
+        char* base = exr::frame_base(t.texels.data(), dw.min.x, dw.min.y, stride, stride * t.width);
         for (std::size_t c = 0; c < names.size(); ++c) {
             if (!file.header().channels().findChannel(names[c])) throw std::runtime_error("no channel " + names[c]);
             fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), stride, stride * t.width));

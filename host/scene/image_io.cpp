@@ -1,5 +1,6 @@
 #include "scene/image_io.hpp"
 
+#include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
 #include "io/png_file.hpp"
 
@@ -306,8 +307,7 @@ std::vector<Plane> read_channels(const std::string& path, const std::vector<std:
             Plane plane{path, name, std::uint32_t(w), std::uint32_t(hh), {}, 1.0, dw.min.x, dw.min.y};
             plane.data.assign(std::size_t(w) * std::size_t(hh), 0.0f);
             Imf::FrameBuffer fb;
-            char* base = reinterpret_cast<char*>(plane.data.data()) -
-                         (std::ptrdiff_t(dw.min.x) + std::ptrdiff_t(dw.min.y) * w) * std::ptrdiff_t(sizeof(float));
+            char* base = exr::frame_base(plane.data.data(), dw.min.x, dw.min.y, sizeof(float), sizeof(float) * std::size_t(w));
             fb.insert(c.channel.c_str(), Imf::Slice(Imf::FLOAT, base, sizeof(float), sizeof(float) * std::size_t(w)));
             Imf::InputPart part(file, c.part);
             part.setFrameBuffer(fb);

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Benchmarks of issue 13 (IBL), run from the repository root after a Release build:
+# Benchmarks of image-based lighting, run from the repository root after a Release build:
 #     bash docs/bench/ibl_bench.sh [dfg] [prefilter]      (both by default)
 # dfg:       the 64 x 64 DFG LUT at several sample counts against the quadrature oracle's LUT
 #            (docs/bench/ibl_dfg_quadrature64.exr, made by `microshadow ibl dfg --backend oracle --size 64`;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Benchmarks of issue 11 (scenes), run from the repository root after a Release build:
+# Benchmarks of scenes, run from the repository root after a Release build:
 #     bash docs/bench/scene_bench.sh [scene] [bake]      (both by default)
 # scene: the example scene at 1024 x 1024 (scripts/make_example_scene.py --size 1024), one directional
 #        light, per-pixel bound 2e-3 at 99.9 %, `microshadow scene --no-seed-luts` with the defaults (tiles

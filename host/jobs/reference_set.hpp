@@ -1,4 +1,4 @@
-// The reference data set of `microshadow design` (issue 15): the generic term with its standard error
+// The reference data set of `microshadow design`: the generic term with its standard error
 // at a weighted set of (visibility, NdotL, NdotV, roughness, relative azimuth) points, computed once
 // and cached in a file keyed by a hash of its definition.
 //

@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, ASan + UBSan) and runs each for a bounded time.
-#   fuzz/run.sh [SECONDS_PER_TARGET]      (default 25; env BUILD_DIR, default build-fuzz; JOBS, default 2)
+#   fuzz/run.sh [SECONDS_PER_TARGET]      (default 25; env BUILD_DIR, default build-fuzz; JOBS, default 2;
+#                                          FUZZ_SEED: libFuzzer's -seed, default random)
+# CI sets FUZZ_SEED so a run explores the same inputs on every machine: a red CI is then a finding that
+# reproduces, not a lucky draw; exploration with fresh seeds is a developer's longer run.
 # Seeds: the hand-made corpus in tests/data/hostile, fuzz/{csv,spec,cli,env,...}-seeds (encodings, control
 # bytes, huge counts and integers of issue 10) plus examples/. New inputs found go to
 # $BUILD_DIR/fuzz-corpus/<target> (kept between runs); crashes to $BUILD_DIR/fuzz-artifacts/.
@@ -36,6 +39,8 @@ seed_dirs() {  # the seeds of one target, as directories libFuzzer reads (read-o
 
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
+seed_option=()
+[[ -n "${FUZZ_SEED:-}" ]] && seed_option=(-seed="$FUZZ_SEED")
 status=0
 for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv fuzz_environment; do
   corpus="$BUILD_DIR/fuzz-corpus/$target"
@@ -46,7 +51,7 @@ for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_fi
   # shellcheck disable=SC2046
   if "$BUILD_DIR/fuzz/$target" "$corpus" $(seed_dirs "$target") \
        -max_total_time="$SECONDS_PER_TARGET" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
-       -dict=fuzz/"${target#fuzz_}".dict -artifact_prefix="$artifacts" -print_final_stats=1 >"$log" 2>&1; then
+       -dict=fuzz/"${target#fuzz_}".dict -artifact_prefix="$artifacts" -print_final_stats=1 "${seed_option[@]}" >"$log" 2>&1; then
     result=ok
   else
     result=FAILED

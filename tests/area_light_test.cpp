@@ -418,6 +418,31 @@ TEST(AreaLightTaps, RuleIsExactForConstantsAndShrinksToThePoint) {
     EXPECT_GE(below, 2);
 }
 
+TEST(AreaLightLobe, GrazingViewKeepsTheGgxWeightFiniteAndContinuous) {
+    // A view that normalises to a denormal z: 4 wi.z (1 + Lambda(wi)) tends to a finite limit, so the
+    // weight at wi.z = 7e-309 equals the one at 1e-12 up to O(wi.z) (relative 1e-9 is generous).
+    AreaQuery q;
+    q.visibility = 0.5;
+    q.alpha_x = q.alpha_y = 0.25;
+    q.lobe = Lobe::ggx;
+    q.light.shape = LightShape::sphere;
+    q.light.sphere.centre = {-0.3, 0.2, 0.9};
+    q.light.sphere.half_angle = area::radians(10);
+    q.wi = {0.714, 1e308, 0.7};  // normalised: (7.1e-309, 1, 7e-309)
+    const AreaQuery denormal = area::normalised(q);
+    ASSERT_GT(denormal.wi.z, 0);
+    ASSERT_LT(denormal.wi.z, 1e-300);
+    q.wi = {0.714e-12, 1, 0.7e-12};
+    const AreaQuery tiny = area::normalised(q);
+    const Vec3 wo = area::centre_direction(denormal.light);
+    const double limit = area::lobe_weight(tiny, wo);
+    ASSERT_TRUE(std::isfinite(limit));
+    ASSERT_GT(limit, 0);
+    EXPECT_NEAR(area::lobe_weight(denormal, wo), limit, 1e-9 * limit);
+    for (const auto& t : area::sphere_taps(denormal)) EXPECT_TRUE(std::isfinite(t.weight) && t.weight >= 0);
+    for (double u : {0.0, 0.3, 0.7, 0.999}) EXPECT_TRUE(std::isfinite(area::sample_light(denormal, u, 1 - u).weight));
+}
+
 TEST(AreaLightTaps, SweepAgreesWithTheAreaTermForSmallLights) {
     if (!have_device()) GTEST_SKIP() << "no OpenCL device";
     // At gamma = 0.2 degrees the taps, the centre and T_area agree within their bars.

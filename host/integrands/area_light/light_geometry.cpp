@@ -40,10 +40,20 @@ double ggx_d(const Vec3& h, double ax, double ay) {
     const double s = ex * ex + ey * ey + h.z * h.z;
     return 1.0 / (kPi * ax * ay * s * s);
 }
+// z Lambda(w) = (|(ax wx, ay wy, wz)| - wz) / 2, written as s2 / (2 (wz + r)) so it neither cancels nor
+// divides by wz: the BRDF's denominator 4 wz (1 + Lambda) stays finite and positive as wz -> 0 (a
+// normalised wi can be denormal), where Lambda alone overflows.
+double z_lambda(const Vec3& w, double ax, double ay) {
+    const double s2 = ax * ax * w.x * w.x + ay * ay * w.y * w.y;
+    return s2 / (2.0 * (w.z + std::sqrt(w.z * w.z + s2)));
+}
 double lambda(const Vec3& w, double ax, double ay) {
     if (!(w.z > 0)) return std::numeric_limits<double>::infinity();
-    const double a = (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z);
-    return a / (2.0 * (1.0 + std::sqrt(1.0 + a)));
+    return z_lambda(w, ax, ay) / w.z;
+}
+// 4 wi.z (1 + Lambda(wi) + Lambda(wo)) with wi.z Lambda(wi) taken in product form (wo.z > 0).
+double ggx_denominator(const Vec3& wi, const Vec3& wo, double ax, double ay) {
+    return 4 * (wi.z + z_lambda(wi, ax, ay) + wi.z * lambda(wo, ax, ay));
 }
 
 // Density of the light's own sampler at unit wo (0 outside).
@@ -149,7 +159,7 @@ double lobe_weight(const AreaQuery& q, const Vec3& wo) {
     const Vec3 wi = unit(q.wi);
     const Vec3 h = unit(add(wi, wo));
     const double d = ggx_d(h, q.alpha_x, q.alpha_y);
-    return d / (4 * wi.z) / (1 + lambda(wi, q.alpha_x, q.alpha_y) + lambda(wo, q.alpha_x, q.alpha_y));
+    return d / ggx_denominator(wi, wo, q.alpha_x, q.alpha_y);
 }
 
 LightSample sample_light(const AreaQuery& q, double u, double v) {
@@ -199,9 +209,8 @@ LightSample sample_light(const AreaQuery& q, double u, double v) {
     }
     const Vec3 h = unit(add(wi, s.wo));
     const double d = ggx_d(h, q.alpha_x, q.alpha_y);
-    const double li = lambda(wi, q.alpha_x, q.alpha_y), lo = lambda(s.wo, q.alpha_x, q.alpha_y);
-    const double f_cos = d / (4 * wi.z) / (1 + li + lo);
-    const double p_lobe = d / (4 * wi.z) / (1 + li);
+    const double f_cos = d / ggx_denominator(wi, s.wo, q.alpha_x, q.alpha_y);
+    const double p_lobe = d / (4 * (wi.z + z_lambda(wi, q.alpha_x, q.alpha_y)));
     s.weight = f_cos / (0.5 * (pdf_light + p_lobe));
     return s;
 }

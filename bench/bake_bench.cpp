@@ -91,7 +91,7 @@ BakeBenchResult run_bake(const Options& opt, const std::vector<RefEntry>& refere
     for (const auto& e : texels)
         if (e.lut_size != int(size)) throw std::runtime_error("reference texels of different LUT sizes");
 
-    // The issue's max error; the smoke run uses a looser one so its naive bake stays tiny.
+    // The target max error; the smoke run uses a looser one so its naive bake stays tiny.
     const double kTarget = opt.smoke ? 1e-2 : 1e-3;
     BakeBenchResult out;
     out.available = true;
@@ -206,7 +206,7 @@ BakeBenchResult run_bake(const Options& opt, const std::vector<RefEntry>& refere
 
 }  // namespace ms::bench
 
-// ---- issue 14: time to error of the bake, old (azimuth nodes) against new (azimuth-stratified) -------
+// ---- time to error of the bake, old (azimuth nodes) against new (azimuth-stratified) -------
 //
 // Every configuration is baked `reps` times, the configurations interleaved within each repetition
 // (old and new see the same machine load), and the median wall and CPU (user + system, getrusage of the

@@ -1,4 +1,4 @@
-// The benchmarks of microshadow (issue 5): a cached reference data set, throughput against C++
+// The benchmarks of microshadow: a cached reference data set, throughput against C++
 // baselines, run time against error, the LUT bake against a naive per-texel bake, and kernel build time.
 // bench/main.cpp runs them from the command line; tests/bench_smoke_test.cpp runs each at a tiny size.
 #pragma once
@@ -114,7 +114,7 @@ struct BakeBenchResult {
 };
 BakeBenchResult run_bake(const Options& opt, const std::vector<RefEntry>& reference, std::vector<ErrorPoint>* error_points);
 
-// Issue 14: time-to-error curves of the bake, the azimuth-node quadrature (old) against the
+// Time-to-error curves of the bake, the azimuth-node quadrature (old) against the
 // azimuth-stratified one (new), interleaved repetitions, both targets and a per-stage breakdown.
 struct BakeSpeedResult {
     Table curves;

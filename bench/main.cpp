@@ -1,4 +1,4 @@
-// microshadow_bench: the benchmarks of issue 5. The documented command
+// microshadow_bench: the benchmarks. The documented command
 //     build/bench/microshadow_bench --all --out docs/bench
 // runs every benchmark in one process and writes docs/bench/{build_time,throughput,error_vs_time,bake}.csv
 // and docs/bench/error_vs_time.png (scripts/plot_bench.py). The reference data set is regenerated with
@@ -45,7 +45,7 @@ void write_error_points(const std::string& path, const std::vector<ms::bench::Er
 }  // namespace
 
 int main(int argc, char** argv) {
-    CLI::App app{"microshadow benchmarks (issue 5): throughput, run time against error, LUT bake, kernel build time"};
+    CLI::App app{"microshadow benchmarks: throughput, run time against error, LUT bake, kernel build time"};
     bool all = false, smoke = false, probe = false;
     std::string out_dir, device = "default", reference = ms::bench::default_reference_path(), make_reference;
     std::vector<std::string> only;

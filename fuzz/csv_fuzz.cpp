@@ -14,7 +14,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     ms::fuzz::write_scratch(path, data, size);
 
     // A small column set, so the fuzzer reaches the row parser with short inputs as well.
-    // Issue 10: an accepted file is text with LF or CRLF line ends: no NUL, no control byte other than
+    // An accepted file is text with LF or CRLF line ends: no NUL, no control byte other than
     // tab, no CR without LF (a CR-only file read as one line and reported "duplicate column").
     auto is_clean_text = [&] {
         for (std::size_t i = 0; i < size; ++i) {

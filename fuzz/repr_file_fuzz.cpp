@@ -1,4 +1,4 @@
-// libFuzzer target: representation files (issue 15) as eval --compare and sweeps open them, OpenEXR or
+// libFuzzer target: representation files as eval --compare and sweeps open them, OpenEXR or
 // KTX2 (the first byte chooses which extension the bytes are saved under, so both readers see every
 // shape; the seeds in fuzz/repr-seeds carry that byte). Contract: open_representation either refuses
 // with std::runtime_error (or std::invalid_argument), or returns a representation whose texture has the

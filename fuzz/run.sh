@@ -5,7 +5,7 @@
 # CI sets FUZZ_SEED so a run explores the same inputs on every machine: a red CI is then a finding that
 # reproduces, not a lucky draw; exploration with fresh seeds is a developer's longer run.
 # Seeds: the hand-made corpus in tests/data/hostile, fuzz/{csv,spec,cli,env,...}-seeds (encodings, control
-# bytes, huge counts and integers of issue 10) plus examples/. New inputs found go to
+# bytes, huge counts and integers) plus examples/. New inputs found go to
 # $BUILD_DIR/fuzz-corpus/<target> (kept between runs); crashes to $BUILD_DIR/fuzz-artifacts/.
 # Exit status: non-zero if any target crashed, leaked, timed out on one input or ran out of memory.
 set -euo pipefail

@@ -1,4 +1,4 @@
-// libFuzzer target: the TOML sweep specification reader (ms::sweep::parse_spec, issue 4).
+// libFuzzer target: the TOML sweep specification reader (ms::sweep::parse_spec).
 // Contract: a spec is accepted (and then its grid is bounded by max_points, its canonical text can be
 // produced, its roughness lies in (0, 1] and its column names hold no control characters) or rejected
 // with ms::sweep::SpecError; anything else is a finding. Until host/jobs/sweep/
@@ -25,7 +25,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (spec.visibility.empty() || spec.n_dot_l.empty()) ms::fuzz::finding("required axis accepted empty");
         (void)ms::sweep::canonical_text(spec);
         (void)ms::sweep::comparator_names(spec);
-        // Issue 10: what the spec accepts, a run must be able to compute.
+        // What the spec accepts, a run must be able to compute.
         for (double r : spec.roughness)
             if (!(r > 0 && r <= 1 && r * r > 0)) ms::fuzz::finding("roughness outside (0, 1] (or alpha underflowing) accepted");
         for (const auto& l : spec.luts)

@@ -1,4 +1,4 @@
-// libFuzzer target: the files a sweep resumes from (issue 10, class 2). The first input byte picks the
+// libFuzzer target: the files a sweep resumes from. The first input byte picks the
 // file the rest replaces in a finished, unassembled sweep directory: 0..127 chunk 1, 128..255 the
 // manifest. Contract: run_sweep either assembles exactly the sweep.csv of a clean run (a damaged chunk
 // is set aside and computed again) or refuses with std::invalid_argument / std::runtime_error naming a

@@ -1,5 +1,5 @@
 // libFuzzer target: the text helpers that keep JSON provenance and recorded command lines valid
-// whatever bytes a file name or argument holds (host/io/text.hpp, issue 10).
+// whatever bytes a file name or argument holds (host/io/text.hpp).
 // Contract: json_safe() returns valid UTF-8, is the identity on valid UTF-8, and never shrinks its
 // input; dump_json() never throws; shell_quote() returns valid UTF-8 that is one shell word.
 #include <cstdint>

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The real environments of the IBL example and benchmark (issue 13): Debian's blender-data package ships
+# The real environments of the IBL example and benchmark: Debian's blender-data package ships
 # HDR studio-light worlds (equirectangular OpenEXR, 2:1) under
 #   /usr/share/blender/datafiles/studiolights/world/*.exr (license.txt beside them)
 # Only the example (README, docs/ibl.md) and the benchmark use them; the tests generate their own small

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 15's realistic sweep (docs/representations.md): bakes part 2's 3D LUT and the representations at
+# The realistic sweep (docs/representations.md): bakes part 2's 3D LUT and the representations at
 # its memory (256 KiB as RGBA16F, 2 fetches per light), draws the query CSV, and judges every one against
 # the term with `microshadow eval --compare`, in one run. Prints eval's per-comparator statistics and
 # each file's cost. Usage: scripts/repr_realistic.sh OUTDIR [MICROSHADOW] [QUERIES]

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Query CSV of issue 15's realistic sweep, for `microshadow eval --compare` (docs/representations.md).
+"""Query CSV of the realistic sweep, for `microshadow eval --compare` (docs/representations.md).
 
 Uniform random samples of visibility in [0.5, 0.98], roughness in [0.3, 0.9] (isotropic, alpha =
 roughness^2), NdotV in [0.2, 1], NdotL in [0, 1] and the relative azimuth in [0, 180] degrees; V in

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 15's realistic sweep as a `microshadow sweep` grid (docs/study/repr-realistic.toml): bakes part
+# The realistic sweep as a `microshadow sweep` grid (docs/study/repr-realistic.toml): bakes part
 # 2's 3D LUT and the two best representations of docs/representations.md into docs/study/luts/ (RGBA16F,
 # 256 KiB of texels each), runs the sweep, and prints the table of docs/representations.md ("the realistic
 # sweep as a grid"). Usage: scripts/repr_realistic_sweep.sh OUTDIR [MICROSHADOW] [--no-bake]

@@ -1,4 +1,4 @@
-// Issue 10, class 12: bakes that cannot run are refused before any work, with the figure and the
+// Bakes that cannot run are refused before any work, with the figure and the
 // limit. Before: `bake --size 4096` ended in "std::bad_alloc", `--size 1024` tried to allocate ~35 GiB,
 // and seed-2d 4096 with 2^30 samples blamed the device (CL_INVALID_BUFFER_SIZE).
 #include <gtest/gtest.h>

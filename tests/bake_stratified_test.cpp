@@ -1,4 +1,4 @@
-// Issue 14: the azimuth-stratified bake (--azimuth-quadrature stratified). The cell point sets, the
+// The azimuth-stratified bake (--azimuth-quadrature stratified). The cell point sets, the
 // stratified reduction on synthetic tallies, the kernel against the oracle on the same points, the
 // stratified bake against the node bake (a different estimator of the same azimuth mean), determinism
 // across devices, the tolerance and double kernels.

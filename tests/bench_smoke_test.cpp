@@ -46,7 +46,7 @@ TEST(BenchSmoke, ReferenceRoundTripsThroughItsCsv) {
     }
 }
 
-// The committed data set: loads, covers what the issue asks (isotropic, anisotropic, grazing view and
+// The committed data set: loads, covers what it must (isotropic, anisotropic, grazing view and
 // light, LUT texels), and its values agree with the OpenCL kernel on independent points within the
 // combined error bars (99.9 % Student-t on the kernel's replicates plus the reference's own bound).
 TEST(BenchSmoke, CachedReferenceAgreesWithTheKernel) {

@@ -1,4 +1,4 @@
-// Issue 12, "installable and quiet": `microshadow help [COMMAND]`, and the closest spelling for a
+// `microshadow help [COMMAND]`, and the closest spelling for a
 // mistyped option or command (before: "not expected: 16 --szie" and nothing else; `help` was refused).
 #include <gtest/gtest.h>
 

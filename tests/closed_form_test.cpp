@@ -1,4 +1,4 @@
-// The closed-form approximation (issue 15): the least-squares and Gauss-Newton layer recovers known
+// The closed-form approximation: the least-squares and Gauss-Newton layer recovers known
 // models, the fit of a reference set recovers the coefficients that generated it, the JSON file
 // round-trips and refuses damaged input, and the generated GLSL/HLSL compile with glslangValidator and
 // compute on a Vulkan CPU device (lavapipe) what the C++ evaluation computes.
@@ -115,7 +115,7 @@ TEST(ClosedFormFile, RoundTripsAndRefusesDamagedFiles) {
 }
 
 TEST(ClosedFormCost, OrderOneIsCheaperInAluThanPart1sPzTerm) {
-    // Both counted by design::count_alu from their GLSL (issue 15: "cheaper in ALU than part 1's PZ term").
+    // Both counted by design::count_alu from their GLSL.
     ms::fit::ClosedForm f;
     f.order = 1;
     f.coefficients = {0.3, 2.0};

@@ -1,4 +1,4 @@
-// `microshadow design` (issue 15): the reference cache resumes from its chunks and a changed definition
+// `microshadow design`: the reference cache resumes from its chunks and a changed definition
 // is another cache; the weighted metrics, the Pareto front and the budget choice on known numbers; and
 // the command on a tiny reference set ranks a known-better comparator first and refuses bad input
 // before writing anything.

@@ -1,4 +1,4 @@
-// `microshadow eval --method sampled --compare` (issue 15, first step): comparator columns of part 1's analytic terms
+// `microshadow eval --method sampled --compare`: comparator columns of part 1's analytic terms
 // and of baked LUTs beside the term, their error columns, the summary and the refusals.
 #include <gtest/gtest.h>
 

@@ -1,5 +1,5 @@
 // The OpenEXR preflight (io/exr_preflight.hpp): every claim a header makes must fit in the file before
-// OpenEXR allocates it. Issue 10's last finding: fuzz_lut_file made read_lut ask for 1.7 GB from a
+// OpenEXR allocates it. A fuzzer finding: fuzz_lut_file made read_lut ask for 1.7 GB from a
 // 4 KB file through an attribute's declared size (tests/data/hostile/exr/attribute-claims-1.7GB.exr).
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Issue 9's "done when", through the real CLI in child processes:
+// The golden set and the refactor contract, through the real CLI in child processes:
 //   - the golden set: tests/golden/make_golden.sh with the freshly built binaries reproduces
 //     tests/golden/expected.txt line for line, and its eval lines are the pre-refactor record's
 //     (tests/golden/before-refactor.txt; tests/golden/README.md says why the bakes changed);
@@ -156,7 +156,7 @@ TEST_F(GoldenSet, ScriptReproducesExpectedAndEvalKeepsThePreRefactorBits) {
                                 << run.output;
 
     // The refactor kept eval's estimates bit for bit: the term columns are the pre-refactor record's. (The
-    // whole files changed once, on purpose, in issue 10: rows no sample passed got honest error bars.)
+    // whole files changed once, on purpose, when the error bars were fixed: rows no sample passed got honest error bars.)
     for (const std::string name : {"eval_opencl.term", "eval_oracle.term"}) {
         ASSERT_TRUE(expected.count(name) && before.count(name)) << name;
         EXPECT_EQ(expected.at(name), before.at(name)) << name << ": eval bits differ from before-refactor.txt";

@@ -1,4 +1,4 @@
-// The DFG LUT (issue 13): the quadrature oracle against closed forms, the VNDF kernel against the
+// The DFG LUT: the quadrature oracle against closed forms, the VNDF kernel against the
 // quadrature within Bonferroni-t error bars, the LUT's physical bounds and white furnace, published
 // values (three.js) quoted as facts, the job's verification, and the CLI's file with its metadata.
 #include <gtest/gtest.h>
@@ -107,7 +107,7 @@ TEST(IblDfgPublished, ThreeJsTableIsOffAtGrazingNdotV) {
         EXPECT_NEAR(b, q.bias, 7e-4) << p.x << "," << p.y;
         worst = std::max(worst, std::abs(s - q.scale));
     }
-    // The issue's "off by up to about 0.014 at grazing NdotV": 0.0142 at NdotV = 1/32, roughness 9/32,
+    // three.js's table "off by up to about 0.014 at grazing NdotV": 0.0142 at NdotV = 1/32, roughness 9/32,
     // 36x the 4e-4 that 4096 stratified samples and half storage account for.
     EXPECT_GT(worst, 0.014);
     EXPECT_LT(worst, 0.0145);

@@ -1,4 +1,4 @@
-// Six face files as the environment of `ibl prefilter` / `ibl sh` (issue 13): faces cut out of a
+// Six face files as the environment of `ibl prefilter` / `ibl sh`: faces cut out of a
 // horizontal cross give the same prefiltered chain and the same SH as the cross, bit for bit, and the
 // checks on the six files (count, square, equal sizes) fail with exit status 2 naming the file.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// IBL outputs in KTX2 and DDS (follow-up of issue 13): the DFG LUT (`ibl dfg --out *.ktx2|*.dds`) and the
+// IBL outputs in KTX2 and DDS: the DFG LUT (`ibl dfg --out *.ktx2|*.dds`) and the
 // prefiltered cubemap mip chain (`ibl prefilter --format ktx2|dds`), read back field by field by a reader
 // written here from the KTX 2.0 specification ("File Structure", "Level Index", "Mip Level Array",
 // "faceCount") and Microsoft's DDS pages (DDS_HEADER, DDS_HEADER_DXT10, cubic environment maps), not

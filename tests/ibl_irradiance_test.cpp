@@ -1,4 +1,4 @@
-// The irradiance cubemap by direct convolution (issue 13). Convention: E(n) = integral L max(0, n.l) dl; the
+// The irradiance cubemap by direct convolution. Convention: E(n) = integral L max(0, n.l) dl; the
 // files hold E / pi. Known answers: a constant environment gives E = pi L (oracle to double rounding, kernel
 // to float rounding); the upper half-space L = [d.z > 0] (piecewise constant on the texels of an even face
 // size) gives the sky-view closed form E = pi (1 + n.z) / 2; one lit face gives Lambert's formula for the

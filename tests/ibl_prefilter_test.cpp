@@ -1,4 +1,4 @@
-// The GGX prefilter (issue 13): a constant environment stays constant at every roughness, a small
+// The GGX prefilter: a constant environment stays constant at every roughness, a small
 // bright disc gives the GGX lobe the oracle predicts (and the analytic point-light lobe), a linear
 // environment stays linear across face seams, the roughness mapping, and the CLI's files.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Environment maps and irradiance (issue 13): the mappings and exact solid angles, SH of analytic
+// Environment maps and irradiance: the mappings and exact solid angles, SH of analytic
 // functions, a constant environment's exact SH irradiance, SH against brute-force irradiance on a
 // low-frequency environment, the irradiance cubemap, the Radiance RGBE reader and the CLI.
 #include <gtest/gtest.h>

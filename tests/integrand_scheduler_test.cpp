@@ -1,4 +1,4 @@
-// Issue 9's "done when", in process: the one replicate reduction, the azimuth quadrature of a LUT slice
+// The scheduler contract, in process: the one replicate reduction, the azimuth quadrature of a LUT slice
 // on synthetic tallies, the scheduler with toy integrands, the LUT slice integrand on the oracle backend
 // against the kernel routine, and the term and bake kernels counting alike on the same points (tiny
 // cones included).
@@ -621,7 +621,7 @@ TEST_F(SchedulerFailover, ADeviceErrorMidItemRerunsItOnTheOtherPlace) {
 }
 
 // The failing place gives its item back after the other place found the queue empty and left: the
-// item must still be rerun (issue 9: "the others rerun the item"). Item 0 fails slowly on its first
+// item must still be rerun. Item 0 fails slowly on its first
 // attempt; item 1 is quick, so the other place is out of work before the failure.
 TEST_F(SchedulerFailover, FailoverWhenTheOtherPlacesHaveFinished) {
     Toy toy(2);

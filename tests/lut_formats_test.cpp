@@ -1,4 +1,4 @@
-// LUT file formats (issue 12): KTX2, DDS, C header, PNG atlas written by `microshadow bake` read back
+// LUT file formats: KTX2, DDS, C header, PNG atlas written by `microshadow bake` read back
 // equal to the bake's OpenEXR within each format's quantisation; KTX2 checked field by field against
 // the KTX 2.0 specification's tables by a reader written here (not the writer's code); DDS through
 // OpenImageIO where it can read the format, and field by field against Microsoft's header layout;

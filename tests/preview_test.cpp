@@ -1,4 +1,4 @@
-// The bake's --preview PNG (issue 12): labelled with the roughness of every column, the NdotV value of
+// The bake's --preview PNG: labelled with the roughness of every column, the NdotV value of
 // every row, axis ticks and a colour bar. The labels are found by rendering the expected text with the
 // same bitmap font and searching the picture for those exact pixels; the colour bar by its ramp.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Reliability, round 2 (issue 10): each class of failure found by hand, tested through the real CLI
+// Reliability, round 2: each class of failure found by hand, tested through the real CLI
 // (and the io helpers directly where the CLI cannot reach the case):
 //   outputs  - symlinks, devices, FIFOs, '-', write errors, stale temporaries, both-or-neither sidecars;
 //   plot     - no shell between a file name and the plotter, the script found beside the executable;

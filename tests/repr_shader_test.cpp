@@ -1,11 +1,11 @@
-// Issue 15: the GLSL and HLSL each representation generates compile with glslangValidator and, run as
+// The GLSL and HLSL each representation generates compile with glslangValidator and, run as
 // compute shaders on lavapipe (tests/vulkan_compute.hpp) over the representation's texture uploaded as
 // RGBA32F, agree with its C++ lookup (ms::repr::Representation::operator()). The texture is a synthetic
 // bake (random texel values): the test is of the layout and arithmetic, not of the term. Tolerance
 // 2e-5: float32 arithmetic of values of order 1 (a few ulps of 6e-8 each over ~30 operations) and
 // float acos (the C++ side takes the same float cos_phi, so the acos ill-conditioning near +-1 acts on
 // both alike); a wrong texel, slot, slab or weight errs by the texel spread, ~0.3.
-// KTX2/DDS output (issue 15 part C): the KTX2 file, read field by field by a reader written here from the
+// KTX2/DDS output: the KTX2 file, read field by field by a reader written here from the
 // KTX 2.0 specification, holds the EXR's texels and metadata, opens as a comparator equal to the EXR, and
 // the GLSL run over its level data as uploaded agrees with the C++ lookup; `repr export` and
 // `repr bake --out F.ktx2` end to end.
@@ -145,7 +145,7 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
     }
 }
 
-// --- KTX2 and DDS output (issue 15 part C) --------------------------------------------------------
+// --- KTX2 and DDS output --------------------------------------------------------
 // A KTX2 file read field by field from the KTX 2.0 specification ("File Structure", "Level Index",
 // "Key/Value Data"), independently of the writer (lut/formats/texture.cpp).
 struct Ktx2File {

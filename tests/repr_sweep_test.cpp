@@ -1,4 +1,4 @@
-// Issue 15 part C: representation files as sweep comparators. A spec names a representation file as it
+// Representation files as sweep comparators. A spec names a representation file as it
 // names a LUT ([[comparators.lut]]); its column must equal what `microshadow eval --method sampled --compare` computes at
 // the same points (eval reads the relative azimuth from the query's directions, the sweep from
 // delta_phi: they agree to rounding, 1e-9 is far above it and far below any lookup's slope times a

@@ -1,4 +1,4 @@
-// Issue 15: representations that keep the relative azimuth (host/repr/). The azimuth-keeping bake
+// Representations that keep the relative azimuth (host/repr/). The azimuth-keeping bake
 // agrees with part 2's fixed-azimuth LUT bake at the same nodes; each representation's lookup is checked
 // against the reference term (an independent evaluation, another seed) at its own texel centres and
 // between them; files round-trip; `eval --compare FILE` opens them; the roughness placement finds a

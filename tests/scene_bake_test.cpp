@@ -1,4 +1,4 @@
-// Issue 11: `microshadow bake --scene`: the scene's domain decides the bake. Known answers: one
+// `microshadow bake --scene`: the scene's domain decides the bake. Known answers: one
 // roughness bakes one channel; a constant NdotV touches only the two bracketing slices; the rows baked
 // are bit for bit the full bake's; unbaked texels are NaN, recorded, refused by the lookup, and a file
 // whose unbaked texel holds a number is refused by read_lut.

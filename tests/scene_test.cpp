@@ -1,4 +1,4 @@
-// Issue 11: scene descriptions and `microshadow scene`, on generated scenes with known answers.
+// Scene descriptions and `microshadow scene`, on generated scenes with known answers.
 #include <gtest/gtest.h>
 
 #include <ImfChannelList.h>
@@ -651,7 +651,7 @@ TEST_F(SceneTest, CommandLineWritesEverythingOrNothing) {
 namespace ms {
 namespace {
 
-// Issue 15 on scenes: a representation that keeps the azimuth is a scene comparator like a LUT file,
+// Representations on scenes: a representation that keeps the azimuth is a scene comparator like a LUT file,
 // and reads each pixel's relative azimuth: two lights at the same NdotL on opposite sides of the view
 // give the values the representation's own lookup gives at azimuths 0 and 180 degrees.
 TEST_F(SceneTest, RepresentationComparatorReadsEachPixelsAzimuth) {

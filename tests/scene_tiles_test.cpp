@@ -1,4 +1,4 @@
-// Issue 11: `microshadow scene` in tiles (sampling.tile_pixels) and with neighbour-predicted sample
+// `microshadow scene` in tiles (sampling.tile_pixels) and with neighbour-predicted sample
 // counts (sampling.predict_stride). Known answers: with every query started at min_samples, tiles change
 // no pixel (each key is sampled at its grid point on the same points whichever tile holds it), only
 // the duplicate count; predicted counts keep every pixel's bound within the tolerance.

@@ -1,4 +1,4 @@
-// Generated shaders (issue 12): the GLSL and HLSL that `microshadow bake --shader-glsl/--shader-hlsl`
+// Generated shaders: the GLSL and HLSL that `microshadow bake --shader-glsl/--shader-hlsl`
 // and `microshadow shader` write compile with glslangValidator, and run as compute shaders on a Vulkan
 // CPU device (Mesa lavapipe) over the bake's KTX2 texture they agree with the sweeps' `lut3d`
 // comparator (ms::sweep::LutLookup on the EXR): within 1e-5 for float textures, one 8-bit step for
@@ -219,7 +219,7 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
         ASSERT_FALSE(glsl.empty() || hlsl.empty()) << "the shaders did not compile";
         const std::vector<float> points = sample_points(lookup.file(), 4000);
         // Each texture is compared with the lut3d comparator on the values it stores (the EXR's texels
-        // rounded as the encoding rounds them: Imath half, round(255 v) / 255) within 1e-5 (the issue's
+        // rounded as the encoding rounds them: Imath half, round(255 v) / 255) within 1e-5 (the
         // bar for float textures; float filtering and coordinate rounding are far below it), and with the
         // float EXR within 1e-5 (float32), 1e-5 + 2^-12 (float16: its rounding of values <= 1) and one
         // 8-bit step (RGBA8). The harness runs lavapipe with float filtering for 8-bit textures too

@@ -24,7 +24,7 @@
 namespace ms {
 namespace {
 
-// The extremes of issue 6. NdotV = 0 (wi at the horizon) is invalid input and tested separately.
+// The extremes of the domain. NdotV = 0 (wi at the horizon) is invalid input and tested separately.
 const double kNdotV[] = {1e-7, 1e-3, 0.5, 1 - 1e-7, 1};
 const double kNdotL[] = {0, 1e-7, 1e-3, 0.5, 1 - 1e-7, 1};
 // Tiny visibilities down to 1e-12: float cos_t is 1 below ~6e-8, so these exercise the kernel's tangent

@@ -1,6 +1,6 @@
-// Issue 10, classes 2 and 4 (sweep chunks trusted blindly; --restart leftovers), 7 (a light just above
-// the horizon), 8 (error bars of 0 on rare events) and 16's --device all resume. Each test failed on the
-// code before this issue: chunks were concatenated unchecked (a removed line gave 527 of 528 rows, exit
+// Sweep integrity: chunks never trusted blindly, --restart leaves nothing behind, a light just above
+// the horizon, error bars on rare events that are never 0, and a --device all resume. Each test failed
+// on the code before its fix: chunks were concatenated unchecked (a removed line gave 527 of 528 rows, exit
 // 0), --restart kept the old sweep.csv, the light 1e-46 above the horizon gave 0 on OpenCL, and a
 // query no sample passed reported 0 +- 0.
 #include <gtest/gtest.h>
@@ -66,7 +66,7 @@ std::string chunk(const fs::path& dir, int c) {
     return (dir / "chunks" / name).string();
 }
 
-// Each kind of damage the issue tried, applied to one finished chunk of an interrupted sweep.
+// Each kind of damage a user can do, applied to one finished chunk of an interrupted sweep.
 struct Damage {
     const char* name;
     std::string (*apply)(const std::string&);
@@ -178,7 +178,7 @@ TEST(SweepIntegrity, RestartRemovesEverythingTheOldSweepWrote) {
 }
 
 TEST(RareEvents, NoSamplePassingGivesAnHonestBoundNotZero) {
-    // The issue's query: grazing view and light, 1:50 anisotropy. Reference: the kernels at 2^24 samples.
+    // The hardest query: grazing view and light, 1:50 anisotropy. Reference: the kernels at 2^24 samples.
     auto backend = make_opencl_backend(ocl::select_devices("default"));
     Query q;
     q.visibility = 0.8866;

@@ -1,4 +1,4 @@
-// What `bake` writes besides the numbers (issue 12): the LUT's file format (by extension or
+// What `bake` writes besides the numbers: the LUT's file format (by extension or
 // --format), its pixel encoding (--encoding, --half), the preview's checks, and generated shaders
 // (--shader-glsl, --shader-hlsl). Kept out of cmd_bake.cpp so the bake itself stays one job.
 #pragma once

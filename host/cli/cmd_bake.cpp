@@ -6,9 +6,9 @@
 
 #include "jobs/bake.hpp"
 #include "jobs/scene.hpp"
-#include "jobs/scene_bake.hpp"  // issue 11: bake --scene
+#include "jobs/scene_bake.hpp"  // bake --scene
 #include "jobs/verify.hpp"
-#include "cli/bake_outputs.hpp"  // issue 12: file formats, preview checks, shaders
+#include "cli/bake_outputs.hpp"  // file formats, preview checks, shaders
 #include "cli/common.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "cli/progress.hpp"
@@ -31,9 +31,9 @@ struct BakeArgs {
     double tolerance = 0;
     bool half = false;
     SamplingOptions sampling;
-    BakeOutputArgs outputs;  // issue 12: --format --encoding --shader-glsl --shader-hlsl (cli/bake_outputs.hpp)
+    BakeOutputArgs outputs;  // --format --encoding --shader-glsl --shader-hlsl (cli/bake_outputs.hpp)
     CLI::App* cmd = nullptr;
-    // issue 11: bake what a scene needs (jobs/scene_bake.hpp)
+    // bake what a scene needs (jobs/scene_bake.hpp)
     std::string scene, scene_report, scene_layout = "fit";
     bool no_scene_compare = false;
     double scene_error = 0.01;
@@ -151,7 +151,7 @@ std::string azimuth_summary(const BakeResult& result) {
     return s;
 }
 
-// --- issue 11: bake --scene (the scene's domain decides the bake; jobs/scene_bake.hpp) ---
+// --- bake --scene (the scene's domain decides the bake; jobs/scene_bake.hpp) ---
 void run_scene_bake_command(const BakeArgs& args) {
     for (const char* o : {"--preview", "--verify", "--verify-method", "--half", "--format", "--encoding", "--shader-glsl", "--shader-hlsl", "--ao-weighting", "--form"})
         if (args.cmd->get_option(o)->count() > 0) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
@@ -225,9 +225,9 @@ void run_scene_bake_command(const BakeArgs& args) {
 }
 
 void run_bake(const BakeArgs& args) {
-    if (!args.scene.empty()) return run_scene_bake_command(args);  // issue 11
+    if (!args.scene.empty()) return run_scene_bake_command(args);
     const BakeSpec spec = make_spec(args);
-    // --- issue 12: output format by extension or --format; preview and shader paths (before the bake) ---
+    // --- output format by extension or --format; preview and shader paths (before the bake) ---
     const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
     // Fail on a bad destination before the (long) bake, not after it.
     check_writable_destination(args.out);
@@ -273,7 +273,7 @@ void run_bake(const BakeArgs& args) {
     if (!args.preview.empty())
         write_lut_preview(args.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels,
                                          result.value.data(), {spec.visibility, spec.n_dot_l, spec.n_dot_v}, spec.roughness});
-    // --- issue 12: the LUT in the chosen format (and the shaders), from one LutFile ---
+    // --- the LUT in the chosen format (and the shaders), from one LutFile ---
     write_bake_outputs(args.outputs, output, args.out,
                        lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value, meta));
 
@@ -305,7 +305,7 @@ void add_bake_command(CLI::App& app) {
         ->check(CLI::IsMember({"seed-3d", "seed-2d", "custom"}))
         ->capture_default_str();
     cmd->add_option("--out", a->out, "output LUT file: .exr, .ktx2, .dds, .h/.hpp/.inc or .png (see --format)")->required();
-    add_bake_output_options(cmd, a->outputs);  // issue 12
+    add_bake_output_options(cmd, a->outputs);
     cmd->add_option("--size", a->size, "texels on every axis")->transform(decimal_range(1, 4096))->capture_default_str();
     cmd->add_option("--size-visibility", a->size_visibility, "texels on the visibility axis")->transform(decimal_range(1, 4096));
     cmd->add_option("--size-n-dot-l", a->size_n_dot_l, "texels on the NdotL axis")->transform(decimal_range(1, 4096));
@@ -347,7 +347,7 @@ void add_bake_command(CLI::App& app) {
                     "(the scalar oracle on independent points, judged against both error bars)")
         ->check(CLI::IsMember({"exact", "sampled"}))
         ->capture_default_str();
-    // issue 11: bake what a scene needs
+    // bake what a scene needs
     cmd->add_option("--scene", a->scene, "bake only what this scene description's lookups touch (docs/scenes.md)");
     cmd->add_option("--scene-report", a->scene_report, "with --scene: folder for the histograms and the report (created if missing)");
     cmd->add_option("--scene-layout", a->scene_layout, "with --scene: fit (axes and channels fitted to the scene) or layout (--layout's)")

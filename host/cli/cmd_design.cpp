@@ -1,4 +1,4 @@
-// microshadow design (issue 15): every candidate representation against one cached reference set;
+// microshadow design: every candidate representation against one cached reference set;
 // the Pareto front of error against cost, the best candidate inside a budget, and its bake.
 #include <nlohmann/json.hpp>
 

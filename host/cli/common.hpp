@@ -90,12 +90,12 @@ void add_eval_command(CLI::App& app);
 void add_bake_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 void add_merge_command(CLI::App& app);
-void add_shader_command(CLI::App& app);  // issue 12 (cmd_shader.cpp)
+void add_shader_command(CLI::App& app);  // cmd_shader.cpp
 void add_lut_command(CLI::App& app);     // cmd_lut.cpp
-void add_repr_command(CLI::App& app);    // issue 15 (cmd_repr.cpp)
-void add_scene_command(CLI::App& app);   // issue 11 (cmd_scene.cpp)
-void add_ibl_command(CLI::App& app);     // issue 13 (cmd_ibl.cpp)
-void add_design_command(CLI::App& app);  // issue 15 (cmd_design.cpp)
+void add_repr_command(CLI::App& app);    // cmd_repr.cpp
+void add_scene_command(CLI::App& app);   // cmd_scene.cpp
+void add_ibl_command(CLI::App& app);     // cmd_ibl.cpp
+void add_design_command(CLI::App& app);  // cmd_design.cpp
 void add_area_command(CLI::App& app);    // cmd_area.cpp
 void add_help_command(CLI::App& app);
 // "; did you mean --size?" for the closest command or long option within 3 edits of `word`, or "".

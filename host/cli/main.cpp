@@ -22,11 +22,11 @@ int main(int argc, char** argv) {
     cli::add_sweep_command(app);
     cli::add_merge_command(app);
     cli::add_lut_command(app);
-    cli::add_shader_command(app);  // issue 12
-    cli::add_scene_command(app);   // issue 11
-    cli::add_ibl_command(app);     // issue 13
-    cli::add_design_command(app);  // issue 15
-    cli::add_repr_command(app);    // issue 15
+    cli::add_shader_command(app);
+    cli::add_scene_command(app);
+    cli::add_ibl_command(app);
+    cli::add_design_command(app);
+    cli::add_repr_command(app);
     cli::add_area_command(app);
     repr::install_comparators();   // eval --compare FILE opens representation files
     cli::add_help_command(app);

@@ -1,4 +1,4 @@
-// Irradiance by direct convolution (issue 13): E(n) = integral L(l) max(0, n.l) dl over the sphere, the
+// Irradiance by direct convolution: E(n) = integral L(l) max(0, n.l) dl over the sphere, the
 // clamped-cosine convolution of the environment, computed texel by texel instead of through order-2 SH.
 // This file is the oracle side (plain double): the exact integral of max(0, n.l) over one cubemap texel,
 // the exact irradiance of a cubemap read as piecewise constant per texel, and the solid-angle-weighted

@@ -41,7 +41,7 @@ struct PrefilterValue {
 // One direction, roughness r > 0, on `points` (all replicates). chain: the source's mip chain.
 PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir& n, double roughness, const PointSet& points,
                                    const PrefilterOptions& options);
-// Bright texels summed explicitly (issue 13's sunny environments). The environment is split exactly,
+// Bright texels summed explicitly. The environment is split exactly,
 // L = L_rest + L_bright, where L_bright holds the source texels whose luminance (mean of RGB) exceeds
 // `threshold` times the environment's mean radiance (the brightest `max_texels` at most) and L_rest is the
 // source with those texels set to 0. Then

@@ -1,4 +1,4 @@
-// A closed-form approximation of the generic term (issue 15): no texture, a few ALU per light.
+// A closed-form approximation of the generic term: no texture, a few ALU per light.
 //
 // Model. For a smooth surface the term is a step at the shadow edge NdotL = c, with c = cos of the
 // visibility cone's half-angle (cosine AO: c = sqrt(1 - v); uniform AO: c = 1 - v): the light is

@@ -1,5 +1,5 @@
 // Weighted linear least squares and Gauss-Newton for models that are a fixed function of a linear
-// combination of basis functions: the fitting layer of the closed-form approximation (issue 15).
+// combination of basis functions: the fitting layer of the closed-form approximation.
 #pragma once
 
 #include <cstddef>

@@ -1,4 +1,4 @@
-// `microshadow design` as a job (issue 15): every candidate representation of the term (part 1's
+// `microshadow design` as a job: every candidate representation of the term (part 1's
 // analytic terms, baked LUTs, the fitted closed form, the azimuth-keeping representations) is judged
 // against one cached reference set (jobs/reference_set.hpp); the Pareto front of error against cost
 // (texture bytes, fetches per light, ALU per light) and the best candidate inside a budget.

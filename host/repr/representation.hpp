@@ -1,4 +1,4 @@
-// Texture representations of the micro-shadowing term that keep the relative azimuth (issue 15), as
+// Texture representations of the micro-shadowing term that keep the relative azimuth, as
 // comparators a renderer could ship: each has its bake (an AzimuthBake: the term per texel at K azimuth
 // nodes), its C++ lookup (the renderer's sampling, written out), its file (OpenEXR atlas with the
 // metadata in the "microshadow" header attribute, "kind": "representation"), its generated GLSL/HLSL

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The golden set of issue 9: outputs whose exact bits a refactor must keep (or change on purpose, with
+# The golden set: outputs whose exact bits a refactor must keep (or change on purpose, with
 # the reason in tests/golden/README.md). Prints "name hash" lines, one per output.
 #   make_golden.sh MICROSHADOW_BIN EXR_PIXEL_HASH_BIN WORK_DIR
 # LUT files are hashed by their pixels (exr_pixel_hash: channel names and float bits), not their bytes,
@@ -21,6 +21,5 @@ cp "$here/sweep.toml" sweep.toml
 q sweep sweep.toml --out sweep --method sampled --samples 16384
 for f in b16.exr b32.exr b2d.exr custom.exr; do echo "$f $("$exrhash" "$f")"; done
 for f in eval_opencl.csv eval_oracle.csv sweep/sweep.csv sweep/summary.csv; do echo "$f $(sha256sum < "$f" | cut -c1-16)"; done
-# The term column alone: the estimates, apart from their error bars (issue 10 gave honest error bars to
-# queries that no sample passed, which changed those rows' std_error on purpose).
+# The term column alone: the estimates, apart from their error bars.
 for f in eval_opencl eval_oracle; do echo "$f.term $(cut -d, -f10 "$f.csv" | sha256sum | cut -c1-16)"; done

@@ -140,6 +140,20 @@ TEST_F(IblReliability, TexelsThatAreNotRadianceAreRefusedNamingTheTexel) {
     env::write_exr(path("edge.exr"), edge, {});
     const auto r = cli("ibl sh edge.exr --out edge.json -q");
     EXPECT_EQ(r.exit_code, 0) << r.output;
+    // A negative within kNegativeResidue of the largest value is compression residue (real HDRs hold
+    // them): read as 0 and counted; one just beyond it is refused.
+    env::Image residue = sky();
+    float largest = 0;
+    for (float v : residue.data) largest = std::max(largest, v);
+    residue.at(6, 2, 0) = -0.5f * env::kNegativeResidue * largest;
+    env::write_exr(path("residue.exr"), residue, {});
+    const env::Image read = env::read_exr_rgb(path("residue.exr"));
+    EXPECT_EQ(read.at(6, 2, 0), 0.0f);
+    EXPECT_EQ(read.negative_residue_values, 1u);
+    EXPECT_EQ(cli("ibl sh residue.exr --out residue.json -q").exit_code, 0);
+    residue.at(6, 2, 0) = -2.0f * env::kNegativeResidue * largest;
+    env::write_exr(path("beyond.exr"), residue, {});
+    expect_refused("beyond.exr", "texel (6, 2) channel R is -", "beyond");
 }
 
 TEST_F(IblReliability, ChannelsThatAreNotRgbAreRefusedNamingWhatIsMissing) {

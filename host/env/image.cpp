@@ -118,18 +118,33 @@ std::string describe_value(double v) {
     return s.str();
 }
 
-// The first value outside [0, kMaxRadiance] (or not a number), named with its texel and channel.
-void check_radiance(const Image& image, const std::string& name) {
+// The first value that is not a number, above kMaxRadiance, or negative beyond the residue, named with
+// its texel and channel; residue negatives become 0 (counted in image.negative_residue_values).
+void check_radiance(Image& image, const std::string& name) {
+    auto refuse = [&](std::uint32_t x, std::uint32_t y, std::uint32_t c, float v) {
+        std::ostringstream s;
+        s << "environment " << name << ": texel (" << x << ", " << y << ") channel " << image.channel_names[c] << " is "
+          << describe_value(v) << "; radiance must be finite, at most " << kMaxRadiance << " and non-negative (down to -"
+          << kNegativeResidue << " x the image's largest value is read as 0) (fix or clamp the image)";
+        throw EnvironmentError(s.str());
+    };
+    float largest = 0;
     for (std::uint32_t y = 0; y < image.height; ++y)
         for (std::uint32_t x = 0; x < image.width; ++x)
             for (std::uint32_t c = 0; c < image.channels; ++c) {
                 const float v = image.at(x, y, c);
-                if (v >= 0 && v <= kMaxRadiance) continue;
-                std::ostringstream s;
-                s << "environment " << name << ": texel (" << x << ", " << y << ") channel " << image.channel_names[c] << " is "
-                  << describe_value(v) << "; radiance must be finite, non-negative and at most " << kMaxRadiance
-                  << " (fix or clamp the image)";
-                throw EnvironmentError(s.str());
+                if (!(v <= kMaxRadiance) || !std::isfinite(v)) refuse(x, y, c, v);
+                largest = std::max(largest, v);
+            }
+    const float residue = kNegativeResidue * largest;
+    for (std::uint32_t y = 0; y < image.height; ++y)
+        for (std::uint32_t x = 0; x < image.width; ++x)
+            for (std::uint32_t c = 0; c < image.channels; ++c) {
+                float& v = image.at(x, y, c);
+                if (v >= 0) continue;
+                if (-v > residue) refuse(x, y, c, v);
+                v = 0;
+                ++image.negative_residue_values;
             }
 }
 

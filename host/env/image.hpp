@@ -23,11 +23,16 @@ public:
 // weighted by at most 1 each (a prefiltered texel, a convolved irradiance texel, a mip average) stays
 // finite in the float kernels.
 inline constexpr float kMaxRadiance = FLT_MAX / 4294967296.0f;
+// Negative values no larger than this fraction of an image's largest value are the residue of
+// filtering, resampling or lossy compression in real HDR files (blender-data's forest.exr holds
+// -4.5e-6 beside a sky in the hundreds): readers take them as 0. Larger negatives are refused.
+inline constexpr float kNegativeResidue = 1e-4f;
 
 struct Image {
     std::uint32_t width = 0, height = 0, channels = 0;
     std::vector<std::string> channel_names;  // written to EXR as given ("R", "G", "B", ...)
     std::vector<float> data;                 // data[(y * width + x) * channels + c]
+    std::size_t negative_residue_values = 0; // values a reader set from a small negative to 0 (kNegativeResidue)
 
     Image() = default;
     Image(std::uint32_t w, std::uint32_t h, std::vector<std::string> names)
@@ -51,8 +56,9 @@ void write_exr_file(const std::string& file, const std::string& named, const Ima
 //     bytes can encode (OpenEXR: io/exr_preflight.hpp; Radiance: the smallest run-length encoding);
 //   - channels (OpenEXR): R, G and B, or a single Y (copied to all three); others (A, Z, ...) are ignored;
 //     a file without them is refused naming what is missing and the channels it has ("diffuse.R" is not R);
-//   - every value finite, non-negative and at most kMaxRadiance: the first texel that is not is named
-//     with its (x, y) from the top-left of the image and its channel.
+//   - every value finite, at most kMaxRadiance and non-negative: the first texel that is not is named
+//     with its (x, y) from the top-left of the image and its channel; negatives within kNegativeResidue
+//     of the largest value are set to 0 and counted in negative_residue_values.
 // OpenEXR: whatever its data window and pixel types (part 0 of a multi-part file). The "microshadow"
 // attribute, if present, goes to *metadata.
 Image read_exr_rgb(const std::string& path, nlohmann::json* metadata = nullptr);

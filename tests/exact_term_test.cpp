@@ -15,6 +15,7 @@
 #include "exact/exact_term.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/eval.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "oracle/oracle.hpp"
 #include "sampling/point_set.hpp"
 
@@ -222,3 +223,45 @@ TEST(ExactTerm, EvalRecordsTheMethodAndRefusesBadTolerances) {
 }
 
 }  // namespace
+
+// Where the exact method runs: a CPU device's share goes to the C++ evaluator on its compute units
+// (bit for bit the oracle backend's values: the same code, split into contiguous parts), the kernel
+// runs there only when asked, and then agrees within the two error estimates.
+TEST(ExactPlaces, CpuDevicesRunTheHostEvaluatorAndTheKernelOnRequest) {
+    const std::vector<Query> queries = stress_queries(600, 23);
+    std::vector<exact::ExactValue> one, four;
+    const std::vector<AoWeighting> weighting(queries.size(), AoWeighting::cosine);
+    exact_term::make_cpu_evaluator(1)->terms(queries, weighting, 1e-10, one);
+    exact_term::make_cpu_evaluator(4)->terms(queries, weighting, 1e-10, four);
+    ASSERT_EQ(one.size(), four.size());
+    for (std::size_t i = 0; i < one.size(); ++i) {
+        EXPECT_EQ(one[i].term, four[i].term) << "query " << i;
+        EXPECT_EQ(one[i].error, four[i].error) << "query " << i;
+    }
+
+    const auto devices = ocl::select_devices("default");
+    if (devices.empty() || devices.front().type != "CPU") GTEST_SKIP() << "the default device is not a CPU device";
+    exact_term::ExactConfig config;
+    EXPECT_TRUE(exact_term::runs_host_code(devices.front(), config));
+    config.kernel_on_cpu_devices = true;
+    EXPECT_FALSE(exact_term::runs_host_code(devices.front(), config));
+
+    SamplingPlan plan;
+    plan.method = Method::exact;
+    plan.tolerance = 1e-10;
+    auto oracle = make_oracle_backend(2);
+    auto opencl = make_opencl_backend(devices);
+    const std::vector<Estimate> reference = evaluate(*oracle, queries, TermOptions{}, plan);
+    const std::vector<Estimate> host = evaluate(*opencl, queries, TermOptions{}, plan);
+    plan.kernel_on_cpu_devices = true;
+    const std::vector<Estimate> kernel = evaluate(*opencl, queries, TermOptions{}, plan);
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        EXPECT_EQ(host[i].term, reference[i].term) << "query " << i;
+        EXPECT_LE(std::fabs(kernel[i].term - reference[i].term), kernel[i].std_error + reference[i].std_error + 1e-12)
+            << "query " << i;
+        differ += kernel[i].term != reference[i].term;
+    }
+    // The kernel is other code (its own rounding): some values differ in their last bits, or it did not run.
+    EXPECT_GT(differ, 0u) << "--exact-kernel did not run the kernel";
+}

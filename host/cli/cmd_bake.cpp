@@ -110,6 +110,7 @@ BakeSpec make_spec(const BakeArgs& a) {
     s.tolerance = given(a.cmd, "--tolerance") ? a.tolerance : 0.0;
     s.method = plan.method;
     s.exact_single_precision = a.sampling.exact_single_precision;
+    s.exact_kernel_on_cpu = a.sampling.exact_kernel;
     if (s.method == Method::exact) {
         for (const char* o : {"--samples", "--seed", "--replicates", "--sequence", "--max-batches", "--azimuth-intervals",
                               "--azimuth-quadrature", "--azimuth-cells", "--double-kernels"})

@@ -27,6 +27,7 @@ struct SamplingOptions {
     // measurement and explained in its help) and, for the exact method, the float kernel on fp64 devices.
     std::string method = "sampled";
     bool exact_single_precision = false;
+    bool exact_kernel = false;
     // --tolerance where the command takes it through add_tolerance_option: the estimated error asked of
     // each value (0: the method's default).
     double tolerance = 0;

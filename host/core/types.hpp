@@ -53,6 +53,7 @@ struct SamplingPlan {
     // pass of `samples`). Sampled runs with a tolerance quadruple the samples of the values above it.
     double tolerance = 0;
     bool single_precision = false;       // exact method on OpenCL devices: the float kernel even with fp64
+    bool kernel_on_cpu_devices = false;  // exact method: the kernel on CPU devices too (default: the C++ evaluator)
 };
 
 struct TermOptions {

@@ -65,6 +65,7 @@ BakeResult bake_lut_exact(const BakeSpec& spec, schedule::Scheduler& scheduler, 
     config.tolerance = spec.tolerance > 0 ? spec.tolerance : kDefaultExactBakeTolerance;
     config.build = spec.build;
     config.force_float = spec.exact_single_precision;
+    config.kernel_on_cpu_devices = spec.exact_kernel_on_cpu;
     exact_term::ExactLutIntegrand integrand(spec, config);
     schedule::RunCallbacks run_callbacks;
     if (callbacks.progress)
@@ -177,6 +178,12 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
         for (std::size_t i = 0; i < r.devices.size(); ++i) devices += (i ? "; " : "") + r.devices[i];
         m["device"] = devices;
         m["kernel_precision"] = spec.oracle ? "C++ double" : (spec.exact_single_precision ? "float" : "double where the device has fp64, else float");
+        if (!spec.oracle) {
+            exact_term::ExactConfig engines;
+            engines.force_float = spec.exact_single_precision;
+            engines.kernel_on_cpu_devices = spec.exact_kernel_on_cpu;
+            m["engines"] = exact_term::describe_engines(engines);
+        }
         m["backend"] = spec.oracle ? "oracle" : "opencl";
         m["version"] = MICROSHADOW_VERSION;
         m["program"] = "microshadow " MICROSHADOW_VERSION;

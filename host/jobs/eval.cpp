@@ -45,6 +45,12 @@ nlohmann::json exact_provenance(const SamplingPlan& plan) {
                          "Bernstein ellipse rho = " + format_rho(rule.rho)},
             {"tolerance", tolerance},
             {"kernel_precision", plan.single_precision ? "float" : "double where the device has fp64, else float"},
+            {"engines_on_opencl", [&] {
+                 exact_term::ExactConfig engines;
+                 engines.force_float = plan.single_precision;
+                 engines.kernel_on_cpu_devices = plan.kernel_on_cpu_devices;
+                 return exact_term::describe_engines(engines);
+             }()},
             {"error", "std_error holds the estimated absolute error of each value (the lower-order rule's "
                       "difference plus a rounding floor), not a standard deviation"}};
 }
@@ -108,6 +114,7 @@ std::vector<Estimate> evaluate_exact(TermBackend& backend, const std::vector<Que
     config.tolerance = plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
     config.build = backend.config().build;
     config.force_float = plan.single_precision;
+    config.kernel_on_cpu_devices = plan.kernel_on_cpu_devices;
     return run_batches(
         backend, queries, options, exact_term::queries_per_item(backend.scheduler()), stats, progress, start,
         [&](std::uint64_t items, term::TermIntegrand::Source source, term::TermIntegrand::Sink sink) {

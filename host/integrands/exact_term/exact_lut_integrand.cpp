@@ -49,7 +49,7 @@ ExactLutIntegrand::ExactLutIntegrand(const LutSliceSpec& spec, ExactConfig confi
 std::uint64_t ExactLutIntegrand::work_items() const { return std::uint64_t(spec_.n_dot_v.count) * channels_; }
 
 std::unique_ptr<schedule::Worker> ExactLutIntegrand::device_worker(ocl::Device& device) {
-    return std::make_unique<SliceWorker>(*this, make_device_evaluator(device, device_build(device.info(), config_)));
+    return std::make_unique<SliceWorker>(*this, make_place_evaluator(device, config_));
 }
 
 std::unique_ptr<schedule::Worker> ExactLutIntegrand::oracle_worker() {

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 
 #include "core/cancel.hpp"
 #include "core/cone.hpp"
@@ -37,6 +39,59 @@ public:
     }
 };
 
+// CpuEvaluator over `threads` threads: each call is cut into contiguous parts, the first on the calling
+// thread; a part's exception (Cancelled included) is rethrown after every part has stopped.
+class ThreadedCpuEvaluator final : public Evaluator {
+public:
+    explicit ThreadedCpuEvaluator(unsigned threads) : threads_(std::max(1u, threads)) {}
+    void terms(const std::vector<Query>& queries, const std::vector<AoWeighting>& weighting, double tolerance,
+               std::vector<exact::ExactValue>& out) override {
+        out.resize(queries.size());
+        split(queries.size(), [&](std::size_t lo, std::size_t hi) {
+            std::vector<Query> q(queries.begin() + lo, queries.begin() + hi);
+            std::vector<AoWeighting> w(weighting.begin() + lo, weighting.begin() + hi);
+            std::vector<exact::ExactValue> part;
+            CpuEvaluator().terms(q, w, tolerance, part);
+            std::copy(part.begin(), part.end(), out.begin() + lo);
+        });
+    }
+    void texels(const std::vector<ExactTexel>& texels, AoWeighting weighting, bool azimuth_mean, double azimuth,
+                double tolerance, std::vector<exact::ExactValue>& out) override {
+        out.resize(texels.size());
+        split(texels.size(), [&](std::size_t lo, std::size_t hi) {
+            std::vector<ExactTexel> t(texels.begin() + lo, texels.begin() + hi);
+            std::vector<exact::ExactValue> part;
+            CpuEvaluator().texels(t, weighting, azimuth_mean, azimuth, tolerance, part);
+            std::copy(part.begin(), part.end(), out.begin() + lo);
+        });
+    }
+
+private:
+    template <class Part>
+    void split(std::size_t n, const Part& part) {
+        const std::size_t parts = std::min<std::size_t>(threads_, n);
+        if (parts <= 1) {
+            if (n) part(0, n);
+            return;
+        }
+        std::vector<std::exception_ptr> failures(parts);
+        auto run = [&](std::size_t k) {
+            try {
+                part(n * k / parts, n * (k + 1) / parts);
+            } catch (...) {
+                failures[k] = std::current_exception();
+            }
+        };
+        std::vector<std::thread> helpers;
+        for (std::size_t k = 1; k < parts; ++k) helpers.emplace_back(run, k);
+        run(0);
+        for (auto& t : helpers) t.join();
+        for (const auto& f : failures)
+            if (f) std::rethrow_exception(f);
+    }
+    unsigned threads_;
+};
+
 class TermWorker final : public schedule::Worker {
 public:
     TermWorker(ExactTermIntegrand& integrand, std::unique_ptr<Evaluator> evaluator, ExactTermIntegrand::Source& source,
@@ -53,7 +108,26 @@ private:
 
 }  // namespace
 
-std::unique_ptr<Evaluator> make_cpu_evaluator() { return std::make_unique<CpuEvaluator>(); }
+std::unique_ptr<Evaluator> make_cpu_evaluator(unsigned threads) {
+    if (threads <= 1) return std::make_unique<CpuEvaluator>();
+    return std::make_unique<ThreadedCpuEvaluator>(threads);
+}
+
+bool runs_host_code(const ocl::DeviceInfo& device, const ExactConfig& config) {
+    return device.type == "CPU" && !config.kernel_on_cpu_devices && !config.force_float;
+}
+
+std::string describe_engines(const ExactConfig& config) {
+    const std::string kernel = config.force_float ? "the float kernel" : "the kernel in double where the device has fp64, else float";
+    if (config.kernel_on_cpu_devices || config.force_float) return kernel + " on every device";
+    return "the C++ evaluator (double) on a CPU device's compute units; " + kernel + " on other devices";
+}
+
+std::unique_ptr<Evaluator> make_place_evaluator(ocl::Device& device, const ExactConfig& config) {
+    const ocl::DeviceInfo& info = device.info();
+    if (runs_host_code(info, config)) return make_cpu_evaluator(std::max(1u, info.compute_units));
+    return make_device_evaluator(device, device_build(info, config));
+}
 
 void validate_tolerance(double tolerance) {
     if (!(tolerance >= kMinTolerance && tolerance <= 0.1))
@@ -73,8 +147,7 @@ ExactTermIntegrand::ExactTermIntegrand(std::uint64_t items, Source source, Sink 
 }
 
 std::unique_ptr<schedule::Worker> ExactTermIntegrand::device_worker(ocl::Device& device) {
-    return std::make_unique<TermWorker>(*this, make_device_evaluator(device, device_build(device.info(), config_)),
-                                        source_, sink_);
+    return std::make_unique<TermWorker>(*this, make_place_evaluator(device, config_), source_, sink_);
 }
 
 std::unique_ptr<schedule::Worker> ExactTermIntegrand::oracle_worker() {

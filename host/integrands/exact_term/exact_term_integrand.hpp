@@ -35,8 +35,9 @@ public:
     virtual void texels(const std::vector<ExactTexel>& texels, AoWeighting weighting, bool azimuth_mean, double azimuth,
                         double tolerance, std::vector<exact::ExactValue>& out) = 0;
 };
-// The C++ evaluator on the calling thread.
-std::unique_ptr<Evaluator> make_cpu_evaluator();
+// The C++ evaluator on the calling thread, or split over `threads` threads (contiguous parts of each
+// call; the values do not depend on the split).
+std::unique_ptr<Evaluator> make_cpu_evaluator(unsigned threads = 1);
 // The OpenCL kernel on a device: double when `double_precision` (the device must have cl_khr_fp64),
 // float otherwise.
 std::unique_ptr<Evaluator> make_device_evaluator(ocl::Device& device, const ocl::BuildConfig& build);
@@ -47,7 +48,17 @@ struct ExactConfig {
     double tolerance = exact::kDefaultTolerance;
     ocl::BuildConfig build;          // double_precision is decided per device unless force_float
     bool force_float = false;        // the float kernel even on fp64 devices (what a GPU without fp64 gets)
+    // CPU devices run the kernel too (by default their share runs the C++ evaluator on as many threads as
+    // the device has compute units: through PoCL the kernel is 1.6-1.8x slower than the C++ on the same cores).
+    bool kernel_on_cpu_devices = false;
 };
+// The evaluator a device's worker uses under `config`: the kernel, or for a CPU device (unless
+// kernel_on_cpu_devices or force_float ask for the kernel) the C++ evaluator on its compute units.
+std::unique_ptr<Evaluator> make_place_evaluator(ocl::Device& device, const ExactConfig& config);
+// Whether make_place_evaluator runs the C++ evaluator in place of `device`'s kernel.
+bool runs_host_code(const ocl::DeviceInfo& device, const ExactConfig& config);
+// What computes the values under `config` on an OpenCL backend, for provenance records.
+std::string describe_engines(const ExactConfig& config);
 // The smallest tolerance the evaluator is asked for (below it rounding dominates every estimate).
 inline constexpr double kMinTolerance = 1e-13;
 // Throws std::invalid_argument unless kMinTolerance <= tolerance <= 0.1.

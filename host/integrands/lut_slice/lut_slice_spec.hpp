@@ -68,6 +68,7 @@ struct LutSliceSpec {
     // seed and the azimuth quadrature settings are then unused.
     Method method = Method::sampled;
     bool exact_single_precision = false;  // exact on OpenCL devices: the float kernel even with fp64
+    bool exact_kernel_on_cpu = false;     // exact: the kernel on CPU devices too (default: the C++ evaluator)
 
     // Which NdotL rows to bake (a partial bake: `microshadow bake --scene`, jobs/scene_bake.hpp). Empty
     // (the default): every row of every slice, as every bake before it. Otherwise one flag per (slice,

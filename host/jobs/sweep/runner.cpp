@@ -485,6 +485,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         exact.tolerance = config.plan.tolerance > 0 ? config.plan.tolerance : exact::kDefaultTolerance;
         exact.build = config.backend->config().build;
         exact.force_float = config.plan.single_precision;
+        exact.kernel_on_cpu_devices = config.plan.kernel_on_cpu_devices;
         integrand = std::make_unique<exact_term::ExactTermIntegrand>(result.chunks, chunk_queries, write_chunk, exact);
     } else {
         integrand = std::make_unique<term::TermIntegrand>(result.chunks, chunk_queries, write_chunk, config.plan,

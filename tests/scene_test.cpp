@@ -903,6 +903,25 @@ TEST_F(SceneTest, AreaLightDescriptionsAreChecked) {
     EXPECT_EQ(r.counts.light_below_horizon, 16u);
 }
 
+TEST_F(SceneTest, AreaLightsSampledAndExactReferencesAgree) {
+    // The same bulb by the joint kernel (method = "sampled") and by the exact inner term: each pixel within
+    // both bounds (Bonferroni over 16 pixels; t x std_error is each run's bound at 99.9 %, so the sum of the
+    // two at 1 - 0.001 / 32 covers both).
+    write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
+    const std::string light = "[[light]]\nname = \"bulb\"\ntype = \"sphere\"\nposition = [0.5, 0.2, 1.5]\nradius = 0.4\nlobe = \"ggx\"\n";
+    std::string sampled = kAreaScene;
+    sampled.replace(sampled.find("[sampling]\n"), 11, "[sampling]\nmethod = \"sampled\"\n");
+    write_text(path("exact.toml"), std::string(kAreaScene) + light);
+    write_text(path("sampled.toml"), sampled + light);
+    const auto e = run(path("exact.toml")), k = run(path("sampled.toml"));
+    const double t = student_t_quantile(1 - 0.001 / 32, 15);
+    for (int i = 0; i < 16; ++i) {
+        EXPECT_NEAR(e.lights[0].reference[i], k.lights[0].reference[i], t * (e.lights[0].std_error[i] + k.lights[0].std_error[i])) << i;
+        EXPECT_GT(k.lights[0].std_error[i], 0.0f) << i;
+    }
+    EXPECT_EQ(k.method, Method::sampled);
+}
+
 TEST_F(SceneTest, CommandLineWritesAreaLightLayers) {
     write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
     write_text(path("s.toml"), std::string(kAreaScene) + "[[light]]\nname = \"bulb\"\ntype = \"sphere\"\nposition = [0.5, 0.2, 1.5]\nradius = 0.4\n");

@@ -251,10 +251,14 @@ LightQuery light_query(const PixelSurface& p, const Light& light) {
     Vec3 L;
     double intensity = light.intensity;
     if (light.is_area()) {
+        // The point query towards the centre; its irradiance means nothing for a light of given radiance
+        // (the area weight is computed with T_area), so it is 0, never a huge I / d^2 of a near centre.
         Light centre = light;
         centre.type = LightType::point;
         centre.position = area_light_centre(light);
-        return light_query(p, centre);
+        LightQuery q = light_query(p, centre);
+        q.irradiance = 0;
+        return q;
     }
     if (light.type == LightType::directional) {
         L = unit(light.direction);

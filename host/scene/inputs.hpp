@@ -85,7 +85,7 @@ private:
 };
 
 // The query of a pixel under a light (see the frame above). Area lights: the point query towards the
-// light's centre (what engines look up in its place).
+// light's centre (what engines look up in its place), with irradiance 0 (their weight is not I / d^2).
 LightQuery light_query(const PixelSurface& pixel, const Light& light);
 
 // The query of a pixel under an area light (sphere or rect), in the frame above (isotropic pixels: x

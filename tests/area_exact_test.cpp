@@ -254,6 +254,11 @@ TEST_F(AreaCommandCli, RectSweepWritesItsRowsAndNeedsRandom) {
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("--light rect: the sweep draws random rectangles; give --random N"), std::string::npos) << r.output;
     EXPECT_FALSE(std::filesystem::exists(path("t.csv")));
+    // The sweep is sampled throughout: an exact method is refused, not half applied.
+    r = testing::run_shell(cli + " area sweep -q --method exact --random 2 --backend oracle --out " + path("t.csv") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_NE(r.output.find("the exact inner term is `area eval --method exact`"), std::string::npos) << r.output;
+    EXPECT_FALSE(std::filesystem::exists(path("t.csv")));
 }
 
 TEST(AreaLightStudy, RandomRectanglesHaveTheirHalfAngleAndAreValid) {

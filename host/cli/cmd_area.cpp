@@ -235,7 +235,13 @@ void add_area_command(CLI::App& app) {
     s->add_option("--azimuths", sweep->grid.azimuths_deg, "grid: azimuth of the light's centre from the view's, degrees")->delimiter(',');
     s->add_option("--lobes", sweep->lobes, "lambert,ggx")->delimiter(',')->check(CLI::IsMember({"ggx", "lambert"}));
     add_sampling_options(s, sweep->sampling);
-    s->callback([sweep] { run_area_sweep(*sweep); });
+    s->callback([sweep] {
+        // The study's T_area is the joint kernel's; half of it exact (the point terms) would mix two methods.
+        if (sweep->sampling.method == "exact")
+            throw std::invalid_argument("--method exact: area sweep samples T_area and the point terms alike; "
+                                        "the exact inner term is `area eval --method exact`");
+        run_area_sweep(*sweep);
+    });
 
     auto lang = std::make_shared<std::string>("glsl");
     auto shader_out = std::make_shared<std::string>("-");

@@ -922,6 +922,41 @@ TEST_F(SceneTest, AreaLightsSampledAndExactReferencesAgree) {
     EXPECT_EQ(k.method, Method::sampled);
 }
 
+TEST_F(SceneTest, AreaLightQueriesUseThePixelsFrameAndCarryNoPointIrradiance) {
+    // An anisotropic pixel: the light's positions in its tangent frame (x = tangent, y = n x t, z = n).
+    scene::PixelSurface p;
+    p.shaded = true;
+    p.normal = {0, 0, 1};
+    p.tangent = {0, 1, 0};
+    p.anisotropic = true;
+    p.view = {0.6, 0, 0.8};
+    p.position = {1, 2, 3};
+    p.visibility = 0.5;
+    p.alpha_x = 0.3, p.alpha_y = 0.1;
+    scene::Light sphere;
+    sphere.type = scene::LightType::sphere;
+    sphere.position = {2, 2, 5};
+    sphere.radius = 1;
+    const scene::AreaLightQuery a = scene::area_light_query(p, sphere);
+    ASSERT_EQ(a.status, scene::PixelStatus::shaded);
+    // (1, 0, 2) relative; in the frame x = (0, 1, 0), y = z x x = (-1, 0, 0): (0, -1, 2).
+    EXPECT_NEAR(a.query.light.sphere.centre.x, 0, 1e-12);
+    EXPECT_NEAR(a.query.light.sphere.centre.y, -1, 1e-12);
+    EXPECT_NEAR(a.query.light.sphere.centre.z, 2, 1e-12);
+    EXPECT_NEAR(a.query.light.sphere.half_angle, std::asin(1 / std::sqrt(5.0)), 1e-12);
+    EXPECT_NEAR(a.query.wi.x, 0, 1e-12);
+    EXPECT_NEAR(a.query.wi.y, -0.6, 1e-12);
+    // A rectangle whose centre is 1e-170 above the pixel: its point query towards the centre must not carry
+    // I / d^2 (infinite here); an area light's weight comes from its radiance and T_area's lobe integral.
+    scene::Light rect;
+    rect.type = scene::LightType::rect;
+    rect.corners = {Vec3{-1, -1, 1e-170}, Vec3{1, -1, 1e-170}, Vec3{1, 1, 1e-170}, Vec3{-1, 1, 1e-170}};
+    p.position = {0, 0, 0};
+    EXPECT_EQ(scene::light_query(p, rect).status, scene::PixelStatus::shaded);  // N.L = 1 towards the centre
+    EXPECT_EQ(scene::light_query(p, rect).irradiance, 0.0);
+    EXPECT_EQ(scene::light_query(p, sphere).irradiance, 0.0);
+}
+
 TEST_F(SceneTest, CommandLineWritesAreaLightLayers) {
     write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
     write_text(path("s.toml"), std::string(kAreaScene) + "[[light]]\nname = \"bulb\"\ntype = \"sphere\"\nposition = [0.5, 0.2, 1.5]\nradius = 0.4\n");

@@ -4,7 +4,7 @@
 // fuzz/scene-seeds have that shape). Contract: load_scene and SceneInputs::load either refuse with
 // SceneError (std::invalid_argument), or give inputs whose every shaded pixel has a unit normal and
 // view, alpha in [kMinAlpha, 2], visibility in [0, 1] and, under every light, a finite query and an
-// irradiance within kMaxIrradiance.
+// irradiance within kMaxIrradiance; under an area light, a query the area checks (core/area_light.hpp) accept.
 #include <sys/stat.h>
 
 #include <cmath>
@@ -55,6 +55,15 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 if (!std::isfinite(q.n_dot_l) || !std::isfinite(q.n_dot_v)) ms::fuzz::finding("a non-finite cosine");
                 if (q.status == ms::scene::PixelStatus::shaded && (!finite(q.query.wi) || !finite(q.query.wo)))
                     ms::fuzz::finding("a shaded query with non-finite directions");
+                if (!light.is_area()) continue;
+                // An area light's query, when it has one, passes the area checks (what the integrand requires).
+                const ms::scene::AreaLightQuery a = ms::scene::area_light_query(p, light);
+                if (a.status != ms::scene::PixelStatus::shaded) continue;
+                try {
+                    ms::area::validate(a.query);
+                } catch (const std::invalid_argument& e) {
+                    ms::fuzz::finding((std::string("a shaded area-light query the area checks refuse: ") + e.what()).c_str());
+                }
             }
         }
     } catch (const std::invalid_argument&) {  // SceneError, and the CLI's other bad-input errors

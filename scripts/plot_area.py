@@ -125,10 +125,10 @@ def random_table(args):
     print("|---|---|---|---|---|")
     for lobe in ("all", "lambert", "ggx"):
         sel = [r for r in rows if lobe == "all" or r["lobe"] == lobe]
-        for name, col in (("centre", "centre_error"), ("representative point", "representative_error"), ("7 taps", "taps_error")):
+        for name, col in (("centre", "centre_error"), ("representative point", "representative_error"), ("taps", "taps_error")):
             print(f"| {lobe} ({len(sel)}) | {name} | {stats([r[col] for r in sel])} |")
     print()
-    print("| half-angle band | representative point max / RMS / p99 | 7 taps max / RMS / p99 |")
+    print("| half-angle band | representative point max / RMS / p99 | taps max / RMS / p99 |")
     print("|---|---|---|")
     for lo, hi in bands:
         sel = [r for r in rows if lo < r["half_angle_deg"] <= hi]

@@ -20,6 +20,7 @@
 
 #include "cli_runner.hpp"
 #include "core/cone.hpp"
+#include "core/estimate.hpp"
 #include "core/query.hpp"
 #include "jobs/eval.hpp"
 #include "jobs/compare.hpp"
@@ -703,6 +704,272 @@ analytic = []
     }
     // The azimuth matters here: the two lights differ by far more than the storage's rounding.
     EXPECT_GT(std::fabs(r.lights[0].approximation[0][0] - r.lights[1].approximation[0][0]), 0.01);
+}
+
+}  // namespace
+}  // namespace ms
+
+#include "exact/exact_term.hpp"
+#include "integrands/area_light/light_geometry.hpp"
+#include "jobs/area.hpp"
+
+namespace ms {
+namespace {
+
+// Area lights in scenes: a flat 4 x 4 texture set (pixel (x, y) at ((x + 0.5) / 4, 1 - (y + 0.5) / 4, 0),
+// normal +z) under a sphere and a rectangle light, against the area integrand run on each pixel's own
+// query, known answers, and the description's checks.
+const char* kAreaScene = R"(
+[normal]
+value = [0, 0, 1]
+[visibility]
+value = 0.6
+[roughness]
+file = "rough.png"
+[view]
+direction = [0.3, 0.1, 0.9]
+[comparators]
+analytic = ["pz-analytic"]
+[sampling]
+area_tolerance = 0.01
+)";
+
+Vec3 pixel_position(int x, int y) { return {(x + 0.5) / 4, 1 - (y + 0.5) / 4, 0}; }
+
+TEST_F(SceneTest, AreaLightsMatchTheAreaIntegrandPerPixel) {
+    write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
+    write_text(path("s.toml"), std::string(kAreaScene) + R"(
+[[light]]
+name = "bulb"
+type = "sphere"
+position = [0.5, 0.2, 1.5]
+radius = 0.4
+lobe = "ggx"
+intensity = 3
+[[light]]
+name = "panel"
+type = "rect"
+corners = [[-0.3, 1.2, 1.0], [1.3, 1.2, 1.0], [1.3, 1.2, 2.0], [-0.3, 1.2, 2.0]]
+intensity = 2
+[[light]]
+name = "under"
+type = "sphere"
+position = [0.5, 0.5, -2]
+radius = 0.5
+)");
+    const auto r = run(path("s.toml"));
+    ASSERT_EQ(r.lights.size(), 3u);
+    ASSERT_EQ(r.comparators, (std::vector<std::string>{"pz-analytic", "centre-exact", "taps-exact"}));
+    // Each pixel's own query, in world axes (normal +z; the surface is isotropic, so the frame's azimuth
+    // does not matter), by the exact inner term on the host with another seed.
+    std::vector<area::AreaQuery> queries;
+    const Vec3 view = normalised(Query{0.5, 0.25, 0.25, {0.3, 0.1, 0.9}, {0, 0, 1}}).wi;
+    for (int light = 0; light < 2; ++light)
+        for (int y = 0; y < 4; ++y)
+            for (int x = 0; x < 4; ++x) {
+                const Vec3 p = pixel_position(x, y);
+                area::AreaQuery q;
+                q.visibility = 0.6;
+                q.alpha_x = q.alpha_y = 0.25;
+                q.wi = view;
+                if (light == 0) {
+                    q.lobe = area::Lobe::ggx;
+                    q.light.shape = area::LightShape::sphere;
+                    const Vec3 c{0.5 - p.x, 0.2 - p.y, 1.5};
+                    q.light.sphere.centre = c;
+                    q.light.sphere.half_angle = std::asin(0.4 / std::hypot(c.x, c.y, c.z));
+                } else {
+                    q.lobe = area::Lobe::lambert;
+                    q.light.shape = area::LightShape::rect;
+                    const double corners[4][3] = {{-0.3, 1.2, 1.0}, {1.3, 1.2, 1.0}, {1.3, 1.2, 2.0}, {-0.3, 1.2, 2.0}};
+                    for (int k = 0; k < 4; ++k) q.light.rect.corners[k] = {corners[k][0] - p.x, corners[k][1] - p.y, corners[k][2]};
+                }
+                queries.push_back(q);
+            }
+    area::AreaRoutineConfig config;
+    config.inner_term = area::exact_inner_term(AoWeighting::cosine, 1e-6);
+    SamplingPlan plan;
+    plan.samples = 8 * 512;
+    plan.replicates = 8;
+    plan.seed = 99;
+    const auto expected = area::evaluate_area(*make_oracle_backend(), queries, {}, plan, config);
+    // Bonferroni over the 32 pixels: each side's own Student t (16 and 8 replicates) at 1 - 0.001 / 64; the
+    // scene's std_error layer already holds its inner bound (t x std_error is the pixel's bound).
+    const double t_scene = student_t_quantile(1 - 0.001 / 64, 15), t_ref = student_t_quantile(1 - 0.001 / 64, 7);
+    for (int light = 0; light < 2; ++light) {
+        const auto& li = r.lights[std::size_t(light)];
+        for (int i = 0; i < 16; ++i) {
+            const area::AreaEstimate& e = expected[std::size_t(light * 16 + i)];
+            EXPECT_NEAR(li.reference[i], e.term.term, t_scene * li.std_error[i] + t_ref * e.term.std_error + e.inner_error)
+                << li.light << " pixel " << i;
+            EXPECT_LE(li.t * li.std_error[i], 0.01 * (1 + 1e-6)) << li.light << " pixel " << i;  // the area tolerance
+            // The weight: intensity x Int f cos, estimated by both runs (the scene's with >= 2048 light samples,
+            // half of the reference's: at most sqrt(2) times its standard error at the Monte Carlo rate, so
+            // 3 x covers both).
+            const double intensity = light == 0 ? 3 : 2;
+            EXPECT_NEAR(li.weight[i], intensity * e.lobe_integral.term, t_ref * 3 * intensity * e.lobe_integral.std_error + 1e-6)
+                << li.light << " pixel " << i;
+        }
+    }
+    // The panel's Lambert weight in closed form: radiance x (1/pi) Int cos dw = radiance x (1 / 2 pi)
+    // Sum_edges theta_k |z . unit(v_k x v_k+1)| (Lambert's polygon formula; the panel is above the horizon).
+    for (int i = 0; i < 16; ++i) {
+        const auto& k = queries[std::size_t(16 + i)].light.rect.corners;
+        double sum = 0;
+        for (int e = 0; e < 4; ++e) {
+            const Vec3 a = k[e], b = k[(e + 1) % 4];
+            const Vec3 n{a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+            const double theta = std::atan2(std::hypot(n.x, n.y, n.z), a.x * b.x + a.y * b.y + a.z * b.z);
+            sum += theta * n.z / std::hypot(n.x, n.y, n.z);
+        }
+        const double closed = 2 * std::fabs(sum) / (2 * M_PI);
+        EXPECT_NEAR(r.lights[1].weight[i], closed, t_ref * 3 * 2 * expected[std::size_t(16 + i)].lobe_integral.std_error + 1e-6) << i;
+    }
+    // Below the horizon: exactly 0, weight 0, counted.
+    for (int i = 0; i < 16; ++i) {
+        EXPECT_EQ(r.lights[2].reference[i], 0.0f);
+        EXPECT_EQ(r.lights[2].weight[i], 0.0f);
+    }
+    EXPECT_EQ(r.counts.light_below_horizon, 16u);
+    // The centre comparators: a point lookup where the light is (its centre), which the taps beat on the
+    // 0.4-radius bulb (half-angles 14 - 16 degrees) in RMS.
+    const auto& bulb = r.lights[0].stats;
+    EXPECT_LT(bulb[2][0].rms_term, bulb[1][0].rms_term);
+}
+
+TEST_F(SceneTest, ATinySphereLightIsItsCentresPointTerm) {
+    // Radius 1e-4 at distance ~5: T_area is a weighted mean of T over the light, within slope x radius of
+    // the centre's term (slope <= 2 C / alpha, C <= 2 as measured for the key grid, jobs/scene.hpp).
+    write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
+    write_text(path("s.toml"), std::string(kAreaScene) + R"(
+[[light]]
+name = "tiny"
+type = "sphere"
+position = [3, 1, 4]
+radius = 1e-4
+)");
+    const auto r = run(path("s.toml"));
+    const auto& li = r.lights[0];
+    for (int y = 0; y < 4; ++y)
+        for (int x = 0; x < 4; ++x) {
+            const int i = y * 4 + x;
+            const Vec3 p = pixel_position(x, y);
+            Query q{0.6, 0.25, 0.25, {0.3, 0.1, 0.9}, {3 - p.x, 1 - p.y, 4}};
+            q = normalised(q);
+            const double gamma = std::asin(1e-4 / std::hypot(3 - p.x, 1 - p.y, 4.0));
+            const exact::ExactValue point = exact::exact_term(q, AoWeighting::cosine, 1e-10);
+            const double bound = student_t_quantile(1 - 0.001 / 16, 15) * li.std_error[i] + point.error + 4 / 0.25 * gamma;
+            EXPECT_NEAR(li.reference[i], point.term, bound) << i;
+            EXPECT_NEAR(li.approximation[1][i], point.term, 1e-5) << i;            // centre-exact
+            EXPECT_NEAR(li.approximation[2][i], li.approximation[1][i], 4 / 0.25 * gamma + 2e-6) << i;  // taps-exact
+        }
+}
+
+TEST_F(SceneTest, AreaLightDescriptionsAreChecked) {
+    write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
+    auto error_of = [&](const std::string& light) {
+        write_text(path("bad.toml"), std::string(kAreaScene) + "[[light]]\n" + light);
+        return scene_error(path("bad.toml"));
+    };
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {"type = \"sphere\"\nposition = [0, 0, 2]\n", "light[0].radius: missing"},
+        {"type = \"sphere\"\nposition = [0, 0, 2]\nradius = 0\n", "light[0].radius: must be in (0, 1e30], got 0"},
+        {"type = \"sphere\"\nposition = [0, 0, 2]\nradius = -1\n", "light[0].radius: must be in (0, 1e30], got -1"},
+        {"type = \"sphere\"\nradius = 1\n", "light[0].position: missing: the position of a sphere light"},
+        {"type = \"sphere\"\nposition = [0, 0, 2]\nradius = 1\ndirection = [0, 0, 1]\n", "light[0].direction: a sphere light has a position"},
+        {"type = \"sphere\"\nposition = [0.5, 0.5, 0.1]\nradius = 0.5\n", "is inside the sphere light"},
+        {"direction = [0, 0, 1]\nradius = 1\n", "light[0].radius: only a sphere light has a radius"},
+        {"type = \"point\"\nposition = [0, 0, 1]\nlobe = \"ggx\"\n", "light[0].lobe: only area lights"},
+        {"type = \"sphere\"\nposition = [0, 0, 2]\nradius = 1\nlobe = \"phong\"\n", "light[0].lobe"},
+        {"type = \"rect\"\n", "light[0].corners: missing"},
+        {"type = \"rect\"\ncorners = [[0, 0, 1], [1, 0, 1], [1, 1, 1]]\n", "must be a list of 4 positions"},
+        {"type = \"rect\"\ncorners = [[0, 0, 1], [0, 0, 1], [1, 1, 1], [0, 1, 1]]\n", "light[0].corners: degenerate rect light: a side"},
+        {"type = \"rect\"\ncorners = [[0, 0, 1], [1, 0, 1], [1.2, 1, 1], [0.2, 1, 1]]\n", "not a right angle"},
+        {"type = \"rect\"\ncorners = [[0, 0, 1], [1, 0, 1], [0, 1, 1], [1, 1, 1]]\n", "p1 + p3 - p0"},
+        {"type = \"rect\"\nposition = [0, 0, 1]\ncorners = [[0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]]\n", "light[0].position: a rect light has corners"},
+    };
+    for (const auto& [light, expected] : cases) {
+        const std::string e = error_of(light);
+        EXPECT_NE(e.find(expected), std::string::npos) << light << " -> " << e;
+    }
+    std::string loose = kAreaScene;
+    loose.replace(loose.find("area_tolerance = 0.01"), 21, "area_tolerance = 1e-6");
+    write_text(path("bad.toml"), loose + "[[light]]\ndirection = [0, 0, 1]\n");
+    EXPECT_NE(scene_error(path("bad.toml")).find("sampling.area_tolerance: must be in [1e-4, 0.5]"), std::string::npos)
+        << scene_error(path("bad.toml"));
+    // A pixel in a rectangle's plane sees no light: 0, not an error. (The panel's plane z = 0 is the surface's.)
+    write_text(path("edge.toml"), std::string(kAreaScene) + "[[light]]\ntype = \"rect\"\ncorners = [[2, 0, 0], [3, 0, 0], [3, 1, 0], [2, 1, 0]]\n");
+    const auto r = run(path("edge.toml"));
+    for (int i = 0; i < 16; ++i) EXPECT_EQ(r.lights[0].reference[i], 0.0f);
+    EXPECT_EQ(r.counts.light_below_horizon, 16u);
+}
+
+TEST_F(SceneTest, AreaLightsSampledAndExactReferencesAgree) {
+    // The same bulb by the joint kernel (method = "sampled") and by the exact inner term: each pixel within
+    // both bounds (Bonferroni over 16 pixels; t x std_error is each run's bound at 99.9 %, so the sum of the
+    // two at 1 - 0.001 / 32 covers both).
+    write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
+    const std::string light = "[[light]]\nname = \"bulb\"\ntype = \"sphere\"\nposition = [0.5, 0.2, 1.5]\nradius = 0.4\nlobe = \"ggx\"\n";
+    std::string sampled = kAreaScene;
+    sampled.replace(sampled.find("[sampling]\n"), 11, "[sampling]\nmethod = \"sampled\"\n");
+    write_text(path("exact.toml"), std::string(kAreaScene) + light);
+    write_text(path("sampled.toml"), sampled + light);
+    const auto e = run(path("exact.toml")), k = run(path("sampled.toml"));
+    const double t = student_t_quantile(1 - 0.001 / 32, 15);
+    for (int i = 0; i < 16; ++i) {
+        EXPECT_NEAR(e.lights[0].reference[i], k.lights[0].reference[i], t * (e.lights[0].std_error[i] + k.lights[0].std_error[i])) << i;
+        EXPECT_GT(k.lights[0].std_error[i], 0.0f) << i;
+    }
+    EXPECT_EQ(k.method, Method::sampled);
+}
+
+TEST_F(SceneTest, AreaLightQueriesUseThePixelsFrameAndCarryNoPointIrradiance) {
+    // An anisotropic pixel: the light's positions in its tangent frame (x = tangent, y = n x t, z = n).
+    scene::PixelSurface p;
+    p.shaded = true;
+    p.normal = {0, 0, 1};
+    p.tangent = {0, 1, 0};
+    p.anisotropic = true;
+    p.view = {0.6, 0, 0.8};
+    p.position = {1, 2, 3};
+    p.visibility = 0.5;
+    p.alpha_x = 0.3, p.alpha_y = 0.1;
+    scene::Light sphere;
+    sphere.type = scene::LightType::sphere;
+    sphere.position = {2, 2, 5};
+    sphere.radius = 1;
+    const scene::AreaLightQuery a = scene::area_light_query(p, sphere);
+    ASSERT_EQ(a.status, scene::PixelStatus::shaded);
+    // (1, 0, 2) relative; in the frame x = (0, 1, 0), y = z x x = (-1, 0, 0): (0, -1, 2).
+    EXPECT_NEAR(a.query.light.sphere.centre.x, 0, 1e-12);
+    EXPECT_NEAR(a.query.light.sphere.centre.y, -1, 1e-12);
+    EXPECT_NEAR(a.query.light.sphere.centre.z, 2, 1e-12);
+    EXPECT_NEAR(a.query.light.sphere.half_angle, std::asin(1 / std::sqrt(5.0)), 1e-12);
+    EXPECT_NEAR(a.query.wi.x, 0, 1e-12);
+    EXPECT_NEAR(a.query.wi.y, -0.6, 1e-12);
+    // A rectangle whose centre is 1e-170 above the pixel: its point query towards the centre must not carry
+    // I / d^2 (infinite here); an area light's weight comes from its radiance and T_area's lobe integral.
+    scene::Light rect;
+    rect.type = scene::LightType::rect;
+    rect.corners = {Vec3{-1, -1, 1e-170}, Vec3{1, -1, 1e-170}, Vec3{1, 1, 1e-170}, Vec3{-1, 1, 1e-170}};
+    p.position = {0, 0, 0};
+    EXPECT_EQ(scene::light_query(p, rect).status, scene::PixelStatus::shaded);  // N.L = 1 towards the centre
+    EXPECT_EQ(scene::light_query(p, rect).irradiance, 0.0);
+    EXPECT_EQ(scene::light_query(p, sphere).irradiance, 0.0);
+}
+
+TEST_F(SceneTest, CommandLineWritesAreaLightLayers) {
+    write_png(path("rough.png"), 4, 4, 1, std::vector<double>(16, 0.5));
+    write_text(path("s.toml"), std::string(kAreaScene) + "[[light]]\nname = \"bulb\"\ntype = \"sphere\"\nposition = [0.5, 0.2, 1.5]\nradius = 0.4\n");
+    const auto r = testing::run_shell(std::string(MICROSHADOW_CLI) + " scene " + path("s.toml") + " --out " + path("out") + " --no-seed-luts --quiet 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    for (const char* f : {"scene.exr", "report.json", "bulb_reference.png", "bulb_centre-exact.png", "bulb_taps-exact.png"})
+        EXPECT_TRUE(fs::exists(path("out/") + f)) << f;
+    const auto layers = scene::list_channels(path("out/scene.exr"));
+    EXPECT_NE(std::find(layers.begin(), layers.end(), "bulb.taps-exact_error"), layers.end());
+    std::ifstream in(path("out/report.json"));
+    const auto j = nlohmann::json::parse(in);
+    EXPECT_EQ(j["work"]["sampled"].get<std::uint64_t>(), 16u);
 }
 
 }  // namespace

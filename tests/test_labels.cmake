@@ -6,8 +6,13 @@
 # CI runs them all. A new test is unit until it is listed here: list it under cli when it runs the
 # program, under slow when it takes a second or more (measured one at a time on the 2-core CI machine).
 set(microshadow_gpu_tests
-  "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader)\\.")
+  "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader)\\."
+  "^AreaShaderTest\\.(Rect)?TapsShaderMatchesTheCppTapsOnLavapipe$")
 set(microshadow_cli_tests
+  "^AreaCommandCli\\."
+  "^AreaLightCli\\."
+  "^AreaShaderTest\\.CliWritesBothLanguages$"
+  "^SceneTest\\.CommandLineWritesAreaLightLayers$"
   "^BakeLimits\\.BakesThatCannotFitAreRefusedUpFrontWithTheFigures$"
   "^BakeLimits\\.MemoryStaysFlatHoweverManyBatchesAToleranceAsksFor$"
   "^BakeTest\\.BadInputAndInterruptionLeaveNoFile$"
@@ -72,6 +77,10 @@ set(microshadow_cli_tests
   "^SweepCli\\."
   "^SweepIntegrity\\.ASweepBegunOnOneDeviceResumesOnAllOfThem$")
 set(microshadow_slow_tests
+  "^AreaLightExactInner\\.AgreesWithTheSampledPathWithinBars$"
+  "^AreaLightKernel\\.(AgreesWithTheOracleWithinStatisticalBars|WholeHemisphereLambertIsTheCosineWeightedMean)$"
+  "^AreaLightLobe\\.HemisphereGgxLobeIntegralIsTheDirectionalAlbedo$"
+  "^SceneTest\\.AreaLightsMatchTheAreaIntegrandPerPixel$"
   "^LutReaderTest\\.CutOrBitFlippedFilesOfEveryFormatAreRefusedOrReadAsValidLuts$"
   "^LutReaderTest\\.EvalCompareShaderAndLutCommandsTakeEveryFormat$"
   "^LutReaderTest\\.WrongKindOfFileGetsOneLineNamingTheRightCommand$"

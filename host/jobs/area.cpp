@@ -1,11 +1,13 @@
 #include "jobs/area.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <random>
 #include <stdexcept>
 
+#include "exact/exact_term.hpp"
 #include "integrands/area_light/light_geometry.hpp"
 #include "io/csv.hpp"
 
@@ -85,6 +87,13 @@ std::vector<AreaEstimate> evaluate_area(TermBackend& backend, const std::vector<
     return integrand.results();
 }
 
+InnerTerm exact_inner_term(AoWeighting weighting, double tolerance) {
+    return [weighting, tolerance](const Query& q) {
+        const exact::ExactValue v = exact::exact_term(q, weighting, tolerance);
+        return InnerValue(v.term, v.error);
+    };
+}
+
 namespace {
 double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 double angle_between(const Vec3& a, const Vec3& b) {
@@ -149,6 +158,50 @@ std::vector<Tap> sphere_taps(const AreaQuery& query) {
     return taps;
 }
 
+std::vector<Tap> rect_taps(const AreaQuery& query) {
+    if (query.light.shape != LightShape::rect) throw std::invalid_argument("rect_taps is for rectangle lights");
+    const AreaQuery q = normalised(query);
+    const auto& k = q.light.rect.corners;
+    const Vec3 p0 = k[0];
+    const Vec3 e1{k[1].x - k[0].x, k[1].y - k[0].y, k[1].z - k[0].z}, e2{k[3].x - k[0].x, k[3].y - k[0].y, k[3].z - k[0].z};
+    auto at = [&](double u, double v) { return Vec3{p0.x + u * e1.x + v * e2.x, p0.y + u * e1.y + v * e2.y, p0.z + u * e1.z + v * e2.z}; };
+    const Vec3 n = unit(cross(e1, e2));
+    double u0 = 0, u1 = 1, v0 = 0, v1 = 1;
+    if (q.lobe == Lobe::ggx) {
+        // As tap_cone: the lobe's angle (or the angle from the mirror direction to the light, when it misses).
+        const Vec3 wi = q.wi;
+        const Vec3 mirror{-wi.x, -wi.y, wi.z};
+        const Vec3 r = representative_direction(q);
+        const double lobe = std::max(2 * std::atan(2 * std::sqrt(q.alpha_x * q.alpha_y)), angle_between(r, mirror));
+        const Vec3 c = centre_direction(q.light);
+        double radius = 0;
+        for (int j = 0; j < 4; ++j) radius = std::max(radius, angle_between(c, unit(k[j])));
+        if (lobe < radius) {
+            // The representative point's rectangle coordinates, and the half-extents d tan(lobe) / side.
+            const double t = std::fabs(dot(n, p0)) / std::fabs(dot(n, r));
+            const Vec3 hit{r.x * t - p0.x, r.y * t - p0.y, r.z * t - p0.z};
+            const double ur = dot(hit, e1) / dot(e1, e1), vr = dot(hit, e2) / dot(e2, e2);
+            const double reach = t * std::tan(lobe);
+            const double hu = std::min(0.5, reach / std::sqrt(dot(e1, e1))), hv = std::min(0.5, reach / std::sqrt(dot(e2, e2)));
+            const double uc = std::clamp(ur, hu, 1 - hu), vc = std::clamp(vr, hv, 1 - hv);
+            u0 = uc - hu, u1 = uc + hu, v0 = vc - hv, v1 = vc + hv;
+        }
+    }
+    // Gauss-Legendre, 3 points on [0, 1]: nodes 1/2 -+ sqrt(3/5)/2, weights 5/18, 8/18, 5/18.
+    const double nodes[3] = {0.5 - 0.5 * std::sqrt(0.6), 0.5, 0.5 + 0.5 * std::sqrt(0.6)};
+    const double weights[3] = {5.0 / 18, 8.0 / 18, 5.0 / 18};
+    std::vector<Tap> taps;
+    for (int a = 0; a < 3; ++a)
+        for (int b = 0; b < 3; ++b) {
+            const Vec3 p = at(u0 + (u1 - u0) * nodes[a], v0 + (v1 - v0) * nodes[b]);
+            const double d2 = dot(p, p);
+            const Vec3 wo = unit(p);
+            const double solid_angle_per_area = std::fabs(dot(n, wo)) / d2;
+            taps.push_back({wo, weights[a] * weights[b] * solid_angle_per_area * lobe_weight(q, wo)});
+        }
+    return taps;
+}
+
 std::vector<StudyPoint> grid_points(const StudyGrid& g) {
     std::vector<StudyPoint> points;
     for (Lobe lobe : g.lobes)
@@ -192,6 +245,62 @@ std::vector<StudyPoint> random_points(std::size_t count, double max_half_angle_d
     return points;
 }
 
+std::vector<StudyPoint> random_rect_points(std::size_t count, double max_half_angle_deg, std::uint64_t seed) {
+    std::mt19937_64 rng(seed);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<StudyPoint> points;
+    for (std::size_t i = 0; i < count; ++i) {
+        StudyPoint p;
+        AreaQuery& q = p.query;
+        q.lobe = u(rng) < 0.5 ? Lobe::lambert : Lobe::ggx;
+        p.half_angle_deg = std::max(1e-3, max_half_angle_deg * u(rng));
+        p.roughness = 0.1 + 0.9 * u(rng);
+        q.visibility = 0.05 + 0.93 * u(rng);
+        p.n_dot_v = 0.1 + 0.9 * u(rng);
+        p.elevation_deg = -p.half_angle_deg + (90 + p.half_angle_deg) * u(rng);
+        p.azimuth_deg = 360 * u(rng);
+        q.alpha_x = q.alpha_y = p.roughness * p.roughness;
+        q.wi = {std::sqrt(std::max(0.0, 1 - p.n_dot_v * p.n_dot_v)), 0, p.n_dot_v};
+        const double el = radians(p.elevation_deg), az = radians(p.azimuth_deg);
+        const Vec3 c{std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
+        const Vec3 helper = std::fabs(c.z) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
+        const Vec3 t1 = unit(cross(helper, c)), t2 = cross(c, t1);
+        const double tilt = radians(60) * u(rng), turn = 2 * kPi * u(rng), spin = 2 * kPi * u(rng);
+        const double ct = std::cos(tilt), st = std::sin(tilt);
+        const Vec3 n{ct * c.x + st * (std::cos(turn) * t1.x + std::sin(turn) * t2.x),
+                     ct * c.y + st * (std::cos(turn) * t1.y + std::sin(turn) * t2.y),
+                     ct * c.z + st * (std::cos(turn) * t1.z + std::sin(turn) * t2.z)};
+        const Vec3 h2 = std::fabs(n.z) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
+        const Vec3 b1 = unit(cross(h2, n)), b2 = cross(n, b1);
+        const Vec3 a1{std::cos(spin) * b1.x + std::sin(spin) * b2.x, std::cos(spin) * b1.y + std::sin(spin) * b2.y,
+                      std::cos(spin) * b1.z + std::sin(spin) * b2.z};
+        const Vec3 a2 = cross(n, a1);
+        const double ratio = 1 + 2 * u(rng);
+        auto corners = [&](double s) {
+            std::array<Vec3, 4> k;
+            const double sx[4] = {-1, 1, 1, -1}, sy[4] = {-1, -1, 1, 1};
+            for (int j = 0; j < 4; ++j)
+                k[j] = {c.x + s * (sx[j] * ratio * a1.x + sy[j] * a2.x), c.y + s * (sx[j] * ratio * a1.y + sy[j] * a2.y),
+                        c.z + s * (sx[j] * ratio * a1.z + sy[j] * a2.z)};
+            return k;
+        };
+        auto widest = [&](double s) {
+            double w = 0;
+            for (const Vec3& k : corners(s)) w = std::max(w, angle_between(c, unit(k)));
+            return w;
+        };
+        // The widest corner angle grows with the scale (towards 90 degrees): bisection for gamma.
+        const double gamma = radians(p.half_angle_deg);
+        double lo = 0, hi = 1;
+        while (widest(hi) < gamma) hi *= 2;
+        for (int it = 0; it < 80; ++it) (widest(0.5 * (lo + hi)) < gamma ? lo : hi) = 0.5 * (lo + hi);
+        q.light.shape = LightShape::rect;
+        q.light.rect.corners = corners(0.5 * (lo + hi));
+        points.push_back(p);
+    }
+    return points;
+}
+
 std::vector<StudyRow> run_study(TermBackend& backend, const std::vector<StudyPoint>& points, const TermOptions& options,
                                 const SamplingPlan& plan, const std::function<void(std::size_t, std::size_t)>& progress) {
     std::vector<AreaQuery> area_queries;
@@ -201,8 +310,10 @@ std::vector<StudyRow> run_study(TermBackend& backend, const std::vector<StudyPoi
     // legal point query and gives 0).
     std::vector<Query> point_queries;
     std::vector<std::vector<Tap>> taps;
+    std::vector<std::size_t> first_query;  // of each point: centre, representative point, then its taps
     for (const StudyPoint& p : points) {
         const AreaQuery q = normalised(p.query);
+        first_query.push_back(point_queries.size());
         Query base;
         base.visibility = q.visibility;
         base.alpha_x = q.alpha_x;
@@ -212,7 +323,7 @@ std::vector<StudyRow> run_study(TermBackend& backend, const std::vector<StudyPoi
         point_queries.push_back(base);
         base.wo = representative_direction(q);
         point_queries.push_back(base);
-        taps.push_back(sphere_taps(q));
+        taps.push_back(q.light.shape == LightShape::sphere ? sphere_taps(q) : rect_taps(q));
         for (const Tap& t : taps.back()) {
             base.wo = t.wo;
             point_queries.push_back(base);
@@ -221,15 +332,16 @@ std::vector<StudyRow> run_study(TermBackend& backend, const std::vector<StudyPoi
     const std::vector<Estimate> terms = evaluate(backend, point_queries, options, plan);
     std::vector<StudyRow> rows(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) {
-        const Estimate* t = &terms[i * 9];
+        const Estimate* t = &terms[first_query[i]];
         StudyRow& row = rows[i];
         row.point = points[i];
         row.area = area[i];
         row.centre = t[0];
         row.representative = t[1];
         double num = 0, den = 0, se = 0;
-        for (int k = 0; k < 7; ++k) den += taps[i][k].weight;
-        for (int k = 0; k < 7; ++k) {
+        const std::size_t count = taps[i].size();
+        for (std::size_t k = 0; k < count; ++k) den += taps[i][k].weight;
+        for (std::size_t k = 0; k < count; ++k) {
             num += taps[i][k].weight * t[2 + k].term;
             // The taps share one point set, so their errors are correlated: sum w_k se_k bounds the
             // standard error of the weighted mean whatever the correlation (Cauchy-Schwarz).

@@ -33,6 +33,19 @@ std::vector<AreaEstimate> evaluate_area(TermBackend& backend, const std::vector<
                                         AreaRoutineConfig config = {}, AreaEvalStats* stats = nullptr,
                                         const std::function<void(std::size_t, std::size_t)>& progress = {});
 
+// The exact inner term: T(wo) by the deterministic evaluator (exact/exact_term.hpp) to `tolerance`, with
+// its estimated error, for AreaRoutineConfig::inner_term. The outer integral over the light stays
+// sampled (the light sampler of the kernel, randomised replicates): T(wo) is continuous over a light
+// but has kinks and square-root onsets (where the cone round wo meets the horizon or the view's cone,
+// the zero region's edge), so a deterministic outer rule would converge slowly there and the
+// difference of two rules would not bound its error, while the replicates' Student-t error stays
+// honest whatever the integrand. With no inner noise the outer needs far fewer samples than the joint
+// kernel (docs/area-lights.md, "The exact inner term").
+InnerTerm exact_inner_term(AoWeighting weighting, double tolerance);
+// Defaults of `area eval --method exact`: outer light directions per query and the inner tolerance.
+inline constexpr std::uint64_t kExactOuterSamples = 8 * 1024;
+inline constexpr double kExactInnerTolerance = 1e-6;
+
 // The tap approximation of a sphere light: the point term at seven directions of a tap cone (Radon's
 // degree-5 rule on the disc, mapped onto the cone by equal area: the centre with weight 1/4 and six
 // directions at sqrt(2/3) of the cone's area radius, 1/8 each), each weighted by the rule's weight times
@@ -52,6 +65,14 @@ struct TapCone {
 };
 TapCone tap_cone(const AreaQuery& q);
 std::vector<Tap> sphere_taps(const AreaQuery& q);
+// The tap approximation of a rectangle light: the 3 x 3 Gauss-Legendre rule (degree 5 in each of the
+// rectangle's two parameters) on a tap rectangle, each node weighted by the rule's weights, the solid
+// angle per unit area there (|n.wo| / d^2) and the lobe's f cos: nine point lookups. The tap rectangle is
+// the light itself, except for a GGX lobe narrower than the light (the lobe angle of tap_cone against the
+// angle from the light's centre to its furthest corner): then a part of the light around Karis's
+// representative point, of half-extent d tan(lobe) along each side (d the point's distance), moved to lie
+// inside the light.
+std::vector<Tap> rect_taps(const AreaQuery& q);
 
 // One point of the representative-point study.
 struct StudyPoint {
@@ -62,6 +83,7 @@ struct StudyRow {
     StudyPoint point;
     AreaEstimate area;
     Estimate centre, representative, taps;  // taps.std_error: from the taps' own errors (propagated)
+    // taps: sphere lights sphere_taps, rectangles rect_taps.
 };
 // A grid (every combination) of sphere lights: the centre at elevation e and azimuth phi (from wi's
 // azimuth 0), the view at NdotV, isotropic alpha = roughness^2.
@@ -79,6 +101,11 @@ std::vector<StudyPoint> grid_points(const StudyGrid& grid);
 // roughness in [0.1, 1], visibility in [0.05, 0.98], NdotV in [0.1, 1], light elevation in [-max, 90]
 // degrees (so some lights straddle the horizon), azimuth in [0, 360).
 std::vector<StudyPoint> random_points(std::size_t count, double max_half_angle_deg, std::uint64_t seed);
+// Random rectangle-light queries, the surface drawn as random_points draws it: the rectangle's centre at
+// unit distance, elevation in [-gamma, 90] degrees, any azimuth; its normal tilted from the direction to
+// it by up to 60 degrees (any way) and spun in its plane; sides in a ratio from 1:1 to 1:3; scaled so that
+// the largest angle from its centre direction to a corner is gamma (half_angle_deg), uniform in (0, max].
+std::vector<StudyPoint> random_rect_points(std::size_t count, double max_half_angle_deg, std::uint64_t seed);
 // T_area, the point term at the centre and at the representative point, and the taps, for every point.
 std::vector<StudyRow> run_study(TermBackend& backend, const std::vector<StudyPoint>& points, const TermOptions& options,
                                 const SamplingPlan& plan, const std::function<void(std::size_t, std::size_t)>& progress = {});

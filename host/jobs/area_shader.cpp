@@ -6,7 +6,7 @@ namespace {
 
 // Written once in GLSL spelling; HLSL differs only in the vector type names and atan2 / rsqrt-free
 // spellings below, substituted textually.
-const char* kTaps = R"(// microshadow: the 7-tap micro-shadowing of a sphere light (docs/area-lights.md).
+const char* kTaps = R"(// microshadow: the tap micro-shadowing of sphere lights (7 taps) and rectangle lights (9), docs/area-lights.md.
 // T_taps = sum_k w_k W(wo_k) T(wo_k) / sum_k w_k W(wo_k): Radon's degree-5 disc rule on a tap cone
 // (equal-area map), W = f cos of the lobe (Lambert 1/pi; GGX D G2 / (4 NdotV NdotL), height-correlated
 // Smith, F = 1), T = ms_point_term(wi, wo), which the engine defines before this code.
@@ -63,6 +63,60 @@ float ms_area_light_taps(vec3 wi, vec3 centre, float half_angle, float alpha_x, 
         float sin_t = sqrt(max(0.0, omc * (2.0 - omc)));
         vec3 wo = normalize(sin_t * (cos(phi) * t1 + sin(phi) * t2) + (1.0 - omc) * cone_c);
         float w = dot(wo, c) >= cos_gamma - 1e-6 ? rule * ms_area_lobe_weight(wi, wo, alpha_x, alpha_y, lobe) : 0.0;
+        if (w > 0.0) {
+            num += w * ms_point_term(wi, wo);
+            den += w;
+        }
+    }
+    return den > 0.0 ? num / den : 0.0;
+}
+// The 9-tap micro-shadowing of a rectangle light with corners p0, p0 + e1, p0 + e1 + e2, p0 + e2 (positions
+// relative to the shaded point, tangent frame, any unit): the 3 x 3 Gauss-Legendre rule on a tap rectangle,
+// each node weighted by the rule, the solid angle per unit area |n.wo| / d^2 and W = f cos.
+float ms_rect_gauss_node(int a) { return a == 0 ? 0.11270166538 : (a == 1 ? 0.5 : 0.88729833462); }
+float ms_rect_gauss_weight(int a) { return a == 1 ? 0.44444444444 : 0.27777777778; }
+
+float ms_rect_light_taps(vec3 wi, vec3 p0, vec3 e1, vec3 e2, float alpha_x, float alpha_y, int lobe) {
+    vec3 n = normalize(cross(e1, e2));
+    float d = dot(n, p0);
+    if (d < 0.0) {
+        n = -n;
+        d = -d;
+    }
+    float ee1 = dot(e1, e1), ee2 = dot(e2, e2);
+    float u0 = 0.0, u1 = 1.0, v0 = 0.0, v1 = 1.0;
+    if (lobe == 1) {
+        // Karis's point: the mirror ray's hit on the plane clamped to the rectangle (a ray parallel to or away
+        // from the plane: the rectangle's point furthest along its in-plane direction).
+        vec3 mirror = vec3(-wi.x, -wi.y, wi.z);
+        float facing = dot(n, mirror);
+        vec3 hit = facing > 1e-12 ? mirror * (d / facing) - p0
+                                  : 0.5 * (e1 + e2) + (mirror - n * facing) * (1e6 * (sqrt(ee1) + sqrt(ee2)));
+        float ur = clamp(dot(hit, e1) / ee1, 0.0, 1.0), vr = clamp(dot(hit, e2) / ee2, 0.0, 1.0);
+        vec3 rep = normalize(p0 + ur * e1 + vr * e2);
+        vec3 c = normalize(p0 + 0.5 * (e1 + e2));
+        // The lobe's angle (or the angle from the mirror direction to the light, when it misses) against the
+        // light's: a narrower lobe gets a tap rectangle of half-extent t tan(lobe) around Karis's point.
+        float lobe_r = max(2.0 * atan(2.0 * sqrt(alpha_x * alpha_y), 1.0), ms_area_angle(rep, mirror));
+        float radius = max(max(ms_area_angle(c, normalize(p0)), ms_area_angle(c, normalize(p0 + e1))),
+                           max(ms_area_angle(c, normalize(p0 + e1 + e2)), ms_area_angle(c, normalize(p0 + e2))));
+        if (lobe_r < radius) {
+            float reach = d / dot(n, rep) * tan(lobe_r);
+            float hu = min(0.5, reach / sqrt(ee1)), hv = min(0.5, reach / sqrt(ee2));
+            float uc = clamp(ur, hu, 1.0 - hu), vc = clamp(vr, hv, 1.0 - hv);
+            u0 = uc - hu;
+            u1 = uc + hu;
+            v0 = vc - hv;
+            v1 = vc + hv;
+        }
+    }
+    float num = 0.0, den = 0.0;
+    for (int k = 0; k < 9; ++k) {
+        int a = k / 3, b = k - 3 * (k / 3);
+        vec3 p = p0 + (u0 + (u1 - u0) * ms_rect_gauss_node(a)) * e1 + (v0 + (v1 - v0) * ms_rect_gauss_node(b)) * e2;
+        vec3 wo = normalize(p);
+        float w = ms_rect_gauss_weight(a) * ms_rect_gauss_weight(b) * abs(dot(n, wo)) / dot(p, p) *
+                  ms_area_lobe_weight(wi, wo, alpha_x, alpha_y, lobe);
         if (w > 0.0) {
             num += w * ms_point_term(wi, wo);
             den += w;

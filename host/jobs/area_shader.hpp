@@ -4,6 +4,9 @@
 // 1 = GGX. It calls the engine's point lookup, which must be defined before the code:
 //     float ms_point_term(vec3 wi, vec3 wo)
 // (the LUT or representation lookup the engine uses for the sun, returning 0 for wo below the horizon).
+// And the 9-tap approximation of rectangle lights (rect_taps):
+//     float ms_rect_light_taps(vec3 wi, vec3 p0, vec3 e1, vec3 e2, float alpha_x, float alpha_y, int lobe)
+// corners p0, p0 + e1, p0 + e1 + e2, p0 + e2, positions relative to the shaded point in the tangent frame.
 #pragma once
 
 #include <string>

@@ -1,6 +1,9 @@
 #include "jobs/scene.hpp"
 
 #include "integrands/exact_term/exact_term_integrand.hpp"
+#include "exact/exact_term.hpp"
+#include "jobs/area.hpp"
+#include "integrands/area_light/light_geometry.hpp"
 
 #include <unistd.h>
 
@@ -73,6 +76,10 @@ struct Comparator {
     // A comparator file (a LUT or a representation that keeps the azimuth, opened as eval --compare and
     // sweeps open them): it reads the pixel's relative azimuth too.
     std::shared_ptr<compare::Comparator> file;
+    // Scenes with area lights: the exact point term at the light's centre, and the tap approximation
+    // with the exact point term at every tap (for directional and point lights both are the exact point
+    // term of the light's one direction).
+    enum class Builtin { none, centre_exact, taps_exact } builtin = Builtin::none;
 };
 
 std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescription& d, TermBackend& backend) {
@@ -94,7 +101,17 @@ std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescrip
         lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, r.value, bake_metadata(spec, r)));
 }
 
+// The point term of the exact evaluator for the built-in comparators (its error, ~1e-6, is far below the
+// approximations' errors it is there to show).
+constexpr double kBuiltinTolerance = 1e-6;
+
+double exact_point(const Query& q, AoWeighting w) {
+    if (!(q.wo.z > 0)) return 0.0;
+    return exact::exact_term(q, w, kBuiltinTolerance).term;
+}
+
 double comparator_value(const Comparator& c, const PixelSurface& p, const LightQuery& q, AoWeighting w) {
+    if (c.builtin != Comparator::Builtin::none) return q.status == PixelStatus::shaded ? exact_point(q.query, w) : 0.0;
     const double n_dot_l = std::clamp(q.n_dot_l, -1.0, 1.0), n_dot_v = std::clamp(q.n_dot_v, 0.0, 1.0);
     if (c.file) {
         compare::ComparatorInputs in;
@@ -116,6 +133,35 @@ double comparator_value(const Comparator& c, const PixelSurface& p, const LightQ
     in.roughness = analytic::activision_roughness_from_alpha(std::sqrt(p.alpha_x * p.alpha_y));
     in.ao_weighting = w;
     return analytic::evaluate(c.term, in);
+}
+
+// The tap approximation of an area light with the exact point term at every tap (jobs/area.hpp).
+double area_taps_term(const area::AreaQuery& q, AoWeighting w) {
+    const std::vector<area::Tap> taps = q.light.shape == area::LightShape::sphere ? area::sphere_taps(q) : area::rect_taps(q);
+    double num = 0, den = 0;
+    for (const area::Tap& t : taps) {
+        if (!(t.weight > 0)) continue;
+        Query point;
+        point.visibility = q.visibility;
+        point.alpha_x = q.alpha_x;
+        point.alpha_y = q.alpha_y;
+        point.wi = q.wi;
+        point.wo = t.wo;
+        num += t.weight * exact_point(point, w);
+        den += t.weight;
+    }
+    return den > 0 ? num / den : 0.0;
+}
+
+// Int_light f cos dw of a query no sampling pass estimated (its term was an exact rule's): the light's
+// sampler (integrands/area_light/light_geometry.hpp) on the midpoints of a 64 x 64 grid.
+double lobe_integral_estimate(const area::AreaQuery& query) {
+    const area::AreaQuery q = area::normalised(query);
+    constexpr int kSide = 64;
+    double sum = 0;
+    for (int a = 0; a < kSide; ++a)
+        for (int b = 0; b < kSide; ++b) sum += area::sample_light(q, (a + 0.5) / kSide, (b + 0.5) / kSide).weight;
+    return sum / (kSide * kSide);
 }
 
 int band_of(double roughness) { return std::min(3, int(roughness * 4)); }
@@ -215,6 +261,15 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         return name;
     };
     for (const auto& c : comparators) take(c.name);
+    if (std::any_of(d.lights.begin(), d.lights.end(), [](const Light& l) { return l.is_area(); })) {
+        Comparator centre, taps;
+        centre.name = take("centre-exact");
+        centre.builtin = Comparator::Builtin::centre_exact;
+        taps.name = take("taps-exact");
+        taps.builtin = Comparator::Builtin::taps_exact;
+        comparators.push_back(centre);
+        comparators.push_back(taps);
+    }
     const std::string seed_3d_name = take("seed-3d-" + std::to_string(d.comparators.lut_size));
     const std::string seed_2d_name = take("seed-2d-" + std::to_string(d.comparators.lut_size));
     std::vector<Comparator> file_comparators;
@@ -314,8 +369,139 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         std::vector<std::uint8_t> pixel_band(n, kUnlit);
         std::vector<std::uint32_t> pixel_material(d.has_material ? n : 0, 0);
 
+        // Pixel i's approximations (values, one per comparator) against its reference: the layers and the
+        // statistics (lit pixels only).
+        std::vector<double> values(comparators.size(), 0.0);
+        auto account = [&](std::size_t i, const PixelSurface& p, bool lit, double irradiance) {
+            std::size_t groups[3] = {0, std::size_t(1 + band_of(p.roughness)), 0};
+            std::size_t group_count = 2;
+            if (d.has_material) groups[group_count++] = material_group[p.material];
+            if (lit) {
+                pixel_band[i] = std::uint8_t(groups[1]);
+                if (d.has_material) pixel_material[i] = std::uint32_t(groups[2]);
+            }
+            for (std::size_t k = 0; k < comparators.size(); ++k) {
+                const double diff = values[k] - double(li.reference[i]);
+                li.approximation[k][i] = float(values[k]);
+                li.error[k][i] = float(diff * irradiance);
+                if (!lit) continue;
+                const double we = std::fabs(diff * irradiance);
+                for (std::size_t g = 0; g < group_count; ++g) {
+                    ErrorStats& s = stats[k][groups[g]];
+                    ++s.pixels;
+                    s.max = std::max(s.max, we);
+                    s.max_term = std::max(s.max_term, std::fabs(diff));
+                    sum_sq[k][groups[g]] += we * we;
+                    sum_sq_term[k][groups[g]] += diff * diff;
+                }
+            }
+        };
+        // Area lights: no key grid (a light adds its shape to every query); each lit pixel's T_area is
+        // computed to the area tolerance by passes that double the outer samples (area_tile below).
+        const double area_tolerance = d.sampling.area_tolerance;
+        if (light.is_area()) result.area_tolerance = area_tolerance;
+        area::AreaRoutineConfig area_config;
+        if (method == Method::exact) area_config.inner_term = area::exact_inner_term(w, tol);
+        if (light.is_area()) li.t = student_t_999(plan.replicates);
+        auto area_tile = [&](std::size_t tile_start, std::size_t tile_end) {
+            std::vector<std::size_t> pixels;
+            std::vector<area::AreaQuery> queries;
+            std::vector<AreaLightQuery> pixel_queries;
+            for (std::size_t i = tile_start; i < tile_end; ++i) {
+                ++c.pixel_lights;
+                AreaLightQuery a = area_light_query(inputs.pixel(i), light);
+                if (a.status == PixelStatus::shaded && !(area::max_height(area::normalised(a.query).light) > 0))
+                    a.status = PixelStatus::light_below_horizon;  // no direction of the light above the horizon: 0
+                if (a.status == PixelStatus::masked) ++c.masked;
+                else if (a.status == PixelStatus::view_below_horizon) ++c.view_below_horizon;
+                else if (a.status == PixelStatus::light_below_horizon) ++c.light_below_horizon;
+                else {
+                    pixels.push_back(i);
+                    queries.push_back(a.query);
+                    pixel_queries.push_back(a);
+                }
+            }
+            const auto sampling_start = std::chrono::steady_clock::now();
+            std::vector<area::AreaEstimate> estimates(queries.size());
+            std::vector<std::size_t> todo(queries.size());
+            for (std::size_t k = 0; k < todo.size(); ++k) todo[k] = k;
+            // The exact inner term costs ~10 us a direction: it starts at 128 directions a replicate and stops
+            // at 2^16 (docs/scenes.md); the joint kernel at min_samples and max_samples.
+            const bool exact_inner = bool(area_config.inner_term);
+            std::uint64_t samples = exact_inner ? std::uint64_t(plan.replicates) * 128 : first;
+            const std::uint64_t most = exact_inner ? std::min<std::uint64_t>(d.sampling.max_samples, 65536) : d.sampling.max_samples;
+            bool first_pass = true;
+            while (!todo.empty()) {
+                plan.samples = samples;
+                std::vector<area::AreaQuery> batch;
+                for (std::size_t k : todo) batch.push_back(queries[k]);
+                area::AreaEvalStats st;
+                const auto est = area::evaluate_area(backend, batch, term_options, plan, area_config, &st,
+                                                     [&](std::size_t done, std::size_t total) {
+                                                         if (first_pass && total)
+                                                             progress(light.name, tile_start + (tile_end - tile_start) * done / total, n);
+                                                     });
+                c.samples_drawn += std::uint64_t(st.sampled) * samples;
+                if (first_pass) {
+                    c.sampled += st.sampled;
+                    c.zero_region += st.zero_region;
+                    c.v_one += st.visibility_one;
+                    c.light_below_horizon += st.below_horizon;
+                }
+                std::vector<std::size_t> next;
+                for (std::size_t j = 0; j < todo.size(); ++j) {
+                    estimates[todo[j]] = est[j];
+                    const double bound = li.t * est[j].term.std_error + est[j].inner_error;
+                    if (!(bound > area_tolerance) || !est[j].sampled || samples * 2 > most) {
+                        if (est[j].sampled) c.samples_final += samples, ++c.final_pass_queries[samples];
+                        if (bound > area_tolerance) ++c.tolerance_missed;
+                        continue;
+                    }
+                    next.push_back(todo[j]);
+                }
+                todo = std::move(next);
+                samples *= 2;
+                first_pass = false;
+            }
+            result.sampling_seconds += seconds_since(sampling_start);
+            for (std::size_t k = 0; k < pixels.size(); ++k) {
+                const std::size_t i = pixels[k];
+                const area::AreaEstimate& e = estimates[k];
+                const PixelSurface p = inputs.pixel(i);
+                const AreaLightQuery& a = pixel_queries[k];
+                li.reference[i] = float(e.term.term);
+                // Stored so that t x std_error is the pixel's bound: the outer's replicate error and the inner bound.
+                li.std_error[i] = float(e.term.std_error + e.inner_error / li.t);
+                li.max_error_bound = std::max(li.max_error_bound, li.t * e.term.std_error + e.inner_error);
+                // The unshadowed contribution: radiance x Int_light f cos, the reference run's estimate of it (a
+                // pixel an exact rule answered was not sampled: a light-sampled estimate of its own).
+                const double irradiance = light.intensity * (e.sampled ? e.lobe_integral.term : lobe_integral_estimate(a.query));
+                li.weight[i] = float(irradiance);
+                const bool lit = true;  // some of the light is above the horizon
+                for (std::size_t j = 0; j < comparators.size(); ++j) {
+                    const Comparator& cmp = comparators[j];
+                    if (cmp.builtin == Comparator::Builtin::taps_exact) {
+                        values[j] = area_taps_term(a.query, w);
+                        continue;
+                    }
+                    try {
+                        values[j] = comparator_value(cmp, p, a.centre, w);  // the lookup at the light's centre
+                    } catch (const std::domain_error& ex) {
+                        throw SceneError("comparator " + cmp.name + " at pixel (" + std::to_string(i % result.width) + ", " +
+                                         std::to_string(i / result.width) + "): " + ex.what());
+                    }
+                }
+                account(i, p, lit, irradiance);
+            }
+        };
+
         for (std::size_t tile_start = 0; tile_start < n; tile_start += tile) {
             const std::size_t tile_end = std::min(n, tile_start + tile);
+            if (light.is_area()) {
+                area_tile(tile_start, tile_end);
+                progress(light.name, tile_end, n);
+                continue;
+            }
             std::vector<std::uint32_t> pixel_key(tile_end - tile_start, kNoKey);
             std::unordered_map<DedupKey, std::uint32_t, KeyHash> keys;
             std::vector<Query> queries;
@@ -484,39 +670,19 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                 const PixelSurface p = inputs.pixel(i);
                 const LightQuery q = light_query(p, light);
                 const bool lit = q.status == PixelStatus::shaded;
-                std::size_t groups[3] = {0, std::size_t(1 + band_of(p.roughness)), 0};
-                std::size_t group_count = 2;
-                if (d.has_material) groups[group_count++] = material_group[p.material];
-                if (lit) {
-                    pixel_band[i] = std::uint8_t(groups[1]);
-                    if (d.has_material) pixel_material[i] = std::uint32_t(groups[2]);
-                }
                 for (std::size_t k = 0; k < comparators.size(); ++k) {
-                    double a = 0;
                     try {
-                        a = comparator_value(comparators[k], p, q, w);
+                        values[k] = comparator_value(comparators[k], p, q, w);
                     } catch (const std::domain_error& e) {
                         // A LUT of bake --scene refuses lookups outside what it baked or was fitted to. A pixel the
                         // light does not reach is no lookup a renderer makes (its weight is 0): 0 there.
                         if (lit)
                             throw SceneError("comparator " + comparators[k].name + " at pixel (" + std::to_string(i % result.width) +
                                              ", " + std::to_string(i / result.width) + "): " + e.what());
-                        a = 0;
-                    }
-                    const double diff = a - double(li.reference[i]);
-                    li.approximation[k][i] = float(a);
-                    li.error[k][i] = float(diff * q.irradiance);
-                    if (!lit) continue;
-                    const double we = std::fabs(diff * q.irradiance);
-                    for (std::size_t g = 0; g < group_count; ++g) {
-                        ErrorStats& s = stats[k][groups[g]];
-                        ++s.pixels;
-                        s.max = std::max(s.max, we);
-                        s.max_term = std::max(s.max_term, std::fabs(diff));
-                        sum_sq[k][groups[g]] += we * we;
-                        sum_sq_term[k][groups[g]] += diff * diff;
+                        values[k] = 0;
                     }
                 }
+                account(i, p, lit, q.irradiance);
             }
             progress(light.name, tile_end, n);
         }
@@ -569,6 +735,11 @@ json scene_report(const SceneResult& r) {
     j["size"] = {r.width, r.height};
     j["tolerance"] = r.tolerance;
     j["method"] = to_string(r.method);
+    if (r.area_tolerance > 0)
+        j["area_lights"] = {{"area_tolerance", r.area_tolerance},
+                            {"reference", r.method == Method::exact ? "T_area: the light sampled, the exact term at each direction (tolerance: its inner term's)"
+                                                                    : "T_area: light directions and visible normals sampled jointly"},
+                            {"comparators", "looked up at the light's centre; taps-exact: the tap rule with the exact point term"}};
     if (r.method == Method::exact) {
         SamplingPlan p;
         p.method = Method::exact;

@@ -100,6 +100,7 @@ struct SceneResult {
     std::vector<LightImages> lights;
     SkipCounts counts;
     double tolerance = 0;
+    double area_tolerance = 0;      // scenes with area lights: the per-pixel bound of T_area (0: none)
     Method method = Method::exact;  // how the per-pixel reference was computed
     double seconds = 0, lut_seconds = 0, sampling_seconds = 0;
     std::string backend;

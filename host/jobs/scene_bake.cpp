@@ -130,6 +130,11 @@ std::vector<LightDomain> scene_domain(const SceneInputs& inputs, std::uint32_t b
     const SceneDescription& d = inputs.description();
     std::vector<LightDomain> out;
     for (const Light& light : d.lights) {
+        // The domain is the point lookups a renderer makes; an area light's (one at its centre, or taps)
+        // are no single direction with an irradiance weight, which the comparison below needs.
+        if (light.is_area())
+            throw SceneError(d.source + ": light '" + light.name + "' is a " + to_string(light.type) +
+                             " light: bake --scene takes directional and point lights (run `microshadow scene` for area lights)");
         LightDomain ld;
         ld.light = light.name;
         for (std::size_t i = 0; i < inputs.pixels(); ++i) {

@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "io/csv.hpp"
 #include "io/input_file.hpp"
 #include "scene/image_io.hpp"
 
@@ -175,7 +176,15 @@ std::string to_string(MaskKind k) {
 std::string to_string(ViewKind k) {
     return k == ViewKind::direction ? "direction" : k == ViewKind::vectors ? "vectors" : "position";
 }
-std::string to_string(LightType t) { return t == LightType::directional ? "directional" : "point"; }
+std::string to_string(LightType t) {
+    switch (t) {
+        case LightType::directional: return "directional";
+        case LightType::point: return "point";
+        case LightType::sphere: return "sphere";
+        case LightType::rect: return "rect";
+    }
+    return "?";
+}
 
 SceneDescription parse_scene(const std::string& text, const std::string& source_name, const std::string& base_dir) {
     SceneDescription d;
@@ -316,7 +325,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
     for (const auto& e : *lights->as_array()) {
         const toml::table& lt = *e.as_table();
         const std::string p = "light[" + std::to_string(d.lights.size()) + "].";
-        reject_unknown(c, lt, p, {"name", "type", "direction", "position", "intensity"});
+        reject_unknown(c, lt, p, {"name", "type", "direction", "position", "intensity", "radius", "corners", "lobe"});
         Light l;
         l.name = "light" + std::to_string(d.lights.size());
         if (const toml::node* n = lt.get("name")) l.name = string(c, *n, p + "name");
@@ -324,18 +333,63 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
             c.fail(p + "name", "'" + l.name + "': use letters, digits, '_' and '-' (it names files and EXR layers)");
         if (!names.insert(l.name).second) c.fail(p + "name", "'" + l.name + "' names two lights");
         if (const toml::node* n = lt.get("type"))
-            l.type = choice<LightType>(c, *n, p + "type", {{"directional", LightType::directional}, {"point", LightType::point}});
+            l.type = choice<LightType>(c, *n, p + "type",
+                                       {{"directional", LightType::directional}, {"point", LightType::point},
+                                        {"sphere", LightType::sphere}, {"rect", LightType::rect}});
+        // Each type takes its own keys; another type's key is an error naming what the type takes.
+        auto refuse = [&](const char* key, const std::string& why) {
+            if (lt.get(key)) c.fail(p + key, why);
+        };
+        const std::string type = to_string(l.type);
+        if (l.type != LightType::directional) refuse("direction", "a " + type + " light has a position, not a direction");
         if (l.type == LightType::directional) {
             const toml::node* n = lt.get("direction");
             if (!n) c.fail(p + "direction", "missing: the direction towards a directional light");
-            if (lt.get("position")) c.fail(p + "position", "a directional light has a direction, not a position");
+            refuse("position", "a directional light has a direction, not a position");
             l.direction = vec3(c, *n, p + "direction");
-        } else {
+        } else if (l.type != LightType::rect) {
             const toml::node* n = lt.get("position");
-            if (!n) c.fail(p + "position", "missing: the position of a point light");
-            if (lt.get("direction")) c.fail(p + "direction", "a point light has a position, not a direction");
+            if (!n) c.fail(p + "position", "missing: the position of a " + type + " light" + (l.type == LightType::sphere ? " (its centre)" : ""));
             l.position = vec3(c, *n, p + "position", false);
+        } else {
+            refuse("position", "a rect light has corners, not a position");
         }
+        if (l.type != LightType::sphere) refuse("radius", "only a sphere light has a radius");
+        if (l.type != LightType::rect) refuse("corners", "only a rect light has corners");
+        if (!l.is_area()) refuse("lobe", "only area lights (sphere, rect) take a lobe");
+        if (l.type == LightType::sphere) {
+            const toml::node* n = lt.get("radius");
+            if (!n) c.fail(p + "radius", "missing: the radius of a sphere light");
+            l.radius = number(c, *n, p + "radius");
+            if (!(l.radius > 0 && l.radius <= kMaxCoordinate)) c.fail(p + "radius", "must be in (0, 1e30], got " + format_number(l.radius));
+        }
+        if (l.type == LightType::rect) {
+            const toml::node* n = lt.get("corners");
+            if (!n) c.fail(p + "corners", "missing: the four corners of a rect light, in order around it");
+            if (!n->is_array() || n->as_array()->size() != 4) c.fail(p + "corners", "must be a list of 4 positions ([x, y, z] each)");
+            for (int k = 0; k < 4; ++k) l.corners[k] = vec3(c, (*n->as_array())[std::size_t(k)], p + "corners", false);
+            // The shape checks of area lights (core/area_light.hpp), on the corners seen from a point one
+            // side length off the rectangle's centre along its normal: every check but the per-pixel one
+            // (a pixel in the rectangle's plane sees no light, and gets 0).
+            const Vec3 e1{l.corners[1].x - l.corners[0].x, l.corners[1].y - l.corners[0].y, l.corners[1].z - l.corners[0].z};
+            const Vec3 e2{l.corners[3].x - l.corners[0].x, l.corners[3].y - l.corners[0].y, l.corners[3].z - l.corners[0].z};
+            Vec3 nrm{e1.y * e2.z - e1.z * e2.y, e1.z * e2.x - e1.x * e2.z, e1.x * e2.y - e1.y * e2.x};
+            const double nl = std::hypot(nrm.x, nrm.y, nrm.z), side = std::max(std::hypot(e1.x, e1.y, e1.z), std::hypot(e2.x, e2.y, e2.z));
+            if (nl > 0) nrm = {nrm.x / nl * side, nrm.y / nl * side, nrm.z / nl * side};
+            const Vec3 viewer{0.5 * (l.corners[0].x + l.corners[2].x) + nrm.x, 0.5 * (l.corners[0].y + l.corners[2].y) + nrm.y,
+                              0.5 * (l.corners[0].z + l.corners[2].z) + nrm.z};
+            area::AreaQuery check;
+            check.visibility = 0.5;
+            check.light.shape = area::LightShape::rect;
+            for (int k = 0; k < 4; ++k)
+                check.light.rect.corners[k] = {l.corners[k].x - viewer.x, l.corners[k].y - viewer.y, l.corners[k].z - viewer.z};
+            try {
+                area::validate(check);
+            } catch (const std::invalid_argument& e) {
+                c.fail(p + "corners", e.what());
+            }
+        }
+        if (const toml::node* n = lt.get("lobe")) l.lobe = choice<area::Lobe>(c, *n, p + "lobe", {{"lambert", area::Lobe::lambert}, {"ggx", area::Lobe::ggx}});
         if (const toml::node* n = lt.get("intensity")) {
             l.intensity = number(c, *n, p + "intensity");
             if (!(l.intensity > 0 && l.intensity <= kMaxIntensity)) c.fail(p + "intensity", "must be in (0, 1e30]");
@@ -359,7 +413,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
 
     if ((t = table_at(c, root, "sampling"))) {
         reject_unknown(c, *t, "sampling.", {"method", "tolerance", "min_samples", "max_samples", "seed", "replicates", "form", "dedup_step",
-                                             "tile_pixels", "predict_stride"});
+                                             "tile_pixels", "predict_stride", "area_tolerance"});
         auto& s = d.sampling;
         if (const toml::node* n = t->get("method"))
             s.method = choice<Method>(c, *n, "sampling.method", {{"exact", Method::exact}, {"sampled", Method::sampled}});
@@ -373,6 +427,10 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
             }
         }
         if (!s.tolerance_given) s.tolerance = default_scene_tolerance(s.method);
+        if (const toml::node* n = t->get("area_tolerance")) {
+            s.area_tolerance = number(c, *n, "sampling.area_tolerance");
+            if (!(s.area_tolerance >= 1e-4 && s.area_tolerance <= 0.5)) c.fail("sampling.area_tolerance", "must be in [1e-4, 0.5]");
+        }
         if (const toml::node* n = t->get("min_samples")) s.min_samples = positive(c, *n, "sampling.min_samples", 1ULL << 24);
         if (const toml::node* n = t->get("max_samples")) s.max_samples = positive(c, *n, "sampling.max_samples", 1ULL << 26);
         if (const toml::node* n = t->get("seed")) {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "core/area_light.hpp"
 #include "core/types.hpp"
 
 namespace ms::scene {
@@ -43,7 +44,7 @@ enum class VectorEncoding { unorm, signed_ };
 enum class RoughnessKind { perceptual, alpha };
 enum class MaskKind { alpha, background, object_index };
 enum class ViewKind { direction, vectors, position };
-enum class LightType { directional, point };
+enum class LightType { directional, point, sphere, rect };
 
 struct NormalInput {
     VectorSource source;
@@ -79,12 +80,19 @@ struct Surface {
     double width = 1, height = 1;
 };
 
+// Area lights (sphere, rect) are micro-shadowed over their extent (core/area_light.hpp): the pixel's
+// reference is T_area, weighted by the BRDF lobe `lobe`, and their `intensity` is the emitter's
+// radiance, so a pixel's unshadowed contribution is intensity x Int_light f cos dw (f the lobe).
 struct Light {
     std::string name;
     LightType type = LightType::directional;
     Vec3 direction{0, 0, 1};  // directional: towards the light
-    Vec3 position;            // point
-    double intensity = 1;     // directional: irradiance at normal incidence; point: intensity (irradiance I / d^2)
+    Vec3 position;            // point; sphere: the centre
+    double radius = 0;        // sphere
+    std::array<Vec3, 4> corners{};  // rect: world positions in order around the rectangle
+    area::Lobe lobe = area::Lobe::lambert;  // area lights: the BRDF lobe the light is weighted by
+    double intensity = 1;     // directional: irradiance at normal incidence; point: intensity (irradiance I / d^2); area: radiance
+    bool is_area() const { return type == LightType::sphere || type == LightType::rect; }
 };
 
 struct Comparators {
@@ -102,6 +110,10 @@ struct SamplingSettings {
     Method method = Method::exact;
     bool tolerance_given = false;       // sampling.tolerance in the file (else the method's default)
     double tolerance = 2e-3;            // per-pixel error bound (99.9 %, Student t of the replicates)
+    // Area lights (sphere, rect): the per-pixel bound of T_area, t x the outer sampling's std error plus
+    // the exact inner term's error bound (both methods sample the light; `tolerance` is then the exact
+    // inner term's).
+    double area_tolerance = 5e-3;
     std::uint64_t min_samples = 16384;  // first pass, all replicates
     std::uint64_t max_samples = 1 << 20;
     std::uint64_t seed = 0;

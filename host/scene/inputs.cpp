@@ -144,6 +144,12 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
         // Every light's irradiance here must be a finite number whose square sums stay finite: a point
         // light 1e-170 above a pixel gives I / d^2 = inf.
         for (std::size_t l = 0; l < d.lights.size(); ++l) {
+            if (d.lights[l].type == LightType::sphere && !(length(sub(d.lights[l].position, p.position)) > d.lights[l].radius))
+                throw SceneError(d.source + ": light[" + std::to_string(l) + "] '" + d.lights[l].name + "': pixel (" +
+                                 std::to_string(i % s.width_) + ", " + std::to_string(i / s.width_) +
+                                 ") is inside the sphere light (distance to its centre " +
+                                 fmt(length(sub(d.lights[l].position, p.position))) + " <= radius " + fmt(d.lights[l].radius) + ")");
+            if (d.lights[l].is_area()) continue;  // radiance: the weight is bounded by intensity x pi
             const LightQuery q = light_query(p, d.lights[l]);
             if (!(q.irradiance <= kMaxIrradiance))
                 throw SceneError(d.source + ": light[" + std::to_string(l) + "] '" + d.lights[l].name + "': irradiance " +
@@ -244,6 +250,16 @@ LightQuery light_query(const PixelSurface& p, const Light& light) {
     if (!p.shaded) return q;
     Vec3 L;
     double intensity = light.intensity;
+    if (light.is_area()) {
+        // The point query towards the centre; its irradiance means nothing for a light of given radiance
+        // (the area weight is computed with T_area), so it is 0, never a huge I / d^2 of a near centre.
+        Light centre = light;
+        centre.type = LightType::point;
+        centre.position = area_light_centre(light);
+        LightQuery q = light_query(p, centre);
+        q.irradiance = 0;
+        return q;
+    }
     if (light.type == LightType::directional) {
         L = unit(light.direction);
     } else {
@@ -286,6 +302,64 @@ LightQuery light_query(const PixelSurface& p, const Light& light) {
     q.query.wi = {sv, 0, cv};
     q.query.wo = {sl * cos_phi, sl * sin_phi, cl};
     return q;
+}
+
+Vec3 area_light_centre(const Light& light) {
+    if (light.type == LightType::sphere) return light.position;
+    const auto& k = light.corners;
+    return {0.5 * (k[0].x + k[2].x), 0.5 * (k[0].y + k[2].y), 0.5 * (k[0].z + k[2].z)};
+}
+
+AreaLightQuery area_light_query(const PixelSurface& p, const Light& light) {
+    AreaLightQuery a;
+    a.centre = light_query(p, light);
+    a.status = a.centre.status;
+    if (a.status == PixelStatus::masked || a.status == PixelStatus::view_below_horizon) return a;
+    const Vec3 n = p.normal;
+    const Vec3 centre = sub(area_light_centre(light), p.position);
+    // The frame of light_query: the tangent; else V's projection; else the centre's; else any.
+    Vec3 x;
+    if (p.anisotropic) {
+        x = p.tangent;
+    } else {
+        Vec3 vp = sub(p.view, scale(n, dot(p.view, n)));
+        if (!(length(vp) > 1e-12)) vp = sub(centre, scale(n, dot(centre, n)));
+        if (!(length(vp) > 1e-12 * length(centre))) vp = std::fabs(n.x) < 0.9 ? cross(n, Vec3{1, 0, 0}) : cross(n, Vec3{0, 1, 0});
+        x = scale(vp, 1.0 / length(vp));
+    }
+    const Vec3 y = cross(n, x);
+    auto local = [&](const Vec3& w) { return Vec3{dot(w, x), dot(w, y), dot(w, n)}; };
+    area::AreaQuery& q = a.query;
+    q.visibility = p.visibility;
+    q.alpha_x = p.alpha_x;
+    q.alpha_y = p.alpha_y;
+    q.wi = local(p.view);
+    q.wi.z = std::min(1.0, a.centre.n_dot_v);
+    q.lobe = light.lobe;
+    if (light.type == LightType::sphere) {
+        const double d = length(centre);
+        q.light.shape = area::LightShape::sphere;
+        q.light.sphere.centre = local(centre);
+        // Inside (or on) the sphere is refused by load(); a half-angle that rounds to 90 degrees too.
+        if (!(d > light.radius) || !(light.radius / d < 1 - 1e-12)) {
+            a.status = PixelStatus::light_below_horizon;
+            return a;
+        }
+        q.light.sphere.half_angle = std::asin(light.radius / d);
+    } else {
+        q.light.shape = area::LightShape::rect;
+        for (int k = 0; k < 4; ++k) q.light.rect.corners[k] = local(sub(light.corners[k], p.position));
+    }
+    try {
+        area::validate(q);
+    } catch (const std::invalid_argument&) {
+        // The shape was checked when the description was read; what is left is the pixel in the
+        // rectangle's plane (no solid angle): no light.
+        a.status = PixelStatus::light_below_horizon;
+        return a;
+    }
+    a.status = PixelStatus::shaded;  // the light may still lie below the horizon (the caller classifies it)
+    return a;
 }
 
 }  // namespace ms::scene

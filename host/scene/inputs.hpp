@@ -84,7 +84,23 @@ private:
     bool in_mask(std::size_t i) const;
 };
 
-// The query of a pixel under a light (see the frame above).
+// The query of a pixel under a light (see the frame above). Area lights: the point query towards the
+// light's centre (what engines look up in its place), with irradiance 0 (their weight is not I / d^2).
 LightQuery light_query(const PixelSurface& pixel, const Light& light);
+
+// The query of a pixel under an area light (sphere or rect), in the frame above (isotropic pixels: x
+// along V's projection, or the centre's when V is the normal): the light's positions relative to the
+// pixel, in that frame. status light_below_horizon: the pixel in a rectangle's plane (edge-on: no solid
+// angle), the term 0 and so is the weight; shaded: a light to integrate, which may still lie wholly below
+// the horizon (integrands/area_light/light_geometry.hpp, max_height, tells). A pixel inside a sphere light
+// is refused by SceneInputs::load.
+struct AreaLightQuery {
+    PixelStatus status = PixelStatus::masked;
+    area::AreaQuery query;  // valid when status is shaded
+    LightQuery centre;      // light_query towards the centre
+};
+AreaLightQuery area_light_query(const PixelSurface& pixel, const Light& light);
+// The world position of an area light's centre (a rectangle's centre of area).
+Vec3 area_light_centre(const Light& light);
 
 }  // namespace ms::scene

@@ -85,6 +85,7 @@ ms_area_query pack(const AreaQuery& q, const TermOptions& options) {
 struct ReplicateSums {
     std::vector<double> numerator, denominator;
     double passed = 0, weighted = 0;
+    double weighted_inner_error = 0;  // Sum W/p |e| over every replicate (a given inner term's own errors)
     explicit ReplicateSums(std::size_t R) : numerator(R, 0.0), denominator(R, 0.0) {}
 };
 
@@ -96,6 +97,9 @@ AreaEstimate finish(const ReplicateSums& s, std::uint32_t points) {
     const std::size_t R = s.numerator.size();
     std::vector<double> counts(R, double(points));
     e.lobe_integral = reduce_replicates(s.denominator.data(), counts.data(), R);
+    double total = 0;
+    for (double d : s.denominator) total += d;
+    e.inner_error = total > 0 ? s.weighted_inner_error / total : 0.0;
     return e;
 }
 
@@ -238,10 +242,11 @@ public:
                     point.alpha_y = q.alpha_y;
                     point.wi = q.wi;
                     point.wo = ls.wo;
-                    const double t = owner_.config().inner_term(point);
-                    s.numerator[r] += ls.weight * t;
+                    const InnerValue t = owner_.config().inner_term(point);
+                    s.numerator[r] += ls.weight * t.term;
                     s.denominator[r] += ls.weight;
-                    s.passed += t > 0;
+                    s.weighted_inner_error += ls.weight * std::fabs(t.error);
+                    s.passed += t.term > 0;
                     s.weighted += 1;
                 }
             }
@@ -329,7 +334,7 @@ std::unique_ptr<schedule::Worker> AreaIntegrand::oracle_worker() {
 }
 
 std::size_t area_queries_per_item(bool oracle, const SamplingPlan& plan, const AreaRoutineConfig& config) {
-    const std::uint64_t budget = std::uint64_t(1) << (oracle ? 21 : 26);
+    const std::uint64_t budget = std::uint64_t(1) << (config.inner_term ? 14 : oracle ? 21 : 26);
     const std::uint64_t per = std::max<std::uint64_t>(1, budget / std::max<std::uint64_t>(1, plan.samples));
     return std::size_t(std::min<std::uint64_t>(per, config.max_batch_queries));
 }

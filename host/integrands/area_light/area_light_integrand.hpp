@@ -29,6 +29,11 @@ namespace ms::area {
 struct AreaEstimate {
     Estimate term;           // T_area, std_error a Student-t quantity with R - 1 degrees of freedom
     Estimate lobe_integral;  // Int_light f cos dwo above the horizon (only when sampled)
+    // With a given inner term that reports its own error (AreaRoutineConfig::inner_term): a bound on
+    // the part of T_area's error the inner values carry, Sum W/p |e(wo)| / Sum W/p over every outer
+    // direction of every replicate (the error of a weighted mean is the weighted mean of the errors).
+    // A deterministic bound, apart from term.std_error, which is the outer sampling's alone. 0 otherwise.
+    double inner_error = 0;
     bool sampled = false;    // false: an exact answer by rule (below)
 };
 
@@ -36,8 +41,13 @@ enum class ExactCase { none, below_horizon, zero_region, visibility_one };
 // Which exact rule answers a (valid, normalised) query, if any.
 ExactCase classify(const AreaQuery& q, AoWeighting ao_weighting);
 
-// T(wo) for a point query (normalised, wo above the horizon); called concurrently from every place.
-using InnerTerm = std::function<double(const Query&)>;
+// T(wo) for a point query (normalised, wo above the horizon) and a bound on its error (0: exact, or
+// unknown); called concurrently from every place. A function returning a plain double converts.
+struct InnerValue {
+    double term = 0, error = 0;
+    InnerValue(double t = 0, double e = 0) : term(t), error(e) {}  // NOLINT: implicit from double on purpose
+};
+using InnerTerm = std::function<InnerValue(const Query&)>;
 
 struct AreaRoutineConfig {
     ocl::BuildConfig build;
@@ -89,7 +99,8 @@ private:
 };
 
 // Queries per work item so one item stays well under a second (device: ~2^26 samples, about 0.3 s of
-// the joint kernel on 2 CPU cores; oracle thread: ~2^21 samples).
+// the joint kernel on 2 CPU cores; oracle thread: ~2^21 samples; a given inner term: ~2^14 calls, about
+// 0.15 s of the exact evaluator at its default tolerance).
 std::size_t area_queries_per_item(bool oracle, const SamplingPlan& plan, const AreaRoutineConfig& config);
 
 // From per-replicate sums of a ratio of integrals: the pooled ratio, its replicate standard error, and

@@ -70,12 +70,18 @@ EOF
 sweep_args=(sweep "$work/sweep.toml" --quiet --tolerance 1e-6)
 bake_args=(bake --layout custom --size 8 --roughness 0.3,0.8 --samples 4096 --seed 5 --quiet)
 
-# Two LUT files hold the same bake: equal texels (bit for bit) and metadata apart from the command line.
+# Two LUT files hold the same bake: equal texels (printed with 9 significant digits: every float exactly)
+# and equal metadata apart from the command line (`lut info --metadata` prints one key a line).
+lut_digest() {
+  local d=$work/cmp; rm -rf "$d"; mkdir -p "$d"
+  "$bin" lut info --metadata "$1" | sed -n '/^{/,$p' | grep -v '^  "command_line": ' > "$d/meta.json"
+  "$bin" lut export "$1" --out "$d/lut.h" >/dev/null
+  sed -n '/_data\[/,$p' "$d/lut.h" > "$d/data.txt"
+  cat "$d/meta.json" "$d/data.txt" | cksum
+}
 same_lut() {
   local a b
-  a=$("$bin" lut export "$1" --out "$work/cmp-a.h" >/dev/null && sed '/command_line/d' "$work/cmp-a.h" | cksum)
-  b=$("$bin" lut export "$2" --out "$work/cmp-b.h" >/dev/null && sed '/command_line/d' "$work/cmp-b.h" | cksum)
-  [ -n "$a" ] && [ "$a" = "$b" ]
+  a=$(lut_digest "$1") && b=$(lut_digest "$2") && [ "$a" = "$b" ]
 }
 
 "$bin" "${sweep_args[@]}" --out "$work/one.sweep" >/dev/null

@@ -8,7 +8,8 @@
 #      --mpi without mpirun and mpirun -np 1 refused with exit status 2.
 #   2. Slurm: munged, slurmctld and slurmd started on localhost under a temporary folder (a generated
 #      slurm.conf on ports of their own), a 4-task array of a sweep and one of a bake, each followed by
-#      its merge job (--dependency=afterok), checked against one process; then everything is stopped.
+#      its merge job (--dependency=afterok), checked against one process; an array task killed mid-run
+#      (SIGKILL) and requeued with scontrol, which resumes from the chunk store; then everything is stopped.
 #
 # Packages (slurm-wlm, munge, openmpi-bin) are installed when missing and this runs as root; where they
 # cannot be, that part is SKIPPED with a message (never counted as passed). Exit status 0 when every part
@@ -22,7 +23,7 @@ bin=$(cd "$build" && pwd)/microshadow
 start=$(date +%s)
 failures=0
 skips=0
-say() { echo "ci-cluster: $*"; }
+say() { echo "ci-cluster: [$(($(date +%s) - start)) s] $*"; }
 fail() { say "FAILED: $*"; failures=$((failures + 1)); }
 skip() { say "SKIPPED: $*"; skips=$((skips + 1)); }
 
@@ -42,12 +43,13 @@ install_packages() {
 work=$(mktemp -d /tmp/microshadow-cluster.XXXXXX)
 daemons=()
 cleanup() {
-  # Stop what this script started, by the pids it recorded, then remove the folder.
-  for pidfile in "${daemons[@]}"; do
-    [ -f "$pidfile" ] && kill "$(cat "$pidfile")" 2>/dev/null || true
-  done
-  for pidfile in "${daemons[@]}"; do
-    for _ in $(seq 50); do [ -f "$pidfile" ] && kill -0 "$(cat "$pidfile")" 2>/dev/null || break; sleep 0.1; done
+  # Stop what this script started, by the pids it recorded (read first: munged removes its pid file as it
+  # exits), wait for them, then remove the folder.
+  local pids=() pid
+  for pidfile in "${daemons[@]}"; do pid=$(cat "$pidfile" 2>/dev/null) && pids+=("$pid"); done
+  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
+  for pid in "${pids[@]}"; do
+    for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || break; sleep 0.1; done
   done
   rm -rf "$work"
 }
@@ -115,6 +117,52 @@ mpi_part() {
 mpi_part
 
 # --- 2. Slurm -----------------------------------------------------------------------------------------
+wait_for_queue() {
+  for _ in $(seq 900); do [ -z "$(squeue -h 2>/dev/null)" ] && return 0; sleep 0.1; done
+  fail "Slurm: jobs still queued after 90 s"; squeue; return 1
+}
+
+# A task killed mid-run (SIGKILL once two of its slices are in the store) and requeued resumes: the rerun
+# finds those slices, computes the rest, and the merge equals one process.
+requeue_part() {
+  local s=$1 args=(bake --layout custom --size 6 --size-n-dot-v 8 --roughness 0.3,0.8 --samples 131072 --seed 9 --quiet)
+  local out=$work/requeue.exr store=$work/requeue.exr.chunks array
+  "$bin" "${args[@]}" --out "$work/requeue-one.exr"
+  # The first run of task 1 starts the bake, waits for two of its slices (odd ids) and kills it.
+  {
+    echo '#!/bin/bash'
+    echo "if [ \"\$SLURM_ARRAY_TASK_ID\" = 1 ] && [ ! -e $s/jobs/killed-once ]; then"
+    echo "  touch $s/jobs/killed-once"
+    echo "  $(printf '%q ' "$bin" "${args[@]}" --out "$out") &"
+    echo '  pid=$!'
+    echo "  until [ \"\$(ls $store/items 2>/dev/null | grep -c '[13579]\\.bin\$')\" -ge 2 ] || ! kill -0 \$pid 2>/dev/null; do sleep 0.02; done"
+    echo '  kill -KILL $pid'
+    echo '  exit 137'
+    echo 'fi'
+    echo "exec $(printf '%q ' "$bin" "${args[@]}" --out "$out")"
+  } > "$s/jobs/requeue.sh"
+  chmod +x "$s/jobs/requeue.sh"
+  array=$(sbatch --parsable --array=0-1 -c1 -o "$s/jobs/requeue-%a.out" "$s/jobs/requeue.sh")
+  wait_for_queue || return
+  scontrol -o show job "${array}_1" | grep -q 'JobState=FAILED' ||
+    { fail "Slurm requeue: the killed task did not fail: $(scontrol -o show job "${array}_1" | grep -o 'JobState=[A-Z]*')"; return; }
+  # The slices kept, by inode: a rerun that computed them again would have replaced the files.
+  local before kept
+  before=$(ls "$store/items" | grep -c '[13579]\.bin$')
+  kept=$(cd "$store/items" && ls -i $(ls | grep '[13579]\.bin$'))
+  # Slurm holds a requeued job back for a while (its begin time moves on); a CI run has no reason to wait.
+  scontrol requeue "${array}_1"
+  scontrol update JobId="${array}_1" StartTime=now
+  wait_for_queue || return
+  scontrol -o show job "${array}_1" | grep -q 'JobState=COMPLETED' || { fail "Slurm requeue: the requeued task did not complete"; return; }
+  [ "$(cd "$store/items" && ls -i $(echo "$kept" | awk '{print $2}'))" = "$kept" ] ||
+    fail "Slurm requeue: the rerun computed again slices the killed run had kept"
+  "$bin" "${args[@]}" --out "$out" --merge
+  same_lut "$work/requeue-one.exr" "$out" &&
+    say "Slurm: a task killed mid-run ($before of its 8 slices kept) and requeued resumed; the merge = one process" ||
+    fail "Slurm requeue: the merged LUT differs from one process"
+}
+
 slurm_part() {
   if ! install_packages slurm-wlm munge || ! command -v slurmctld >/dev/null || ! command -v munged >/dev/null; then
     skip "Slurm: slurm-wlm and munge are not installed and cannot be installed here"; return
@@ -178,8 +226,7 @@ EOF
   bake_array=$(sbatch --parsable --array=0-3 -c1 -o "$s/jobs/bake-%a.out" --wrap "$(printf '%q ' "$bin" "${bake_args[@]}" --out "$work/slurm.exr")")
   bake_merge=$(sbatch --parsable --dependency=afterok:$bake_array -c1 -o "$s/jobs/bake-merge.out" \
     --wrap "$(printf '%q ' "$bin" "${bake_args[@]}" --out "$work/slurm.exr" --merge)")
-  for _ in $(seq 600); do [ -z "$(squeue -h 2>/dev/null)" ] && break; sleep 0.1; done
-  [ -z "$(squeue -h)" ] || { fail "Slurm: jobs still queued after 60 s"; squeue; scancel "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge"; }
+  wait_for_queue || scancel "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge"
   for j in "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge"; do
     local states
     states=$(scontrol -o show job "$j" | grep -o 'JobState=[A-Z_]*' | sort -u | tr '\n' ' ')
@@ -187,6 +234,7 @@ EOF
   done
   ls "$work/slurm.sweep"/manifest.shard-*-of-4.json >/dev/null 2>&1 || fail "Slurm: the sweep's array tasks were not 4 shards"
   ls "$work/slurm.exr.chunks"/manifest.shard-*-of-4.json >/dev/null 2>&1 || fail "Slurm: the bake's array tasks were not 4 shards"
+  requeue_part "$s"
   cmp -s "$work/one.sweep/sweep.csv" "$work/slurm-merged.sweep/sweep.csv" &&
     say "Slurm: sweep as a 4-task array + merge = one process" || fail "Slurm: the merged sweep.csv differs from one process"
   same_lut "$work/one.exr" "$work/slurm.exr" &&

@@ -113,6 +113,17 @@ mpi_part() {
     { fail "MPI: bake on 3 ranks failed"; cat "$work/mpi-bake.log"; }
   same_lut "$work/one.exr" "$work/mpi.exr" && say "MPI: bake on 3 ranks = one process" ||
     fail "MPI: the LUT baked on 3 ranks differs from one process"
+  # Ranks whose device fails after one slice (the test hook): the job stops naming a rank and its item,
+  # writes no LUT, keeps what it gathered; the same command without the fault resumes to the same bytes.
+  status=0
+  "${mpirun[@]}" -np 3 -x MICROSHADOW_FAIL_DEVICE=0:1 "$bin" "${bake_args[@]}" --out "$work/fail.exr" --mpi \
+    --store "$work/fail.chunks" >"$work/mpi-fail.log" 2>&1 || status=$?
+  if [ "$status" -eq 0 ] || [ -e "$work/fail.exr" ] || ! grep -q "MPI: rank [12] failed on item [0-9]" "$work/mpi-fail.log"; then
+    fail "MPI: a failing rank was not reported (status $status)"; cat "$work/mpi-fail.log"
+  fi
+  "${mpirun[@]}" -np 3 "$bin" "${bake_args[@]}" --out "$work/fail.exr" --mpi --store "$work/fail.chunks" >>"$work/mpi-fail.log" 2>&1 &&
+    same_lut "$work/one.exr" "$work/fail.exr" && say "MPI: a failed rank named, the rerun resumed to one process's LUT" ||
+    fail "MPI: the rerun after a failed rank did not give one process's LUT"
 }
 mpi_part
 

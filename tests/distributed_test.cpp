@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <mutex>
 #include <set>
@@ -288,6 +289,28 @@ TEST_F(Distributed, CliShardsFromSlurmVariablesMergeToOneProcess) {
     const RunResult m = cli("", kBake + " --out " + out + " --merge");
     ASSERT_EQ(m.exit_code, 0) << m.output;
     expect_same_lut(whole, out);
+}
+
+// The sweep's existing shards take the Slurm array variables too, into one folder that merge joins.
+TEST_F(Distributed, CliSweepShardsFromSlurmVariables) {
+    {
+        std::ofstream spec(path("s.toml"));
+        spec << "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.9]\nn_dot_l = [0.4, 0.8]\nn_dot_v = [0.5, 1.0]\n"
+                "roughness = [0.3]\n[comparators]\nanalytic = [\"naughty-dog\"]\n";
+    }
+    const std::string sweep = "sweep " + path("s.toml") + " --quiet --tolerance 1e-6 --backend oracle";
+    ASSERT_EQ(cli("", sweep + " --out " + path("whole")).exit_code, 0);
+    for (int task = 0; task < 2; ++task) {
+        const RunResult r = cli("SLURM_ARRAY_TASK_ID=" + std::to_string(task) + " SLURM_ARRAY_TASK_COUNT=2", sweep + " --out " + path("split"));
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+    }
+    EXPECT_TRUE(fs::exists(path("split/manifest.shard-1-of-2.json")));
+    EXPECT_FALSE(fs::exists(path("split/sweep.csv")));
+    ASSERT_EQ(cli("", "merge --quiet --out " + path("merged") + " " + path("split")).exit_code, 0);
+    std::ifstream a(path("whole/sweep.csv")), b(path("merged/sweep.csv"));
+    const std::string x((std::istreambuf_iterator<char>(a)), {}), y((std::istreambuf_iterator<char>(b)), {});
+    EXPECT_FALSE(x.empty());
+    EXPECT_EQ(x, y);
 }
 
 TEST_F(Distributed, CliBadShardsAndMergesExitTwoAndWriteNothing) {

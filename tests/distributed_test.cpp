@@ -75,6 +75,10 @@ TEST(Shards, ParseAndSlurmArrayVariables) {
     // --array=0,3,7 (count 3, max 7) has no I/N; neither has an ID without a COUNT or a non-number.
     env = {{"SLURM_ARRAY_TASK_ID", "3"}, {"SLURM_ARRAY_TASK_COUNT", "3"}, {"SLURM_ARRAY_TASK_MIN", "0"}, {"SLURM_ARRAY_TASK_MAX", "7"}};
     EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
+    env = {{"SLURM_ARRAY_TASK_ID", "1"}, {"SLURM_ARRAY_TASK_COUNT", "2"}};  // no _MIN/_MAX: ids from 0
+    EXPECT_EQ(schedule::slurm_array_shard(lookup)->index, 1u);
+    env = {{"SLURM_ARRAY_TASK_ID", "2"}, {"SLURM_ARRAY_TASK_COUNT", "2"}};
+    EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
     env = {{"SLURM_ARRAY_TASK_ID", "3"}};
     EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
     env = {{"SLURM_ARRAY_TASK_ID", "x"}, {"SLURM_ARRAY_TASK_COUNT", "3"}};
@@ -330,7 +334,7 @@ TEST_F(Distributed, CliBadShardsAndMergesExitTwoAndWriteNothing) {
     refused("", "--merge", "shard 1/2 lacks 3 item(s)");
     // The same store split another way, or of another bake.
     refused("", "--shard 0/3", "splits this job into 2 shards, not 3");
-    refused("", "--shard 1/2 --seed 4", "spec hash");
+    refused("", "--shard 1/2 --replicates 4", "spec hash");
     refused("", "--merge --shard 1/2", "--merge assembles");
     refused("", "--scene x.toml --shard 1/2", "does not apply to --scene");
 }

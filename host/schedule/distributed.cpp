@@ -142,11 +142,14 @@ std::optional<Shard> slurm_array_shard(const std::function<const char*(const cha
     if (!count_text || !*count_text)
         throw std::invalid_argument("SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not; give --shard I/N");
     const unsigned long count = number("SLURM_ARRAY_TASK_COUNT", 0), min = number("SLURM_ARRAY_TASK_MIN", 0),
-                        step = number("SLURM_ARRAY_TASK_STEP", 1), max = number("SLURM_ARRAY_TASK_MAX", task);
+                        step = number("SLURM_ARRAY_TASK_STEP", 1);
+    // Slurm sets _MAX too; where it is absent (a hand-made environment) only the count is checked.
+    const bool has_max = lookup("SLURM_ARRAY_TASK_MAX") && *lookup("SLURM_ARRAY_TASK_MAX");
+    const unsigned long max = number("SLURM_ARRAY_TASK_MAX", 0);
     // Only an array of evenly spaced ids maps to I/N: (max - min) / step + 1 tasks, this one the
     // (task - min) / step-th.
-    if (step == 0 || task < min || (task - min) % step != 0 || max < min || (max - min) / step + 1 != count ||
-        (task - min) / step >= count || count > 1000000)
+    if (step == 0 || task < min || (task - min) % step != 0 || (has_max && (max < min || (max - min) / step + 1 != count)) ||
+        (task - min) / step >= count || count == 0 || count > 1000000)
         throw std::invalid_argument("SLURM_ARRAY_TASK_ID " + std::to_string(task) + " of an array of " + std::to_string(count) +
                                     " tasks (min " + std::to_string(min) + ", max " + std::to_string(max) + ", step " +
                                     std::to_string(step) + ") is not one of evenly spaced task ids; submit --array=0-" +

@@ -11,6 +11,7 @@ packages=(
   python3 python3-matplotlib python3-numpy python3-venv
   glslang-tools mesa-vulkan-drivers libvulkan-dev openimageio-tools
   clang libclang-rt-14-dev
+  openmpi-bin libopenmpi-dev
 )
 
 # OpenImageIO with DX10 DDS support (3.x; Debian 12 ships 2.4, which reads no DX10 DDS) for the LUT

@@ -18,6 +18,7 @@ set(microshadow_cli_tests
   "^BakeTest\\.BadInputAndInterruptionLeaveNoFile$"
   "^BakeTest\\.TwoDevicesAndFaultInjectionGiveTheSameData$"
   "^CliHelp\\."
+  "^Distributed\\.Cli"
   "^CliTest\\."
   "^DesignTest\\.CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput$"
   "^EvalCompareTest\\."

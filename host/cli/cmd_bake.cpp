@@ -1,6 +1,7 @@
 // microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR.
 #include <filesystem>
 #include <iomanip>
+#include <optional>
 #include <iostream>
 #include <sstream>
 
@@ -10,6 +11,7 @@
 #include "jobs/verify.hpp"
 #include "cli/bake_outputs.hpp"  // file formats, preview checks, shaders
 #include "cli/common.hpp"
+#include "cli/mpi_world.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
@@ -37,6 +39,9 @@ struct BakeArgs {
     std::string scene, scene_report, scene_layout = "fit";
     bool no_scene_compare = false;
     double scene_error = 0.01;
+    // Beyond one process (docs/cluster.md): shards and their chunk store, the merge, MPI ranks.
+    std::string shard, store;
+    bool merge = false, mpi = false;
 };
 
 // The oracle bake of a 16^3 x 4 layout at the default samples takes about a minute on 2 cores; larger
@@ -225,19 +230,76 @@ void run_scene_bake_command(const BakeArgs& args) {
     }
 }
 
+// How this bake's slices are split: a shard of a Slurm array (or --shard), a resumable store, the merge
+// of a store's shards, or the ranks of an MPI world. Checked before any work; nothing is written here.
+struct Distribution {
+    schedule::Shard shard;
+    std::optional<schedule::ItemStore> store;
+    schedule::ItemPlan plan;
+    bool writer = true;  // this process writes the LUT (not a shard of several, not an MPI rank > 0)
+};
+
+void plan_distribution(const BakeArgs& args, const BakeSpec& spec, const schedule::Scheduler& scheduler, Distribution& d) {
+    const bool shard_given = given(args.cmd, "--shard");
+    if (args.merge && (shard_given || args.mpi))
+        throw std::invalid_argument("--merge assembles the shards a chunk store holds: it takes neither --shard nor --mpi");
+    if (args.mpi && shard_given) throw std::invalid_argument("--mpi shares the slices among the ranks: it takes no --shard");
+    // An MPI world or a merge is one job, not a task of an array: Slurm's array variables do not apply.
+    d.shard = args.merge || args.mpi ? schedule::Shard{} : resolve_shard(args.shard);
+    const bool sharded = d.shard.count > 1;
+    const std::string store_dir = !args.store.empty() ? args.store : (sharded || args.merge) ? args.out + ".chunks" : "";
+    const schedule::StoreKey key = bake_store_key(spec, scheduler);
+    if (args.merge) {
+        d.store.emplace(schedule::ItemStore::open_for_merge(store_dir, key));
+        d.plan.merge_only = true;
+    } else if (!store_dir.empty()) {
+        d.store.emplace(store_dir, key, d.shard);
+    }
+    if (d.store) d.plan.store = &*d.store;
+    d.plan.shard = d.shard;
+    d.plan.warn = [quiet = args.sampling.quiet](const std::string& w) {
+        if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
+    };
+    d.writer = !sharded;
+}
+
+void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world);
+
 void run_bake(const BakeArgs& args) {
-    if (!args.scene.empty()) return run_scene_bake_command(args);
+    if (!args.scene.empty()) {
+        for (const char* o : {"--shard", "--store", "--merge", "--mpi"})
+            if (given(args.cmd, o)) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
+        return run_scene_bake_command(args);
+    }
     const BakeSpec spec = make_spec(args);
+    // The MPI world first: every rank reads the same command line, and only rank 0 touches the outputs.
+    std::unique_ptr<MpiWorld> world;
+    if (args.mpi) world = std::make_unique<MpiWorld>();
+    if (world) return world->guard([&] { run_bake_job(args, spec, world.get()); });
+    run_bake_job(args, spec, nullptr);
+}
+
+void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
+    const bool rank0 = !world || world->writer();
     // --- output format by extension or --format; preview and shader paths (before the bake) ---
     const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
     // Fail on a bad destination before the (long) bake, not after it.
-    check_writable_destination(args.out);
-    if (!args.preview.empty()) check_writable_destination(args.preview);
+    if (rank0) {
+        check_writable_destination(args.out);
+        if (!args.preview.empty()) check_writable_destination(args.preview);
+    }
 
-    Progress progress("bake", args.sampling.quiet);
+    Progress progress("bake", args.sampling.quiet || !rank0);
     BakeCallbacks callbacks;
     callbacks.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
     schedule::Scheduler scheduler(bake_backend(spec));
+    Distribution distribution;
+    // Only rank 0 keeps the chunk store (the other ranks send it their slices).
+    BakeArgs store_args = args;
+    if (!rank0) store_args.store.clear();
+    plan_distribution(store_args, spec, scheduler, distribution);
+    if (world) distribution.plan.transport = &world->transport();
+    if (world) distribution.writer = rank0;
     // Refuse what cannot fit before computing (a 4096^3 bake used to end in bad_alloc).
     if (const std::uint64_t need = bake_host_memory(spec, scheduler.places()), memory = physical_memory();
         memory > 0 && need > memory / 2)
@@ -245,8 +307,16 @@ void run_bake(const BakeArgs& args) {
                                     "more than the limit of " + gib(memory / 2) + " (half the " + gib(memory) +
                                     " of physical memory); use fewer texels, channels or samples");
     scheduler.set_fault_injection(fault_injection_from_environment());
-    const BakeResult result = bake_lut(spec, scheduler, callbacks);
+    const BakeResult result = bake_lut(spec, scheduler, callbacks, distribution.plan);
     progress.finish();
+    if (!distribution.writer || !result.complete) {
+        if (!world && !args.sampling.quiet)
+            std::cerr << "bake: shard " << distribution.shard.index << "/" << distribution.shard.count << " finished in "
+                      << distribution.store->dir() << " (" << result.loaded_slices << " of its slices found there, "
+                      << result.computed_slices << " computed); when every shard has, write "
+                      << args.out << " with the same command, --merge in place of --shard\n";
+        return;
+    }
 
     BakeVerification check;
     if (args.verify > 0) check = verify_bake(spec, result, args.verify, 0, 0, parse_method(args.verify_method));
@@ -354,6 +424,14 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--scene-layout", a->scene_layout, "with --scene: fit (axes and channels fitted to the scene) or layout (--layout's)")
         ->check(CLI::IsMember({"fit", "layout"}))
         ->capture_default_str();
+    // Beyond one process (docs/cluster.md)
+    cmd->add_option("--shard", a->shard,
+                    "bake only the slices s with s % N == I (I/N; default: the Slurm array task's, from SLURM_ARRAY_TASK_ID "
+                    "and SLURM_ARRAY_TASK_COUNT), keeping them in the chunk store; write the LUT with --merge");
+    cmd->add_option("--store", a->store,
+                    "chunk store folder of finished slices (default with --shard or --merge: OUT.chunks); a rerun resumes from it");
+    cmd->add_flag("--merge", a->merge, "write the LUT from the slices the shards left in the chunk store (same options, no --shard)");
+    cmd->add_flag("--mpi", a->mpi, "share the slices among the ranks of an MPI world (mpirun -np N, N >= 2): rank 0 hands them out and writes");
     cmd->add_flag("--no-scene-compare", a->no_scene_compare, "with --scene: skip the full bake, the default LUT and the reference");
     cmd->add_option("--scene-error", a->scene_error, "with --scene: the weighted error within which the default LUT serves the scene")
         ->check(real_range(1e-6, 1.0))

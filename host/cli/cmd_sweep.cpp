@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "cli/common.hpp"
+#include "cli/mpi_world.hpp"
 #include "cli/plot_runner.hpp"
 #include "cli/progress.hpp"
 #include "core/cancel.hpp"
@@ -22,9 +23,9 @@ namespace {
 namespace fs = std::filesystem;
 
 struct SweepArgs {
-    std::string spec, out, shard = "0/1";
+    std::string spec, out, shard;
     std::uint64_t max_chunks = 0;
-    bool restart = false, plot = false;
+    bool restart = false, plot = false, mpi = false;
     SamplingOptions sampling;
     CLI::App* cmd = nullptr;
 };
@@ -38,6 +39,8 @@ void run_plot(const std::string& out_dir, bool quiet) {
                  (dir / "figures").string()},
                 "sweep", quiet, "the sweep itself is complete in " + out_dir);
 }
+
+void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunConfig& config, MpiWorld* world);
 
 void run_sweep_command(SweepArgs& args) {
     sweep::Spec spec = sweep::parse_spec_file(args.spec);
@@ -70,17 +73,30 @@ void run_sweep_command(SweepArgs& args) {
     config.out_dir = args.out.empty() ? std::filesystem::path(args.spec).stem().string() + ".sweep" : args.out;
     config.plan = args.sampling.plan();
     config.defaults = args.sampling.term_options();
-    config.shard = sweep::parse_shard(args.shard);
+    // --shard, else a Slurm array task's (an MPI world is one job: the array variables do not apply).
+    if (args.mpi && !args.shard.empty()) throw std::invalid_argument("--mpi shares the chunks among the ranks: it takes no --shard");
+    const schedule::Shard shard = args.mpi ? schedule::Shard{} : resolve_shard(args.shard);
+    config.shard = {shard.index, shard.count};
     config.max_chunks = args.max_chunks;
     config.restart = args.restart;
     config.fast_math = args.sampling.fast_math;
     config.command_line = command_line();
+    // The MPI world before the devices: only rank 0 touches the output folder.
+    std::unique_ptr<MpiWorld> world;
+    if (args.mpi) world = std::make_unique<MpiWorld>();
+    if (world) return world->guard([&] { run_sweep_job(args, spec, config, world.get()); });
+    run_sweep_job(args, spec, config, nullptr);
+}
+
+void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunConfig& config, MpiWorld* world) {
+    const bool rank0 = !world || world->writer();
+    if (world) config.transport = &world->transport();
     auto backend = args.sampling.make_backend();
     config.backend = backend.get();
     // Bits depend on the kind of device, not on how many: a sweep begun on one device resumes on --device all.
     config.backend_label = backend->scheduler().results_label();
     config.warn = [&](const std::string& w) { std::cerr << "\nsweep: warning: " << w << "\n"; };
-    Progress progress("sweep", args.sampling.quiet);
+    Progress progress("sweep", args.sampling.quiet || !rank0);
     config.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
 
     sweep::RunResult r;
@@ -93,6 +109,7 @@ void run_sweep_command(SweepArgs& args) {
                         " - rerun the same command to resume");
     }
     progress.finish();
+    if (!rank0) return;  // a computing rank: rank 0 reports and writes
     if (!args.sampling.quiet)
         std::cerr << "sweep: " << r.points << " points in " << r.chunks << " chunks of " << spec.chunk_size
                   << "; this run computed " << r.computed << ", found " << r.skipped << " finished (spec hash "
@@ -102,7 +119,7 @@ void run_sweep_command(SweepArgs& args) {
         return;
     }
     if (!r.assembled) {
-        std::cerr << "sweep: shard " << args.shard << " finished in " << config.out_dir
+        std::cerr << "sweep: shard " << config.shard.index << "/" << config.shard.count << " finished in " << config.out_dir
                   << "; join the shards with 'microshadow merge --out DIR SHARD_DIRS...'\n";
         return;
     }
@@ -122,8 +139,10 @@ void add_sweep_command(CLI::App& app) {
         ->required()
         ->check(CLI::ExistingFile);
     cmd->add_option("--out,-o", args->out, "output directory (default: SPEC-STEM.sweep)");
-    cmd->add_option("--shard", args->shard, "run only chunks c with c % N == I (I/N); join with 'merge'")
-        ->capture_default_str();
+    cmd->add_option("--shard", args->shard,
+                    "run only chunks c with c % N == I (I/N; default: the Slurm array task's, from SLURM_ARRAY_TASK_ID and "
+                    "SLURM_ARRAY_TASK_COUNT, else 0/1); join with 'merge'");
+    cmd->add_flag("--mpi", args->mpi, "share the chunks among the ranks of an MPI world (mpirun -np N, N >= 2): rank 0 hands them out and writes");
     cmd->add_option("--max-chunks", args->max_chunks, "compute at most this many chunks, then stop (resumable)")
         ->transform(decimal_range(0, std::numeric_limits<std::uint64_t>::max()));
     cmd->add_flag("--restart", args->restart, "discard a previous run of a different sweep in --out");

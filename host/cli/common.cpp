@@ -226,4 +226,10 @@ void add_sampling_options(CLI::App* app, SamplingOptions& o, const std::string& 
     app->add_flag("--quiet,-q", o.quiet, "no progress or summary on stderr");
 }
 
+schedule::Shard resolve_shard(const std::string& given_text) {
+    if (!given_text.empty()) return schedule::parse_shard(given_text, "--shard");
+    if (const auto task = schedule::slurm_array_shard([](const char* name) { return std::getenv(name); })) return *task;
+    return {};
+}
+
 }  // namespace ms::cli

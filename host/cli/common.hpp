@@ -8,6 +8,7 @@
 
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
+#include "schedule/distributed.hpp"
 
 namespace ms::cli {
 
@@ -69,6 +70,11 @@ void note_unused_sampling_options(CLI::App* app, const SamplingOptions& o);
 // MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
 // its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.
 schedule::FaultInjection fault_injection_from_environment();
+
+// The shard a job runs: --shard I/N when given (`given_text` non-empty), else the Slurm array task's
+// (SLURM_ARRAY_TASK_ID and _COUNT, _MIN, _STEP), else 0/1. Throws std::invalid_argument naming the
+// option or variable.
+schedule::Shard resolve_shard(const std::string& given_text);
 
 // A failure whose exit status is not the usual 1 (the status of a child process: the plotter).
 class ExitError : public std::runtime_error {

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <stdexcept>
 
 #include "exact/cap_region.hpp"
@@ -58,9 +59,22 @@ BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
 
 namespace {
 
+// Where the slices came from: this process's places, the chunk store, or other processes (a merge: the
+// shards' devices and reruns as they recorded them).
+void record_run(BakeResult& result, const schedule::ItemRunReport& run, const schedule::Scheduler& scheduler) {
+    result.devices = !run.devices.empty() ? run.devices
+                     : scheduler.is_oracle() ? std::vector<std::string>{scheduler.name()}
+                                             : scheduler.device_labels();
+    result.failed_devices = run.run.failed_places;
+    result.rerun_chunks = run.rerun;
+    result.complete = run.complete;
+    result.loaded_slices = run.loaded;
+    result.computed_slices = run.run.done;
+}
+
 // The exact method: every texel by the deterministic evaluator, one work item per slice.
 BakeResult bake_lut_exact(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks,
-                          std::chrono::steady_clock::time_point start) {
+                          const schedule::ItemPlan& items, std::chrono::steady_clock::time_point start) {
     exact_term::ExactConfig config;
     config.tolerance = spec.tolerance > 0 ? spec.tolerance : kDefaultExactBakeTolerance;
     config.build = spec.build;
@@ -70,8 +84,9 @@ BakeResult bake_lut_exact(const BakeSpec& spec, schedule::Scheduler& scheduler, 
     schedule::RunCallbacks run_callbacks;
     if (callbacks.progress)
         run_callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { callbacks.progress(done, total); };
-    const schedule::RunReport run = scheduler.run(integrand, {}, run_callbacks);
+    const schedule::ItemRunReport run = schedule::run_items(scheduler, integrand, items, run_callbacks);
     BakeResult result;
+    record_run(result, run, scheduler);
     result.width = spec.visibility.count;
     result.n_dot_l_count = spec.n_dot_l.count;
     result.height = spec.n_dot_l.count * spec.n_dot_v.count;
@@ -86,28 +101,27 @@ BakeResult bake_lut_exact(const BakeSpec& spec, schedule::Scheduler& scheduler, 
     result.exact_quadrature_pieces = integrand.quadrature_pieces();
     result.exact_tolerance = config.tolerance;
     result.tolerance_met = result.max_std_error <= config.tolerance;
-    result.devices = scheduler.is_oracle() ? std::vector<std::string>{scheduler.name()} : scheduler.device_labels();
-    result.failed_devices = run.failed_places;
-    result.rerun_chunks = run.rerun;
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
 }
 
 }  // namespace
 
-BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks) {
+BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks,
+                    const schedule::ItemPlan& items) {
     validate(spec);
     const auto start = std::chrono::steady_clock::now();
-    if (spec.method == Method::exact) return bake_lut_exact(spec, scheduler, callbacks, start);
+    if (spec.method == Method::exact) return bake_lut_exact(spec, scheduler, callbacks, items, start);
     lut_slice::LutSliceIntegrand integrand(spec);
     const lut_slice::SlicePlan& plan = integrand.plan();
 
     schedule::RunCallbacks run_callbacks;
     if (callbacks.progress)
         run_callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { callbacks.progress(done, total); };
-    const schedule::RunReport run = scheduler.run(integrand, {}, run_callbacks);
+    const schedule::ItemRunReport run = schedule::run_items(scheduler, integrand, items, run_callbacks);
 
     BakeResult result;
+    record_run(result, run, scheduler);
     result.width = plan.nv;
     result.height = plan.nl * plan.nvv;
     result.n_dot_l_count = plan.nl;
@@ -125,9 +139,6 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
             result.skipped_zero += (s == lut_slice::exact_zero) * result.slices;
             result.skipped_one += (s == lut_slice::exact_one) * result.slices;
         }
-    result.devices = scheduler.is_oracle() ? std::vector<std::string>{scheduler.name()} : scheduler.device_labels();
-    result.failed_devices = run.failed_places;
-    result.rerun_chunks = run.rerun;
     std::uint64_t max_batches_used = 0;
     for (const auto& r : integrand.reports()) {
         result.max_std_error = std::max(result.max_std_error, r.max_std_error);
@@ -146,6 +157,36 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
     result.max_samples_per_slice = max_batches_used * plan.batch_samples;
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return result;
+}
+
+schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Scheduler& scheduler) {
+    // Every field of the spec that reaches a texel (not the devices chosen, the thread count or the
+    // command line), the kind of device, and the version.
+    nlohmann::json axes = nlohmann::json::array();
+    for (const Axis* a : {&spec.visibility, &spec.n_dot_l, &spec.n_dot_v})
+        axes.push_back({a->name, a->min, a->max, a->count, int(a->texel), int(a->spacing)});
+    std::uint64_t rows = 1469598103934665603ULL;  // FNV-1a of a partial bake's row flags
+    for (std::uint8_t f : spec.baked_rows) rows = (rows ^ f) * 1099511628211ULL;
+    const nlohmann::json decides = {
+        {"layout", to_string(spec.layout)}, {"axes", axes}, {"roughness", spec.roughness},
+        {"azimuth_mean", spec.azimuth_mean}, {"azimuth_degrees", spec.azimuth_degrees},
+        {"azimuth_intervals", spec.azimuth_intervals}, {"azimuth_min", spec.azimuth_min_intervals},
+        {"azimuth_max", spec.azimuth_max_intervals}, {"refine_threshold", spec.azimuth_refine_threshold},
+        {"refine_z", spec.azimuth_refine_z}, {"azimuth_quadrature", to_string(spec.azimuth_quadrature)},
+        {"azimuth_cells", spec.azimuth_cells}, {"form", to_string(spec.term.form)},
+        {"ao_weighting", to_string(spec.term.ao_weighting)}, {"sequence", to_string(spec.sequence)},
+        {"replicates", spec.replicates}, {"samples", spec.samples}, {"seed", spec.seed}, {"tolerance", spec.tolerance},
+        {"max_batches", spec.max_batches}, {"fast_math", spec.build.fast_math},
+        {"double_kernels", spec.build.double_precision}, {"defines", spec.build.defines},
+        {"method", to_string(spec.method)}, {"exact_single_precision", spec.exact_single_precision},
+        {"baked_rows", spec.baked_rows.size()}, {"baked_rows_fnv1a", rows}, {"oracle", spec.oracle},
+        {"results", scheduler.results_label()}, {"version", MICROSHADOW_VERSION}};
+    std::uint64_t h = 1469598103934665603ULL;
+    for (unsigned char c : decides.dump()) h = (h ^ c) * 1099511628211ULL;
+    char hex[17];
+    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+    std::uint64_t slices = std::uint64_t(spec.n_dot_v.count) * spec.roughness.size();
+    return {"bake", hex, slices};
 }
 
 nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {

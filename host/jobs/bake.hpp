@@ -14,6 +14,7 @@
 #include "core/types.hpp"
 #include "integrands/lut_slice/lut_slice_spec.hpp"
 #include "lut/exr_lut.hpp"
+#include "schedule/distributed.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms {
@@ -69,6 +70,11 @@ struct BakeResult {
     // Exact method: the tolerance asked of each texel and the Gauss pieces used over all texels.
     double exact_tolerance = 0;
     std::uint64_t exact_quadrature_pieces = 0;
+    // A distributed run (schedule/distributed.hpp): false when this process holds only some slices (a
+    // shard, or an MPI rank other than 0), which then writes nothing.
+    bool complete = true;
+    std::uint64_t loaded_slices = 0;      // slices taken from the chunk store (resumed or merged)
+    std::uint64_t computed_slices = 0;    // slices this process computed (or, MPI rank 0, gathered)
 
     float at(std::uint32_t channel, std::uint32_t iv, std::uint32_t il, std::uint32_t ivv) const;
 };
@@ -86,9 +92,14 @@ schedule::Backend bake_backend(const BakeSpec& spec);
 // Runs the bake on the scheduler (the LUT slice integrand, one work item per slice). Throws
 // std::invalid_argument for a bad spec, ocl::Error when every device failed, ms::Cancelled when
 // ms::cancel_requested() was set.
-BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks = {});
+BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks = {},
+                    const schedule::ItemPlan& items = {});
 // The same on a scheduler made from bake_backend(spec).
 BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks = {});
+
+// The chunk store key of a bake: everything that decides its slices' bits (the spec, the kind of device
+// of `scheduler`, the version), not where it runs or what the command line was.
+schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Scheduler& scheduler);
 
 // The metadata JSON recorded in the file for this spec and result.
 nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& result);

@@ -12,6 +12,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 #include "device/runtime.hpp"
@@ -39,6 +40,15 @@ public:
     virtual std::unique_ptr<Worker> device_worker(ocl::Device& device) = 0;
     // The scalar double oracle on one CPU thread.
     virtual std::unique_ptr<Worker> oracle_worker() = 0;
+
+    // Distributed runs (shards of a Slurm array, MPI ranks; schedule/distributed.hpp): the finished
+    // result of item `id` (its slot in the integrand's storage) as bytes, and those bytes put back into
+    // the slot on another process. load_item(id, save_item(id)) must restore the slot bit for bit: a
+    // merge or an MPI gather then writes the same outputs as one process. Integrands that cannot be
+    // distributed keep these defaults.
+    virtual bool distributable() const { return false; }
+    virtual std::string save_item(std::uint64_t) const { throw std::logic_error(name() + " cannot be distributed"); }
+    virtual void load_item(std::uint64_t, const std::string&) { throw std::logic_error(name() + " cannot be distributed"); }
 };
 
 }  // namespace ms::schedule

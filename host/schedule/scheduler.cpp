@@ -75,9 +75,14 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
     RunReport report;
     std::deque<std::uint64_t> queue;
     const std::uint64_t total = integrand.work_items();
-    for (std::uint64_t id = selection.shard_index; id < total; id += selection.shard_count)
-        if (!selection.already_done || !selection.already_done(id)) queue.push_back(id);
-    if (selection.max_items && queue.size() > selection.max_items) queue.resize(selection.max_items);
+    // A pull source (next_item) feeds the queue as places go idle; `selected` then counts what it gave.
+    const bool pulled = bool(selection.next_item);
+    bool source_left = pulled;
+    if (!pulled) {
+        for (std::uint64_t id = selection.shard_index; id < total; id += selection.shard_count)
+            if (!selection.already_done || !selection.already_done(id)) queue.push_back(id);
+        if (selection.max_items && queue.size() > selection.max_items) queue.resize(selection.max_items);
+    }
     report.selected = queue.size();
 
     std::mutex mutex;
@@ -96,7 +101,34 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
                 // An idle place waits while items are in flight elsewhere: one of them may come back
                 // to the queue when its device fails, and a place that had left could not rerun it.
                 std::unique_lock<std::mutex> lock(mutex);
-                changed.wait(lock, [&] { return stop || !queue.empty() || in_flight == 0; });
+                changed.wait(lock, [&] { return stop || !queue.empty() || source_left || in_flight == 0; });
+                if (!stop && queue.empty() && source_left) {
+                    std::uint64_t next = 0;
+                    try {
+                        source_left = selection.next_item(next);
+                    } catch (...) {
+                        if (!fatal) fatal = std::current_exception();
+                        stop = true;
+                        --alive;
+                        changed.notify_all();
+                        return;
+                    }
+                    if (source_left) {
+                        if (next >= total) {
+                            fatal = std::make_exception_ptr(std::runtime_error(
+                                "scheduler: the work source gave item " + std::to_string(next) + " of " +
+                                std::to_string(total) + " items"));
+                            stop = true;
+                            --alive;
+                            changed.notify_all();
+                            return;
+                        }
+                        queue.push_back(next);
+                        ++report.selected;
+                    }
+                    changed.notify_all();
+                    continue;
+                }
                 if (stop || queue.empty()) return;
                 id = queue.front();
                 queue.pop_front();
@@ -152,7 +184,7 @@ RunReport Scheduler::run(Integrand& integrand, const WorkSelection& selection, c
                 callbacks.progress(d, report.selected);
                 lock.lock();
             }
-            if (report.done == report.selected || fatal || alive == 0) break;
+            if ((report.done == report.selected && !source_left) || fatal || alive == 0) break;
             if (cancel_requested()) break;
             changed.wait_for(lock, std::chrono::milliseconds(100));
         }

@@ -11,6 +11,7 @@
 //     throws ms::Cancelled, and jobs commit nothing, so old outputs stay intact;
 //   - reports progress (items done of items selected) from the calling thread every 100 ms and at the end;
 //   - calls on_done(id) after each item, one call at a time (jobs stream results there: sweep chunks);
+//   - or pulls items one at a time from WorkSelection::next_item (a rank of an MPI world fed by rank 0);
 //   - shards: WorkSelection picks ids by id % count == index and skips finished ones, which is all a
 //     distributed engine (ranks of an MPI world, tasks of a Slurm array) needs to split a job.
 #pragma once
@@ -40,6 +41,9 @@ struct WorkSelection {
     std::uint64_t shard_index = 0, shard_count = 1;  // ids with id % shard_count == shard_index
     std::function<bool(std::uint64_t)> already_done;  // ids to skip (resume); empty: none
     std::uint64_t max_items = 0;                      // > 0: stop after this many items (resumable runs)
+    // A pull source instead of the shard's ids (an MPI rank asking its coordinator): called, one call at
+    // a time, whenever a place is idle and nothing is queued; returns false when no item is left.
+    std::function<bool(std::uint64_t& id)> next_item;
 };
 
 // A test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE=P:N (never read inside the library): place P

@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 
 #include "core/cone.hpp"
 #include "grid/atlas.hpp"
+#include "schedule/item_bytes.hpp"
 
 namespace ms::exact_term {
 
@@ -100,6 +102,43 @@ std::uint64_t ExactLutIntegrand::quadrature_pieces() const {
     std::uint64_t sum = 0;
     for (auto p : slice_pieces_) sum += p;
     return sum;
+}
+
+std::string ExactLutIntegrand::save_item(std::uint64_t slice) const {
+    const std::uint32_t ivv = std::uint32_t(slice / channels_), channel = std::uint32_t(slice % channels_);
+    const AtlasShape shape{spec_.visibility.count, spec_.n_dot_l.count, spec_.n_dot_v.count, channels_};
+    std::vector<float> value, error;
+    for (std::uint32_t il = 0; il < spec_.n_dot_l.count; ++il)
+        for (std::uint32_t iv = 0; iv < spec_.visibility.count; ++iv) {
+            value.push_back(values_[shape.index(channel, iv, il, ivv)]);
+            error.push_back(errors_[shape.index(channel, iv, il, ivv)]);
+        }
+    schedule::ItemWriter w;
+    w.put_vector(value);
+    w.put_vector(error);
+    w.put(slice_max_error_.at(slice));
+    w.put(slice_pieces_.at(slice));
+    return w.take();
+}
+
+void ExactLutIntegrand::load_item(std::uint64_t slice, const std::string& bytes) {
+    if (slice >= work_items()) throw std::runtime_error("exact LUT slice " + std::to_string(slice) + ": no such slice");
+    const std::uint32_t ivv = std::uint32_t(slice / channels_), channel = std::uint32_t(slice % channels_);
+    const AtlasShape shape{spec_.visibility.count, spec_.n_dot_l.count, spec_.n_dot_v.count, channels_};
+    schedule::ItemReader r(bytes, "exact LUT slice " + std::to_string(slice));
+    const std::uint64_t texels = std::uint64_t(spec_.n_dot_l.count) * spec_.visibility.count;
+    const std::vector<float> value = r.get_vector<float>(texels), error = r.get_vector<float>(texels);
+    const double max_error = r.get<double>();
+    const std::uint64_t pieces = r.get<std::uint64_t>();
+    r.finish();
+    std::size_t k = 0;
+    for (std::uint32_t il = 0; il < spec_.n_dot_l.count; ++il)
+        for (std::uint32_t iv = 0; iv < spec_.visibility.count; ++iv, ++k) {
+            values_[shape.index(channel, iv, il, ivv)] = value[k];
+            errors_[shape.index(channel, iv, il, ivv)] = error[k];
+        }
+    slice_max_error_[slice] = max_error;
+    slice_pieces_[slice] = pieces;
 }
 
 }  // namespace ms::exact_term

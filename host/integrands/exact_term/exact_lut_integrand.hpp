@@ -22,6 +22,10 @@ public:
     std::uint64_t work_items() const override;
     std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
     std::unique_ptr<schedule::Worker> oracle_worker() override;
+    // A slice's texels (value, error, row by row), its largest error and its quadrature pieces.
+    bool distributable() const override { return true; }
+    std::string save_item(std::uint64_t id) const override;
+    void load_item(std::uint64_t id, const std::string& bytes) override;
 
     // Atlas order (grid/atlas.hpp), float: value and estimated error per texel and channel.
     const std::vector<float>& values() const { return values_; }

@@ -1,5 +1,7 @@
 #include "integrands/lut_slice/lut_slice_integrand.hpp"
 
+#include "schedule/item_bytes.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -10,6 +12,7 @@
 #include "core/seeds.hpp"
 #include "microshadow_shared.h"
 #include "oracle/oracle.hpp"
+#include "schedule/item_bytes.hpp"
 
 namespace ms::lut_slice {
 
@@ -381,6 +384,55 @@ void LutSliceIntegrand::run_slice(std::uint64_t id, SliceTallier* tallier) {
             std_error_[at] = baked ? local.std_error[std::size_t(il) * plan.nv + iv] : std::numeric_limits<float>::quiet_NaN();
         }
     }
+    report.done = true;
+    reports_[id] = std::move(report);
+}
+
+// The slice's texels in row order, then its report (timings included: they are the slice's own).
+std::string LutSliceIntegrand::save_item(std::uint64_t id) const {
+    const std::uint32_t channel = std::uint32_t(id % plan_.channels), ivv = std::uint32_t(id / plan_.channels);
+    const SliceReport& r = reports_.at(id);
+    schedule::ItemWriter w;
+    std::vector<float> value, error;
+    for (std::uint32_t il = 0; il < plan_.nl; ++il)
+        for (std::uint32_t iv = 0; iv < plan_.nv; ++iv) {
+            const std::size_t at = plan_.atlas().index(channel, iv, il, ivv);
+            value.push_back(value_[at]);
+            error.push_back(std_error_[at]);
+        }
+    w.put_vector(value);
+    w.put_vector(error);
+    for (double d : {r.max_std_error, r.quadrature_error, r.device_seconds, r.normals_seconds, r.histogram_seconds,
+                     r.reduce_seconds})
+        w.put(d);
+    w.put(r.batches);
+    w.put(r.histogram_updates);
+    w.put_vector(r.row_intervals);
+    return w.take();
+}
+
+void LutSliceIntegrand::load_item(std::uint64_t id, const std::string& bytes) {
+    if (id >= work_items()) throw std::runtime_error("LUT slice " + std::to_string(id) + ": no such slice");
+    const std::uint32_t channel = std::uint32_t(id % plan_.channels), ivv = std::uint32_t(id / plan_.channels);
+    schedule::ItemReader r(bytes, "LUT slice " + std::to_string(id));
+    const std::uint64_t texels = std::uint64_t(plan_.nl) * plan_.nv;
+    const std::vector<float> value = r.get_vector<float>(texels), error = r.get_vector<float>(texels);
+    SliceReport report;
+    for (double* d : {&report.max_std_error, &report.quadrature_error, &report.device_seconds, &report.normals_seconds,
+                      &report.histogram_seconds, &report.reduce_seconds})
+        *d = r.get<double>();
+    report.batches = r.get<std::uint32_t>();
+    report.histogram_updates = r.get<std::uint64_t>();
+    // Rows of a nodes-quadrature bake each record their intervals; a stratified one, or a slice a partial
+    // bake leaves out, records none.
+    report.row_intervals = r.get_vector<int>(plan_.cells ? 0 : plan_.nl, true);
+    r.finish();
+    for (std::uint32_t il = 0; il < plan_.nl; ++il)
+        for (std::uint32_t iv = 0; iv < plan_.nv; ++iv) {
+            const std::size_t at = plan_.atlas().index(channel, iv, il, ivv);
+            value_[at] = value[std::size_t(il) * plan_.nv + iv];
+            std_error_[at] = error[std::size_t(il) * plan_.nv + iv];
+        }
     report.done = true;
     reports_[id] = std::move(report);
 }

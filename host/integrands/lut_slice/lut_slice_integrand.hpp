@@ -64,6 +64,10 @@ public:
     std::uint64_t work_items() const override { return plan_.slices(); }
     std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
     std::unique_ptr<schedule::Worker> oracle_worker() override;
+    // A slice's texels (value, std error, row by row) and its report.
+    bool distributable() const override { return true; }
+    std::string save_item(std::uint64_t id) const override;
+    void load_item(std::uint64_t id, const std::string& bytes) override;
 
     const SlicePlan& plan() const { return plan_; }
     // In the atlas layout of grid/atlas.hpp (plan().atlas()).

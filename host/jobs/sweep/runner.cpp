@@ -6,6 +6,7 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -71,13 +72,8 @@ json chunk_digest(const std::string& text) {
 // Checks chunk c's file: exactly the rows of points [first, last), each with `fields` fields and its point
 // index first, and the digest recorded when it was written (when the manifest has one). Returns "" when
 // it is sound, else the reason (a short tag first: "missing", "digest", "rows", "index", "fields").
-std::string check_chunk(const std::string& path, std::uint64_t first, std::uint64_t last, std::size_t fields,
-                        const json* recorded) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return "missing: the file is gone";
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    const std::string text = ss.str();
+std::string check_chunk_text(const std::string& text, std::uint64_t first, std::uint64_t last, std::size_t fields,
+                             const json* recorded) {
     if (recorded) {
         const json d = chunk_digest(text);
         if (d != *recorded)
@@ -103,6 +99,15 @@ std::string check_chunk(const std::string& path, std::uint64_t first, std::uint6
     }
     if (expect != last) return "rows: " + std::to_string(expect - first) + " rows, not " + std::to_string(last - first);
     return "";
+}
+
+std::string check_chunk(const std::string& path, std::uint64_t first, std::uint64_t last, std::size_t fields,
+                        const json* recorded) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return "missing: the file is gone";
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return check_chunk_text(ss.str(), first, last, fields, recorded);
 }
 
 // Moves a damaged chunk to chunks/rejected/ (kept as evidence, never read again) and says so.
@@ -353,10 +358,62 @@ std::string csv_header(const Spec& spec) {
 RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     if (!config.backend) throw std::invalid_argument("run_sweep: no backend");
     if (config.shard.count == 0 || config.shard.index >= config.shard.count) throw std::invalid_argument("bad shard");
+    if (config.transport && config.shard.count != 1) throw std::invalid_argument("--mpi shares the chunks among the ranks: it takes no --shard");
     ChunkComputer computer(spec, config);
     RunResult result;
     result.points = computer.grid().size();
     result.chunks = (result.points + spec.chunk_size - 1) / spec.chunk_size;
+    // Chunks are the term integrand's work items (one per chunk either way: the exact integrand has the
+    // sampled one's source/sink contract); `sink` receives each computed chunk's estimates.
+    const std::uint64_t chunk_size = spec.chunk_size;
+    auto chunk_end = [&](std::uint64_t c) { return std::min(result.points, (c + 1) * chunk_size); };
+    auto chunk_queries = [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); };
+    auto make_integrand = [&](std::function<void(std::uint64_t, std::vector<Estimate>&&)> sink) -> std::unique_ptr<schedule::Integrand> {
+        if (config.plan.method == Method::exact) {
+            exact_term::ExactConfig exact;
+            exact.tolerance = config.plan.tolerance > 0 ? config.plan.tolerance : exact::kDefaultTolerance;
+            exact.build = config.backend->config().build;
+            exact.force_float = config.plan.single_precision;
+            exact.kernel_on_cpu_devices = config.plan.kernel_on_cpu_devices;
+            return std::make_unique<exact_term::ExactTermIntegrand>(result.chunks, chunk_queries, std::move(sink), exact);
+        }
+        return std::make_unique<term::TermIntegrand>(result.chunks, chunk_queries, std::move(sink), config.plan,
+                                                     config.backend->config());
+    };
+    if (config.transport && !config.transport->coordinator()) {
+        // A computing rank: chunks come from rank 0, their rows (the chunk file's text) go back to it.
+        std::mutex rows_mutex;
+        std::map<std::uint64_t, std::string> rows;  // computed, until on_done sends them
+        auto integrand = make_integrand([&](std::uint64_t c, std::vector<Estimate>&& est) {
+            std::string text = computer.rows(c * chunk_size, chunk_end(c), est);
+            std::lock_guard<std::mutex> lock(rows_mutex);
+            rows[c] = std::move(text);
+        });
+        schedule::WorkSelection selection;
+        selection.next_item = [&](std::uint64_t& c) { return config.transport->next_item(c); };
+        schedule::RunCallbacks callbacks;
+        callbacks.on_done = [&](std::uint64_t c) {
+            std::string text;
+            {
+                std::lock_guard<std::mutex> lock(rows_mutex);
+                text = std::move(rows.at(c));
+                rows.erase(c);
+            }
+            config.transport->send_result(c, text);
+            ++result.computed;
+        };
+        try {
+            config.backend->scheduler().run(*integrand, selection, callbacks);
+        } catch (const Cancelled&) {
+            config.transport->finish("cancelled");
+            throw;
+        } catch (const std::exception& e) {
+            config.transport->finish(e.what());
+            throw;
+        }
+        config.transport->finish("");
+        return result;
+    }
     result.shard_chunks = result.chunks > config.shard.index
                               ? (result.chunks - config.shard.index + config.shard.count - 1) / config.shard.count
                               : 0;
@@ -430,7 +487,8 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
 
     const bool unsharded = config.shard.count == 1;
     const std::string csv_path = (dir / "sweep.csv").string();
-    if (unsharded && complete_before && fs::exists(csv_path)) {
+    // (Under MPI rank 0 still runs the exchange, with nothing to hand out, so the other ranks stop.)
+    if (unsharded && complete_before && fs::exists(csv_path) && !config.transport) {
         result.skipped = result.chunks;
         result.complete = result.assembled = true;
         return result;
@@ -442,10 +500,8 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     // recomputing that chunk.
     // Every chunk the manifest lists is checked before it is trusted: a damaged one is set aside (kept in
     // chunks/rejected/ as evidence), named in the result's warnings, and computed again.
-    const std::uint64_t chunk_size = spec.chunk_size;
     const std::string header = csv_header(spec);
     const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
-    auto chunk_end = [&](std::uint64_t c) { return std::min(result.points, (c + 1) * chunk_size); };
     for (auto it = finished.begin(); it != finished.end();) {
         const std::uint64_t c = *it;
         const std::string key = std::to_string(c);
@@ -469,28 +525,17 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     auto chunk_done = [&](std::uint64_t c) { return finished.count(c) > 0; };
     std::mutex digest_mutex;
     std::map<std::uint64_t, json> fresh;  // digests of chunks written in this run, until on_done records them
-    auto chunk_queries = [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); };
-    auto write_chunk = [&](std::uint64_t c, std::vector<Estimate>&& est) {
-        const std::string rows = computer.rows(c * chunk_size, chunk_end(c), est);
+    auto store_rows = [&](std::uint64_t c, const std::string& rows) {
         AtomicFile f(chunk_path(config.out_dir, c), true);
         f.stream() << rows;
         f.commit();
         std::lock_guard<std::mutex> lock(digest_mutex);
         fresh[c] = chunk_digest(rows);
     };
-    // One work item per chunk either way: the exact integrand has the sampled one's source/sink contract.
-    std::unique_ptr<schedule::Integrand> integrand;
-    if (config.plan.method == Method::exact) {
-        exact_term::ExactConfig exact;
-        exact.tolerance = config.plan.tolerance > 0 ? config.plan.tolerance : exact::kDefaultTolerance;
-        exact.build = config.backend->config().build;
-        exact.force_float = config.plan.single_precision;
-        exact.kernel_on_cpu_devices = config.plan.kernel_on_cpu_devices;
-        integrand = std::make_unique<exact_term::ExactTermIntegrand>(result.chunks, chunk_queries, write_chunk, exact);
-    } else {
-        integrand = std::make_unique<term::TermIntegrand>(result.chunks, chunk_queries, write_chunk, config.plan,
-                                                          config.backend->config());
-    }
+    auto write_chunk = [&](std::uint64_t c, std::vector<Estimate>&& est) {
+        store_rows(c, computer.rows(c * chunk_size, chunk_end(c), est));
+    };
+    std::unique_ptr<schedule::Integrand> integrand = make_integrand(write_chunk);
     schedule::WorkSelection selection;
     selection.shard_index = config.shard.index;
     selection.shard_count = config.shard.count;
@@ -509,7 +554,28 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     };
     if (config.progress)
         callbacks.progress = [&](std::uint64_t done, std::uint64_t) { config.progress(found + done, result.shard_chunks); };
-    config.backend->scheduler().run(*integrand, selection, callbacks);
+    if (config.transport) {
+        // Rank 0 of an MPI world: the other ranks compute the unfinished chunks; each one that comes back
+        // is written and recorded exactly as a local place's would be.
+        std::deque<std::uint64_t> pending;
+        for (std::uint64_t c = 0; c < result.chunks; ++c)
+            if (!chunk_done(c)) pending.push_back(c);
+        config.transport->coordinate(
+            std::move(pending),
+            [&](std::uint64_t c, const std::string& rows) {
+                if (c >= result.chunks) throw std::runtime_error("chunk " + std::to_string(c) + " is not a chunk of this sweep");
+                // The rows must be the chunk's points in the sweep's fields before they are trusted.
+                const std::string problem = check_chunk_text(rows, c * chunk_size, chunk_end(c), fields, nullptr);
+                if (!problem.empty()) throw std::runtime_error("chunk " + std::to_string(c) + " as received: " + problem);
+                store_rows(c, rows);
+                callbacks.on_done(c);
+            },
+            [&](std::uint64_t done, std::uint64_t) {
+                if (config.progress) config.progress(found + done, result.shard_chunks);
+            });
+    } else {
+        config.backend->scheduler().run(*integrand, selection, callbacks);
+    }
     std::uint64_t mine = 0;
     for (std::uint64_t c : finished) mine += (c % config.shard.count == config.shard.index && c < result.chunks);
     result.complete = mine == result.shard_chunks;

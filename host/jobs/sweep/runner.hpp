@@ -27,6 +27,7 @@
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
 #include "jobs/sweep/spec.hpp"
+#include "schedule/distributed.hpp"
 
 namespace ms::sweep {
 
@@ -51,6 +52,9 @@ struct RunConfig {
     std::function<void(const std::string&)> warn;
     // Called after each chunk: (chunks done in this shard, chunks of this shard).
     std::function<void(std::uint64_t, std::uint64_t)> progress;
+    // An MPI world (schedule/distributed.hpp): rank 0 hands the unfinished chunks out, writes each one
+    // that comes back and assembles sweep.csv; the other ranks compute and touch no file. Not with shards.
+    schedule::ItemTransport* transport = nullptr;
 };
 
 struct RunResult {

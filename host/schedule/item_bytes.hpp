@@ -1,0 +1,73 @@
+// The byte form of a work item's result (Integrand::save_item / load_item): numbers copied bit for bit
+// in the machine's own representation, so a float read back is the float written. Every process of one
+// job runs the same build on the same kind of machine (the spec hash records the version); the store is
+// not a file format for other programs.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace ms::schedule {
+
+class ItemWriter {
+public:
+    template <class T>
+    void put(const T& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        bytes_.append(reinterpret_cast<const char*>(&v), sizeof v);
+    }
+    template <class T>
+    void put_vector(const std::vector<T>& v) {
+        static_assert(std::is_trivially_copyable_v<T>);
+        put(std::uint64_t(v.size()));
+        if (!v.empty()) bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    }
+    std::string take() { return std::move(bytes_); }
+
+private:
+    std::string bytes_;
+};
+
+// Reads what ItemWriter wrote; throws std::runtime_error naming `what` when the bytes run out or are left over.
+class ItemReader {
+public:
+    ItemReader(const std::string& bytes, std::string what) : bytes_(bytes), what_(std::move(what)) {}
+    template <class T>
+    T get() {
+        static_assert(std::is_trivially_copyable_v<T>);
+        need(sizeof(T));
+        T v;
+        std::memcpy(&v, bytes_.data() + at_, sizeof v);
+        at_ += sizeof v;
+        return v;
+    }
+    // A vector of exactly `expected_size` values, or (allow_empty) none.
+    template <class T>
+    std::vector<T> get_vector(std::uint64_t expected_size, bool allow_empty = false) {
+        const std::uint64_t n = get<std::uint64_t>();
+        if (n != expected_size && !(allow_empty && n == 0))
+            throw std::runtime_error(what_ + ": holds " + std::to_string(n) + " values, not " + std::to_string(expected_size));
+        need(n * sizeof(T));
+        std::vector<T> v(n);
+        if (n) std::memcpy(v.data(), bytes_.data() + at_, n * sizeof(T));
+        at_ += n * sizeof(T);
+        return v;
+    }
+    void finish() const {
+        if (at_ != bytes_.size()) throw std::runtime_error(what_ + ": " + std::to_string(bytes_.size() - at_) + " bytes left over");
+    }
+
+private:
+    void need(std::uint64_t n) const {
+        if (bytes_.size() - at_ < n) throw std::runtime_error(what_ + ": cut short");
+    }
+    const std::string& bytes_;
+    std::string what_;
+    std::size_t at_ = 0;
+};
+
+}  // namespace ms::schedule

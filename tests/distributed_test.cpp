@@ -1,0 +1,342 @@
+// Work items beyond one process: shards (--shard I/N and Slurm array tasks), the chunk store of finished
+// items, resume, the merge, and the scheduler's pull source that MPI ranks use. A bake split any way must
+// give the unsplit bake's texels bit for bit and the same metadata.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <mutex>
+#include <set>
+#include <utility>
+
+#include "cli_runner.hpp"
+#include "integrands/lut_slice/lut_slice_integrand.hpp"
+#include "jobs/bake.hpp"
+#include "lut/exr_lut.hpp"
+#include "schedule/distributed.hpp"
+#include "schedule/item_bytes.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace ms;
+using ms::testing::RunResult;
+using ms::testing::ScratchDirTest;
+using ms::testing::run_shell;
+
+class Distributed : public ScratchDirTest {
+protected:
+    Distributed() : ScratchDirTest("distributed") {}
+};
+
+// A small sampled bake: 2 roughness channels x 3 NdotV = 6 slices of 5 x 4 texels.
+BakeSpec small_bake() {
+    BakeSpec s = default_bake_spec(LutLayout::custom, 4);
+    s.visibility.count = 5;
+    s.n_dot_l.count = 4;
+    s.n_dot_v.count = 3;
+    s.roughness = {0.3, 0.8};
+    s.samples = 1024;
+    s.seed = 7;
+    s.oracle = true;
+    s.oracle_threads = 1;
+    return s;
+}
+
+bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
+    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
+}
+
+TEST(Shards, ParseAndSlurmArrayVariables) {
+    EXPECT_EQ(schedule::parse_shard("2/5").index, 2u);
+    EXPECT_EQ(schedule::parse_shard("2/5").count, 5u);
+    for (const char* bad : {"5/5", "1", "/3", "1/", "-1/3", "1/0", "a/3", "1/3x", "1 /3", "99999999/100000000"})
+        EXPECT_THROW(schedule::parse_shard(bad), std::invalid_argument) << bad;
+
+    std::map<std::string, std::string> env;
+    auto lookup = [&](const char* name) -> const char* {
+        const auto it = env.find(name);
+        return it == env.end() ? nullptr : it->second.c_str();
+    };
+    EXPECT_FALSE(schedule::slurm_array_shard(lookup));  // not in an array
+    env = {{"SLURM_ARRAY_TASK_ID", "2"}, {"SLURM_ARRAY_TASK_COUNT", "4"}, {"SLURM_ARRAY_TASK_MIN", "0"}, {"SLURM_ARRAY_TASK_MAX", "3"}};
+    EXPECT_EQ(schedule::slurm_array_shard(lookup)->index, 2u);
+    EXPECT_EQ(schedule::slurm_array_shard(lookup)->count, 4u);
+    // --array=1-4 and --array=10-16:2 are shards too: the task's place in the array.
+    env = {{"SLURM_ARRAY_TASK_ID", "1"}, {"SLURM_ARRAY_TASK_COUNT", "4"}, {"SLURM_ARRAY_TASK_MIN", "1"}, {"SLURM_ARRAY_TASK_MAX", "4"}};
+    EXPECT_EQ(schedule::slurm_array_shard(lookup)->index, 0u);
+    env = {{"SLURM_ARRAY_TASK_ID", "14"}, {"SLURM_ARRAY_TASK_COUNT", "4"}, {"SLURM_ARRAY_TASK_MIN", "10"},
+           {"SLURM_ARRAY_TASK_MAX", "16"}, {"SLURM_ARRAY_TASK_STEP", "2"}};
+    EXPECT_EQ(schedule::slurm_array_shard(lookup)->index, 2u);
+    // --array=0,3,7 (count 3, max 7) has no I/N; neither has an ID without a COUNT or a non-number.
+    env = {{"SLURM_ARRAY_TASK_ID", "3"}, {"SLURM_ARRAY_TASK_COUNT", "3"}, {"SLURM_ARRAY_TASK_MIN", "0"}, {"SLURM_ARRAY_TASK_MAX", "7"}};
+    EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
+    env = {{"SLURM_ARRAY_TASK_ID", "1"}, {"SLURM_ARRAY_TASK_COUNT", "2"}};  // no _MIN/_MAX: ids from 0
+    EXPECT_EQ(schedule::slurm_array_shard(lookup)->index, 1u);
+    env = {{"SLURM_ARRAY_TASK_ID", "2"}, {"SLURM_ARRAY_TASK_COUNT", "2"}};
+    EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
+    env = {{"SLURM_ARRAY_TASK_ID", "3"}};
+    EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
+    env = {{"SLURM_ARRAY_TASK_ID", "x"}, {"SLURM_ARRAY_TASK_COUNT", "3"}};
+    EXPECT_THROW(schedule::slurm_array_shard(lookup), std::invalid_argument);
+}
+
+TEST_F(Distributed, StoreKeepsItemsAndRefusesAnotherJobOrSplit) {
+    const std::string dir = path("store");
+    const schedule::StoreKey key{"bake", "0123456789abcdef", 6};
+    schedule::ItemStore store(dir, key, {1, 3});
+    const std::string payload("\0\1\2binary\xff", 10);
+    store.save(4, payload);
+    EXPECT_EQ(store.load(4).value(), payload);
+    EXPECT_FALSE(store.load(1));
+    store.write_manifest(false, {"dev"}, 0);
+    // Another shard count, spec, version-less key or job in the same folder is bad input.
+    EXPECT_THROW(schedule::ItemStore(dir, key, {0, 2}), std::invalid_argument);
+    EXPECT_THROW(schedule::ItemStore(dir, {"bake", "fedcba9876543210", 6}, {0, 3}), std::invalid_argument);
+    EXPECT_THROW(schedule::ItemStore(dir, {"sweep", key.spec_hash, 6}, {0, 3}), std::invalid_argument);
+    EXPECT_THROW(schedule::ItemStore(dir, {"bake", key.spec_hash, 7}, {0, 3}), std::invalid_argument);
+    EXPECT_NO_THROW(schedule::ItemStore(dir, key, {2, 3}));
+    // A damaged item (one byte flipped) is set aside with a warning, never returned.
+    {
+        const std::string file = dir + "/items/item-0000000004.bin";
+        std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+        f.seekp(-1, std::ios::end);
+        f.put('X');
+    }
+    std::string warning;
+    EXPECT_FALSE(store.load(4, &warning));
+    EXPECT_NE(warning.find("digest"), std::string::npos) << warning;
+    EXPECT_TRUE(fs::exists(dir + "/items/rejected/item-0000000004.bin.digest"));
+    // An empty folder cannot be merged.
+    fs::create_directories(path("empty"));
+    EXPECT_THROW(schedule::ItemStore::open_for_merge(path("empty"), key), std::invalid_argument);
+}
+
+TEST(ItemBytes, RoundTripAndShortInput) {
+    schedule::ItemWriter w;
+    w.put(std::uint32_t(7));
+    w.put_vector(std::vector<float>{1.5f, -0.0f, 3e-40f});
+    const std::string bytes = w.take();
+    schedule::ItemReader r(bytes, "item");
+    EXPECT_EQ(r.get<std::uint32_t>(), 7u);
+    const std::vector<float> v = r.get_vector<float>(3);
+    EXPECT_TRUE(same_bits(v, {1.5f, -0.0f, 3e-40f}));
+    EXPECT_NO_THROW(r.finish());
+    schedule::ItemReader cut(bytes.substr(0, bytes.size() - 1), "item");
+    cut.get<std::uint32_t>();
+    EXPECT_THROW(cut.get_vector<float>(3), std::runtime_error);
+    schedule::ItemReader wrong(bytes, "item");
+    wrong.get<std::uint32_t>();
+    EXPECT_THROW(wrong.get_vector<float>(4), std::runtime_error);
+}
+
+// Shards into one store, a resumed shard, a merge: the unsplit bake's texels and metadata.
+TEST_F(Distributed, ShardedBakeMergesToTheUnsplitBake) {
+    for (const Method method : {Method::sampled, Method::exact}) {
+        SCOPED_TRACE(to_string(method));
+        BakeSpec spec = small_bake();
+        spec.method = method;
+        if (method == Method::exact) spec.tolerance = 1e-4;
+        schedule::Scheduler scheduler(bake_backend(spec));
+        const BakeResult whole = bake_lut(spec, scheduler);
+        const std::string dir = path(std::string("store-") + to_string(method));
+        const schedule::StoreKey key = bake_store_key(spec, scheduler);
+        EXPECT_EQ(key.items, 6u);
+        for (std::uint32_t i = 0; i < 3; ++i) {
+            schedule::ItemStore store(dir, key, {i, 3});
+            schedule::ItemPlan plan;
+            plan.store = &store;
+            plan.shard = {i, 3};
+            const BakeResult part = bake_lut(spec, scheduler, {}, plan);
+            EXPECT_FALSE(part.complete);
+            EXPECT_EQ(part.computed_slices, 2u);
+            if (i == 1) {
+                // A merge before shard 2 ran names it, and writes nothing.
+                schedule::ItemStore partial = schedule::ItemStore::open_for_merge(dir, key);
+                schedule::ItemPlan merge;
+                merge.store = &partial;
+                merge.merge_only = true;
+                try {
+                    bake_lut(spec, scheduler, {}, merge);
+                    ADD_FAILURE() << "merged with a shard missing";
+                } catch (const std::invalid_argument& e) {
+                    EXPECT_NE(std::string(e.what()).find("shard 2/3"), std::string::npos) << e.what();
+                }
+            }
+        }
+        // Rerunning a finished shard computes nothing: its slices come from the store.
+        {
+            schedule::ItemStore store(dir, key, {1, 3});
+            schedule::ItemPlan plan;
+            plan.store = &store;
+            plan.shard = {1, 3};
+            const BakeResult again = bake_lut(spec, scheduler, {}, plan);
+            EXPECT_EQ(again.computed_slices, 0u);
+            EXPECT_EQ(again.loaded_slices, 2u);
+        }
+        schedule::ItemStore store = schedule::ItemStore::open_for_merge(dir, key);
+        schedule::ItemPlan merge;
+        merge.store = &store;
+        merge.merge_only = true;
+        const BakeResult merged = bake_lut(spec, scheduler, {}, merge);
+        ASSERT_TRUE(merged.complete);
+        EXPECT_TRUE(same_bits(whole.value, merged.value));
+        EXPECT_TRUE(same_bits(whole.std_error, merged.std_error));
+        EXPECT_EQ(bake_metadata(spec, whole).dump(), bake_metadata(spec, merged).dump());
+        // Another seed is another bake: its key differs, so the store refuses it.
+        BakeSpec other = spec;
+        other.seed = 8;
+        other.tolerance = method == Method::exact ? 2e-4 : 0;
+        EXPECT_NE(bake_store_key(other, scheduler).spec_hash, key.spec_hash);
+    }
+}
+
+// An interrupted unsplit bake with a store resumes: the finished slices are read back, the rest computed.
+TEST_F(Distributed, StoreResumesAnInterruptedBake) {
+    const BakeSpec spec = small_bake();
+    schedule::Scheduler scheduler(bake_backend(spec));
+    const BakeResult whole = bake_lut(spec, scheduler);
+    const schedule::StoreKey key = bake_store_key(spec, scheduler);
+    const std::string dir = path("store");
+    {
+        // As if killed after slices 0, 2 and 5: only they are in the store.
+        schedule::ItemStore store(dir, key, {0, 1});
+        for (std::uint64_t id : {0, 2, 5}) {
+            // Slice id alone (the shard id/6 of six), saved as the bake's integrand saves it.
+            lut_slice::LutSliceIntegrand one(spec);
+            schedule::WorkSelection only;
+            only.shard_index = id;
+            only.shard_count = 6;
+            scheduler.run(one, only);
+            store.save(id, one.save_item(id));
+        }
+    }
+    schedule::ItemStore store(dir, key, {0, 1});
+    schedule::ItemPlan plan;
+    plan.store = &store;
+    const BakeResult resumed = bake_lut(spec, scheduler, {}, plan);
+    EXPECT_TRUE(resumed.complete);
+    EXPECT_EQ(resumed.loaded_slices, 3u);
+    EXPECT_EQ(resumed.computed_slices, 3u);
+    EXPECT_TRUE(same_bits(whole.value, resumed.value));
+    EXPECT_EQ(bake_metadata(spec, whole).dump(), bake_metadata(spec, resumed).dump());
+}
+
+// The pull source MPI ranks use: items in any order and interleaving give the same texels.
+TEST(SchedulerPull, ItemsFromASourceGiveTheSameTexels) {
+    const BakeSpec spec = small_bake();
+    schedule::Scheduler scheduler(schedule::Backend::oracle(2));
+    const BakeResult whole = bake_lut(spec, scheduler);
+    lut_slice::LutSliceIntegrand pulled(spec);
+    std::vector<std::uint64_t> order{5, 1, 3, 0, 4, 2};
+    std::size_t next = 0;
+    schedule::WorkSelection source;
+    source.next_item = [&](std::uint64_t& id) {
+        if (next == order.size()) return false;
+        id = order[next++];
+        return true;
+    };
+    std::set<std::uint64_t> done;
+    schedule::RunCallbacks cb;
+    cb.on_done = [&](std::uint64_t id) { done.insert(id); };
+    const schedule::RunReport report = scheduler.run(pulled, source, cb);
+    EXPECT_EQ(report.selected, 6u);
+    EXPECT_EQ(report.done, 6u);
+    EXPECT_EQ(done.size(), 6u);
+    EXPECT_TRUE(same_bits(whole.value, pulled.values()));
+    // A source that hands out an id out of range stops the run with an error.
+    lut_slice::LutSliceIntegrand bad(spec);
+    schedule::WorkSelection wrong;
+    bool given = false;
+    wrong.next_item = [&](std::uint64_t& id) {
+        id = 99;
+        return !std::exchange(given, true);
+    };
+    EXPECT_THROW(scheduler.run(bad, wrong), std::runtime_error);
+}
+
+// --- the CLI: shards, the Slurm variables, --merge, and bad input (exit 2, nothing written) -------------
+
+RunResult cli(const std::string& env, const std::string& args) {
+    return run_shell(env + " " + std::string(MICROSHADOW_CLI) + " " + args + " 2>&1");
+}
+
+const std::string kBake =
+    "bake --layout custom --size 4 --roughness 0.3,0.8 --size-n-dot-v 3 --samples 1024 --seed 3 --backend oracle --quiet";
+
+// The texels bit for bit and the metadata apart from the command line.
+void expect_same_lut(const std::string& a, const std::string& b) {
+    LutFile x = read_lut(a), y = read_lut(b);
+    EXPECT_TRUE(same_bits(x.data, y.data)) << a << " vs " << b;
+    x.metadata.erase("command_line");
+    y.metadata.erase("command_line");
+    EXPECT_EQ(x.metadata.dump(), y.metadata.dump());
+}
+
+TEST_F(Distributed, CliShardsFromSlurmVariablesMergeToOneProcess) {
+    const std::string whole = path("whole.exr"), out = path("lut.exr");
+    ASSERT_EQ(cli("", kBake + " --out " + whole).exit_code, 0);
+    for (int task = 1; task <= 2; ++task) {
+        // An array submitted as --array=1-2: tasks 1 and 2 are shards 0/2 and 1/2.
+        const std::string env = "SLURM_ARRAY_TASK_ID=" + std::to_string(task) +
+                                " SLURM_ARRAY_TASK_COUNT=2 SLURM_ARRAY_TASK_MIN=1 SLURM_ARRAY_TASK_MAX=2";
+        const RunResult r = cli(env, kBake + " --out " + out);
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+        EXPECT_FALSE(fs::exists(out)) << "a shard wrote the LUT";
+    }
+    EXPECT_TRUE(fs::exists(out + ".chunks/manifest.shard-0-of-2.json"));
+    EXPECT_TRUE(fs::exists(out + ".chunks/manifest.shard-1-of-2.json"));
+    const RunResult m = cli("", kBake + " --out " + out + " --merge");
+    ASSERT_EQ(m.exit_code, 0) << m.output;
+    expect_same_lut(whole, out);
+}
+
+// The sweep's existing shards take the Slurm array variables too, into one folder that merge joins.
+TEST_F(Distributed, CliSweepShardsFromSlurmVariables) {
+    {
+        std::ofstream spec(path("s.toml"));
+        spec << "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.9]\nn_dot_l = [0.4, 0.8]\nn_dot_v = [0.5, 1.0]\n"
+                "roughness = [0.3]\n[comparators]\nanalytic = [\"naughty-dog\"]\n";
+    }
+    const std::string sweep = "sweep " + path("s.toml") + " --quiet --tolerance 1e-6 --backend oracle";
+    ASSERT_EQ(cli("", sweep + " --out " + path("whole")).exit_code, 0);
+    for (int task = 0; task < 2; ++task) {
+        const RunResult r = cli("SLURM_ARRAY_TASK_ID=" + std::to_string(task) + " SLURM_ARRAY_TASK_COUNT=2", sweep + " --out " + path("split"));
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+    }
+    EXPECT_TRUE(fs::exists(path("split/manifest.shard-1-of-2.json")));
+    EXPECT_FALSE(fs::exists(path("split/sweep.csv")));
+    ASSERT_EQ(cli("", "merge --quiet --out " + path("merged") + " " + path("split")).exit_code, 0);
+    std::ifstream a(path("whole/sweep.csv")), b(path("merged/sweep.csv"));
+    const std::string x((std::istreambuf_iterator<char>(a)), {}), y((std::istreambuf_iterator<char>(b)), {});
+    EXPECT_FALSE(x.empty());
+    EXPECT_EQ(x, y);
+}
+
+TEST_F(Distributed, CliBadShardsAndMergesExitTwoAndWriteNothing) {
+    const std::string out = path("lut.exr");
+    auto refused = [&](const std::string& env, const std::string& args, const std::string& says) {
+        const RunResult r = cli(env, kBake + " --out " + out + " " + args);
+        EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+        EXPECT_FALSE(fs::exists(out));
+    };
+    refused("", "--shard 2/2", "--shard: expected I/N");
+    refused("SLURM_ARRAY_TASK_ID=3 SLURM_ARRAY_TASK_COUNT=3 SLURM_ARRAY_TASK_MIN=0 SLURM_ARRAY_TASK_MAX=7", "",
+            "evenly spaced");
+    refused("", "--merge", "no shard manifests");
+    EXPECT_FALSE(fs::exists(out + ".chunks/items")) << "a refused merge created the store";
+    ASSERT_EQ(cli("", kBake + " --out " + out + " --shard 0/2").exit_code, 0);
+    refused("", "--merge", "shard 1/2 lacks 3 item(s)");
+    // The same store split another way, or of another bake.
+    refused("", "--shard 0/3", "splits this job into 2 shards, not 3");
+    refused("", "--shard 1/2 --replicates 4", "spec hash");
+    refused("", "--merge --shard 1/2", "--merge assembles");
+    refused("", "--scene x.toml --shard 1/2", "does not apply to --scene");
+}
+
+}  // namespace

@@ -19,6 +19,7 @@
 #include "lut/exr_lut.hpp"
 #include "lut/lookup.hpp"
 #include "repr/representation.hpp"
+#include "repr/texture_repr.hpp"
 
 namespace {
 
@@ -198,6 +199,63 @@ TEST_F(DomainTest, RepresentationFilesRecordTheirDomainAndEvalCountsIt) {
     EXPECT_EQ(bad.exit_code, 2) << bad.output;
     EXPECT_NE(bad.output.find("--domain-visibility must be LO,HI"), std::string::npos) << bad.output;
     EXPECT_FALSE(fs::exists(path("b.exr")));
+}
+
+}  // namespace
+
+namespace {
+
+class PresetTest : public ScratchDirTest {
+protected:
+    PresetTest() : ScratchDirTest("preset") {}
+};
+
+// `repr bake` with no options bakes the full-range preset (its file records the preset and its domain);
+// a preset's name is a comparator for eval (baked in memory); layout options beside --preset are refused.
+TEST_F(PresetTest, BakeWithoutOptionsIsFullRangeAndPresetNamesAreComparators) {
+    const auto bake = run_shell("cd " + dir_.string() + " && " + MICROSHADOW_CLI + " repr bake -q 2>&1");
+    ASSERT_EQ(bake.exit_code, 0) << bake.output;
+    ms::repr::install_comparators();
+    const auto rep = ms::repr::open_representation(path("full-range.exr"));
+    const auto* tex = dynamic_cast<const ms::repr::TextureRepresentation*>(rep.get());
+    ASSERT_NE(tex, nullptr);
+    EXPECT_EQ(tex->metadata().at("preset"), "full-range");
+    EXPECT_EQ(rep->domain()->describe(), "roughness [0.05, 1], visibility [0.02, 1], NdotV [0.02, 1]");
+    EXPECT_EQ(rep->cost().bytes, 512u * 1024u);
+    EXPECT_EQ(rep->cost().fetches_per_light, 2u);
+    EXPECT_EQ(rep->grid().warps.n_dot_l, ms::repr::NdotLWarp::edge_roughness);
+
+    // Roughness 0.2 is inside full-range's domain and outside realistic's (0.3-0.9).
+    std::ofstream(path("q.csv")) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.6,0.04,0.04,0.6,0,0.8,0,0.6,0.8\n";
+    const auto e = run("eval -q --in " + path("q.csv") + " --out " + path("r.csv") + " --backend oracle --compare " + path("full-range.exr") +
+                       " --compare realistic");
+    ASSERT_EQ(e.exit_code, 0) << e.output;
+    std::ifstream js(path("r.csv.json"));
+    const auto meta = nlohmann::json::parse(js);
+    EXPECT_EQ(meta["comparators"][0]["outside_domain"], 0);
+    EXPECT_EQ(meta["comparators"][1]["name"], "realistic");
+    EXPECT_EQ(meta["comparators"][1]["preset"], "realistic");
+    EXPECT_EQ(meta["comparators"][1]["outside_domain"], 1);
+    EXPECT_EQ(meta["comparators"][1]["cost"]["bytes"], 256 * 1024);
+
+    const auto bad = run("repr bake -q --preset realistic --visibility-count 8 --out " + path("b.exr"));
+    EXPECT_EQ(bad.exit_code, 2) << bad.output;
+    EXPECT_NE(bad.output.find("--visibility-count conflicts with --preset realistic"), std::string::npos) << bad.output;
+    EXPECT_FALSE(fs::exists(path("b.exr")));
+    const auto unknown = run("eval -q --in " + path("q.csv") + " --out " + path("u.csv") + " --compare full-rnage");
+    EXPECT_EQ(unknown.exit_code, 2) << unknown.output;
+    EXPECT_NE(unknown.output.find("presets: realistic, full-range"), std::string::npos) << unknown.output;
+}
+
+TEST(PresetSpec, SweepsNameAPresetInsteadOfAFileAndRefuseBoth) {
+    const std::string head = "[parameters]\nvisibility = [0.6]\nn_dot_l = [0.5]\nn_dot_v = [0.8]\nroughness = [0.5]\n"
+                             "delta_phi = [0]\n[comparators]\nanalytic = []\n[[comparators.lut]]\nname = \"p\"\n";
+    const auto spec = ms::sweep::parse_spec(head + "preset = \"full-range\"\n", "t.toml", ".");
+    ASSERT_EQ(spec.luts.size(), 1u);
+    EXPECT_EQ(spec.luts[0].preset, "full-range");
+    EXPECT_TRUE(spec.luts[0].file.empty());
+    EXPECT_THROW(ms::sweep::parse_spec(head + "preset = \"full-range\"\nfile = \"x.exr\"\n", "t.toml", "."), std::invalid_argument);
+    EXPECT_THROW(ms::sweep::parse_spec(head, "t.toml", "."), std::invalid_argument);
 }
 
 }  // namespace

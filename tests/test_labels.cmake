@@ -66,12 +66,18 @@ set(microshadow_cli_tests
   "^SceneBakeTest\\.CommandLineBakesTheExampleSceneWithItsReport$"
   "^SceneTest\\.CommandLineWritesEverythingOrNothing$"
   "^SceneTest\\.RepresentationComparatorReadsEachPixelsAzimuth$"
+  "^SceneTest\\.LookupsOutsideAComparatorsDomainAreCountedAndStrictRefusesThem$"
+  "^DomainTest\\.EvalCountsQueriesOutsideEachComparatorsDomainAndStrictRefusesThem$"
+  "^DomainTest\\.RepresentationFilesRecordTheirDomainAndEvalCountsIt$"
+  "^PresetTest\\."
   "^ShaderTest\\."
   "^Signals\\."
   "^StratifiedBakeCli\\."
   "^SweepCli\\."
   "^SweepIntegrity\\.ASweepBegunOnOneDeviceResumesOnAllOfThem$")
 set(microshadow_slow_tests
+  "^ClosedFormSearch\\."
+  "^PresetTest\\."
   "^LutReaderTest\\.CutOrBitFlippedFilesOfEveryFormatAreRefusedOrReadAsValidLuts$"
   "^LutReaderTest\\.EvalCompareShaderAndLutCommandsTakeEveryFormat$"
   "^LutReaderTest\\.WrongKindOfFileGetsOneLineNamingTheRightCommand$"

@@ -77,6 +77,25 @@ fit::ClosedForm fit_closed_form(const ReferenceSet& training, unsigned order) {
 SearchRegion region_of(const ReferenceSet& set) {
     SearchRegion r;
     if (set.points.empty()) return r;
+    // A generated set's region is its definition's (its random points stop short of the ends), when
+    // every point lies in it; a CSV's (or a set built otherwise) is its points' bounding box.
+    const ReferenceDefinition& d = set.definition;
+    if (d.points_csv.empty()) {
+        constexpr double kDeg = 3.14159265358979323846 / 180;
+        SearchRegion g;
+        g.visibility_min = d.visibility.lo, g.visibility_max = d.visibility.hi;
+        g.n_dot_l_min = d.n_dot_l.lo, g.n_dot_l_max = d.n_dot_l.hi;
+        g.n_dot_v_min = d.n_dot_v.lo, g.n_dot_v_max = d.n_dot_v.hi;
+        g.roughness_min = d.roughness.lo, g.roughness_max = d.roughness.hi;
+        g.azimuth_min = d.azimuth_deg.lo * kDeg, g.azimuth_max = d.azimuth_deg.hi * kDeg;
+        bool inside = true;
+        for (const auto& p : set.points)
+            inside = inside && p.visibility >= g.visibility_min && p.visibility <= g.visibility_max && p.n_dot_l >= g.n_dot_l_min &&
+                     p.n_dot_l <= g.n_dot_l_max && p.n_dot_v >= g.n_dot_v_min && p.n_dot_v <= g.n_dot_v_max &&
+                     p.roughness >= g.roughness_min && p.roughness <= g.roughness_max &&
+                     p.relative_azimuth >= g.azimuth_min - 1e-12 && p.relative_azimuth <= g.azimuth_max + 1e-12;
+        if (inside) return g;
+    }
     const auto& p0 = set.points.front();
     r.visibility_min = r.visibility_max = p0.visibility;
     r.n_dot_l_min = r.n_dot_l_max = p0.n_dot_l;

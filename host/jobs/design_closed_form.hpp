@@ -17,7 +17,7 @@ namespace ms::design {
 // [0.005, 0.995], where S^-1 is finite) refined by at most 50 Gauss-Newton steps. The provenance
 // records the set (name, hash, points), the fit's weighted RMS and max error on it, and the steps.
 // Points in the provable zero region (fit::closed_form_zero_region) are left out: the form answers 0
-// there exactly. The provenance also records the form's domain (the training points' ranges, as
+// there exactly. The provenance also records the form's domain (the training region, region_of, as
 // core/lookup_domain.hpp's "domain") and its max error over that region found by search
 // (search_max_error, below), which is what "max_abs" states; fit_max_abs is the max over the training
 // points only.
@@ -29,7 +29,8 @@ struct SearchRegion {
     double n_dot_v_min = 0, n_dot_v_max = 1, roughness_min = 0.1, roughness_max = 1;
     double azimuth_min = 0, azimuth_max = 3.14159265358979323846;
 };
-// The bounding box of a set's points.
+// A generated set's region (its definition's ranges, when every point lies in them), else the bounding
+// box of its points.
 SearchRegion region_of(const ReferenceSet& set);
 
 struct SearchedMax {

@@ -92,16 +92,33 @@ public:
               << ", (tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
               << "    return clamp(dot(FETCH(c0), basis), 0.0, 1.0);\n}\n";
         } else {
+            // Nodes in geometric progression (r_k = r_0 q^k, as the full-range preset's): the slab from a
+            // logarithm, a dozen ALU, instead of a comparison per node.
+            const double q = r[1] / r[0];
+            bool geometric = r.size() > 2;
+            for (std::size_t k = 1; k < r.size() && geometric; ++k) geometric = std::abs(r[k] / r[k - 1] - q) <= 1e-9 * q;
             o << "    // The roughness slabs j and j + 1 that bracket the roughness, and the weight of j + 1.\n"
-              << "    float r = clamp(roughness, " << L(r.front()) << ", " << L(r.back()) << ");\n"
-              << "    float j = 0.0;\n    float f = (r - " << L(r[0]) << ") * " << L(1 / (r[1] - r[0])) << ";\n";
+              << "    float r = clamp(roughness, " << L(r.front()) << ", " << L(r.back()) << ");\n";
+            if (geometric) {
+                o << "    // Geometric nodes r_k = " << L(r[0]) << " * " << L(q) << "^k: j = floor(log(r / r_0) / log(q)).\n"
+                  << "    float j = floor(clamp(log(r * " << L(1 / r[0]) << ") * " << L(1 / std::log(q)) << ", 0.0, " << L(double(r.size() - 2))
+                  << "));\n"
+                  << "    float rj = " << L(r[0]) << " * exp(j * " << L(std::log(q)) << ");\n"
+                  << "    float f = clamp((r - rj) / (rj * " << L(q - 1) << "), 0.0, 1.0);\n";
+                if (edge)
+                    o << "    float rj1 = rj * " << L(q) << ";\n"
+                      << "    float al0 = rj * rj, al1 = rj1 * rj1;\n    float ka0 = " << L(grid_.edge_width) << " * al0, ka1 = "
+                      << L(grid_.edge_width) << " * al1;\n";
+            } else {
+                o << "    float j = 0.0;\n    float f = (r - " << L(r[0]) << ") * " << L(1 / (r[1] - r[0])) << ";\n";
+            }
             // Under the edge-roughness warp each slab has its own NdotL axis: its width w0, w1 too.
             // The edge warp's k alpha and alpha of nodes j and j + 1 (w = k alpha max(s_e, alpha)).
             auto ka = [&](double x) { return L(grid_.edge_width * x * x); };
             auto al = [&](double x) { return L(x * x); };
-            if (edge)
+            if (edge && !geometric)
                 o << "    float ka0 = " << ka(r[0]) << ", al0 = " << al(r[0]) << ", ka1 = " << ka(r[1]) << ", al1 = " << al(r[1]) << ";\n";
-            for (std::size_t k = 1; k + 1 < r.size(); ++k) {
+            for (std::size_t k = 1; k + 1 < r.size() && !geometric; ++k) {
                 o << "    if (r > " << L(r[k]) << ") { j = " << L(k) << "; f = (r - " << L(r[k]) << ") * " << L(1 / (r[k + 1] - r[k]));
                 if (edge) o << "; ka0 = " << ka(r[k]) << "; al0 = " << al(r[k]) << "; ka1 = " << ka(r[k + 1]) << "; al1 = " << al(r[k + 1]);
                 o << "; }\n";

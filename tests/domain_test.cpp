@@ -125,7 +125,7 @@ TEST_F(DomainTest, SweepsReportPointsOutsideAComparatorFilesDomainAndStrictRefus
     write_small_lut(dir_);
     const std::string spec_text =
         "[sweep]\nchunk_size = 64\n[parameters]\nvisibility = [0.6]\nn_dot_l = [0.5, 0.9]\nn_dot_v = [0.8]\n"
-        "roughness = [0.2, 0.5]\ndelta_phi = [0]\n[comparators]\nanalytic = []\n[[comparators.lut]]\nname = \"small\"\n"
+        "roughness = [0.2, 0.5]\ndelta_phi = [0]\n[comparators]\n[[comparators.lut]]\nname = \"small\"\n"
         "file = \"small.exr\"\n";
     const ms::sweep::Spec spec = ms::sweep::parse_spec(spec_text, path("t.toml"), dir_.string());
     auto backend = ms::make_oracle_backend(1);
@@ -249,7 +249,7 @@ TEST_F(PresetTest, BakeWithoutOptionsIsFullRangeAndPresetNamesAreComparators) {
 
 TEST(PresetSpec, SweepsNameAPresetInsteadOfAFileAndRefuseBoth) {
     const std::string head = "[parameters]\nvisibility = [0.6]\nn_dot_l = [0.5]\nn_dot_v = [0.8]\nroughness = [0.5]\n"
-                             "delta_phi = [0]\n[comparators]\nanalytic = []\n[[comparators.lut]]\nname = \"p\"\n";
+                             "delta_phi = [0]\n[comparators]\n[[comparators.lut]]\nname = \"p\"\n";
     const auto spec = ms::sweep::parse_spec(head + "preset = \"full-range\"\n", "t.toml", ".");
     ASSERT_EQ(spec.luts.size(), 1u);
     EXPECT_EQ(spec.luts[0].preset, "full-range");

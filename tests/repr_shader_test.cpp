@@ -96,7 +96,19 @@ std::vector<Case> cases() {
     repr::ReprGrid uniform = warped;
     uniform.weighting = ms::AoWeighting::uniform;
     uniform.roughness = {0.5};
-    return {{"axis_linear", "azimuth-axis", linear, 5},       {"axis_warped", "azimuth-axis", warped, 4},
+    // The edge-roughness NdotL: each slab its own NdotL coordinate (low roughness: widths 2 r^2 down to 0.005).
+    repr::ReprGrid edge = linear;
+    edge.warps = {repr::NdotVWarp::linear, repr::NdotLWarp::edge_roughness, repr::VisibilityWarp::sqrt_top};
+    edge.roughness = {0.05, 0.2, 0.5, 1.0};
+    repr::ReprGrid edge_geometric = edge;  // equal ratios: the shader finds the slab by a logarithm
+    edge_geometric.roughness = {0.05, 0.1, 0.2, 0.4, 0.8};
+    repr::ReprGrid edge_one = edge;
+    edge_one.roughness = {0.3};
+    edge_one.weighting = ms::AoWeighting::uniform;
+    return {{"harm_edge", "azimuth-harmonics", edge, 7}, {"harm_edge_one", "azimuth-harmonics", edge_one, 7},
+            {"harm_edge_geometric", "azimuth-harmonics", edge_geometric, 7}, {"harm_top_geometric", "azimuth-harmonics",
+            [&] { repr::ReprGrid g = top; g.roughness = {0.1, 0.3, 0.9}; return g; }(), 7},
+            {"axis_linear", "azimuth-axis", linear, 5},       {"axis_warped", "azimuth-axis", warped, 4},
             {"axis_uniform", "azimuth-axis", uniform, 3},     {"harm_linear", "azimuth-harmonics", linear, 9},
             {"harm_warped", "azimuth-harmonics", warped, 7},  {"axis_top", "azimuth-axis", top, 6},
             {"harm_top", "azimuth-harmonics", top, 7},  {"harm_uniform", "azimuth-harmonics", uniform, 8}};

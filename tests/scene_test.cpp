@@ -706,6 +706,56 @@ analytic = []
     EXPECT_GT(std::fabs(r.lights[0].approximation[0][0] - r.lights[1].approximation[0][0]), 0.01);
 }
 
+// A comparator file's domain in a scene: lit pixels outside it are counted per comparator (report.json
+// "comparator_domains"), and --strict-domain refuses the scene before any sampling.
+TEST_F(SceneTest, LookupsOutsideAComparatorsDomainAreCountedAndStrictRefusesThem) {
+    repr::install_comparators();
+    const auto bake = testing::run_shell(std::string(MICROSHADOW_CLI) +
+                                         " repr bake -q --kind azimuth-harmonics --visibility-count 2 --n-dot-l-count 2"
+                                         " --n-dot-v-count 2 --azimuth-nodes 7 --roughness 0.4,0.8 --out " + path("harm.exr") + " 2>&1");
+    ASSERT_EQ(bake.exit_code, 0) << bake.output;
+    // Two of six pixels at roughness 0.2, below the file's 0.4.
+    write_png(path("rough.png"), 3, 2, 1, {0.2, 0.6, 0.6, 0.6, 0.6, 0.2});
+    write_text(path("s.toml"), R"(
+[normal]
+value = [0, 0, 1]
+[visibility]
+value = 0.75
+[roughness]
+file = "rough.png"
+[view]
+direction = [0.6, 0.0, 0.8]
+[[light]]
+name = "sun"
+direction = [0.6, 0.0, 0.8]
+[comparators]
+analytic = ["naughty-dog"]
+)");
+    const scene::SceneDescription d = scene::load_scene(path("s.toml"));
+    const scene::SceneInputs inputs = scene::SceneInputs::load(d);
+    scene::SceneRunOptions options;
+    options.bake_seed_luts = false;
+    options.luts = {path("harm.exr")};
+    const scene::SceneResult r = scene::run_scene(inputs, backend(), options);
+    ASSERT_EQ(r.comparators.size(), 2u);
+    EXPECT_FALSE(r.domains[0].has_value()) << "part 1's formula answers everywhere";
+    ASSERT_TRUE(r.domains[1].has_value());
+    EXPECT_EQ(r.outside_domain[1].lookups, 6u);
+    // The PNG's 16-bit roughness 0.2 is outside [0.4, 0.8]; 0.6 inside.
+    EXPECT_EQ(r.outside_domain[1].outside, 2u);
+    EXPECT_NE(r.first_outside[1].find("pixel (0, 0): roughness"), std::string::npos) << r.first_outside[1];
+    const nlohmann::json report = scene::scene_report(r);
+    EXPECT_EQ(report["comparator_domains"]["repr-harm"]["outside_domain"], 2);
+
+    options.strict_domain = true;
+    try {
+        scene::run_scene(inputs, backend(), options);
+        ADD_FAILURE() << "a strict scene outside the domain ran";
+    } catch (const scene::SceneError& e) {
+        EXPECT_NE(std::string(e.what()).find("--strict-domain: comparator repr-harm: 2 of 6 lookups"), std::string::npos) << e.what();
+    }
+}
+
 }  // namespace
 }  // namespace ms
 

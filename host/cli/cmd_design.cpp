@@ -26,6 +26,7 @@
 #include "jobs/design.hpp"
 #include "jobs/design_closed_form.hpp"
 #include "jobs/reference_set.hpp"
+#include "repr/presets.hpp"
 #include "repr/representation.hpp"
 
 
@@ -41,7 +42,7 @@ struct DesignArgs {
     std::vector<unsigned> fit_orders = {1, 2, 3};
     std::string max_bytes = "unlimited";
     unsigned max_fetches = UINT32_MAX, max_alu = UINT32_MAX;
-    bool plot = false, no_analytic = false;
+    bool plot = false, no_analytic = false, strict_domain = false;
     SamplingOptions sampling;
 };
 
@@ -97,7 +98,14 @@ std::string md_cell(const std::string& text) {
 design::Candidate representation_candidate(const std::string& name, const std::string& file) {
     std::shared_ptr<const repr::Representation> r;
     try {
-        r = repr::open_representation(file);
+        // A preset's name (no such file): baked here with the exact method.
+        std::error_code ec;
+        if (repr::is_preset(file) && !fs::exists(file, ec)) {
+            auto backend = make_oracle_backend();
+            r = repr::bake_preset(repr::preset(file), *backend, "preset " + file);
+        } else {
+            r = repr::open_representation(file);
+        }
     } catch (const std::exception& e) {
         throw std::invalid_argument(std::string("--repr ") + file + ": " + e.what());
     }
@@ -108,6 +116,7 @@ design::Candidate representation_candidate(const std::string& name, const std::s
     // ALU counted from its GLSL like every other candidate (the representation's own estimate differs).
     c.cost.alu_per_light = design::count_alu(r->shader(repr::ShaderLanguage::glsl, file));
     c.value = [r](const compare::ComparatorInputs& in) { return (*r)(in); };
+    c.domain = r->domain();
     c.provenance = r->provenance();
     c.provenance["name"] = name;
     c.provenance["file"] = json_safe(file);
@@ -279,6 +288,17 @@ void run_design(const DesignArgs& args) {
                 throw std::invalid_argument("two candidates named '" + c.name + "'; name LUTs with --lut NAME=FILE");
     }
 
+    // Reference points outside each candidate's domain: counted, reported, refused with --strict-domain.
+    std::vector<design::DomainCount> outside;
+    for (const auto& c : candidates) {
+        outside.push_back(design::count_outside_domain(c, set));
+        if (args.strict_domain && c.domain)
+            compare::refuse_outside_domain(args.reference, c.name, *c.domain, outside.back().tally, outside.back().first_outside);
+        if (outside.back().tally.outside > 0)
+            std::cerr << "design: warning: " << c.name << ": " << outside.back().tally.outside << " of " << outside.back().tally.lookups
+                      << " reference points outside its domain (" << c.domain->describe() << "), e.g. "
+                      << outside.back().first_outside << "; --strict-domain refuses them\n";
+    }
     Progress progress("design: candidates", args.sampling.quiet);
     std::vector<design::Metrics> metrics;
     for (std::size_t i = 0; i < candidates.size(); ++i) {
@@ -312,20 +332,21 @@ void run_design(const DesignArgs& args) {
     std::stable_sort(order.begin(), order.end(), [&](auto a, auto b) { return metrics[a].weighted_rms < metrics[b].weighted_rms; });
     const std::set<std::size_t> on_front(front.begin(), front.end());
     std::ostringstream md, csv;
-    md << "| | candidate | kind | storage | bytes | fetches | ALU | N.L-weighted RMS | p99 | max |\n"
-       << "|---|---|---|---|---|---|---|---|---|---|\n";
-    csv << "name,kind,storage,bytes,fetches_per_light,alu_per_light,weighted_rms,weighted_p99,max_abs,pareto,chosen,within_budget\n";
+    md << "| | candidate | kind | storage | bytes | fetches | ALU | N.L-weighted RMS | p99 | max | outside domain |\n"
+       << "|---|---|---|---|---|---|---|---|---|---|---|\n";
+    csv << "name,kind,storage,bytes,fetches_per_light,alu_per_light,weighted_rms,weighted_p99,max_abs,pareto,chosen,within_budget,"
+           "outside_domain\n";
     for (std::size_t i : order) {
         const auto& c = candidates[i];
         const auto& m = metrics[i];
         md << "| " << (i == chosen ? ">" : "") << (on_front.count(i) ? "*" : "") << " | " << md_cell(c.name) << " | "
            << md_cell(c.kind) << " | " << md_cell(c.cost.storage) << " | " << bytes_text(c.cost.bytes) << " | " << c.cost.fetches_per_light << " | "
            << c.cost.alu_per_light << " | " << fixed(m.weighted_rms) << " | " << fixed(m.weighted_p99) << " | "
-           << fixed(m.max_abs) << " |\n";
+           << fixed(m.max_abs) << " | " << (c.domain ? std::to_string(outside[i].tally.outside) : std::string("-")) << " |\n";
         csv << csv_field(c.name) << "," << csv_field(c.kind) << "," << csv_quoted(c.cost.storage) << "," << c.cost.bytes << "," << c.cost.fetches_per_light
             << "," << c.cost.alu_per_light << "," << format_number(m.weighted_rms) << "," << format_number(m.weighted_p99)
             << "," << format_number(m.max_abs) << "," << (on_front.count(i) ? 1 : 0) << "," << (i == chosen ? 1 : 0) << ","
-            << (budget.fits(c.cost) ? 1 : 0) << "\n";
+            << (budget.fits(c.cost) ? 1 : 0) << "," << outside[i].tally.outside << "\n";
     }
     // Where the errors live: N.L-weighted RMS and max per roughness band.
     const std::vector<double> edges = {0.0, 0.2, 0.4, 0.6, 0.8, 1.0};
@@ -369,6 +390,7 @@ void run_design(const DesignArgs& args) {
             j["weighted_p99"] = metrics[i].weighted_p99;
             j["max_abs"] = metrics[i].max_abs;
             j["points"] = metrics[i].points;
+            j.update(compare::domain_report(candidates[i].domain, outside[i].tally));
             // Where the largest errors are (the reference point and the error there).
             nlohmann::json worst = nlohmann::json::array();
             for (const auto& [index, error] : design::worst_points(candidates[i], set, 5)) {
@@ -426,7 +448,8 @@ void add_design_command(CLI::App& app) {
                     "a point per core for ~5e-4), and references need accuracy")->required();
     cmd->add_option("--cache", args->cache, "folder of cached reference sets (resumable chunks while computing)")->capture_default_str();
     cmd->add_option("--lut", args->luts, "a baked LUT (.exr) as a candidate, FILE or NAME=FILE (repeatable)");
-    cmd->add_option("--repr", args->reprs, "a representation file (`microshadow repr bake`) as a candidate, FILE or NAME=FILE (repeatable)");
+    cmd->add_option("--repr", args->reprs, "a representation as a candidate: a file (`microshadow repr bake`) or a preset's name (realistic, full-range; baked "
+                    "here), FILE or NAME=FILE (repeatable)");
     cmd->add_option("--closed-form", args->closed_forms, "a fitted closed form (JSON written by design) as a candidate (repeatable)");
     cmd->add_option("--fit-reference", args->fit_reference,
                     "fit the closed form to this reference spec (use other points than --reference) at each --fit-orders");
@@ -440,6 +463,10 @@ void add_design_command(CLI::App& app) {
     cmd->add_option("--out", args->out, "folder for pareto.csv, pareto.md, design.json and the chosen candidate's files "
                                         "(chosen-NAME.*: its data and GLSL/HLSL)");
     cmd->add_flag("--plot", args->plot, "with --out: draw OUT/pareto.png with plot_pareto.py (/usr/bin/python3, matplotlib)");
+    cmd->add_flag("--strict-domain", args->strict_domain,
+                  "refuse (exit status 2, nothing written) a candidate whose domain (a file's or a fit's roughness, visibility "
+                  "and NdotV ranges) leaves out reference points; without it they are counted (\"outside domain\" in pareto.md/.csv, "
+                  "design.json) and warned of");
     cmd->add_flag("--no-analytic", args->no_analytic, "leave part 1's terms out of the candidates");
     cmd->add_option("--backend", args->sampling.backend, "where a missing reference is computed: opencl or oracle")
         ->check(CLI::IsMember({"opencl", "oracle"}))->capture_default_str();

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
@@ -20,6 +21,7 @@ struct EvalArgs {
     std::string in, out;
     SamplingOptions sampling;
     std::vector<std::string> compare;  // --compare NAME | FILE | NAME=FILE
+    bool strict_domain = false;        // refuse queries outside a comparator's domain
 };
 
 void run_eval(const EvalArgs& args) {
@@ -33,10 +35,22 @@ void run_eval(const EvalArgs& args) {
     // Comparator values (cheap) before the term, so a query a comparator cannot take is refused first.
     std::vector<std::vector<double>> compared(comparators.size(), std::vector<double>(queries.size()));
     std::vector<double> n_dot_l(queries.size());
+    // Lookups outside each comparator's domain are answered (clamped) but counted, and reported.
+    std::vector<DomainTally> outside(comparators.size());
+    std::vector<std::string> first_outside(comparators.size());
+    std::vector<std::optional<LookupDomain>> domains;
+    for (const auto& c : comparators) domains.push_back(c.domain());
     for (std::size_t i = 0; i < queries.size() && !comparators.empty(); ++i) {
         const compare::ComparatorInputs in = compare::inputs_of(queries[i], term.ao_weighting);
         n_dot_l[i] = in.n_dot_l;
         for (std::size_t k = 0; k < comparators.size(); ++k) {
+            if (domains[k]) {
+                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                outside[k].add(inside);
+                if (!inside && first_outside[k].empty())
+                    first_outside[k] = "query " + std::to_string(i + 1) + ": " +
+                                       domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+            }
             try {
                 compared[k][i] = comparators[k](in);
             } catch (const std::domain_error& e) {
@@ -45,6 +59,9 @@ void run_eval(const EvalArgs& args) {
             }
         }
     }
+    if (args.strict_domain)
+        for (std::size_t k = 0; k < comparators.size(); ++k)
+            if (domains[k]) compare::refuse_outside_domain(args.in, comparators[k].name(), *domains[k], outside[k], first_outside[k]);
     // Both outputs checked before computing, written together or not at all. `--out -` writes the
     // CSV to standard output and no sidecar: its provenance has no file to sit beside.
     OutputSet outputs;
@@ -110,6 +127,7 @@ void run_eval(const EvalArgs& args) {
             c["max_abs_error"] = errors[k].max_abs;
             c["rms_error"] = errors[k].rms();
             c["n_dot_l_weighted_rms_error"] = errors[k].weighted_rms();
+            c.update(compare::domain_report(domains[k], outside[k]));
             list.push_back(c);
         }
         meta["comparators"] = list;
@@ -130,6 +148,12 @@ void run_eval(const EvalArgs& args) {
             std::cerr << "eval: " << comparators[k].name() << " - term: max |error| " << std::setprecision(4)
                       << errors[k].max_abs << ", RMS " << errors[k].rms() << ", N.L-weighted RMS "
                       << errors[k].weighted_rms() << "\n";
+    // Said even with --quiet: the figures above mean little for a file used outside its domain.
+    for (std::size_t k = 0; k < comparators.size(); ++k)
+        if (outside[k].outside > 0)
+            std::cerr << "eval: warning: " << comparators[k].name() << ": " << outside[k].outside << " of " << outside[k].lookups
+                      << " queries outside its domain (" << domains[k]->describe() << "), e.g. " << first_outside[k]
+                      << "; --strict-domain refuses them\n";
 }
 
 }  // namespace
@@ -146,6 +170,10 @@ void add_eval_command(CLI::App& app) {
                     "activision-adjusted, pz-analytic), a baked LUT file (.exr, column named after the file stem) or "
                     "NAME=FILE; each reads visibility, NdotL = wo_z, NdotV = wi_z (normalised) and the "
                     "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do");
+    cmd->add_flag("--strict-domain", args->strict_domain,
+                  "refuse (exit status 2, nothing written) when a query lies outside a --compare file's domain (the "
+                  "roughness, visibility and NdotV ranges its metadata records); without it such queries are answered, "
+                  "counted (\"outside_domain\" per comparator in OUT.json) and warned of");
     args->sampling.method = "exact";
     add_sampling_options(cmd, args->sampling,
                          "Default exact: at its default tolerance 1e-10 it takes ~10 us a query per core, less "

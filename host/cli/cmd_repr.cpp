@@ -10,6 +10,7 @@
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
+#include "repr/presets.hpp"
 #include "repr/representation.hpp"
 
 namespace ms::cli {
@@ -17,7 +18,9 @@ namespace ms::cli {
 namespace {
 
 struct ReprBakeArgs {
-    std::string kind, out, shader_glsl, shader_hlsl;
+    std::string preset, kind, out, shader_glsl, shader_hlsl;
+    double edge_width = 2.0;
+    std::vector<double> domain_visibility{0, 1}, domain_n_dot_v{0, 1};
     std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16, azimuth_nodes = 9, roughness_count = 0;
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
     std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear", visibility_warp = "linear";
@@ -73,8 +76,45 @@ std::string cost_line(const repr::Representation& r) {
     return o.str();
 }
 
-void run_repr_bake(const ReprBakeArgs& a) {
+// The options that choose a layout: a preset sets them all, so they are refused beside --preset.
+const char* const kLayoutOptions[] = {"--kind", "--visibility-count", "--n-dot-l-count", "--n-dot-v-count", "--azimuth-nodes",
+                                      "--roughness", "--roughness-count", "--n-dot-v-warp", "--n-dot-l-warp", "--visibility-warp",
+                                      "--n-dot-l-edge-width", "--domain-visibility", "--domain-n-dot-v"};
+
+// A [lo, hi] option of the domain: two values in [0, 1], lo < hi.
+void check_range(const char* option, const std::vector<double>& v) {
+    if (v.size() != 2 || !(v[0] >= 0 && v[0] < v[1] && v[1] <= 1))
+        throw std::invalid_argument(std::string(option) + " must be LO,HI with 0 <= LO < HI <= 1");
+}
+
+void run_repr_bake(ReprBakeArgs a) {
+    // No layout option and no preset: the full-range preset, what a renderer that does not know its
+    // content's roughness should ship.
+    bool layout_given = false;
+    for (const char* o : kLayoutOptions) layout_given = layout_given || a.cmd->count(o) > 0;
+    if (!a.preset.empty() && layout_given)
+        for (const char* o : kLayoutOptions)
+            if (a.cmd->count(o) > 0)
+                throw std::invalid_argument(std::string(o) + " conflicts with --preset " + a.preset +
+                                            " (a preset sets the whole layout; bake a custom one with --kind)");
+    if (a.preset.empty() && !layout_given) a.preset = "full-range";
+    if (!a.preset.empty() && a.out.empty()) a.out = a.preset + ".exr";
+    if (a.out.empty()) throw std::invalid_argument("--out is required for a custom layout (--kind ...)");
+    if (a.preset.empty() && a.kind.empty()) throw std::invalid_argument("--kind is required for a custom layout (or name a --preset)");
     repr::AzimuthBakeSpec spec;
+    spec.term = a.sampling.term_options();
+    LookupDomain domain;
+    if (!a.preset.empty()) {
+        const repr::Preset p = repr::preset(a.preset, spec.term.ao_weighting);
+        a.kind = p.kind;
+        a.azimuth_nodes = p.azimuth_nodes;
+        spec.grid = p.grid;
+        domain = p.domain;
+    } else {
+        check_range("--domain-visibility", a.domain_visibility);
+        check_range("--domain-n-dot-v", a.domain_n_dot_v);
+    }
+    if (a.preset.empty()) {
     spec.grid.visibility = a.visibility;
     spec.grid.n_dot_l = a.n_dot_l;
     spec.grid.n_dot_v = a.n_dot_v;
@@ -82,12 +122,18 @@ void run_repr_bake(const ReprBakeArgs& a) {
     spec.grid.warps.n_dot_v = repr::parse_n_dot_v_warp(a.n_dot_v_warp);
     spec.grid.warps.n_dot_l = repr::parse_n_dot_l_warp(a.n_dot_l_warp);
     spec.grid.warps.visibility = repr::parse_visibility_warp(a.visibility_warp);
-    spec.term = a.sampling.term_options();
+    spec.grid.edge_width = a.edge_width;
     spec.grid.weighting = spec.term.ao_weighting;
+    }
     spec.azimuth_nodes = a.azimuth_nodes;
     spec.plan = a.sampling.plan();
     note_unused_sampling_options(a.cmd, a.sampling);
     spec.command_line = command_line();
+    if (a.preset.empty()) {
+        // A custom layout's domain: its roughness nodes' range (after --roughness-count, the same ends)
+        // and the visibility and NdotV ranges given.
+        domain = repr::grid_domain(spec.grid, a.domain_visibility[0], a.domain_visibility[1], a.domain_n_dot_v[0], a.domain_n_dot_v[1]);
+    }
     if (a.roughness_count && (a.roughness_count < 2 || a.roughness_count > a.roughness.size()))
         throw std::invalid_argument("--roughness-count must be between 2 and the number of --roughness values");
     if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
@@ -104,6 +150,9 @@ void run_repr_bake(const ReprBakeArgs& a) {
     Progress progress("repr bake", a.sampling.quiet);
     repr::AzimuthBake bake = repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); });
     progress.finish();
+    bake.metadata["domain"] = domain.to_json(a.preset.empty() ? "the lookups this representation was made for; outside, its axes clamp"
+                                                              : "the preset's domain: its measured errors hold here; outside, its axes clamp");
+    if (!a.preset.empty()) bake.metadata["preset"] = a.preset;
     if (a.roughness_count) {
         double worst = 0;
         const auto keep = repr::choose_roughness_nodes(bake, a.roughness_count, &worst);
@@ -152,10 +201,15 @@ void add_repr_command(CLI::App& app) {
     auto a = std::make_shared<ReprBakeArgs>();
     auto* bake = repr_cmd->add_subcommand("bake", "bake the term at K azimuth nodes per texel and build a representation");
     a->cmd = bake;
-    bake->add_option("--kind", a->kind, "azimuth-axis or azimuth-harmonics")->required()->check(CLI::IsMember(repr::representation_kinds()));
+    bake->add_option("--preset", a->preset,
+                     "a named layout (the default, with no layout option: full-range): realistic (roughness 0.3-0.9, visibility "
+                     "0.5-1, NdotV 0.2-1; 256 KiB) or full-range (roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1; 512 KiB); "
+                     "docs/representations.md gives their measured errors")
+        ->check(CLI::IsMember(repr::preset_names()));
+    bake->add_option("--kind", a->kind, "a custom layout: azimuth-axis or azimuth-harmonics")->check(CLI::IsMember(repr::representation_kinds()));
     bake->add_option("--out", a->out,
                      "the representation file: .exr (opened by eval --compare and sweeps), or the 3D texture alone as "
-                     ".ktx2 or .dds (+ .dds.json metadata)")->required();
+                     ".ktx2 or .dds (+ .dds.json metadata); default PRESET.exr for a preset");
     bake->add_option("--visibility-count", a->visibility, "visibility texels")->transform(decimal_range(2, 256))->capture_default_str();
     bake->add_option("--n-dot-l-count", a->n_dot_l, "NdotL texels")->transform(decimal_range(2, 256))->capture_default_str();
     bake->add_option("--n-dot-v-count", a->n_dot_v, "NdotV texels")->transform(decimal_range(2, 256))->capture_default_str();
@@ -168,8 +222,16 @@ void add_repr_command(CLI::App& app) {
     bake->add_option("--n-dot-v-warp", a->n_dot_v_warp, "linear or sqrt (texels uniform in sqrt(NdotV))")
         ->check(CLI::IsMember({"linear", "sqrt"}))->capture_default_str();
     bake->add_option("--n-dot-l-warp", a->n_dot_l_warp,
-                     "linear, shadow-edge (NdotL measured from the zero region's edge) or sqrt-top (u = 1 - sqrt(1 - NdotL))")
-        ->check(CLI::IsMember({"linear", "shadow-edge", "sqrt-top"}))->capture_default_str();
+                     "linear, shadow-edge (NdotL measured from the zero region's edge), sqrt-top (u = 1 - sqrt(1 - NdotL)) or "
+                     "edge-roughness (azimuth-harmonics: per roughness slab, asinh of the distance to the shadow edge in units of alpha)")
+        ->check(CLI::IsMember({"linear", "shadow-edge", "sqrt-top", "edge-roughness"}))->capture_default_str();
+    bake->add_option("--n-dot-l-edge-width", a->edge_width,
+                     "edge-roughness warp (azimuth-harmonics): the shadow edge's width in units of alpha = roughness^2")
+        ->check(CLI::Range(0.01, 100.0))->capture_default_str();
+    bake->add_option("--domain-visibility", a->domain_visibility, "the visibility range the file is made for (its metadata's domain)")
+        ->delimiter(',')->expected(2)->capture_default_str();
+    bake->add_option("--domain-n-dot-v", a->domain_n_dot_v, "the NdotV range the file is made for (its metadata's domain)")
+        ->delimiter(',')->expected(2)->capture_default_str();
     bake->add_option("--visibility-warp", a->visibility_warp, "linear or sqrt-top (u = 1 - sqrt(1 - v): texels dense near v = 1)")
         ->check(CLI::IsMember({"linear", "sqrt-top"}))->capture_default_str();
     bake->add_flag("--half", a->half, "store HALF channels (what an engine uploads)");

@@ -17,7 +17,7 @@ struct SceneArgs {
     std::string scene, out;
     double tolerance = 0;
     std::string method;  // empty: the description's sampling.method
-    bool no_skip = false, no_seed_luts = false, quiet = false, fast_math = false;
+    bool no_skip = false, no_seed_luts = false, quiet = false, fast_math = false, strict_domain = false;
     std::vector<std::string> luts;
     std::string backend = "opencl", device = "default";
 };
@@ -50,6 +50,7 @@ void run_scene_command(const SceneArgs& args) {
     }
     options.luts = args.luts;
     options.bake_seed_luts = !args.no_seed_luts;
+    options.strict_domain = args.strict_domain;
     // Every output name and the folder are checked once the comparators are known, before any work.
     options.check_outputs = [&](const std::vector<std::string>& comparators) {
         std::vector<std::string> lights;
@@ -100,6 +101,11 @@ void run_scene_command(const SceneArgs& args) {
                 std::cerr << "scene: " << l.light << ": " << result.comparators[k] << ": weighted error max " << s.max
                           << ", RMS " << s.rms << ", p99 " << s.p99 << "\n";
             }
+        for (std::size_t k = 0; k < result.comparators.size() && k < result.outside_domain.size(); ++k)
+            if (result.outside_domain[k].outside > 0)
+                std::cerr << "scene: warning: " << result.comparators[k] << ": " << result.outside_domain[k].outside << " of "
+                          << result.outside_domain[k].lookups << " lit pixel-lights outside its domain ("
+                          << result.domains[k]->describe() << "), e.g. " << result.first_outside[k] << "; --strict-domain refuses them\n";
         std::cerr << "scene: wrote " << args.out << "/report.md, scene.exr and the PNG images\n";
     }
 }
@@ -121,6 +127,9 @@ void add_scene_command(CLI::App& app) {
     cmd->add_option("--lut", args->luts, "a LUT file to compare as well (repeatable)");
     cmd->add_flag("--no-skip", args->no_skip, "send every unmasked pixel's own query to the integrand (no classification "
                                               "here, no deduplication): the baseline that skipping is measured against");
+    cmd->add_flag("--strict-domain", args->strict_domain,
+                  "refuse (exit status 2, nothing written) when a lit pixel's lookup lies outside a comparator's domain (the "
+                  "roughness, visibility and NdotV ranges its metadata records); without it they are counted in report.md/.json");
     cmd->add_flag("--no-seed-luts", args->no_seed_luts, "do not bake the seed's 3D and 2D LUTs as comparators");
     cmd->add_option("--backend", args->backend, "opencl (default) or oracle")->check(CLI::IsMember({"opencl", "oracle"}));
     cmd->add_option("--device", args->device, "OpenCL device: default, all, an index from `devices`, or part of a name");

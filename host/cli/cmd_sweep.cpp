@@ -25,7 +25,7 @@ namespace fs = std::filesystem;
 struct SweepArgs {
     std::string spec, out, shard;
     std::uint64_t max_chunks = 0;
-    bool restart = false, plot = false, mpi = false;
+    bool restart = false, plot = false, mpi = false, strict_domain = false;
     SamplingOptions sampling;
     CLI::App* cmd = nullptr;
 };
@@ -79,6 +79,7 @@ void run_sweep_command(SweepArgs& args) {
     config.shard = {shard.index, shard.count};
     config.max_chunks = args.max_chunks;
     config.restart = args.restart;
+    config.strict_domain = args.strict_domain;
     config.fast_math = args.sampling.fast_math;
     config.command_line = command_line();
     // The MPI world before the devices: only rank 0 touches the output folder.
@@ -110,6 +111,8 @@ void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunCon
     }
     progress.finish();
     if (!rank0) return;  // a computing rank: rank 0 reports and writes
+    for (const auto& w : r.warnings_outside_domain)
+        std::cerr << "sweep: warning: " << w << "; --strict-domain refuses them\n";
     if (!args.sampling.quiet)
         std::cerr << "sweep: " << r.points << " points in " << r.chunks << " chunks of " << spec.chunk_size
                   << "; this run computed " << r.computed << ", found " << r.skipped << " finished (spec hash "
@@ -146,6 +149,10 @@ void add_sweep_command(CLI::App& app) {
     cmd->add_option("--max-chunks", args->max_chunks, "compute at most this many chunks, then stop (resumable)")
         ->transform(decimal_range(0, std::numeric_limits<std::uint64_t>::max()));
     cmd->add_flag("--restart", args->restart, "discard a previous run of a different sweep in --out");
+    cmd->add_flag("--strict-domain", args->strict_domain,
+                  "refuse (exit status 2, nothing written) a sweep whose points lie outside a comparator file's domain (the "
+                  "roughness, visibility and NdotV ranges its metadata records); without it they are counted in "
+                  "summary.md and sweep.json (\"outside_domain\") and warned of");
     cmd->add_flag("--plot", args->plot, "draw heatmaps into OUT/figures with plot_sweep.py (/usr/bin/python3, matplotlib; found beside the "
                   "executable: ../share/microshadow/ or the source tree's scripts/)");
     // Measured on the project's 2-core CPU: the exact evaluator takes ~10 us a query per core at its

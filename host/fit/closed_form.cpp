@@ -86,6 +86,13 @@ std::vector<double> closed_form_basis(unsigned order, const ClosedFormVariables&
     return out;
 }
 
+bool closed_form_zero_region(double visibility, double n_dot_l, AoWeighting weighting) {
+    // The same arithmetic as the shader's test (a float there).
+    const double edge = weighting == AoWeighting::cosine ? 1.0 - 2.0 * visibility
+                                                         : 2.0 * (1.0 - visibility) * (1.0 - visibility) - 1.0;
+    return n_dot_l <= std::max(0.0, edge);
+}
+
 double closed_form_link(double z) { return 0.5 + 0.5 * z / std::sqrt(1.0 + z * z); }
 double closed_form_link_derivative(double z) { return 0.5 / std::pow(1.0 + z * z, 1.5); }
 
@@ -98,6 +105,7 @@ double ClosedForm::at(const ClosedFormVariables& x) const {
 
 double ClosedForm::operator()(double visibility, double n_dot_l, double n_dot_v, double roughness,
                               double relative_azimuth) const {
+    if (closed_form_zero_region(visibility, n_dot_l, weighting)) return 0.0;
     return at(closed_form_variables(visibility, n_dot_l, n_dot_v, roughness, relative_azimuth, weighting));
 }
 
@@ -117,6 +125,9 @@ std::string generate_closed_form_shader(const ClosedForm& form, ClosedFormLangua
       << "// roughness is the perceptual roughness (alpha = roughness^2), > 0; anisotropic: (alpha_x alpha_y)^(1/4).\n"
       << "float ms_micro_shadowing_fit(float visibility, float n_dot_l, float n_dot_v, float roughness, float v_dot_l) {\n";
     o << "    float c = " << (form.weighting == AoWeighting::cosine ? "sqrt(1.0 - visibility)" : "1.0 - visibility") << ";\n";
+    // The provable zero region (light beyond twice the cone's half-angle, or below the horizon): exactly 0.
+    o << "    if (n_dot_l <= max(0.0, " << (form.weighting == AoWeighting::cosine ? "1.0 - 2.0 * visibility" : "2.0 * c * c - 1.0")
+      << ")) return 0.0;\n";
     o << "    float u = (n_dot_l - c) / (roughness * roughness);\n";
     if (used.count(1)) o << "    float t = " << fma << "(-n_dot_v, n_dot_l, v_dot_l);\n";
     // Degree >= 2 monomials reuse the one of degree - 1 they extend: one multiply each.

@@ -49,6 +49,11 @@ std::vector<std::vector<int>> closed_form_monomials(unsigned order);
 // The monomials' values at a point, in closed_form_monomials order.
 std::vector<double> closed_form_basis(unsigned order, const ClosedFormVariables& x);
 
+// The provable zero region, where the term is exactly 0 and the closed form returns 0 without its
+// polynomial: NdotL <= 0, or NdotL <= cos(2 theta_c) = 2 c^2 - 1, the light beyond twice the cone's
+// half-angle (cosine AO: 1 - 2 v; uniform AO: 2 (1 - v)^2 - 1), as the representations' lookups test it.
+bool closed_form_zero_region(double visibility, double n_dot_l, AoWeighting weighting);
+
 // The sigmoid and its derivative.
 double closed_form_link(double z);
 double closed_form_link_derivative(double z);
@@ -59,15 +64,17 @@ struct ClosedForm {
     std::vector<double> coefficients;  // one per monomial
     nlohmann::json provenance = nlohmann::json::object();  // reference set, fit errors, command line
 
+    // 0 in the zero region (closed_form_zero_region), else S(z).
     double operator()(double visibility, double n_dot_l, double n_dot_v, double roughness, double relative_azimuth) const;
-    // The same from the model variables.
+    // S(z) from the model variables (no zero-region test: the caller's).
     double at(const ClosedFormVariables& x) const;
 };
 
 enum class ClosedFormLanguage { glsl, hlsl };
 
 // ms_micro_shadowing_fit(visibility, n_dot_l, n_dot_v, roughness, v_dot_l): the function a renderer
-// pastes in (v_dot_l = dot(V, L), which shading code has at hand; roughness > 0).
+// pastes in (v_dot_l = dot(V, L), which shading code has at hand; roughness > 0). It returns 0 in the
+// zero region before the polynomial, as operator() does.
 std::string generate_closed_form_shader(const ClosedForm& form, ClosedFormLanguage language, const std::string& source_name);
 
 // The JSON file: format, model description, order, AO weighting, monomials, coefficients, provenance.

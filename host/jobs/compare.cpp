@@ -64,9 +64,30 @@ bool looks_like_file(const std::string& s) {
     return s.find('/') != std::string::npos || s.find('.') != std::string::npos || std::filesystem::exists(s, ec);
 }
 
+NamedComparatorOpener& named_comparator_opener() {
+    static NamedComparatorOpener opener;
+    return opener;
+}
+std::string& named_comparator_names() {
+    static std::string names;
+    return names;
+}
+
 }  // namespace
 
 void set_file_comparator_opener(FileComparatorOpener opener) { file_comparator_opener() = std::move(opener); }
+void set_named_comparator_opener(NamedComparatorOpener opener) { named_comparator_opener() = std::move(opener); }
+void set_named_comparator_names(std::string names) { named_comparator_names() = std::move(names); }
+
+Comparator Comparator::open_named(const std::string& column, const std::string& name) {
+    Comparator c;
+    c.name_ = column;
+    c.file_ = "preset:" + name;
+    if (const auto& open = named_comparator_opener())
+        if ((c.file_comparator_ = open(name))) return c;
+    throw std::invalid_argument("no representation preset '" + name + "'" +
+                                (named_comparator_names().empty() ? std::string() : " (presets: " + named_comparator_names() + ")"));
+}
 
 std::string analytic_term_names() {
     std::string s;
@@ -108,8 +129,16 @@ Comparator Comparator::parse(const std::string& argument) {
                 c.term_ = t;
                 return c;
             }
+        // A representation preset by name (baked now, in memory).
+        if (const auto& open = named_comparator_opener())
+            if (auto named = open(name)) {
+                c.file_ = "preset:" + name;
+                c.file_comparator_ = std::move(named);
+                return c;
+            }
         const std::string close = closest_analytic_term(name);
         throw std::invalid_argument("--compare: no analytic term '" + name + "' (valid: " + analytic_term_names() +
+                                    (named_comparator_names().empty() ? std::string() : "; presets: " + named_comparator_names()) +
                                     "; or a LUT file, or NAME=FILE)" + (close.empty() ? "" : "; did you mean " + close + "?"));
     }
     if (name.empty()) throw std::invalid_argument("--compare " + argument + ": the file stem gives no column name; use NAME=FILE");
@@ -160,11 +189,37 @@ double Comparator::operator()(const ComparatorInputs& in) const {
     return lut_ ? lut_value(*lut_, in) : analytic_value(term_, in);
 }
 
+std::optional<LookupDomain> Comparator::domain() const {
+    if (file_comparator_) return file_comparator_->domain();
+    if (lut_) return lut_->domain();
+    return std::nullopt;
+}
+
+bool Comparator::in_domain(const ComparatorInputs& in) const {
+    const auto d = domain();
+    return !d || d->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+}
+
+nlohmann::json domain_report(const std::optional<LookupDomain>& domain, const DomainTally& tally) {
+    return {{"domain", domain ? domain->to_json() : nlohmann::json(nullptr)},
+            {"lookups", tally.lookups},
+            {"outside_domain", tally.outside}};
+}
+
+void refuse_outside_domain(const std::string& where, const std::string& name, const LookupDomain& domain,
+                           const DomainTally& tally, const std::string& first_outside) {
+    if (tally.outside == 0) return;
+    throw std::invalid_argument(where + ": --strict-domain: comparator " + name + ": " + std::to_string(tally.outside) + " of " +
+                                std::to_string(tally.lookups) + " lookups outside its domain (" + domain.describe() +
+                                "), e.g. " + first_outside);
+}
+
 nlohmann::json Comparator::provenance() const {
     if (file_comparator_) {
         nlohmann::json j = file_comparator_->provenance();
         j["name"] = name_;
         j["file"] = file_;
+        if (const auto d = domain()) j["domain"] = d->to_json();
         return j;
     }
     nlohmann::json j = lut_ ? nlohmann::json{{"name", name_}, {"kind", "lut"}, {"file", file_}}
@@ -173,6 +228,7 @@ nlohmann::json Comparator::provenance() const {
         j["cost"] = {{"bytes", c->bytes}, {"fetches_per_light", c->fetches_per_light}, {"alu_per_light", c->alu_per_light},
                      {"storage", c->storage}};
     if (!lut_) return j;
+    j["domain"] = lut_->domain().to_json();
     const auto& meta = lut_->file().metadata;
     for (const char* key : {"version", "command_line"})
         if (meta.is_object() && meta.contains(key)) j[key] = meta[key];

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "analytic/part1_terms.hpp"
+#include "core/lookup_domain.hpp"
 #include "core/query.hpp"
 #include "core/types.hpp"
 #include "lut/lookup.hpp"
@@ -52,10 +53,18 @@ public:
     virtual ComparatorCost cost() const = 0;
     virtual double operator()(const ComparatorInputs& in) const = 0;
     virtual nlohmann::json provenance() const = 0;
+    // Where the file answers as its measured errors say (its metadata's "domain"); none: everywhere.
+    virtual std::optional<LookupDomain> domain() const { return std::nullopt; }
 };
 // Returns null when `path` is not a file of its kinds; throws std::runtime_error for one it cannot read.
 using FileComparatorOpener = std::function<std::shared_ptr<const FileComparator>(const std::string& path)>;
 void set_file_comparator_opener(FileComparatorOpener opener);
+// The same for a named comparator that is no file (host/repr/'s presets, baked when opened): null when
+// `name` is not one of its names.
+using NamedComparatorOpener = std::function<std::shared_ptr<const FileComparator>(const std::string& name)>;
+void set_named_comparator_opener(NamedComparatorOpener opener);
+// The names the named opener takes ("" when none is installed), for messages.
+void set_named_comparator_names(std::string names);
 
 // The isotropic-equivalent roughness of (alpha_x, alpha_y): (alpha_x alpha_y)^(1/4), the square root
 // of the geometric-mean alpha (it keeps the area of the slope distribution's footprint).
@@ -77,7 +86,8 @@ double lut_value(const sweep::LutLookup& lut, const ComparatorInputs& in);
 // One comparator column of `eval --compare`.
 class Comparator {
 public:
-    // NAME (an analytic term), FILE (a LUT, the column named after the file stem) or NAME=FILE.
+    // NAME (an analytic term or a representation preset, baked when opened), FILE (a LUT, the column
+    // named after the file stem) or NAME=FILE.
     // Throws std::invalid_argument: an unknown name (listing the valid ones, with "did you mean" when
     // one is close) or an unreadable LUT (read_lut's message).
     static Comparator parse(const std::string& argument);
@@ -86,6 +96,9 @@ public:
     // files here, so a spec names a representation exactly as it names a LUT. Throws std::runtime_error
     // naming the file (read_lut's or the opener's message).
     static Comparator open_file(const std::string& name, const std::string& file);
+    // A named comparator that is no file (a representation preset, "full-range"), under a column name.
+    // Throws std::invalid_argument for a name the installed opener does not know.
+    static Comparator open_named(const std::string& column, const std::string& name);
 
     const std::string& name() const { return name_; }
     bool is_lut() const { return lut_ != nullptr; }
@@ -95,6 +108,11 @@ public:
     // its GLSL (jobs/design.hpp's analytic_glsl). ALU by lut/shader/alu_count.hpp for all.
     std::optional<ComparatorCost> cost() const;
     double operator()(const ComparatorInputs& in) const;
+    // A file's domain (a LUT's or a representation's; core/lookup_domain.hpp); none for part 1's formulas,
+    // which answer everywhere.
+    std::optional<LookupDomain> domain() const;
+    // True when `in` lies inside the domain (always without one).
+    bool in_domain(const ComparatorInputs& in) const;
     // {name, kind, term} or {name, kind, file, version, command_line} (the LUT metadata's, when present).
     nlohmann::json provenance() const;
 
@@ -110,6 +128,15 @@ private:
 // columns of the output, including each comparator's "<name>_error"). Throws std::invalid_argument.
 std::vector<Comparator> parse_comparators(const std::vector<std::string>& arguments,
                                           const std::vector<std::string>& taken);
+
+// The per-comparator record of lookups outside the domain that eval, sweeps, scenes and design write:
+// {"domain": {...} or null, "lookups": N, "outside_domain": M}.
+nlohmann::json domain_report(const std::optional<LookupDomain>& domain, const DomainTally& tally);
+// Refuses, with --strict-domain, a comparator that looked up outside its domain: std::invalid_argument
+// "<where>: --strict-domain: comparator NAME: M of N lookups outside its domain (...), e.g. <first>".
+// Does nothing when tally.outside is 0.
+void refuse_outside_domain(const std::string& where, const std::string& name, const LookupDomain& domain,
+                           const DomainTally& tally, const std::string& first_outside);
 
 // The analytic term names, comma-separated, and the closest one to `word` ("" when none is close).
 std::string analytic_term_names();

@@ -102,6 +102,20 @@ void errors_of(const Candidate& c, const ReferenceSet& set, std::vector<double>&
 
 }  // namespace
 
+DomainCount count_outside_domain(const Candidate& c, const ReferenceSet& set) {
+    DomainCount out;
+    if (!c.domain) return out;
+    for (std::size_t i = 0; i < set.points.size(); ++i) {
+        const ReferencePoint& p = set.points[i];
+        const bool inside = c.domain->contains(p.visibility, p.n_dot_l, p.n_dot_v, p.roughness);
+        out.tally.add(inside);
+        if (!inside && out.first_outside.empty())
+            out.first_outside = "reference point " + std::to_string(i + 1) + ": " +
+                                c.domain->first_outside(p.visibility, p.n_dot_l, p.n_dot_v, p.roughness);
+    }
+    return out;
+}
+
 Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set) {
     std::vector<double> errors, weights;
     errors_of(c, set, errors, weights);
@@ -251,6 +265,7 @@ Candidate lut_candidate(const std::string& name, const std::string& file) {
     // The LUT's cost model is the comparator's (compare::Comparator::cost): one for eval, sweeps and design.
     c.cost = *compare::Comparator::open_file(name, file).cost();
     c.value = [lut](const compare::ComparatorInputs& in) { return compare::lut_value(*lut, in); };
+    c.domain = lut->domain();
     c.provenance = {{"name", name}, {"kind", "lut"}, {"file", json_safe(file)}};
     for (const char* key : {"version", "command_line"})
         if (f.metadata.is_object() && f.metadata.contains(key)) c.provenance[key] = f.metadata[key];

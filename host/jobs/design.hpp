@@ -13,9 +13,11 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/lookup_domain.hpp"
 #include "io/atomic_file.hpp"
 #include "jobs/compare.hpp"
 #include "jobs/reference_set.hpp"
@@ -34,6 +36,8 @@ struct Candidate {
     compare::ComparatorCost cost;
     std::function<double(const compare::ComparatorInputs&)> value;
     nlohmann::json provenance;
+    // Where it answers as measured (a file's or a fit's "domain"); none: everywhere (part 1's formulas).
+    std::optional<LookupDomain> domain;
     // Adds the representation's files (its data and its GLSL/HLSL) to `outputs` as `prefix` + a
     // suffix, written but not committed (the caller commits them with its other outputs).
     std::function<void(OutputSet& outputs, const std::string& prefix)> bake;
@@ -55,6 +59,13 @@ Metrics evaluate_candidate(const Candidate& c, const ReferenceSet& set);
 // a candidate's error lives. Bands without points have points = 0.
 std::vector<Metrics> evaluate_candidate_by_roughness(const Candidate& c, const ReferenceSet& set,
                                                      const std::vector<double>& edges);
+
+// The set's points outside the candidate's domain (none without one), and the first in words.
+struct DomainCount {
+    DomainTally tally;
+    std::string first_outside;
+};
+DomainCount count_outside_domain(const Candidate& c, const ReferenceSet& set);
 
 // The `count` points of non-zero weight where |candidate - term| is largest, largest first: (index, error).
 std::vector<std::pair<std::size_t, double>> worst_points(const Candidate& c, const ReferenceSet& set, std::size_t count);

@@ -80,6 +80,12 @@ struct Comparator {
     // with the exact point term at every tap (for directional and point lights both are the exact point
     // term of the light's one direction).
     enum class Builtin { none, centre_exact, taps_exact } builtin = Builtin::none;
+    // The file's or seed LUT's domain (none for part 1's formulas).
+    std::optional<LookupDomain> domain() const {
+        if (file) return file->domain();
+        if (lut) return lut->domain();
+        return std::nullopt;
+    }
 };
 
 std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescription& d, TermBackend& backend) {
@@ -316,6 +322,40 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
     for (auto& c : file_comparators) comparators.push_back(std::move(c));
     result.lut_seconds = seconds_since(lut_start);
     for (const auto& c : comparators) result.comparators.push_back(c.name);
+    std::vector<std::optional<LookupDomain>> domains;
+    for (const auto& c : comparators) domains.push_back(c.domain());
+    result.domains = domains;
+    result.outside_domain.assign(comparators.size(), DomainTally{});
+    result.first_outside.assign(comparators.size(), std::string());
+    // Every lit pixel-light's lookup counted against each comparator's domain before any sampling, so
+    // --strict-domain refuses at no cost (inputs as comparator_value reads them).
+    if (std::any_of(domains.begin(), domains.end(), [](const auto& x) { return x.has_value(); }))
+        for (const Light& light : d.lights)
+            for (std::size_t i = 0; i < n; ++i) {
+                const PixelSurface p = inputs.pixel(i);
+                const LightQuery q = light_query(p, light);
+                if (q.status != PixelStatus::shaded) continue;
+                const double l = std::max(0.0, std::clamp(q.n_dot_l, -1.0, 1.0)), v = std::clamp(q.n_dot_v, 0.0, 1.0);
+                for (std::size_t k = 0; k < comparators.size(); ++k) {
+                    if (!domains[k]) continue;
+                    const bool inside = domains[k]->contains(p.visibility, l, v, p.roughness);
+                    result.outside_domain[k].add(inside);
+                    if (!inside && result.first_outside[k].empty())
+                        result.first_outside[k] = "light " + light.name + ", pixel (" + std::to_string(i % result.width) + ", " +
+                                                  std::to_string(i / result.width) + "): " +
+                                                  domains[k]->first_outside(p.visibility, l, v, p.roughness);
+                }
+            }
+    if (options.strict_domain)
+        for (std::size_t k = 0; k < comparators.size(); ++k)
+            if (domains[k]) {
+                try {
+                    compare::refuse_outside_domain(d.source, comparators[k].name, *domains[k], result.outside_domain[k],
+                                                   result.first_outside[k]);
+                } catch (const std::invalid_argument& e) {
+                    throw SceneError(e.what());
+                }
+            }
 
     // --- mask and groups ------------------------------------------------------------------------------
     result.mask.assign(n, 0.0f);
@@ -761,6 +801,9 @@ json scene_report(const SceneResult& r) {
     for (const auto& [samples, queries] : c.final_pass_queries) passes[std::to_string(samples)] = queries;
     j["work"]["final_pass_queries"] = passes;
     j["comparators"] = r.comparators;
+    // Lit pixel-lights outside each comparator's domain, over every light.
+    for (std::size_t k = 0; k < r.comparators.size() && k < r.outside_domain.size(); ++k)
+        j["comparator_domains"][r.comparators[k]] = compare::domain_report(r.domains[k], r.outside_domain[k]);
     j["groups"] = r.groups;
     for (const auto& l : r.lights) {
         json lj;
@@ -794,6 +837,17 @@ std::string markdown(const SceneResult& r) {
       << "| " << c.pixel_lights << " | " << c.masked << " | " << c.view_below_horizon << " | " << c.light_below_horizon << " | "
       << c.zero_region << " | " << c.v_one << " | " << c.duplicates << " | " << c.sampled << " | "
       << fmt(100 * c.skipped_fraction()) << " % |\n\n";
+    bool any_domain = false;
+    for (const auto& dm : r.domains) any_domain = any_domain || dm.has_value();
+    if (any_domain) {
+        m << "Lit pixel-lights outside each comparator's domain (its metadata's roughness, visibility and NdotV ranges; "
+             "answered there by clamping, so its errors below include them):\n\n| comparator | domain | outside | lookups |\n|---|---|---|---|\n";
+        for (std::size_t k = 0; k < r.comparators.size() && k < r.domains.size(); ++k)
+            if (r.domains[k])
+                m << "| " << r.comparators[k] << " | " << r.domains[k]->describe() << " | " << r.outside_domain[k].outside << " | "
+                  << r.outside_domain[k].lookups << " |\n";
+        m << "\n";
+    }
     for (const auto& l : r.lights) {
         m << "## light `" << l.light << "`\n\nReference: max error bound " << fmt(l.max_error_bound)
           << ". Errors weighted as shading sees them (|approximation - reference| x max(N.L, 0) x intensity), over lit pixels;"

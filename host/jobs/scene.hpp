@@ -40,9 +40,11 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/lookup_domain.hpp"
 #include "jobs/eval.hpp"
 #include "scene/inputs.hpp"
 
@@ -60,6 +62,8 @@ struct SceneRunOptions {
     // Called once the comparators' names are known (LUT files opened), before any LUT bake or sampling:
     // the CLI checks its outputs here (check_scene_outputs), so a bad destination costs no work.
     std::function<void(const std::vector<std::string>& comparators)> check_outputs;
+    // Refuse (SceneError, before any output) a comparator looked up outside its domain at a lit pixel.
+    bool strict_domain = false;
     std::uint64_t memory_limit = 0;    // > 0: refuse (SceneError) when the output images would need more bytes
 };
 
@@ -96,6 +100,11 @@ struct SceneResult {
     std::uint32_t width = 0, height = 0;
     std::vector<float> mask;                 // 1 shaded, 0 masked
     std::vector<std::string> comparators;
+    // Per comparator: its domain (none for part 1's formulas), the lit pixel-lights it was looked up at
+    // and how many fell outside the domain, and the first of those in words.
+    std::vector<std::optional<LookupDomain>> domains;
+    std::vector<DomainTally> outside_domain;
+    std::vector<std::string> first_outside;
     std::vector<std::string> groups;         // "all", roughness bands, materials
     std::vector<LightImages> lights;
     SkipCounts counts;

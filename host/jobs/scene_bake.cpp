@@ -303,6 +303,7 @@ json scene_lut_metadata(const SceneBakePlan& plan, const BakeResult& bake) {
                                 "lookups only, and a lookup outside these ranges is refused, not clamped"}};
         const char* names[4] = {"visibility", "n_dot_l", "n_dot_v", "roughness"};
         for (int k = 0; k < 4; ++k) domain[names[k]] = {plan.domain_min[k], plan.domain_max[k]};
+        domain["outside"] = "refused";
         meta["domain"] = domain;
     }
     return meta;

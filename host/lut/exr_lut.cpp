@@ -62,6 +62,26 @@ std::vector<std::string> exr_channel_names(const std::vector<LutChannel>& channe
 }
 
 
+LookupDomain lut_domain(const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels) {
+    LookupDomain d;
+    if (axes.size() == 3) {
+        d.visibility_min = axes[0].min;
+        d.visibility_max = axes[0].max;
+        if (axes[2].count > 1) {
+            d.n_dot_v_min = axes[2].min;
+            d.n_dot_v_max = axes[2].max;
+        }
+    }
+    if (!channels.empty()) {
+        d.roughness_min = d.roughness_max = channels[0].roughness;
+        for (const auto& c : channels) {
+            d.roughness_min = std::min(d.roughness_min, c.roughness);
+            d.roughness_max = std::max(d.roughness_max, c.roughness);
+        }
+    }
+    return d;
+}
+
 void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels,
                const std::vector<float>& data, const nlohmann::json& metadata, bool half) {
     if (axes.size() != 3) throw std::invalid_argument("write_lut: need the visibility, n_dot_l and n_dot_v axes");
@@ -85,6 +105,8 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
         meta["channels"].push_back({{"name", ch.name}, {"exr_channel", exr_names[c]}, {"texture_channel", ch.name},
                                     {"roughness", ch.roughness}, {"alpha_x", ch.alpha_x}, {"alpha_y", ch.alpha_y}});
     }
+    if (!meta.contains("domain"))
+        meta["domain"] = lut_domain(axes, channels).to_json("the lookups this LUT was baked for; outside, clamp-to-edge answers");
     meta["file_format"] = "exr";
     lutfmt::add_error_budget(meta, data, half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
 

@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "core/lookup_domain.hpp"
 #include "lut/lut_image.hpp"
 
 namespace ms {
@@ -30,6 +31,11 @@ namespace ms {
 // checked against width/height/data size. Throws std::invalid_argument or std::runtime_error.
 void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels,
                const std::vector<float>& data, const nlohmann::json& metadata, bool half);
+
+// The domain a LUT without a recorded one answers for: its visibility and NdotV axes' ranges (a 2D LUT,
+// made to stand in at every view: NdotV [0, 1]), any NdotL, its roughness channels' range ("counted":
+// core/lookup_domain.hpp). write_lut records it as the metadata's "domain" unless one is there.
+LookupDomain lut_domain(const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels);
 
 // A file of this tool that is not a LUT (a representation, an IBL output) or a file with no
 // "microshadow" metadata at all, given where a LUT is expected: the message names the file and,

@@ -36,16 +36,12 @@ LutLookup::LutLookup(LutFile lut) : lut_(std::move(lut)) {
     for (std::size_t k = 1; k < order_.size(); ++k)
         if (lut_.channels[order_[k]].roughness == lut_.channels[order_[k - 1]].roughness)
             throw std::runtime_error("LUT: two channels hold the same roughness");
-    // A LUT fitted to one scene's lookups records their ranges: outside them clamp-to-edge would answer
-    // with an edge texel that no lookup of that scene asked for, so such lookups are refused.
+    // A LUT fitted to one scene's lookups records their ranges as a "refused" domain: outside them
+    // clamp-to-edge would answer with an edge texel that no lookup of that scene asked for.
     if (lut_.metadata.is_object() && lut_.metadata.contains("domain")) {
-        const auto& d = lut_.metadata.at("domain");
-        for (const char* axis : {"visibility", "n_dot_l", "n_dot_v", "roughness"}) {
-            if (!d.is_object() || !d.contains(axis) || !d.at(axis).is_array() || d.at(axis).size() != 2 || !d.at(axis)[0].is_number() ||
-                !d.at(axis)[1].is_number() || !(d.at(axis)[0].get<double>() <= d.at(axis)[1].get<double>()))
-                throw std::runtime_error(std::string("LUT: metadata domain.") + axis + " must be [min, max]");
-            domain_.emplace_back(d.at(axis)[0].get<double>(), d.at(axis)[1].get<double>());
-        }
+        domain_ = LookupDomain::from_json(lut_.metadata.at("domain"), "LUT");
+    } else {
+        domain_ = lut_domain(lut_.axes, lut_.channels);
     }
 }
 
@@ -60,15 +56,9 @@ LutLookup LutLookup::open(const std::string& path) {
 }
 
 double LutLookup::operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const {
-    if (!domain_.empty()) {
-        const double x[4] = {visibility, n_dot_l, n_dot_v, roughness};
-        const char* names[4] = {"visibility", "NdotL", "NdotV", "roughness"};
-        for (int k = 0; k < 4; ++k)
-            if (!(x[k] >= domain_[k].first && x[k] <= domain_[k].second))
-                throw std::domain_error("LUT lookup at " + std::string(names[k]) + " " + std::to_string(x[k]) + " is outside [" +
-                                        std::to_string(domain_[k].first) + ", " + std::to_string(domain_[k].second) +
-                                        "], the range of the scene this LUT was fitted to (\"domain\" in its metadata)");
-    }
+    if (domain_.refuse_outside && !domain_.contains(visibility, n_dot_l, n_dot_v, roughness))
+        throw std::domain_error("LUT lookup at " + domain_.first_outside(visibility, n_dot_l, n_dot_v, roughness) +
+                                ", the range of the scene this LUT was fitted to (\"domain\" in its metadata)");
     const double value = blend(visibility, n_dot_l, n_dot_v, roughness);
     // Only a partial bake's unbaked texels are NaN (read_lut checks them against the file's coverage
     // record): a lookup whose filter footprint touches one is refused, never answered.

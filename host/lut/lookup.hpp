@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "core/lookup_domain.hpp"
 #include "lut/exr_lut.hpp"
 
 namespace ms::sweep {
@@ -28,16 +29,18 @@ public:
     static LutLookup open(const std::string& path);
 
     // Throws std::domain_error where the lookup touches a texel a partial bake left unbaked (NaN), or
-    // lies outside the "domain" its metadata records (a LUT fitted to one scene: bake --scene).
+    // lies outside a "refused" domain (a LUT fitted to one scene: bake --scene; core/lookup_domain.hpp).
     double operator()(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     const LutFile& file() const { return lut_; }
+    // The metadata's "domain", or for a file without one its axes' and roughness channels' ranges
+    // (visibility and NdotV axes as baked; a 2D LUT, made to stand in at every view, NdotV [0, 1]).
+    const LookupDomain& domain() const { return domain_; }
 
 private:
     double blend(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     LutFile lut_;
     std::vector<std::uint32_t> order_;  // channel indices by increasing roughness
-    // metadata "domain": {"visibility": [lo, hi], "n_dot_l": ..., "n_dot_v": ..., "roughness": ...}; empty: none
-    std::vector<std::pair<double, double>> domain_;
+    LookupDomain domain_;
 };
 
 }  // namespace ms::sweep

@@ -107,6 +107,10 @@ std::unique_ptr<Representation> make_azimuth_axis(ReprGrid grid, std::uint32_t a
                                                   nlohmann::json metadata) {
     if (grid.roughness.empty() || grid.roughness.size() > 4) throw std::invalid_argument("azimuth-axis: 1 to 4 roughness nodes (RGBA)");
     if (azimuth_nodes < 2) throw std::invalid_argument("azimuth-axis: at least 2 azimuth nodes");
+    // Its RGBA channels are roughness nodes sharing one NdotL axis; the edge-roughness warp gives each
+    // node its own.
+    if (grid.warps.n_dot_l == NdotLWarp::edge_roughness)
+        throw std::invalid_argument("azimuth-axis: the edge-roughness NdotL warp needs an NdotL axis per roughness node (azimuth-harmonics)");
     if (texture.width != grid.visibility * azimuth_nodes || texture.height != grid.n_dot_l || texture.depth != grid.n_dot_v)
         throw std::invalid_argument("azimuth-axis: texture size does not match the grid");
     metadata["fetches_per_light"] = 2;
@@ -132,7 +136,7 @@ std::unique_ptr<Representation> build_azimuth_axis(const AzimuthBake& bake) {
                         t.texels[((std::size_t(ivv) * t.height + il) * t.width + x) * 4 + c] = bake.value[bake.index(r, k, iv, il, ivv)];
                     }
     nlohmann::json meta = {{"bake", bake.metadata}};
-    for (const char* key : {"version", "command_line"})
+    for (const char* key : {"version", "command_line", "domain", "preset"})
         if (bake.metadata.contains(key)) meta[key] = bake.metadata[key];
     return make_azimuth_axis(g, bake.azimuth_nodes, std::move(t), std::move(meta));
 }

@@ -46,6 +46,8 @@ void validate(const AzimuthBakeSpec& s) {
         if (i && !(g.roughness[i] > g.roughness[i - 1])) throw std::invalid_argument("representation grid: roughness must increase");
     }
     if (s.azimuth_nodes < 2 || s.azimuth_nodes > 64) throw std::invalid_argument("representation bake: 2 to 64 azimuth nodes");
+    if (g.warps.n_dot_l == NdotLWarp::edge_roughness && !(g.edge_width > 0 && g.edge_width <= 100))
+        throw std::invalid_argument("representation grid: the edge-roughness warp's width factor must be in (0, 100]");
     if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("representation bake: term and grid AO weightings differ");
     const std::uint64_t queries = std::uint64_t(g.visibility) * g.n_dot_l * g.n_dot_v * g.roughness.size() * s.azimuth_nodes;
     if (queries > (std::uint64_t(1) << 24)) throw std::invalid_argument("representation bake: more than 2^24 texels x nodes");
@@ -72,7 +74,7 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
                 for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
                     for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
                         // The texel's query as eval takes it: V in the xz plane, L at azimuth phi from it.
-                        const double nl = g.n_dot_l_at(iv, il), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
+                        const double nl = g.n_dot_l_at(iv, il, r), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
                         Query& q = queries[bake.index(r, k, iv, il, ivv)];
                         q.visibility = g.visibility_at(iv);
                         q.alpha_x = q.alpha_y = g.roughness[r] * g.roughness[r];
@@ -118,6 +120,10 @@ std::vector<std::uint32_t> choose_roughness_nodes(const AzimuthBake& bake, std::
     if (count < 2 || count > dense) throw std::invalid_argument("choose_roughness_nodes: need 2 <= count <= the bake's roughness nodes");
     for (std::uint32_t m = 1; m < dense; ++m)
         if (!(g.roughness[m] > g.roughness[m - 1])) throw std::invalid_argument("choose_roughness_nodes: roughness must increase");
+    // The blend compares the same texel across roughness nodes: under edge-roughness a texel's NdotL
+    // differs from node to node, so there is no common point to compare.
+    if (g.warps.n_dot_l == NdotLWarp::edge_roughness)
+        throw std::invalid_argument("choose_roughness_nodes: not with the edge-roughness NdotL warp (each node has its own NdotL texels)");
     const std::size_t block = std::size_t(bake.azimuth_nodes) * g.visibility * g.n_dot_l * g.n_dot_v;
     if (bake.value.size() != block * dense) throw std::invalid_argument("choose_roughness_nodes: the bake's size does not match its grid");
     // N.L weight of each texel of a block (the same in every roughness and node block).

@@ -9,7 +9,10 @@ namespace ms::repr {
 
 std::string to_string(NdotVWarp w) { return w == NdotVWarp::sqrt ? "sqrt" : "linear"; }
 std::string to_string(NdotLWarp w) {
-    return w == NdotLWarp::shadow_edge ? "shadow-edge" : w == NdotLWarp::sqrt_top ? "sqrt-top" : "linear";
+    return w == NdotLWarp::shadow_edge      ? "shadow-edge"
+           : w == NdotLWarp::sqrt_top       ? "sqrt-top"
+           : w == NdotLWarp::edge_roughness ? "edge-roughness"
+                                            : "linear";
 }
 std::string to_string(VisibilityWarp w) { return w == VisibilityWarp::sqrt_top ? "sqrt-top" : "linear"; }
 
@@ -29,7 +32,8 @@ NdotLWarp parse_n_dot_l_warp(const std::string& s) {
     if (s == "linear") return NdotLWarp::linear;
     if (s == "shadow-edge") return NdotLWarp::shadow_edge;
     if (s == "sqrt-top") return NdotLWarp::sqrt_top;
-    throw std::invalid_argument("NdotL warp must be linear, shadow-edge or sqrt-top, not '" + s + "'");
+    if (s == "edge-roughness") return NdotLWarp::edge_roughness;
+    throw std::invalid_argument("NdotL warp must be linear, shadow-edge, sqrt-top or edge-roughness, not '" + s + "'");
 }
 
 namespace {
@@ -50,6 +54,26 @@ double shadow_edge(double visibility, AoWeighting weighting) {
     return std::max(edge, 0.0);
 }
 
+// The visibility cone's cosine c(v), where a smooth surface's shadow edge lies (NdotL = c).
+double cone_cos(double visibility, AoWeighting weighting) {
+    return weighting == AoWeighting::cosine ? std::sqrt(std::max(0.0, 1 - visibility)) : 1 - visibility;
+}
+
+// The edge_roughness warp at visibility v and roughness r: g(x) = asinh((x - c) / w), and its range
+// [g(l0), g(1)] over the NdotL that are not provably 0. The width w = k alpha max(sin theta_c, alpha):
+// a normal tilted by ~alpha moves m.L by ~alpha sin(theta_l), and at the edge theta_l = theta_c (the
+// floor alpha keeps w > 0 for a vanishing cone, where the zero region covers nearly every NdotL).
+struct EdgeWarp {
+    double c, w, g0, g1;
+    EdgeWarp(double v, double r, double k, AoWeighting weighting)
+        : c(cone_cos(v, weighting)),
+          w(k * r * r * std::max(std::sqrt(std::max(0.0, 1 - c * c)), r * r)),
+          g0(std::asinh((shadow_edge(v, weighting) - c) / w)),
+          g1(std::asinh((1 - c) / w)) {}
+    double u(double l) const { return (std::asinh((l - c) / w) - g0) / (g1 - g0); }
+    double at(double u) const { return c + w * std::sinh(g0 + u * (g1 - g0)); }
+};
+
 }  // namespace
 
 double ReprGrid::visibility_at(std::uint32_t iv) const {
@@ -59,10 +83,12 @@ double ReprGrid::visibility_at(std::uint32_t iv) const {
 
 double ReprGrid::visibility_u(double v) const { return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top(v) : v; }
 
-double ReprGrid::n_dot_l_at(std::uint32_t iv, std::uint32_t il) const {
+double ReprGrid::n_dot_l_at(std::uint32_t iv, std::uint32_t il, std::uint32_t ir) const {
     const double u = centre(il, n_dot_l);
     if (warps.n_dot_l == NdotLWarp::linear) return u;
     if (warps.n_dot_l == NdotLWarp::sqrt_top) return sqrt_top_inverse(u);
+    if (warps.n_dot_l == NdotLWarp::edge_roughness)
+        return std::clamp(EdgeWarp(visibility_at(iv), roughness.at(ir), edge_width, weighting).at(u), 0.0, 1.0);
     const double l0 = shadow_edge(visibility_at(iv), weighting);
     return l0 + u * (1 - l0);
 }
@@ -72,10 +98,12 @@ double ReprGrid::n_dot_v_at(std::uint32_t ivv) const {
     return warps.n_dot_v == NdotVWarp::sqrt ? u * u : u;
 }
 
-double ReprGrid::n_dot_l_u(double v, double l) const {
+double ReprGrid::n_dot_l_u(double v, double l, std::uint32_t ir) const {
     if (warps.n_dot_l == NdotLWarp::linear) return l;
     if (warps.n_dot_l == NdotLWarp::sqrt_top) return sqrt_top(l);
     const double l0 = shadow_edge(std::clamp(v, 0.0, 1.0), weighting);
+    if (warps.n_dot_l == NdotLWarp::edge_roughness)
+        return l0 >= 1 ? -1.0 : EdgeWarp(std::clamp(v, 0.0, 1.0), roughness.at(ir), edge_width, weighting).u(l);
     // l0 = 1 only at v = 0 (cosine) where every NdotL is in the zero region: report "below the edge".
     return l0 >= 1 ? -1.0 : (l - l0) / (1 - l0);
 }

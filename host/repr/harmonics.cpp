@@ -47,12 +47,13 @@ public:
 
     double operator()(const compare::ComparatorInputs& in) const override {
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
-        const double tv = visibility_texel(in.visibility), tl = n_dot_l_texel(in.visibility, in.n_dot_l),
-                     tz = n_dot_v_texel(in.n_dot_v);
+        const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(in.n_dot_v);
         const double c = std::cos(in.relative_azimuth);
         const double basis[kHarmonics] = {1, c, 2 * c * c - 1, (4 * c * c - 3) * c};
-        auto series = [&](double slab) {
-            const auto a = texture_.sample(tv, tl, slab * grid_.n_dot_v + tz);
+        // The NdotL texel of a slab: its own under the edge-roughness warp, else one for all.
+        auto series = [&](std::uint32_t slab) {
+            const double tl = n_dot_l_texel(in.visibility, in.n_dot_l, slab);
+            const auto a = texture_.sample(tv, tl, double(slab) * grid_.n_dot_v + tz);
             double s = 0;
             for (int m = 0; m < kHarmonics; ++m) s += a[m] * basis[m];
             return s;
@@ -63,7 +64,7 @@ public:
         std::size_t j = 0;
         while (j + 2 < r.size() && x > r[j + 1]) ++j;
         const double f = (x - r[j]) * (1 / (r[j + 1] - r[j]));
-        const double a = series(double(j)), b = series(double(j + 1));
+        const double a = series(std::uint32_t(j)), b = series(std::uint32_t(j + 1));
         return std::clamp(a + (b - a) * f, 0.0, 1.0);
     }
 
@@ -82,20 +83,57 @@ public:
           << "    float c = clamp(cos_phi, -1.0, 1.0);\n"
           << "    // cos(2 phi) and cos(3 phi) from cos(phi) (Chebyshev polynomials): no trigonometry.\n"
           << "    VEC4 basis = VEC4(1.0, c, 2.0 * c * c - 1.0, (4.0 * c * c - 3.0) * c);\n";
+        const bool edge = grid_.warps.n_dot_l == NdotLWarp::edge_roughness;
+        // The edge warp's width of a node: k alpha max(s_e, alpha), alpha = r^2.
+        auto width = [&](double x) { return L(grid_.edge_width * x * x) + " * max(s_e, " + L(x * x) + ")"; };
         if (r.size() == 1) {
+            if (edge) o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << width(r[0]) << ");\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
               << ", (tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
               << "    return clamp(dot(FETCH(c0), basis), 0.0, 1.0);\n}\n";
         } else {
+            // Nodes in geometric progression (r_k = r_0 q^k, as the full-range preset's): the slab from a
+            // logarithm, a dozen ALU, instead of a comparison per node.
+            const double q = r[1] / r[0];
+            bool geometric = r.size() > 2;
+            for (std::size_t k = 1; k < r.size() && geometric; ++k) geometric = std::abs(r[k] / r[k - 1] - q) <= 1e-9 * q;
             o << "    // The roughness slabs j and j + 1 that bracket the roughness, and the weight of j + 1.\n"
-              << "    float r = clamp(roughness, " << L(r.front()) << ", " << L(r.back()) << ");\n"
-              << "    float j = 0.0;\n    float f = (r - " << L(r[0]) << ") * " << L(1 / (r[1] - r[0])) << ";\n";
-            for (std::size_t k = 1; k + 1 < r.size(); ++k)
-                o << "    if (r > " << L(r[k]) << ") { j = " << L(k) << "; f = (r - " << L(r[k]) << ") * " << L(1 / (r[k + 1] - r[k]))
-                  << "; }\n";
+              << "    float r = clamp(roughness, " << L(r.front()) << ", " << L(r.back()) << ");\n";
+            if (geometric) {
+                o << "    // Geometric nodes r_k = " << L(r[0]) << " * " << L(q) << "^k: j = floor(log(r / r_0) / log(q)).\n"
+                  << "    float j = floor(clamp(log(r * " << L(1 / r[0]) << ") * " << L(1 / std::log(q)) << ", 0.0, " << L(double(r.size() - 2))
+                  << "));\n"
+                  << "    float rj = " << L(r[0]) << " * exp(j * " << L(std::log(q)) << ");\n"
+                  << "    float f = clamp((r - rj) / (rj * " << L(q - 1) << "), 0.0, 1.0);\n";
+                if (edge)
+                    o << "    float rj1 = rj * " << L(q) << ";\n"
+                      << "    float al0 = rj * rj, al1 = rj1 * rj1;\n    float ka0 = " << L(grid_.edge_width) << " * al0, ka1 = "
+                      << L(grid_.edge_width) << " * al1;\n";
+            } else {
+                o << "    float j = 0.0;\n    float f = (r - " << L(r[0]) << ") * " << L(1 / (r[1] - r[0])) << ";\n";
+            }
+            // Under the edge-roughness warp each slab has its own NdotL axis: its width w0, w1 too.
+            // The edge warp's k alpha and alpha of nodes j and j + 1 (w = k alpha max(s_e, alpha)).
+            auto ka = [&](double x) { return L(grid_.edge_width * x * x); };
+            auto al = [&](double x) { return L(x * x); };
+            if (edge && !geometric)
+                o << "    float ka0 = " << ka(r[0]) << ", al0 = " << al(r[0]) << ", ka1 = " << ka(r[1]) << ", al1 = " << al(r[1]) << ";\n";
+            for (std::size_t k = 1; k + 1 < r.size() && !geometric; ++k) {
+                o << "    if (r > " << L(r[k]) << ") { j = " << L(k) << "; f = (r - " << L(r[k]) << ") * " << L(1 / (r[k + 1] - r[k]));
+                if (edge) o << "; ka0 = " << ka(r[k]) << "; al0 = " << al(r[k]) << "; ka1 = " << ka(r[k + 1]) << "; al1 = " << al(r[k + 1]);
+                o << "; }\n";
+            }
+            if (edge)
+                o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, ka0 * max(s_e, al0));\n"
+                  << "    float tl1 = ms_edge_texel(n_dot_l, c_e, l0, ka1 * max(s_e, al1));\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
-              << ", (j * " << L(grid_.n_dot_v) << " + tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
-              << "    VEC3 c1 = c0 + VEC3(0.0, 0.0, " << L(double(grid_.n_dot_v) / texture_.depth) << ");\n"
+              << ", (j * " << L(grid_.n_dot_v) << " + tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n";
+            if (edge)
+                o << "    VEC3 c1 = VEC3(c0.x, (tl1 + 0.5) * " << L(1.0 / texture_.height) << ", c0.z + "
+                  << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";
+            else
+                o << "    VEC3 c1 = c0 + VEC3(0.0, 0.0, " << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";
+            o
               << "    return clamp(MIX(dot(FETCH(c0), basis), dot(FETCH(c1), basis), f), 0.0, 1.0);\n}\n";
         }
         return finish_shader(o.str(), language);
@@ -144,7 +182,7 @@ std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake)
                     for (int m = 0; m < kHarmonics; ++m) t.texels[((z * t.height + il) * t.width + iv) * 4 + m] = float(a[m]);
                 }
     nlohmann::json meta = {{"bake", bake.metadata}, {"node_residual_max", residual}};
-    for (const char* key : {"version", "command_line"})
+    for (const char* key : {"version", "command_line", "domain", "preset"})
         if (bake.metadata.contains(key)) meta[key] = bake.metadata[key];
     return make_azimuth_harmonics(g, K, std::move(t), std::move(meta));
 }

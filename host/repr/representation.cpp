@@ -13,6 +13,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <map>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 
@@ -21,6 +23,7 @@
 #include "io/input_file.hpp"
 #include "lut/formats/lut_reader.hpp"
 #include "lut/formats/texture_reader.hpp"
+#include "repr/presets.hpp"
 #include "repr/texture_repr.hpp"
 
 namespace ms::repr {
@@ -36,7 +39,7 @@ nlohmann::json grid_to_json(const ReprGrid& g) {
             {"n_dot_v", g.n_dot_v},                {"roughness", g.roughness},
             {"n_dot_v_warp", to_string(g.warps.n_dot_v)}, {"n_dot_l_warp", to_string(g.warps.n_dot_l)},
             {"visibility_warp", to_string(g.warps.visibility)},
-            {"ao_weighting", to_string(g.weighting)}};
+            {"ao_weighting", to_string(g.weighting)}, {"n_dot_l_edge_width", g.edge_width}};
 }
 
 namespace {
@@ -70,6 +73,12 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
         // Absent in files written before the visibility warp existed: those are linear.
         g.warps.visibility = parse_visibility_warp(j.value("visibility_warp", std::string("linear")));
         g.weighting = parse_ao_weighting(j.at("ao_weighting").get<std::string>());
+        // Absent in files written before the edge-roughness warp: its default (unused by other warps).
+        if (j.contains("n_dot_l_edge_width")) {
+            if (!j.at("n_dot_l_edge_width").is_number() || !(j.at("n_dot_l_edge_width").get<double>() > 0 && j.at("n_dot_l_edge_width").get<double>() <= 100))
+                throw std::invalid_argument("n_dot_l_edge_width must be a number in (0, 100]");
+            g.edge_width = j.at("n_dot_l_edge_width").get<double>();
+        }
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("metadata grid: ") + e.what());
     }
@@ -346,6 +355,23 @@ void install_comparators() {
         if (!is_representation_file(path)) return nullptr;
         return std::shared_ptr<const compare::FileComparator>(open_representation(path));
     });
+    // A preset named where a comparator is: baked on this machine's CPU with the exact method (a few
+    // seconds; the same texels every time), once per process and name.
+    compare::set_named_comparator_opener([](const std::string& name) -> std::shared_ptr<const compare::FileComparator> {
+        if (!is_preset(name)) return nullptr;
+        static std::mutex mutex;
+        static std::map<std::string, std::shared_ptr<const compare::FileComparator>> baked;
+        const std::lock_guard<std::mutex> lock(mutex);
+        auto& slot = baked[name];
+        if (!slot) {
+            auto backend = make_oracle_backend();
+            slot = std::shared_ptr<const compare::FileComparator>(bake_preset(preset(name), *backend, "preset " + name));
+        }
+        return slot;
+    });
+    std::string names;
+    for (const auto& n : preset_names()) names += (names.empty() ? "" : ", ") + n;
+    compare::set_named_comparator_names(names);
 }
 
 }  // namespace ms::repr

@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "core/lookup_domain.hpp"
 #include "core/types.hpp"
 #include "jobs/compare.hpp"
 #include "jobs/eval.hpp"
@@ -38,10 +39,18 @@ enum class ShaderLanguage { glsl, hlsl };
 //          l0(v) = max(0, edge(v)), edge(v) = 1 - 2v (cosine AO) or 2 (1 - v)^2 - 1 (uniform AO): the
 //          provable zero region NdotL <= edge(v) holds no texel; or sqrt_top u = 1 - sqrt(1 - NdotL):
 //          texels dense near NdotL = 1, where the term is smooth in the light's angle, not in its cosine.
+//          Or edge_roughness (harmonics only): per roughness slab r, NdotL measured from the shadow edge
+//          NdotL = c(v) (the cone's cosine: sqrt(1 - v) cosine AO, 1 - v uniform) in units of the slab's
+//          edge width w = k alpha max(sin theta_c, alpha) (alpha = r^2, sin theta_c = sqrt(1 - c^2)),
+//          through g(x) = asinh((x - c) / w):
+//          u = (g(NdotL) - g(l0(v))) / (g(1) - g(l0(v))). A smooth surface's term is a step at NdotL = c
+//          blurred over a width ~ alpha; this puts the same share of a slab's texels on that blur at
+//          every roughness (asinh: linear within w of the edge, logarithmic beyond), so low roughness is
+//          resolved where a linear axis would jump from 0 to 1 in one texel.
 //   visibility: linear u = v, or sqrt_top u = 1 - sqrt(1 - v): texels dense near v = 1, where the term
 //          rises to exactly 1 and is smooth in sqrt(1 - v) (the cosine AO cone's cos theta), not in v.
 enum class NdotVWarp { linear, sqrt };
-enum class NdotLWarp { linear, shadow_edge, sqrt_top };
+enum class NdotLWarp { linear, shadow_edge, sqrt_top, edge_roughness };
 enum class VisibilityWarp { linear, sqrt_top };
 struct Warps {
     NdotVWarp n_dot_v = NdotVWarp::linear;
@@ -52,7 +61,7 @@ std::string to_string(NdotVWarp);
 std::string to_string(NdotLWarp);
 std::string to_string(VisibilityWarp);
 NdotVWarp parse_n_dot_v_warp(const std::string&);  // "linear" | "sqrt"; std::invalid_argument
-NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top"; std::invalid_argument
+NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top" | "edge-roughness"; std::invalid_argument
 VisibilityWarp parse_visibility_warp(const std::string&);  // "linear" | "sqrt-top"; std::invalid_argument
 
 // The texel grid every representation is baked on: visibility, NdotL and NdotV texel centres in
@@ -62,17 +71,25 @@ struct ReprGrid {
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
     Warps warps;
     AoWeighting weighting = AoWeighting::cosine;
+    // The edge_roughness warp's width factor k (w = k alpha max(sin theta_c, alpha)).
+    double edge_width = 2.0;
 
-    // Parameters of texel (iv, il, ivv) (NdotL depends on visibility under the shadow-edge warp).
+    // Parameters of texel (iv, il, ivv) (NdotL depends on visibility under the shadow-edge warps, and
+    // on the roughness node ir under edge_roughness).
     double visibility_at(std::uint32_t iv) const;
-    double n_dot_l_at(std::uint32_t iv, std::uint32_t il) const;
+    double n_dot_l_at(std::uint32_t iv, std::uint32_t il, std::uint32_t ir = 0) const;
     double n_dot_v_at(std::uint32_t ivv) const;
     // Warped coordinates in [0, 1] of a lookup's parameters (the inverse of the above). n_dot_l_u of a
     // point in the zero region is <= 0 (the lookup returns 0 there before reading any texel).
-    double n_dot_l_u(double visibility, double n_dot_l) const;
+    double n_dot_l_u(double visibility, double n_dot_l, std::uint32_t ir = 0) const;
     double n_dot_v_u(double n_dot_v) const;
     double visibility_u(double visibility) const;
 };
+
+// The domain of a grid: its roughness nodes' range, the given visibility and NdotV ranges, any NdotL
+// (core/lookup_domain.hpp; a file without a recorded domain answers for this one).
+LookupDomain grid_domain(const ReprGrid& grid, double visibility_min = 0, double visibility_max = 1,
+                         double n_dot_v_min = 0, double n_dot_v_max = 1);
 
 // The term per texel and azimuth node: nodes phi_k = pi k / (K - 1), k = 0..K-1 (endpoints included).
 // value/std_error[index(r, k, iv, il, ivv)]; std_error is the replicate standard error (Student-t,

@@ -55,7 +55,29 @@ std::array<double, 4> Texture3D::sample(double x, double y, double z) const {
 
 TextureRepresentation::TextureRepresentation(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                              nlohmann::json metadata)
-    : grid_(std::move(grid)), azimuth_nodes_(azimuth_nodes), texture_(std::move(texture)), metadata_(std::move(metadata)) {}
+    : grid_(std::move(grid)), azimuth_nodes_(azimuth_nodes), texture_(std::move(texture)), metadata_(std::move(metadata)) {
+    if (metadata_.is_object() && metadata_.contains("domain")) {
+        domain_ = LookupDomain::from_json(metadata_.at("domain"), "representation");
+        // The roughness a file answers for cannot exceed its nodes: outside them the lookup clamps.
+        if (domain_.roughness_min < grid_.roughness.front() - 1e-12 || domain_.roughness_max > grid_.roughness.back() + 1e-12)
+            throw std::runtime_error("metadata domain.roughness [" + shader_literal(domain_.roughness_min) + ", " +
+                                     shader_literal(domain_.roughness_max) + "] exceeds the roughness nodes' range");
+    } else {
+        domain_ = grid_domain(grid_);
+    }
+}
+
+LookupDomain grid_domain(const ReprGrid& grid, double visibility_min, double visibility_max, double n_dot_v_min,
+                         double n_dot_v_max) {
+    LookupDomain d;
+    d.roughness_min = grid.roughness.front();
+    d.roughness_max = grid.roughness.back();
+    d.visibility_min = visibility_min;
+    d.visibility_max = visibility_max;
+    d.n_dot_v_min = n_dot_v_min;
+    d.n_dot_v_max = n_dot_v_max;
+    return d;
+}
 
 bool TextureRepresentation::zero_region(double v, double l) const {
     if (l <= 0) return true;
@@ -67,8 +89,8 @@ bool TextureRepresentation::zero_region(double v, double l) const {
 double TextureRepresentation::visibility_texel(double v) const {
     return std::clamp(grid_.visibility_u(v) * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
 }
-double TextureRepresentation::n_dot_l_texel(double v, double l) const {
-    return std::clamp(grid_.n_dot_l_u(v, l) * grid_.n_dot_l - 0.5, 0.0, double(grid_.n_dot_l - 1));
+double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir) const {
+    return std::clamp(grid_.n_dot_l_u(v, l, ir) * grid_.n_dot_l - 0.5, 0.0, double(grid_.n_dot_l - 1));
 }
 double TextureRepresentation::n_dot_v_texel(double nv) const {
     return std::clamp(grid_.n_dot_v_u(nv) * grid_.n_dot_v - 0.5, 0.0, double(grid_.n_dot_v - 1));
@@ -118,8 +140,9 @@ nlohmann::json TextureRepresentation::provenance() const {
     const auto c = cost();
     j["cost"] = {{"bytes", c.bytes}, {"fetches_per_light", c.fetches_per_light}, {"alu_per_light", c.alu_per_light},
                  {"storage", c.storage}};
-    for (const char* key : {"version", "command_line"})
+    for (const char* key : {"version", "command_line", "preset"})
         if (metadata_.contains(key)) j[key] = metadata_[key];
+    j["domain"] = domain_.to_json();
     // How its texels were computed (exact or sampled): what a comparator column of it stands on.
     if (metadata_.contains("bake") && metadata_["bake"].is_object() && metadata_["bake"].contains("method"))
         j["method"] = metadata_["bake"]["method"];
@@ -134,6 +157,7 @@ nlohmann::json TextureRepresentation::file_metadata(const std::string& file_form
     meta["half"] = half;
     meta["grid"] = grid_to_json(grid_);
     meta["azimuth_nodes"] = azimuth_nodes_;
+    meta["domain"] = domain_.to_json("the lookups this representation was made for; outside, its axes clamp");
     meta["texture"] = {{"width", texture_.width}, {"height", texture_.height}, {"depth", texture_.depth}, {"channels", channel_names()}};
     return meta;
 }
@@ -192,7 +216,11 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
       << "// Axes (texel centres at (i + 0.5) / n of the warped coordinate): visibility "
       << (grid_.warps.visibility == VisibilityWarp::sqrt_top ? "u = 1 - sqrt(1 - v)" : "linear") << "; NdotL "
       << (grid_.warps.n_dot_l == NdotLWarp::shadow_edge ? "from the shadow edge, u = (NdotL - l0(v)) / (1 - l0(v))"
-          : grid_.warps.n_dot_l == NdotLWarp::sqrt_top ? "u = 1 - sqrt(1 - NdotL)" : "linear")
+          : grid_.warps.n_dot_l == NdotLWarp::sqrt_top ? "u = 1 - sqrt(1 - NdotL)"
+          : grid_.warps.n_dot_l == NdotLWarp::edge_roughness
+              ? "per roughness slab, g(x) = asinh((x - c(v)) / w), w = " + shader_literal(grid_.edge_width) +
+                    " alpha max(sin theta_c, alpha), u = (g(NdotL) - g(l0(v))) / (g(1) - g(l0(v)))"
+              : std::string("linear"))
       << "; NdotV " << (grid_.warps.n_dot_v == NdotVWarp::sqrt ? "u = sqrt(NdotV)" : "linear") << ".\n"
       << "// cos_phi: cosine of the relative azimuth of L and V (their projections on the surface,\n"
       << "// normalised; 1 when either is along the normal). Anisotropic GGX: roughness = (alpha_x alpha_y)^(1/4).\n\n";
@@ -203,6 +231,16 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
     else
         o << "    // Uniform AO: the term is 0 for NdotL <= 2 (1 - v)^2 - 1 (and below the horizon).\n"
           << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l <= 2.0 * cos_t * cos_t - 1.0;\n}\n\n";
+    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
+        o << "// asinh(x) written out, odd so that it keeps its precision for x << 0 (HLSL has no asinh).\n"
+          << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n"
+          << "// The NdotL texel of one roughness slab: the distance to the shadow edge c in units of the slab's\n"
+          << "// width w, through asinh, from g(l0) (the zero region's edge) to g(1); clamped to [0, n - 1].\n"
+          << "float ms_edge_texel(float n_dot_l, float c, float l0, float w)\n{\n"
+          << "    float g0 = ms_asinh((l0 - c) / w);\n"
+          << "    float u = (ms_asinh((n_dot_l - c) / w) - g0) / (ms_asinh((1.0 - c) / w) - g0);\n"
+          << "    return clamp(u * " << shader_literal(grid_.n_dot_l) << " - 0.5, 0.0, " << shader_literal(grid_.n_dot_l - 1) << ");\n}\n\n";
+    }
     return o.str();
 }
 
@@ -217,13 +255,20 @@ std::string TextureRepresentation::shader_coordinates() const {
         o << "    float ul = n_dot_l;\n";
     } else if (grid_.warps.n_dot_l == NdotLWarp::sqrt_top) {
         o << "    float ul = 1.0 - sqrt(max(1.0 - n_dot_l, 0.0));\n";
+    } else if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
+        o << "    // NdotL per roughness slab (ms_edge_texel) from the cone's cosine c_e and the zero region's edge l0.\n";
+        if (grid_.weighting == AoWeighting::cosine)
+            o << "    float c_e = sqrt(max(1.0 - visibility, 0.0));\n    float l0 = max(1.0 - 2.0 * visibility, 0.0);\n";
+        else o << "    float c_e = 1.0 - visibility;\n    float l0 = max(2.0 * c_e * c_e - 1.0, 0.0);\n";
+        o << "    float s_e = sqrt(max(1.0 - c_e * c_e, 0.0));  // sin of the cone's half-angle\n";
     } else {
         o << "    // NdotL from the shadow edge l0(v): no texel lies in the zero region (l0 < 1 outside it).\n";
         if (grid_.weighting == AoWeighting::cosine) o << "    float l0 = max(1.0 - 2.0 * visibility, 0.0);\n";
         else o << "    float c_t = 1.0 - visibility;\n    float l0 = max(2.0 * c_t * c_t - 1.0, 0.0);\n";
         o << "    float ul = (n_dot_l - l0) / (1.0 - l0);\n";
     }
-    o << "    float tl = clamp(ul * " << L(grid_.n_dot_l) << " - 0.5, 0.0, " << L(grid_.n_dot_l - 1) << ");\n";
+    if (grid_.warps.n_dot_l != NdotLWarp::edge_roughness)
+        o << "    float tl = clamp(ul * " << L(grid_.n_dot_l) << " - 0.5, 0.0, " << L(grid_.n_dot_l - 1) << ");\n";
     if (grid_.warps.n_dot_v == NdotVWarp::sqrt) o << "    float uz = sqrt(max(n_dot_v, 0.0));\n";
     else o << "    float uz = n_dot_v;\n";
     o << "    float tz = clamp(uz * " << L(grid_.n_dot_v) << " - 0.5, 0.0, " << L(grid_.n_dot_v - 1) << ");\n";

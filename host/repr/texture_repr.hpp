@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,9 @@ public:
     void write_ktx2(const std::string& path, bool half) const override;
     void write_dds(const std::string& path, bool half) const override;
     const nlohmann::json& metadata() const { return metadata_; }
+    // The metadata's "domain", or without one the grid's: its roughness nodes' range, any visibility,
+    // NdotL and NdotV (core/lookup_domain.hpp).
+    std::optional<LookupDomain> domain() const override { return domain_; }
     std::uint32_t azimuth_nodes() const { return azimuth_nodes_; }
     // EXR channel names of the meaningful channels (the texture repeats the last one up to RGBA).
     virtual std::vector<std::string> channel_names() const = 0;
@@ -57,7 +61,7 @@ protected:
     bool zero_region(double visibility, double n_dot_l) const;
     // Clamped texel coordinates of (visibility, NdotL, NdotV) within one block of the texture.
     double visibility_texel(double visibility) const;
-    double n_dot_l_texel(double visibility, double n_dot_l) const;
+    double n_dot_l_texel(double visibility, double n_dot_l, std::uint32_t roughness_node = 0) const;
     double n_dot_v_texel(double n_dot_v) const;
     // Shader text shared by both kinds: header comment lines, the zero region, the three coordinates
     // (statements that set tv, tl, tz), written in GLSL with VEC3/VEC4/MIX/FETCH placeholders.
@@ -70,6 +74,7 @@ protected:
     std::uint32_t azimuth_nodes_;
     Texture3D texture_;
     nlohmann::json metadata_;
+    LookupDomain domain_;
 };
 
 // The grid as the file's metadata records it, and back (std::runtime_error naming the field).

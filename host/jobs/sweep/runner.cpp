@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 
@@ -186,7 +187,9 @@ std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
     // earlier runs still resume, and an exact run never resumes sampled chunks (nor the reverse).
     if (c.plan.method == Method::exact) s << exact_cache_key(c.plan) << "\n";
     std::uint64_t h = fnv1a(s.str());
-    for (const auto& l : spec.luts) h = fnv1a(read_all(l.file), h);
+    // A file by its bytes; a preset by its name and this program's version (its bake is deterministic:
+    // the exact method, fixed grid).
+    for (const auto& l : spec.luts) h = fnv1a(l.preset.empty() ? read_all(l.file) : "preset " + l.preset + " " MICROSHADOW_VERSION, h);
     return hex(h);
 }
 
@@ -198,7 +201,8 @@ std::vector<compare::Comparator> open_comparator_files(const Spec& spec) {
     for (std::size_t i = 0; i < spec.luts.size(); ++i) {
         const auto& l = spec.luts[i];
         try {
-            files.push_back(compare::Comparator::open_file(l.name, l.file));
+            files.push_back(l.preset.empty() ? compare::Comparator::open_file(l.name, l.file)
+                                             : compare::Comparator::open_named(l.name, l.preset));
         } catch (const std::exception& e) {
             const std::string what = e.what();
             // The readers name the file themselves; say it once.
@@ -226,8 +230,11 @@ public:
     // Each file comparator's provenance (kind, file, version, command line; a representation's cost).
     json file_provenance() const {
         json out = json::array();
-        for (const auto& c : files_) {
+        for (std::size_t k = 0; k < files_.size(); ++k) {
+            const auto& c = files_[k];
             json j = c.provenance();
+            // Counted over the whole sweep (every shard the same): what its columns stand on.
+            j.update(compare::domain_report(c.domain(), tallies_[k]));
             if (const auto cost = c.cost())
                 j["cost"] = {{"bytes", cost->bytes},
                              {"fetches_per_light", cost->fetches_per_light},
@@ -238,6 +245,53 @@ public:
         return out;
     }
     const PointGrid& grid() const { return grid_; }
+
+    // Each file comparator's lookups outside its domain over the whole sweep, counted once up front so
+    // --strict-domain refuses before anything is written.
+    void count_domains() {
+        tallies_.assign(files_.size(), DomainTally{});
+        first_outside_.assign(files_.size(), std::string());
+        if (files_.empty()) return;
+        std::vector<std::optional<LookupDomain>> domains;
+        for (const auto& c : files_) domains.push_back(c.domain());
+        for (std::uint64_t i = 0; i < grid_.size(); ++i) {
+            const Point p = grid_.at(i);
+            const compare::ComparatorInputs in = inputs(p);
+            for (std::size_t k = 0; k < files_.size(); ++k) {
+                if (!domains[k]) continue;
+                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                tallies_[k].add(inside);
+                if (!inside && first_outside_[k].empty())
+                    first_outside_[k] = "point " + std::to_string(p.index) + ": " +
+                                        domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+            }
+        }
+    }
+    void refuse_outside_domain(const std::string& where) const {
+        for (std::size_t k = 0; k < files_.size(); ++k)
+            if (const auto d = files_[k].domain()) compare::refuse_outside_domain(where, files_[k].name(), *d, tallies_[k], first_outside_[k]);
+    }
+    // "NAME: M of N points outside its domain (...)" per comparator with any, for warnings.
+    std::vector<std::string> outside_domain_lines() const {
+        std::vector<std::string> out;
+        for (std::size_t k = 0; k < files_.size(); ++k)
+            if (tallies_[k].outside > 0)
+                out.push_back(files_[k].name() + ": " + std::to_string(tallies_[k].outside) + " of " + std::to_string(tallies_[k].lookups) +
+                              " points outside its domain (" + files_[k].domain()->describe() + "), e.g. " + first_outside_[k]);
+        return out;
+    }
+
+    // A point's comparator inputs, as eval --compare computes them from a query.
+    compare::ComparatorInputs inputs(const Point& p) const {
+        compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
+        // delta_phi in degrees, folded to [0, 180] (the term is even and 360-periodic in it).
+        const double folded = std::fabs(std::remainder(p.delta_phi, 360.0));
+        in.relative_azimuth = folded * (3.14159265358979323846 / 180.0);
+        // A direction along the normal has no azimuth: 0, as eval --compare reads it from the query's
+        // directions (compare::inputs_of), so a representation column equals eval's at such points.
+        if (p.n_dot_v >= 1 || p.n_dot_l >= 1) in.relative_azimuth = 0;
+        return in;
+    }
 
     // The term's queries of points [first, last), each with its own form and AO weighting.
     term::Batch queries(std::uint64_t first, std::uint64_t last) const {
@@ -264,13 +318,7 @@ public:
                 line += "," + format_number(v);
             // The comparators as eval --compare computes them (jobs/compare.hpp): Activision's adjusted
             // term reads its own roughness of the point's isotropic-equivalent alpha (see points.hpp).
-            compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
-            // delta_phi in degrees, folded to [0, 180] (the term is even and 360-periodic in it).
-            const double folded = std::fabs(std::remainder(p.delta_phi, 360.0));
-            in.relative_azimuth = folded * (3.14159265358979323846 / 180.0);
-            // A direction along the normal has no azimuth: 0, as eval --compare reads it from the query's
-            // directions (compare::inputs_of), so a representation column equals eval's at such points.
-            if (p.n_dot_v >= 1 || p.n_dot_l >= 1) in.relative_azimuth = 0;
+            const compare::ComparatorInputs in = inputs(p);
             for (auto t : spec_.analytic) line += "," + format_number(compare::analytic_value(t, in));
             for (const auto& c : files_) line += "," + format_number(c(in));
             out += line + "\n";
@@ -282,7 +330,25 @@ private:
     const Spec& spec_;
     PointGrid grid_;
     std::vector<compare::Comparator> files_;  // spec.luts, in order
+    std::vector<DomainTally> tallies_;        // per file: lookups outside its domain (count_domains)
+    std::vector<std::string> first_outside_;
 };
+
+// The summary's paragraph on lookups outside each comparator file's domain (from the provenance's
+// comparator_files), or "" when the sweep has no file comparators.
+std::string domain_markdown(const json& provenance) {
+    if (!provenance.contains("comparator_files") || provenance["comparator_files"].empty()) return "";
+    std::string o = "\nLookups outside each comparator file's domain (its metadata's roughness, visibility and NdotV "
+                    "ranges; answered there by clamping, so its errors above include them):\n\n"
+                    "| comparator | domain | points outside | points |\n|---|---|---|---|\n";
+    for (const auto& f : provenance["comparator_files"]) {
+        std::string domain = "none";
+        if (f.contains("domain") && f["domain"].is_object()) domain = LookupDomain::from_json(f["domain"], "sweep.json").describe();
+        o += "| " + f.value("name", std::string()) + " | " + domain + " | " + std::to_string(f.value("outside_domain", 0)) + " | " +
+             std::to_string(f.value("lookups", 0)) + " |\n";
+    }
+    return o;
+}
 
 // Writes sweep.csv from the chunk files (in chunk order), then the summary and provenance.
 // Every chunk is checked first (`check` returns "" or the problem, already set aside and named), so a
@@ -310,7 +376,7 @@ void assemble(const std::string& out_dir, const std::string& header, std::uint64
     if (!out) throw std::runtime_error((fs::path(out_dir) / "sweep.csv").string() + ": could not be written");
     std::ifstream in(outputs.temp_path(csv), std::ios::binary);
     const Summary s = summarise(in, (fs::path(out_dir) / "sweep.csv").string());
-    outputs.stream(md) << summary_markdown(s);
+    outputs.stream(md) << summary_markdown(s) << domain_markdown(provenance);
     outputs.stream(sc) << summary_csv(s);
     provenance["max_std_error"] = s.max_std_error;
     outputs.stream(js) << dump_json(provenance, 1) << "\n";
@@ -360,7 +426,10 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     if (config.shard.count == 0 || config.shard.index >= config.shard.count) throw std::invalid_argument("bad shard");
     if (config.transport && config.shard.count != 1) throw std::invalid_argument("--mpi shares the chunks among the ranks: it takes no --shard");
     ChunkComputer computer(spec, config);
+    computer.count_domains();
+    if (config.strict_domain) computer.refuse_outside_domain(spec.source);
     RunResult result;
+    result.warnings_outside_domain = computer.outside_domain_lines();
     result.points = computer.grid().size();
     result.chunks = (result.points + spec.chunk_size - 1) / spec.chunk_size;
     // Chunks are the term integrand's work items (one per chunk either way: the exact integrand has the

@@ -47,6 +47,7 @@ struct RunConfig {
     Shard shard;
     std::uint64_t max_chunks = 0;  // > 0: compute at most this many chunks in this run, then stop (resumable)
     bool restart = false;          // discard a previous run's manifest and chunks of another spec
+    bool strict_domain = false;    // refuse (std::invalid_argument, nothing written) a comparator file looked up outside its domain
     std::string command_line;
     // Told of each damaged chunk as it is set aside (also listed in RunResult::warnings).
     std::function<void(const std::string&)> warn;
@@ -62,6 +63,7 @@ struct RunResult {
     std::uint64_t shard_chunks = 0;                // of this shard
     std::uint64_t computed = 0, skipped = 0;       // chunks computed in this run, found finished
     bool complete = false;                         // every chunk of this shard is finished
+    std::vector<std::string> warnings_outside_domain;  // per comparator file with lookups outside its domain
     bool assembled = false;                        // sweep.csv written (unsharded runs)
     std::string spec_hash;
     std::vector<std::string> warnings;             // chunks found damaged, set aside and computed again

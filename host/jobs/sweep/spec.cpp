@@ -340,14 +340,18 @@ Spec parse_spec(const std::string& text, const std::string& source_name, const s
             for (std::size_t i = 0; i < arr.size(); ++i) {
                 const std::string key = "comparators.lut[" + std::to_string(i) + "]";
                 const auto& lt = *arr.get(i)->as_table();
-                reject_unknown_keys(spec, lt, key + ".", {"name", "file"});
+                reject_unknown_keys(spec, lt, key + ".", {"name", "file", "preset"});
                 if (!lt.get("name")) fail(spec, key + ".name", "required");
-                if (!lt.get("file")) fail(spec, key + ".file", "required");
+                if (!lt.get("file") == !lt.get("preset")) fail(spec, key + ".file", "give file or preset (a representation preset's name), one of them");
                 LutComparatorSpec l;
                 l.name = string_value(spec, *lt.get("name"), key + ".name");
-                const std::string file = string_value(spec, *lt.get("file"), key + ".file");
-                const std::filesystem::path p(file);
-                l.file = p.is_absolute() ? file : (std::filesystem::path(base_dir) / p).lexically_normal().string();
+                if (lt.get("preset")) {
+                    l.preset = string_value(spec, *lt.get("preset"), key + ".preset");
+                } else {
+                    const std::string file = string_value(spec, *lt.get("file"), key + ".file");
+                    const std::filesystem::path p(file);
+                    l.file = p.is_absolute() ? file : (std::filesystem::path(base_dir) / p).lexically_normal().string();
+                }
                 if (l.name.empty() || l.name.find_first_of(",\"\n\r ") != std::string::npos)
                     fail(spec, key + ".name", "must be non-empty, without commas, quotes or spaces (it is a CSV column)");
                 // TOML strings may hold escapes such as \u0001 or \t: a control character in a column

@@ -69,7 +69,8 @@ std::vector<double> generate_range(const Range& range, const std::string& key = 
 
 struct LutComparatorSpec {
     std::string name;
-    std::string file;  // resolved against the spec file's directory
+    std::string file;    // resolved against the spec file's directory; empty for a preset
+    std::string preset;  // a representation preset by name ("full-range"), baked when the sweep opens it
 };
 
 // Largest sweep accepted without an explicit [sweep].max_points.

@@ -110,6 +110,9 @@ LutFile make_lut_file(const std::vector<LutAxis>& axes, const std::vector<LutCha
     lut.axes = axes;
     lut.channels = channels;
     lut.metadata = std::move(metadata);
+    // Every format's metadata records the domain (as write_lut does for the EXR).
+    if (lut.metadata.is_object() && !lut.metadata.contains("domain"))
+        lut.metadata["domain"] = lut_domain(axes, channels).to_json("the lookups this LUT was baked for; outside, clamp-to-edge answers");
     if (axes.size() == 3) {
         lut.width = axes[0].count;
         lut.height = axes[1].count * axes[2].count;

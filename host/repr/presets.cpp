@@ -1,0 +1,94 @@
+#include "repr/presets.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace ms::repr {
+
+namespace {
+
+// n nodes spaced evenly from lo to hi.
+std::vector<double> even(double lo, double hi, int n) {
+    std::vector<double> out;
+    for (int i = 0; i < n; ++i) out.push_back(lo + (hi - lo) * i / (n - 1));
+    return out;
+}
+
+// n nodes from lo to hi in geometric progression (equal ratios; the shader finds the slab by a logarithm).
+std::vector<double> geometric(double lo, double hi, int n) {
+    std::vector<double> out;
+    for (int i = 0; i < n; ++i) out.push_back(lo * std::pow(hi / lo, double(i) / (n - 1)));
+    out.back() = hi;
+    return out;
+}
+
+}  // namespace
+
+std::vector<std::string> preset_names() { return {"realistic", "full-range"}; }
+
+bool is_preset(const std::string& name) {
+    for (const auto& n : preset_names())
+        if (n == name) return true;
+    return false;
+}
+
+Preset preset(const std::string& name, AoWeighting weighting) {
+    Preset p;
+    p.name = name;
+    p.grid.weighting = weighting;
+    if (name == "realistic") {
+        // The best measured inside roughness 0.3-0.9 (docs/representations.md): harmonics, 32 visibility
+        // texels dense near v = 1 x 16 NdotL x 8 NdotV x 8 roughness slabs over 0.3..0.9; 256 KiB, 2 fetches.
+        p.summary = "roughness 0.3-0.9, visibility 0.5-1, NdotV 0.2-1: azimuth harmonics 32 v (sqrt-top) x 16 NdotL x 8 NdotV x 8 "
+                    "roughness, 256 KiB, 2 fetches";
+        p.kind = "azimuth-harmonics";
+        p.grid.visibility = 32, p.grid.n_dot_l = 16, p.grid.n_dot_v = 8;
+        p.grid.roughness = even(0.3, 0.9, 8);
+        p.grid.warps.visibility = VisibilityWarp::sqrt_top;
+        p.domain.roughness_min = 0.3, p.domain.roughness_max = 0.9;
+        p.domain.visibility_min = 0.5, p.domain.visibility_max = 1;
+        p.domain.n_dot_v_min = 0.2, p.domain.n_dot_v_max = 1;
+        return p;
+    }
+    if (name == "full-range") {
+        // The whole isotropic domain at 512 KiB and 2 fetches: the NdotL axis of each roughness slab
+        // follows the shadow edge in units of its alpha (edge-roughness), so low roughness, a near-step,
+        // gets the texels a linear axis spends where the term is flat (docs/representations.md).
+        p.summary = "roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1: azimuth harmonics 32 v (sqrt-top) x 16 NdotL (edge-roughness, "
+                    "width 1 alpha) x 8 NdotV (sqrt) x 16 roughness (geometric), 512 KiB, 2 fetches";
+        p.kind = "azimuth-harmonics";
+        p.grid.visibility = 32, p.grid.n_dot_l = 16, p.grid.n_dot_v = 8;
+        // Geometric nodes: alpha = r^2 changes by the same factor (1.49) from slab to slab, so adjacent
+        // slabs' edge widths stay close down to roughness 0.05.
+        p.grid.roughness = geometric(0.05, 1.0, 16);
+        p.grid.warps.visibility = VisibilityWarp::sqrt_top;
+        p.grid.warps.n_dot_l = NdotLWarp::edge_roughness;
+        // Measured on random full-range queries (docs/representations.md): width 1 alpha beat 0.5, 2
+        // and 4, and sqrt(NdotV) halves the grazing views' error for a little more at high roughness.
+        p.grid.edge_width = 1.0;
+        p.grid.warps.n_dot_v = NdotVWarp::sqrt;
+        p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
+        p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
+        p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;
+        return p;
+    }
+    std::string list;
+    for (const auto& n : preset_names()) list += (list.empty() ? "" : ", ") + n;
+    throw std::invalid_argument("no representation preset '" + name + "' (presets: " + list + ")");
+}
+
+std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
+                                            const std::function<void(std::size_t, std::size_t)>& progress) {
+    AzimuthBakeSpec spec;
+    spec.grid = p.grid;
+    spec.azimuth_nodes = p.azimuth_nodes;
+    spec.plan.method = Method::exact;
+    spec.term.ao_weighting = p.grid.weighting;
+    spec.command_line = command_line;
+    AzimuthBake bake = bake_azimuth(spec, backend, progress);
+    bake.metadata["preset"] = p.name;
+    bake.metadata["domain"] = p.domain.to_json("the preset's domain: its measured errors hold here; outside, its axes clamp");
+    return build_representation(p.kind, bake);
+}
+
+}  // namespace ms::repr

@@ -1,0 +1,38 @@
+// Named representations a renderer can ship without choosing a layout: each preset is a kind, a grid,
+// azimuth nodes and the domain its measured errors hold for (docs/representations.md, "Presets", gives
+// their memory, fetches, ALU and errors on random queries of that domain).
+//   realistic:  roughness 0.3-0.9, visibility 0.5-1, NdotV 0.2-1 (content whose roughness stays there)
+//   full-range: roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1 (the whole isotropic domain)
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/lookup_domain.hpp"
+#include "repr/representation.hpp"
+
+namespace ms::repr {
+
+struct Preset {
+    std::string name;
+    std::string summary;  // one line for help and metadata
+    std::string kind;     // "azimuth-harmonics" or "azimuth-axis"
+    ReprGrid grid;
+    std::uint32_t azimuth_nodes = 9;
+    LookupDomain domain;
+};
+
+std::vector<std::string> preset_names();
+// True for a preset's name.
+bool is_preset(const std::string& name);
+// The preset of that name for an AO weighting (the grid's); std::invalid_argument naming the valid ones.
+Preset preset(const std::string& name, AoWeighting weighting = AoWeighting::cosine);
+
+// Bakes a preset with the exact method (its default tolerance) on `backend` and builds it; the bake's
+// metadata records the preset's name and domain.
+std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
+                                            const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+}  // namespace ms::repr

@@ -8,6 +8,7 @@
 
 #include "exact/dfg_exact.hpp"
 #include "integrands/dfg/dfg_quadrature.hpp"
+#include "jobs/ibl_dfg.hpp"
 
 namespace {
 
@@ -50,6 +51,35 @@ TEST(IblDfgExact, AgreesWithTheIndependentQuadratureTo1e10) {
         }
     std::printf("worst |exact - quadrature| %.3g, worst exact error estimate %.3g\n", worst, worst_estimate);
     EXPECT_LT(worst_estimate, 1e-10);
+}
+
+// --verify of an exact bake: the bake as made passes both checks (the quadrature within 1e-10, the kernel
+// within its bars); a texel corrupted by 1e-9 fails the deterministic check while the kernel cannot see
+// it, and one corrupted by 1e-2 fails both.
+TEST(IblDfgExact, VerifyCatchesACorruptedTexel) {
+    DfgBakeSpec spec;
+    spec.n_dot_v.count = 3;
+    spec.roughness.count = 2;
+    spec.method = DfgMethod::exact;
+    spec.plan.samples = 16384;
+    DfgBakeResult r = bake_dfg(spec);
+    const DfgVerification clean = verify_dfg(spec, r, 6);
+    EXPECT_EQ(clean.checked, 6u);
+    EXPECT_EQ(clean.failed, 0u) << clean.worst_texel;
+    EXPECT_LT(clean.worst_deterministic_diff, 1e-12);
+
+    r.values[4].scale.term += 1e-9;
+    r.values[4].albedo.term += 1e-9;
+    const DfgVerification small = verify_dfg(spec, r, 6);
+    EXPECT_EQ(small.failed, 1u);
+    EXPECT_GT(small.worst_deterministic_diff, 9e-10);
+    EXPECT_LT(small.worst_z, small.threshold);  // far inside the kernel's bars
+    EXPECT_NE(small.worst_deterministic_texel.find("texel (1, 1) scale"), std::string::npos) << small.worst_deterministic_texel;
+
+    r.values[4].scale.term += 1e-2;
+    const DfgVerification large = verify_dfg(spec, r, 6);
+    EXPECT_EQ(large.failed, 1u);
+    EXPECT_GT(large.worst_z, large.threshold);
 }
 
 }  // namespace

@@ -86,6 +86,7 @@ set(microshadow_slow_tests
   "^GoldenSet\\."
   "^HostileInput\\.OddButValidQueryFilesWork$"
   "^IblDfgExact\\.AgreesWithTheIndependentQuadratureTo1e10$"
+  "^IblDfgExact\\.VerifyCatchesACorruptedTexel$"
   "^IblDfgFormats\\.FourChannelsRgba16fAndSqrtParameterization$"
   "^IblDfgKernel\\."
   "^IblDfgQuadrature\\.ConvergedAndBoundedOverALut$"

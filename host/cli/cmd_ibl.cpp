@@ -113,8 +113,9 @@ void run_dfg(const DfgArgs& a) {
             std::ostringstream s;
             s << "verification failed: " << check.failed << " of " << check.checked << " texels differ from " << check.reference
               << std::setprecision(3) << " beyond their error bars (worst z " << check.worst_z << ", limit " << check.threshold
-              << "; worst deterministic |diff| " << check.worst_deterministic_diff << ", limit " << check.deterministic_tolerance
-              << "; " << check.worst_texel << "); nothing was written";
+              << "; " << check.worst_texel << "; worst deterministic |diff| " << check.worst_deterministic_diff << ", limit "
+              << check.deterministic_tolerance << (check.worst_deterministic_texel.empty() ? "" : ", " + check.worst_deterministic_texel)
+              << "); nothing was written";
             throw std::runtime_error(s.str());
         }
     }

@@ -475,12 +475,10 @@ void compare_deterministic(DfgVerification& v, const std::vector<dfg::DfgValue>&
             const double diff = std::abs(a[c] - b[c]);
             if (diff > v.worst_deterministic_diff) {
                 v.worst_deterministic_diff = diff;
-                if (diff > tolerance) {
-                    std::ostringstream s;
-                    s << std::setprecision(12) << "texel (" << texels[i].first << ", " << texels[i].second << ") " << names[c]
-                      << ": " << a[c] << " vs " << b[c];
-                    v.worst_texel = s.str();
-                }
+                std::ostringstream s;
+                s << std::setprecision(12) << "texel (" << texels[i].first << ", " << texels[i].second << ") " << names[c] << ": "
+                  << a[c] << " vs " << b[c];
+                v.worst_deterministic_texel = s.str();
             }
             if (diff > tolerance) bad[i] = 1;
         }

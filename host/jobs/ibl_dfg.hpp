@@ -137,6 +137,7 @@ struct DfgVerification {
     std::string worst_texel;
     // The deterministic comparison (exact against quadrature): largest |difference| and its tolerance.
     double worst_deterministic_diff = 0, deterministic_tolerance = 0;
+    std::string worst_deterministic_texel;  // where that difference is (worst_texel: the largest z)
     std::string reference;  // what the texels were compared with, in words
 };
 DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed = 1);

@@ -191,7 +191,7 @@ TEST_F(IblDfgBake, BoundsWhiteFurnaceAndVerification) {
 
 TEST_F(IblDfgBake, CliWritesTheExrWithMetadataAndPreview) {
     const std::string out = path("dfg.exr"), png = path("dfg.png");
-    const auto res = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --out " + out + " --size 8 --samples 4096 --verify 4 --preview " +
+    const auto res = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --method sampled --out " + out + " --size 8 --samples 4096 --verify 4 --preview " +
                                png + " 2>&1");
     ASSERT_EQ(res.exit_code, 0) << res.output;
     nlohmann::json meta;
@@ -206,7 +206,7 @@ TEST_F(IblDfgBake, CliWritesTheExrWithMetadataAndPreview) {
     EXPECT_LT(img.at(0, 0, 0), img.at(7, 0, 0));
     EXPECT_TRUE(std::filesystem::exists(png));
     // The C header: the same texels, the metadata in a comment.
-    const auto hdr = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --out " + path("dfg.h") + " --size 8 --samples 4096 --quiet 2>&1");
+    const auto hdr = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --method sampled --out " + path("dfg.h") + " --size 8 --samples 4096 --quiet 2>&1");
     ASSERT_EQ(hdr.exit_code, 0) << hdr.output;
     std::ifstream h(path("dfg.h"));
     const std::string text((std::istreambuf_iterator<char>(h)), std::istreambuf_iterator<char>());

@@ -159,7 +159,7 @@ TEST_F(IblFormats, TextureLayerWritesA3ChannelTextureWithAlphaFill) {
 }
 
 TEST_F(IblFormats, DfgLutKtx2AndDdsReadBackEqualToTheExr) {
-    const std::string args = " --size 8 --samples 1024 --quiet 2>&1";
+    const std::string args = " --method sampled --size 8 --samples 1024 --quiet 2>&1";
     for (const std::string out : {"dfg.exr", "dfg.ktx2"}) {
         const auto res = ms::testing::run_shell(cli() + " ibl dfg --out " + path(out) + args);
         ASSERT_EQ(res.exit_code, 0) << res.output;
@@ -262,6 +262,31 @@ TEST_F(IblFormats, PrefilteredCubemapKtx2AndDdsReadBackEqualToTheExrFaces) {
     EXPECT_FALSE(std::filesystem::exists(path("out_ktx2/specular_m0.exr")));
     EXPECT_TRUE(std::filesystem::exists(path("out_ktx2/dfg.ktx2")));  // --dfg-size follows --format
     EXPECT_TRUE(std::filesystem::exists(path("out_dds/dfg.dds")));
+    // The SH irradiance follows --format too: one RGBA16F cubemap level whose faces are the EXR run's cross.
+    EXPECT_FALSE(std::filesystem::exists(path("out_ktx2/irradiance.exr")));
+    EXPECT_TRUE(std::filesystem::exists(path("out_dds/irradiance.dds")));
+    {
+        const env::Image irr = env::read_exr_rgb(path("out_exr/irradiance.exr"));
+        const std::uint32_t s = irr.width / 4;
+        const auto ib = slurp(path("out_ktx2/irradiance.ktx2"));
+        const Ktx2 ik = read_ktx2(ib, 8);
+        EXPECT_EQ(ik.vk_format, 97u);
+        EXPECT_EQ(ik.faces, 6u);
+        EXPECT_EQ(ik.levels, 1u);
+        EXPECT_EQ(ik.width, s);
+        Bytes ir{ib};
+        for (int f = 0; f < 6; ++f) {
+            std::uint32_t ox, oy;
+            env::cross_face_offset(f, s, ox, oy);
+            for (std::uint32_t y = 0; y < s; ++y)
+                for (std::uint32_t x = 0; x < s; ++x)
+                    for (int c = 0; c < 3; ++c) {
+                        const float want = irr.at(ox + x, oy + y, c);
+                        const float got = ir.f16(ik.level[0].offset + ((std::size_t(f) * s + y) * s + x) * 8 + 2 * c);
+                        ASSERT_LE(std::abs(got - want), half_allowed(want)) << "face " << f << " (" << x << ", " << y << ") " << c;
+                    }
+        }
+    }
 
     // KTX2 cubemap (KTX 2.0: faceCount 6, pixelDepth 0, layerCount 0, levelCount = mips, every mip in the
     // level index; each level's faces +X -X +Y -Y +Z -Z, rows top first).

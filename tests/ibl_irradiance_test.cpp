@@ -186,9 +186,21 @@ TEST_F(IblIrradianceCli, WritesTheMapWithProvenanceAndVerifies) {
     std::ifstream(path("a/irradiance.json")) >> meta;
     EXPECT_EQ(meta.at("convolution_size"), 8);
     EXPECT_EQ(meta.at("verify").at("failed"), 0);
+    // The measured difference says what it is against: a cross is convolved as given.
+    EXPECT_EQ(meta.at("verify").at("reference"), "the exact convolution of the source cube as given");
     EXPECT_GT(meta.at("sh_comparison").at("max_relative").get<double>(), 0);
     const env::Image cross = env::read_exr_rgb(path("a/irradiance.exr"));
     EXPECT_EQ(cross.width, 16u);
+    // An equirectangular ENV is resampled to a cube first, and that cube is what --verify convolves exactly.
+    env::Image equirect(32, 16, {"R", "G", "B"});
+    for (float& v : equirect.data) v = 1.5f;
+    env::write_exr(path("latlong.exr"), equirect, {});
+    r = ms::testing::run_shell(std::string(MICROSHADOW_CLI) + " ibl irradiance " + path("latlong.exr") + " --out " + path("e") +
+                               " --face-size 4 --source-size 8 --verify 2 --quiet 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    nlohmann::json emeta;
+    std::ifstream(path("e/irradiance.json")) >> emeta;
+    EXPECT_NE(emeta.at("verify").at("reference").get<std::string>().find("resampled cube"), std::string::npos) << emeta.at("verify");
     r = ms::testing::run_shell(cli + " --out " + path("b") + " --face-size 4 --format ktx2 --quiet 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_TRUE(std::filesystem::exists(path("b/irradiance.ktx2")));

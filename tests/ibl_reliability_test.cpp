@@ -300,8 +300,8 @@ TEST_F(IblReliability, TwoOutputsAtOnePathAreRefusedBeforeAnyWork) {
         "ibl sh sky.exr --out a.json --irradiance s.exr --preview s.exr -q",
         "ibl sh sky.exr --out s.json --irradiance s.json -q",
         "ibl sh sky.exr --out s.json --preview ./s.json -q",
-        "ibl dfg --out d.exr --preview d.exr --size 4 --samples 64 -q",
-        "ibl dfg --out d.dds --preview d.dds.json --size 4 --samples 64 -q",
+        "ibl dfg --method sampled --out d.exr --preview d.exr --size 4 --samples 64 -q",
+        "ibl dfg --method sampled --out d.dds --preview d.dds.json --size 4 --samples 64 -q",
     };
     for (const std::string& args : colliding) {
         const auto before = snapshot(dir_);
@@ -363,8 +363,9 @@ TEST_F(IblReliability, ARerunWithFewerMipsOrAnotherFormatLeavesNoFileOfTheEarlie
                                             "specular_m1.exr specular_preview.png");
     r = cli("ibl prefilter sky.exr --out pf --levels 3 --format dds" + common);
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    EXPECT_EQ(names(snapshot(dir_ / "pf")), " ibl.json irradiance.exr irradiance_preview.png notes.txt sh.json specular.dds "
-                                            "specular.dds.json specular_preview.png");
+    // The irradiance follows the format (a DDS cubemap with its sidecar), and the EXR cross of before goes.
+    EXPECT_EQ(names(snapshot(dir_ / "pf")), " ibl.json irradiance.dds irradiance.dds.json irradiance_preview.png notes.txt sh.json "
+                                            "specular.dds specular.dds.json specular_preview.png");
 
     const std::string ir = " --face-size 4 --source-size 4 --backend oracle --threads 1 -q";
     ASSERT_EQ(cli("ibl irradiance sky.exr --out ir --format dds" + ir).exit_code, 0);
@@ -493,8 +494,8 @@ TEST_F(IblReliability, SigtermDuringIrradianceThenRerunLeavesNoMixedOrStaleFiles
 }
 
 TEST_F(IblReliability, SigtermDuringDfgThenRerunLeavesNoMixedFiles) {
-    const std::string earlier = "ibl dfg --out d.exr --preview d.png --size 4 --samples 256 -q";
-    const std::string later = "ibl dfg --out d.exr --preview d.png --size 8 --samples 256 -q";
+    const std::string earlier = "ibl dfg --method sampled --out d.exr --preview d.png --size 4 --samples 256 -q";
+    const std::string later = "ibl dfg --method sampled --out d.exr --preview d.png --size 8 --samples 256 -q";
     interrupt_between_runs(dir_, earlier, later, ".", kSignalFractions);
 }
 
@@ -510,7 +511,7 @@ nlohmann::json exr_metadata(const std::string& file, env::Image* image) {
 }
 
 TEST_F(IblReliability, DfgFailoverOnTwoDevicesGivesTheSameLut) {
-    const std::string args = "ibl dfg --size 8 --samples 1024 --replicates 4 -q --out ";
+    const std::string args = "ibl dfg --method sampled --size 8 --samples 1024 --replicates 4 -q --out ";
     ASSERT_EQ(cli(args + "one.exr").exit_code, 0);
     auto fault = cli(args + "fault.exr --device all", kTwoDevices + " MICROSHADOW_FAIL_DEVICE=0:0");
     ASSERT_EQ(fault.exit_code, 0) << fault.output;

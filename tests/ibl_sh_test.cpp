@@ -4,12 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 
 #include "cli_runner.hpp"
+#include "env/cubemap.hpp"
 #include "env/image.hpp"
+#include "env/preview.hpp"
 #include "env/sh.hpp"
 #include "env/sphere.hpp"
 #include "jobs/ibl_env.hpp"
@@ -135,6 +138,68 @@ TEST(IblSh, LowFrequencyEnvironmentAgainstBruteForce) {
 }
 
 // A Radiance RGBE file, flat and run-length encoded scanlines.
+// The shader constants (cmgen --sh-shader's form): parsed back from the generated GLSL and HLSL, the
+// polynomial sum max(0, sum K_k P_k(n)) equals the SH irradiance E(n) / pi of the coefficients at
+// normals through axes, diagonals and generic directions (to the 9 printed digits).
+TEST(IblSh, ShaderConstantsEvaluateToTheShIrradiance) {
+    const env::Sh9 sh = env::sh_project_function([](const env::Dir& d) {
+        return std::array<double, 3>{2 + d.z + 0.5 * d.x * d.y, 1 + 0.3 * d.y - 0.2 * d.x * d.z, 1.5 + 0.4 * (3 * d.z * d.z - 1) + 0.1 * d.x};
+    });
+    for (const char* file : {"sh.glsl", "sh.hlsl"}) {
+        const std::string text = sh_shader_source(sh, file, "sky_sh", "   test");
+        EXPECT_NE(text.find("sky_sh_irradiance"), std::string::npos);
+        EXPECT_NE(text.find(std::string(file) == std::string("sh.glsl") ? "const vec3 sky_sh[9] = vec3[9](" : "static const float3 sky_sh[9] = {"),
+                  std::string::npos)
+            << text;
+        // The nine constants: the numbers inside the nine "vec3(" / "float3(" after the array's name.
+        std::array<std::array<double, 3>, 9> k{};
+        std::size_t at = text.find("sky_sh[9]");
+        for (int i = 0; i < 9; ++i) {
+            at = text.find("(", text.find(std::string(file) == std::string("sh.glsl") ? "vec3(" : "float3(", at + 1));
+            const char* p = text.c_str() + at + 1;
+            for (int c = 0; c < 3; ++c) {
+                char* end;
+                k[i][c] = std::strtod(p, &end);
+                p = end + 1;
+            }
+        }
+        for (const env::Dir n : {env::Dir{0, 0, 1}, env::Dir{1, 0, 0}, env::Dir{0, -1, 0}, env::Dir{0.6, 0.8, 0}, env::Dir{0.48, -0.6, 0.64}}) {
+            const std::array<double, 3> e = env::sh_irradiance(sh, n);
+            const double p[9] = {1, n.y, n.z, n.x, n.x * n.y, n.y * n.z, 3 * n.z * n.z - 1, n.x * n.z, n.x * n.x - n.y * n.y};
+            for (int c = 0; c < 3; ++c) {
+                double sum = 0;
+                for (int i = 0; i < 9; ++i) sum += k[i][c] * p[i];
+                EXPECT_NEAR(std::max(0.0, sum), std::max(0.0, e[c] / 3.14159265358979323846), 1e-8) << file << " channel " << c;
+            }
+        }
+    }
+    EXPECT_THROW(check_sh_shader_output("sh.txt", "a"), std::invalid_argument);
+    EXPECT_THROW(check_sh_shader_output("sh.glsl", "2x"), std::invalid_argument);
+}
+
+// Cross previews name each face (white on a black shadow, at the face's top-left) and the tone map.
+TEST(IblPreview, CrossFacesAreLabelledAndTheToneMapNamed) {
+    env::Image cross(16, 12, {"R", "G", "B"});
+    for (float& v : cross.data) v = 1.0f;  // Reinhard: 0.5, sRGB ~188 everywhere
+    const env::Canvas c = env::cross_preview_canvas(cross, 1.0, "test");
+    const std::uint32_t face = 4 * 24;  // 16 texels magnified 24x to 384 pixels: faces of 96
+    for (int f = 0; f < 6; ++f) {
+        std::uint32_t fx, fy;
+        env::cross_face_offset(f, face, fx, fy);
+        int white = 0, black = 0;
+        for (std::uint32_t y = fy; y < fy + 20; ++y)
+            for (std::uint32_t x = fx; x < fx + 40; ++x) {
+                const std::uint8_t v = c.rgb[(std::size_t(y) * c.width + x) * 3];
+                white += v == 255, black += v == 0;
+            }
+        EXPECT_GT(white, 10) << "face " << f;
+        EXPECT_GT(black, 10) << "face " << f;
+    }
+    // Away from the labels the tone-mapped grey is untouched.
+    EXPECT_EQ(c.rgb[(std::size_t(150) * c.width + 150) * 3], c.rgb[(std::size_t(160) * c.width + 160) * 3]);
+    EXPECT_EQ(env::tone_map_caption(2), "Reinhard x / (1 + x), sRGB, exposure 2");
+}
+
 TEST(IblImage, ReadsRadianceRgbe) {
     const std::string path = ::testing::TempDir() + "/microshadow_ibl_rgbe.hdr";
     {

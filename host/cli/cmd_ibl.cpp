@@ -40,13 +40,21 @@ constexpr std::size_t kNoFile = ~std::size_t(0);
 std::size_t add_if_given(OutputSet& outputs, const std::string& path) { return path.empty() ? kNoFile : outputs.add(path); }
 
 struct DfgArgs {
-    std::string out, preview, compare, texel = "centres", backend = "opencl", device = "default";
+    std::string out, preview, compare, texel = "centres", backend, device = "default";
+    std::string method = "sampled", channels = "scale,bias,E", parameterization = "linear", symbol = "microshadow_dfg";
     int warp = 3;
     std::uint32_t size = 64, size_n_dot_v = 0, size_roughness = 0, replicates = 8, verify = 0;
     std::uint64_t samples = 65536, seed = 0;
     bool half = false, fast_math = false, double_kernels = false, quiet = false;
+    bool samples_given = false, replicates_given = false;
     unsigned threads = 0;
 };
+
+std::string to_chars(double v) {
+    std::ostringstream s;
+    s << std::setprecision(3) << v;
+    return s.str();
+}
 
 void run_dfg(const DfgArgs& a) {
     DfgBakeSpec spec;
@@ -59,14 +67,27 @@ void run_dfg(const DfgArgs& a) {
     if (spec.plan.samples != a.samples && !a.quiet)
         std::cerr << "note: --samples " << a.samples << " rounded up to " << spec.plan.samples << "\n";
     if (spec.plan.samples / a.replicates > (1u << 24)) throw std::invalid_argument("--samples: at most 2^24 per replicate");
-    spec.oracle = a.backend == "oracle";
+    // --backend opencl|oracle is the older spelling of --method sampled|quadrature.
+    std::string method = a.method;
+    if (!a.backend.empty()) {
+        const std::string implied = a.backend == "oracle" ? "quadrature" : "sampled";
+        if (a.method != "sampled" && a.method != implied)
+            throw std::invalid_argument("--backend " + a.backend + " contradicts --method " + a.method);
+        method = implied;
+    }
+    spec.method = parse_dfg_method(method);
+    spec.channels = parse_dfg_channels(a.channels);
+    spec.parameterization = parse_dfg_parameterization(a.parameterization);
+    check_dfg_lut_output(a.out, spec.channels, a.symbol);
     spec.oracle_threads = a.threads;
     spec.device = a.device;
     spec.routine.warp = a.warp;
     spec.routine.build.fast_math = a.fast_math;
     spec.routine.build.double_precision = a.double_kernels;
-    if (spec.oracle && (a.fast_math || a.double_kernels))
-        throw std::invalid_argument("--fast-math and --double-kernels build kernels; the oracle has none");
+    if (spec.method != DfgMethod::sampled && (a.fast_math || a.double_kernels))
+        throw std::invalid_argument("--fast-math and --double-kernels build the kernel of --method sampled; --method " + method + " has none");
+    if (spec.method != DfgMethod::sampled && (a.samples_given || a.replicates_given))
+        throw std::invalid_argument("--samples and --replicates set --method sampled; --method " + method + " is deterministic");
     spec.command_line = command_line();
     spec.fault = fault_injection_from_environment();
     validate(spec);
@@ -84,13 +105,17 @@ void run_dfg(const DfgArgs& a) {
     DfgVerification check;
     if (a.verify > 0) {
         check = verify_dfg(spec, result, a.verify);
-        meta["verify"] = {{"texels", check.checked}, {"failed", check.failed}, {"worst_z", check.worst_z},
-                          {"threshold", check.threshold}, {"worst_abs_diff", check.worst_abs_diff}};
+        meta["verify"] = {{"texels", check.checked}, {"failed", check.failed}, {"reference", check.reference},
+                          {"worst_z", check.worst_z}, {"threshold", check.threshold}, {"worst_abs_diff", check.worst_abs_diff},
+                          {"worst_deterministic_diff", check.worst_deterministic_diff},
+                          {"deterministic_tolerance", check.deterministic_tolerance}};
         if (check.failed > 0) {
             std::ostringstream s;
-            s << "verification failed: " << check.failed << " of " << check.checked
-              << " texels differ from the quadrature oracle beyond their error bars (worst z " << std::setprecision(3)
-              << check.worst_z << " > " << check.threshold << "; " << check.worst_texel << "); nothing was written";
+            s << "verification failed: " << check.failed << " of " << check.checked << " texels differ from " << check.reference
+              << std::setprecision(3) << " beyond their error bars (worst z " << check.worst_z << ", limit " << check.threshold
+              << "; " << check.worst_texel << "; worst deterministic |diff| " << check.worst_deterministic_diff << ", limit "
+              << check.deterministic_tolerance << (check.worst_deterministic_texel.empty() ? "" : ", " + check.worst_deterministic_texel)
+              << "); nothing was written";
             throw std::runtime_error(s.str());
         }
     }
@@ -102,19 +127,25 @@ void run_dfg(const DfgArgs& a) {
                            {"rms", {cmp.rms[0], cmp.rms[1], cmp.rms[2]}}};
     }
     if (preview != kNoFile) write_dfg_preview_file(outputs.temp_path(preview), result, spec);
-    write_dfg_lut(outputs, lut_files, result, meta, a.half);
+    write_dfg_lut(outputs, lut_files, result, meta, a.half, a.symbol);
     commit_outputs(outputs);
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl dfg: " << result.width << " x " << result.height << " (NdotV x roughness), "
-                  << (spec.oracle ? "quadrature" : std::to_string(spec.plan.samples) + " samples per texel")
-                  << ", max std error " << result.max_std_error << ", " << result.seconds << " s on " << result.backend << "\n";
+                  << (spec.method == DfgMethod::sampled
+                          ? std::to_string(spec.plan.samples) + " samples per texel, max std error " + to_chars(result.max_std_error)
+                          : std::string(to_string(spec.method)) + ", max error estimate " + to_chars(result.max_exact_error))
+                  << ", " << result.seconds << " s on " << result.backend << "\n";
         if (!a.compare.empty())
             std::cerr << "compare: max |diff| scale " << cmp.max_abs[0] << " bias " << cmp.max_abs[1] << " E " << cmp.max_abs[2]
                       << " (worst texel " << cmp.worst_x << ", " << cmp.worst_y << "); rms " << cmp.rms[0] << " " << cmp.rms[1]
                       << " " << cmp.rms[2] << "; bake " << result.seconds << " s\n";
         if (a.verify > 0)
-            std::cerr << "verify: " << check.checked << " texels against the quadrature oracle, worst z " << check.worst_z
-                      << " (limit " << check.threshold << "), worst |diff| " << check.worst_abs_diff << "\n";
+            std::cerr << "verify: " << check.checked << " texels against " << check.reference << ": worst z " << check.worst_z
+                      << " (limit " << check.threshold << "), worst |diff| " << check.worst_abs_diff
+                      << (check.deterministic_tolerance > 0 ? ", worst deterministic |diff| " + to_chars(check.worst_deterministic_diff) +
+                                                                  " (limit " + to_chars(check.deterministic_tolerance) + ")"
+                                                            : std::string())
+                      << "\n";
     }
 }
 
@@ -131,7 +162,7 @@ std::string environment_name(const std::string& env, const std::vector<std::stri
 }
 
 const char* const kShCrossCaption =
-    "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom (Reinhard, sRGB)";
+    "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom";
 
 // The --out folder of `ibl prefilter` / `ibl irradiance`: checked before any work (it is a folder, or
 // can be made in a writable parent), made only once the inputs are read, and removed again by a run
@@ -188,7 +219,7 @@ std::set<std::string> names_in(const OutputSet& outputs, std::size_t count) {
 }
 
 struct ShArgs {
-    std::string env, out, irradiance, preview;
+    std::string env, out, irradiance, preview, shader, symbol = "microshadow_sh";
     std::vector<std::string> faces;
     std::uint32_t face_size = 32;
     bool quiet = false;
@@ -200,6 +231,8 @@ void run_sh(const ShArgs& a) {
     const std::size_t json = outputs.add(a.out);
     const std::size_t irradiance = add_if_given(outputs, a.irradiance);
     const std::size_t preview = add_if_given(outputs, a.preview);
+    if (!a.shader.empty()) check_sh_shader_output(a.shader, a.symbol);
+    const std::size_t shader = add_if_given(outputs, a.shader);
     // Equirectangular images are projected texel by texel (exact texel integrals); crosses and face files as cubemaps.
     // The cross is needed for the EXR and for the preview alike.
     const std::uint32_t faces = a.irradiance.empty() && a.preview.empty() ? 0 : a.face_size;
@@ -211,7 +244,11 @@ void run_sh(const ShArgs& a) {
     nlohmann::json meta = irradiance_metadata(r, environment_name(a.env, a.faces), command_line());
     outputs.stream(json) << meta.dump(2) << "\n";
     if (irradiance != kNoFile) env::write_exr_file(outputs.temp_path(irradiance), a.irradiance, r.irradiance_cross, meta);
-    if (preview != kNoFile) env::write_png_file(outputs.temp_path(preview), env::preview_canvas(r.irradiance_cross, 1.0, kShCrossCaption));
+    if (preview != kNoFile) env::write_png_file(outputs.temp_path(preview), env::cross_preview_canvas(r.irradiance_cross, 1.0, kShCrossCaption));
+    if (shader != kNoFile)
+        outputs.stream(shader) << sh_shader_source(r.sh, a.shader, a.symbol,
+                                                   "   source: " + environment_name(a.env, a.faces) + "\n   command: " + command_line() +
+                                                       "\n   version: " + MICROSHADOW_VERSION);
     commit_outputs(outputs);
     if (!a.quiet)
         std::cerr << "ibl sh: " << (a.faces.empty() ? std::to_string(image.width) + " x " + std::to_string(image.height) + " environment"
@@ -270,7 +307,11 @@ void run_prefilter(const PrefilterArgs& a) {
     folder.make();
     OutputSet outputs;
     const PrefilterFiles specular = add_prefilter_files(outputs, a.out, levels, a.format, a.encoding);
-    const std::size_t irradiance_exr = outputs.add(a.out + "/irradiance.exr");
+    // The SH irradiance in the chain's format: a cross for exr, one cubemap level for ktx2 / dds.
+    const bool irradiance_texture = a.format != "exr";
+    const std::size_t irradiance_map = outputs.add(a.out + "/irradiance." + a.format, /*binary=*/irradiance_texture);
+    std::optional<std::size_t> irradiance_sidecar;
+    if (a.format == "dds") irradiance_sidecar = outputs.add(a.out + "/irradiance.dds.json");
     const std::size_t irradiance_png = outputs.add(a.out + "/irradiance_preview.png");
     const std::size_t sh_json = outputs.add(a.out + "/sh.json");
     const std::size_t ibl_json = outputs.add(a.out + "/ibl.json");
@@ -309,8 +350,12 @@ void run_prefilter(const PrefilterArgs& a) {
     }
 
     write_prefilter_files(outputs, specular, result, meta, a.exposure);
-    env::write_exr_file(outputs.temp_path(irradiance_exr), outputs.target(irradiance_exr).named, irr.irradiance_cross, irr_meta);
-    env::write_png_file(outputs.temp_path(irradiance_png), env::preview_canvas(irr.irradiance_cross, a.exposure, kShCrossCaption));
+    if (irradiance_texture)
+        write_irradiance_cube(outputs, irradiance_map, irradiance_sidecar, env::cubemap_from_image(irr.irradiance_cross), a.format,
+                              a.encoding, irr_meta);
+    else
+        env::write_exr_file(outputs.temp_path(irradiance_map), outputs.target(irradiance_map).named, irr.irradiance_cross, irr_meta);
+    env::write_png_file(outputs.temp_path(irradiance_png), env::cross_preview_canvas(irr.irradiance_cross, a.exposure, kShCrossCaption));
     outputs.stream(sh_json) << irr_meta.dump(2) << "\n";
     outputs.stream(ibl_json) << nlohmann::json{{"specular", meta}, {"irradiance", irr_meta}}.dump(2) << "\n";
     if (dfg) {
@@ -353,7 +398,19 @@ void run_irradiance(const IrradianceArgs& a) {
     spec.command_line = command_line();
     spec.fault = fault_injection_from_environment();
     // Equirectangular images are resampled to a cubemap of height / 2 (a power of two), crosses and faces kept.
-    const env::Cubemap source = a.faces.empty() ? env::cubemap_from_image(env::read_environment_image(a.env)) : env::read_cubemap_faces(a.faces);
+    bool resampled = false;
+    const env::Cubemap source = [&] {
+        if (!a.faces.empty()) return env::read_cubemap_faces(a.faces);
+        const env::Image image = env::read_environment_image(a.env);
+        resampled = image.width == 2 * image.height;
+        return env::cubemap_from_image(image);
+    }();
+    // What --verify compares with: the exact convolution of the cube the map is computed from, which for
+    // an equirectangular ENV is its resampling, not the image itself (whose difference is larger).
+    const std::string reference =
+        resampled ? "the exact convolution of the resampled cube (ENV's equirectangular image resampled to " +
+                        std::to_string(source.size) + "^2 faces), not of the image itself"
+                  : "the exact convolution of the source cube as given";
     folder.make();
     OutputSet outputs;  // this run's files or the previous ones, checked before the work
     const IrradianceFiles files = add_irradiance_files(outputs, a.out, a.format, a.encoding);
@@ -365,10 +422,10 @@ void run_irradiance(const IrradianceArgs& a) {
     if (a.verify > 0) {
         check = verify_irradiance_map(source, r, a.verify);
         meta["verify"] = {{"texels", check.checked}, {"failed", check.failed}, {"worst_ratio", check.worst_ratio},
-                          {"max_abs", check.max_abs}, {"worst", check.worst_texel}};
+                          {"max_abs", check.max_abs}, {"worst", check.worst_texel}, {"reference", reference}};
         if (check.failed > 0)
             throw std::runtime_error("verification failed: " + std::to_string(check.failed) + " of " + std::to_string(check.checked) +
-                                     " texels differ from the exact convolution by more than their bound (" + check.worst_texel +
+                                     " texels differ from " + reference + " by more than their bound (" + check.worst_texel +
                                      "); nothing was written");
     }
     write_irradiance_files(outputs, files, r, meta, a.exposure);
@@ -381,7 +438,7 @@ void run_irradiance(const IrradianceArgs& a) {
         std::cerr << "order-2 SH vs direct: max |diff| " << r.sh_max_abs << " (" << r.sh_max_relative << " of the largest value, RMS "
                   << r.sh_rms_relative << "); SH truncation bound 3/32 int L / pi = " << r.sh_truncation_bound << "\n";
         if (a.verify > 0)
-            std::cerr << "verify: " << check.checked << " texels against the exact convolution: max |diff| " << check.max_abs
+            std::cerr << "verify: " << check.checked << " texels against " << reference << ": max |diff| " << check.max_abs
                       << ", worst |diff| / bound " << check.worst_ratio << "\n";
     }
 }
@@ -394,26 +451,34 @@ void add_ibl_command(CLI::App& app) {
 
     auto d = std::make_shared<DfgArgs>();
     auto* dfg = ibl->add_subcommand("dfg", "bake the DFG LUT (x = NdotV, y = roughness; R, G, B = scale, bias, E) to OpenEXR, KTX2 or DDS");
-    dfg->add_option("--out", d->out, "output .exr, .ktx2, .dds (RGBA: A repeats E; metadata in <file>.json) or .h (C header)")->required();
+    dfg->add_option("--out", d->out, "output .exr, .ktx2, .dds (RG for 2 channels, else RGBA; metadata in <file>.json), .png (16-bit), .h (C header) or .inc (C initialiser list)")->required();
+    dfg->add_option("--method", d->method, "exact (Gauss-Legendre, ~1e-12), sampled (the VNDF kernel, error bars) or quadrature (the independent check)")
+        ->check(CLI::IsMember({"exact", "sampled", "quadrature"}))
+        ->capture_default_str();
+    dfg->add_option("--channels", d->channels, "channels in order, 1-4 of scale, bias, E (= scale + bias), sheen (cloth); Filament: bias,E,sheen")
+        ->capture_default_str();
+    dfg->add_option("--parameterization", d->parameterization, "x axis: linear (NdotV) or sqrt-n-dot-v (HDRP: x = sqrt(NdotV))")
+        ->check(CLI::IsMember({"linear", "sqrt-n-dot-v"}))
+        ->capture_default_str();
+    dfg->add_option("--symbol", d->symbol, "C array name of a .h output (macros SYMBOL_WIDTH, _HEIGHT, _CHANNELS)")->capture_default_str();
     dfg->add_option("--size", d->size, "texels on both axes")->transform(decimal_range(1, 4096))->capture_default_str();
     dfg->add_option("--size-n-dot-v", d->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
     dfg->add_option("--size-roughness", d->size_roughness, "texels on the roughness axis")->transform(decimal_range(1, 4096));
     dfg->add_option("--texel", d->texel, "centres (i + 0.5) / n or endpoints i / (n - 1)")
         ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
         ->capture_default_str();
-    dfg->add_option("--samples", d->samples, "VNDF samples per texel (all replicates)")
+    dfg->add_option("--samples", d->samples, "--method sampled: VNDF samples per texel (all replicates)")
         ->transform(decimal_range(16, std::uint64_t(1) << 28))
         ->capture_default_str();
-    dfg->add_option("--replicates", d->replicates, "independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
+    dfg->add_option("--replicates", d->replicates, "--method sampled: independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
     dfg->add_option("--seed", d->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
-    dfg->add_option("--backend", d->backend, "opencl (VNDF sampling) or oracle (the quadrature)")
-        ->check(CLI::IsMember({"opencl", "oracle"}))
-        ->capture_default_str();
+    dfg->add_option("--backend", d->backend, "older spelling of --method: opencl = sampled, oracle = quadrature")
+        ->check(CLI::IsMember({"opencl", "oracle"}));
     dfg->add_option("--device", d->device, "default, all, an index or part of a name")->capture_default_str();
-    dfg->add_option("--threads", d->threads, "oracle threads (0: all)")->transform(decimal_range(0, 1024));
-    dfg->add_option("--verify", d->verify, "recompute K random texels with the quadrature oracle; fail on a disagreement")
+    dfg->add_option("--threads", d->threads, "host threads of --method exact / quadrature (0: all)")->transform(decimal_range(0, 1024));
+    dfg->add_option("--verify", d->verify, "recompute K random texels by independent methods (exact: the quadrature to 1e-10 and the kernel within its bars); fail, writing nothing, on a disagreement")
         ->transform(decimal_range(0, 100000));
-    dfg->add_option("--preview", d->preview, "also write a PNG of the three channels with axes");
+    dfg->add_option("--preview", d->preview, "also write a PNG of the channels with axes, each on its own scale");
     dfg->add_option("--compare", d->compare, "report max and RMS differences from a reference LUT of the same size (e.g. --backend oracle's)");
     dfg->add_option("--warp", d->warp, "sample warp towards the VNDF cap's rim: 1 (none), 2, 3")
         ->check(CLI::Range(1, 3))
@@ -422,7 +487,11 @@ void add_ibl_command(CLI::App& app) {
     dfg->add_flag("--fast-math", d->fast_math, "build the kernel with -cl-fast-relaxed-math (recorded)");
     dfg->add_flag("--double-kernels", d->double_kernels, "run the kernel in double (cl_khr_fp64 devices)");
     dfg->add_flag("-q,--quiet", d->quiet, "no progress or summary");
-    dfg->callback([d] { run_dfg(*d); });
+    dfg->callback([d, dfg] {
+        d->samples_given = dfg->count("--samples") > 0;
+        d->replicates_given = dfg->count("--replicates") > 0;
+        run_dfg(*d);
+    });
 
     auto s = std::make_shared<ShArgs>();
     auto* sh = ibl->add_subcommand("sh", "order-2 spherical harmonics (9 per channel) and irradiance of an environment");
@@ -432,6 +501,8 @@ void add_ibl_command(CLI::App& app) {
     sh->add_option("--irradiance", s->irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
     sh->add_option("--face-size", s->face_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
     sh->add_option("--preview", s->preview, "PNG of the irradiance cross (Reinhard tone map, sRGB)");
+    sh->add_option("--shader", s->shader, "also write the irradiance as shader constants and a function (.glsl or .hlsl; cmgen --sh-shader's form)");
+    sh->add_option("--symbol", s->symbol, "name of the shader constants (NAME[9], NAME_irradiance)")->capture_default_str();
     sh->add_flag("-q,--quiet", s->quiet, "no summary");
     sh->callback([s] { run_sh(*s); });
 

@@ -10,6 +10,7 @@
 #include <map>
 #include <stdexcept>
 
+#include "env/cubemap.hpp"
 #include "io/atomic_file.hpp"
 
 namespace ms::env {
@@ -161,6 +162,32 @@ Canvas preview_canvas(const Image& img, double exposure, const std::string& capt
             c.set(x, y, p[0], p[1], p[2]);
         }
     if (!caption.empty()) c.text(8, img.height * zoom + 8, caption, 1, 220);
+    return c;
+}
+
+std::string tone_map_caption(double exposure) {
+    char text[64];
+    std::snprintf(text, sizeof text, "Reinhard x / (1 + x), sRGB, exposure %g", exposure);
+    return text;
+}
+
+void label_cross_faces(Canvas& canvas, std::int64_t ox, std::int64_t oy, std::uint32_t face_pixels) {
+    static const char* const kNames[6] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    const std::uint32_t scale = face_pixels >= 96 ? 2 : 1;
+    if (face_pixels < 8 * scale + 4) return;  // too small to hold a label
+    for (int f = 0; f < 6; ++f) {
+        std::uint32_t fx, fy;
+        cross_face_offset(f, face_pixels, fx, fy);
+        canvas.text(ox + fx + 3, oy + fy + 3, kNames[f], scale, 0);  // shadow
+        canvas.text(ox + fx + 2, oy + fy + 2, kNames[f], scale, 255);
+    }
+}
+
+Canvas cross_preview_canvas(const Image& cross, double exposure, const std::string& caption) {
+    const std::string full = caption.empty() ? tone_map_caption(exposure) : caption + "; " + tone_map_caption(exposure);
+    Canvas c = preview_canvas(cross, exposure, full);
+    const std::uint32_t zoom = std::max(1u, (384 + cross.width - 1) / cross.width);  // preview_canvas's magnification
+    label_cross_faces(c, 0, 0, cross.width / 4 * zoom);
     return c;
 }
 

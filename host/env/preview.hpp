@@ -35,6 +35,15 @@ void write_png_preview(const std::string& path, const Image& image, double expos
 // That preview's canvas (write it with write_png or write_png_file).
 Canvas preview_canvas(const Image& image, double exposure = 1.0, const std::string& caption = "");
 
+// A horizontal cross (4n x 3n) as preview_canvas draws it, each face labelled with its name (+X, -X, +Y,
+// -Y, +Z, -Z; white on a black shadow, so it reads on any sky), and the caption followed by the tone map
+// named: "Reinhard x / (1 + x), sRGB, exposure E".
+Canvas cross_preview_canvas(const Image& cross, double exposure, const std::string& caption);
+// Labels the faces of a cross drawn at (ox, oy) with `face_pixels` canvas pixels per face.
+void label_cross_faces(Canvas& canvas, std::int64_t ox, std::int64_t oy, std::uint32_t face_pixels);
+// "Reinhard x / (1 + x), sRGB, exposure E": what tone_map does, for captions.
+std::string tone_map_caption(double exposure);
+
 // One tile of a labelled plot: a w x h grid of values in [0, 1] (grey), title above, x axis label
 // below, y axis label to the left, ticks at 0, 0.5 and 1 of both axes (y increasing downwards).
 struct PlotTile {

@@ -1,9 +1,11 @@
 #include "jobs/ibl_dfg.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <iomanip>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -11,9 +13,86 @@
 #include "core/estimate.hpp"
 #include "env/image.hpp"
 #include "io/atomic_file.hpp"
+#include "io/png_file.hpp"
 #include "lut/formats/texture.hpp"
 
 namespace ms {
+
+const char* to_string(DfgMethod m) {
+    switch (m) {
+        case DfgMethod::exact: return "exact";
+        case DfgMethod::sampled: return "sampled";
+        case DfgMethod::quadrature: return "quadrature";
+    }
+    return "?";
+}
+
+DfgMethod parse_dfg_method(const std::string& s) {
+    if (s == "exact") return DfgMethod::exact;
+    if (s == "sampled") return DfgMethod::sampled;
+    if (s == "quadrature") return DfgMethod::quadrature;
+    throw std::invalid_argument("--method: '" + s + "' is not exact, sampled or quadrature");
+}
+
+const char* to_string(DfgChannel c) {
+    switch (c) {
+        case DfgChannel::scale: return "scale";
+        case DfgChannel::bias: return "bias";
+        case DfgChannel::albedo: return "E";
+        case DfgChannel::sheen: return "sheen";
+    }
+    return "?";
+}
+
+std::vector<DfgChannel> parse_dfg_channels(const std::string& s) {
+    std::vector<DfgChannel> out;
+    std::stringstream in(s);
+    std::string name;
+    while (std::getline(in, name, ',')) {
+        std::string lower = name;
+        std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+        DfgChannel c;
+        if (lower == "scale") c = DfgChannel::scale;
+        else if (lower == "bias") c = DfgChannel::bias;
+        else if (lower == "e" || lower == "albedo") c = DfgChannel::albedo;
+        else if (lower == "sheen" || lower == "cloth") c = DfgChannel::sheen;
+        else throw std::invalid_argument("--channels: '" + name + "' is not scale, bias, E or sheen");
+        if (std::find(out.begin(), out.end(), c) != out.end())
+            throw std::invalid_argument("--channels: '" + name + "' given twice");
+        out.push_back(c);
+    }
+    if (out.empty() || out.size() > 4) throw std::invalid_argument("--channels: 1 to 4 of scale, bias, E, sheen (comma-separated), not '" + s + "'");
+    return out;
+}
+
+std::string channels_string(const std::vector<DfgChannel>& channels) {
+    std::string s;
+    for (DfgChannel c : channels) s += (s.empty() ? "" : ",") + std::string(to_string(c));
+    return s;
+}
+
+bool has_sheen(const std::vector<DfgChannel>& channels) {
+    return std::find(channels.begin(), channels.end(), DfgChannel::sheen) != channels.end();
+}
+
+const char* to_string(DfgParameterization p) { return p == DfgParameterization::linear ? "linear" : "sqrt-n-dot-v"; }
+
+DfgParameterization parse_dfg_parameterization(const std::string& s) {
+    if (s == "linear") return DfgParameterization::linear;
+    if (s == "sqrt-n-dot-v") return DfgParameterization::sqrt_n_dot_v;
+    throw std::invalid_argument("--parameterization: '" + s + "' is not linear or sqrt-n-dot-v");
+}
+
+double DfgBakeResult::channel(std::uint32_t x, std::uint32_t y, DfgChannel c) const {
+    const dfg::DfgValue& v = at(x, y);
+    switch (c) {
+        case DfgChannel::scale: return v.scale.term;
+        case DfgChannel::bias: return v.bias.term;
+        case DfgChannel::albedo: return v.albedo.term;
+        case DfgChannel::sheen: return v.sheen.term;
+    }
+    return 0;
+}
 
 void validate(const DfgBakeSpec& spec) {
     for (const Axis* a : {&spec.n_dot_v, &spec.roughness}) {
@@ -21,18 +100,32 @@ void validate(const DfgBakeSpec& spec) {
         if (!(a->min >= 0 && a->max <= 1 && a->min <= a->max))
             throw std::invalid_argument("DFG LUT: axis " + a->name + " must lie in [0, 1]");
     }
-    if (spec.plan.replicates < 2) throw std::invalid_argument("DFG LUT: at least 2 replicates (error bars)");
+    if (spec.method == DfgMethod::sampled && spec.plan.replicates < 2)
+        throw std::invalid_argument("DFG LUT: at least 2 replicates (error bars)");
+    if (spec.channels.empty() || spec.channels.size() > 4) throw std::invalid_argument("DFG LUT: 1 to 4 channels");
 }
 
 schedule::Backend dfg_backend(const DfgBakeSpec& spec) {
-    return spec.oracle ? schedule::Backend::oracle(spec.oracle_threads)
-                       : schedule::Backend::opencl(ocl::select_devices(spec.device));
+    return spec.method != DfgMethod::sampled ? schedule::Backend::oracle(spec.oracle_threads)
+                                             : schedule::Backend::opencl(ocl::select_devices(spec.device));
 }
 
 dfg::DfgPoint dfg_texel_point(const DfgBakeSpec& spec, std::uint32_t x, std::uint32_t y) {
     const double r = spec.roughness.value(y);
-    return {std::max(spec.n_dot_v.value(x), kMinNdotV), r * r};
+    const double a = spec.n_dot_v.value(x);
+    const double n_dot_v = spec.parameterization == DfgParameterization::sqrt_n_dot_v ? a * a : a;
+    return {std::max(n_dot_v, kMinNdotV), r * r};
 }
+
+namespace {
+// The host rule of a method that runs on host threads, with the cloth channel when asked.
+dfg::DfgRoutineConfig host_routine(const DfgBakeSpec& spec, dfg::DfgHostRule rule, bool sheen) {
+    dfg::DfgRoutineConfig config = spec.routine;
+    config.host_rule = rule;
+    config.sheen = sheen;
+    return config;
+}
+}  // namespace
 
 DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, const DfgBakeCallbacks& callbacks) {
     validate(spec);
@@ -40,10 +133,13 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
     DfgBakeResult result;
     result.width = spec.n_dot_v.count;
     result.height = spec.roughness.count;
+    result.channels = spec.channels;
     result.values.resize(std::size_t(result.width) * result.height);
     result.exact.assign(result.values.size(), 0);
     result.backend = scheduler.name();
-    // Sampled texels, in rows; roughness 0 is the exact limit.
+    const bool sheen = has_sheen(spec.channels);
+    // Integrated texels, in rows; roughness 0 is the exact limit: a mirror for GGX, and for Charlie
+    // every half vector on the horizon, whose reflection lies below it (sheen 0).
     std::vector<dfg::DfgPoint> points;
     std::vector<std::size_t> where;
     for (std::uint32_t y = 0; y < result.height; ++y)
@@ -52,7 +148,7 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
             const std::size_t i = std::size_t(y) * result.width + x;
             if (p.alpha == 0) {
                 const double fc = std::pow(1 - p.n_dot_v, 5);
-                result.values[i] = {{1 - fc, 0}, {fc, 0}, {1, 0}};
+                result.values[i] = {{1 - fc, 0}, {fc, 0}, {1, 0}, {0, 0}};
                 result.exact[i] = 1;
             } else {
                 points.push_back(p);
@@ -60,17 +156,32 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
             }
         }
     if (!points.empty()) {
-        dfg::DfgIntegrand integrand(points, result.width, spec.plan, spec.routine);
+        dfg::DfgRoutineConfig config = spec.routine;
+        if (spec.method == DfgMethod::exact) config = host_routine(spec, dfg::DfgHostRule::exact, sheen);
+        if (spec.method == DfgMethod::quadrature) config = host_routine(spec, dfg::DfgHostRule::quadrature, sheen);
+        dfg::DfgIntegrand integrand(points, result.width, spec.plan, config);
         schedule::RunCallbacks cb;
         cb.progress = callbacks.progress;
         const schedule::RunReport report = scheduler.run(integrand, {}, cb);
         result.rerun_items = report.rerun;
         result.failed_devices = report.failed_places;
-        const auto& values = integrand.values();
+        std::vector<dfg::DfgValue> values = integrand.take_values();
+        if (spec.method == DfgMethod::sampled && sheen) {
+            // The kernel integrates GGX only: the cloth channel comes from the exact path on host threads.
+            dfg::DfgIntegrand cloth(points, result.width, spec.plan, host_routine(spec, dfg::DfgHostRule::exact, true));
+            schedule::Scheduler host(schedule::Backend::oracle(spec.oracle_threads));
+            host.run(cloth);
+            for (std::size_t k = 0; k < points.size(); ++k) values[k].sheen = cloth.values()[k].sheen;
+        }
         for (std::size_t k = 0; k < points.size(); ++k) {
             result.values[where[k]] = values[k];
-            result.max_std_error = std::max({result.max_std_error, values[k].scale.std_error, values[k].bias.std_error,
-                                             values[k].albedo.std_error});
+            const double largest = std::max({values[k].scale.std_error, values[k].bias.std_error, values[k].albedo.std_error});
+            if (spec.method == DfgMethod::sampled) {
+                result.max_std_error = std::max(result.max_std_error, largest);
+                result.max_exact_error = std::max(result.max_exact_error, values[k].sheen.std_error);
+            } else {
+                result.max_exact_error = std::max({result.max_exact_error, largest, values[k].sheen.std_error});
+            }
         }
     }
     result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -87,27 +198,43 @@ nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result
     auto axis = [](const Axis& a) {
         return nlohmann::json{{"name", a.name}, {"min", a.min}, {"max", a.max}, {"count", a.count}, {"texel", to_string(a.texel)}};
     };
+    const bool sampled = spec.method == DfgMethod::sampled;
     nlohmann::json m;
     m["layout"] = "dfg";
     m["integrals"] =
         "split-sum GGX: scale = int f (1 - Fc) NdotL dL, bias = int f Fc NdotL dL, E = scale + bias; "
-        "f = D G2 / (4 NdotL NdotV), height-correlated Smith G2, Fc = (1 - VdotH)^5, alpha = roughness^2";
+        "f = D G2 / (4 NdotL NdotV), height-correlated Smith G2, Fc = (1 - VdotH)^5, alpha = roughness^2; "
+        "sheen = int D_Charlie V_Neubelt NdotL dL (Estevez-Kulla NDF with alpha = roughness^2, "
+        "V = 1 / (4 (NdotL + NdotV - NdotL NdotV)))";
     m["axes"] = {axis(spec.n_dot_v), axis(spec.roughness)};
-    m["x"] = "n_dot_v";
+    m["parameterization"] = to_string(spec.parameterization);
+    m["x"] = spec.parameterization == DfgParameterization::linear ? "n_dot_v" : "sqrt(n_dot_v): texel coordinate a holds NdotV = a^2";
     m["y"] = "roughness (increasing downwards)";
-    m["channels"] = {{{"name", "R"}, {"value", "scale"}}, {{"name", "G"}, {"value", "bias"}}, {{"name", "B"}, {"value", "E = scale + bias (energy compensation: 1 + F0 (1/E - 1))"}}};
+    const char* names[4] = {"R", "G", "B", "A"};
+    nlohmann::json channels = nlohmann::json::array();
+    for (std::size_t c = 0; c < spec.channels.size(); ++c) {
+        std::string value = to_string(spec.channels[c]);
+        if (spec.channels[c] == DfgChannel::albedo) value += " = scale + bias (energy compensation: 1 + F0 (1/E - 1))";
+        if (spec.channels[c] == DfgChannel::sheen) value += " (cloth: Charlie NDF, Neubelt visibility)";
+        channels.push_back({{"name", names[c]}, {"value", value}});
+    }
+    m["channels"] = channels;
+    m["channel_order"] = channels_string(spec.channels);
     m["n_dot_v_clamp"] = kMinNdotV;
-    m["estimator"] = spec.oracle ? "Gauss-Legendre quadrature (oracle), error from two orders"
-                                 : "VNDF sampling, reflected directions weighted by G2/G1(V)";
+    m["method"] = to_string(spec.method);
+    m["estimator"] = spec.method == DfgMethod::exact      ? "Gauss-Legendre over the half vector (azimuth outer, graded panels), error from two orders"
+                     : spec.method == DfgMethod::quadrature ? "Gauss-Legendre quadrature (oracle), error from two orders"
+                                                            : "VNDF sampling, reflected directions weighted by G2/G1(V)";
+    if (sampled && has_sheen(spec.channels)) m["sheen_estimator"] = "Gauss-Legendre (the exact path; the kernel integrates GGX only)";
     m["sequence"] = to_string(spec.plan.sequence);
-    m["samples"] = spec.oracle ? 0 : spec.plan.samples;
-    m["replicates"] = spec.plan.replicates;
+    m["samples"] = sampled ? spec.plan.samples : 0;
+    m["replicates"] = sampled ? spec.plan.replicates : 0;
     m["seed"] = spec.plan.seed;
-    m["quadrature_order"] = spec.routine.quadrature_order;
+    m["quadrature_order"] = spec.method == DfgMethod::exact ? spec.routine.exact_order : spec.routine.quadrature_order;
     m["max_std_error"] = result.max_std_error;
+    m["max_quadrature_error_estimate"] = result.max_exact_error;
     m["max_error_bound_99.9"] =
-        spec.oracle ? result.max_std_error
-                    : result.max_std_error * student_t_quantile(0.999, int(spec.plan.replicates) - 1);
+        sampled ? result.max_std_error * student_t_quantile(0.999, int(spec.plan.replicates) - 1) : result.max_exact_error;
     m["fast_math"] = spec.routine.build.fast_math;
     m["double_kernels"] = spec.routine.build.double_precision;
     m["device"] = result.backend;
@@ -130,8 +257,18 @@ std::string extension(const std::string& path) {
 
 void check_dfg_lut_format(const std::string& path) {
     const std::string ext = extension(path);
-    if (ext == ".exr" || ext == ".h" || ext == ".ktx2" || ext == ".dds") return;
-    throw std::invalid_argument("DFG LUT " + path + ": the extension picks the format: .exr, .ktx2, .dds or .h (C header)");
+    if (ext == ".exr" || ext == ".h" || ext == ".inc" || ext == ".png" || ext == ".ktx2" || ext == ".dds") return;
+    throw std::invalid_argument("DFG LUT " + path +
+                                ": the extension picks the format: .exr, .ktx2, .dds, .png (16-bit), .h (C header) or .inc (C initialiser list)");
+}
+
+void check_dfg_lut_output(const std::string& path, const std::vector<DfgChannel>& channels, const std::string& symbol) {
+    check_dfg_lut_format(path);
+    if (extension(path) == ".png" && has_sheen(channels))
+        throw std::invalid_argument("DFG LUT " + path + ": a PNG holds [0, 1] and the sheen channel exceeds 1 at grazing views; use .exr, .ktx2, .dds, .h or .inc");
+    const bool identifier = !symbol.empty() && !std::isdigit(static_cast<unsigned char>(symbol[0])) &&
+                            std::all_of(symbol.begin(), symbol.end(), [](unsigned char c) { return std::isalnum(c) || c == '_'; });
+    if (!identifier) throw std::invalid_argument("--symbol: '" + symbol + "' is not a C identifier (letters, digits, _; not starting with a digit)");
 }
 
 DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path) {
@@ -142,108 +279,172 @@ DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path) {
     return files;
 }
 
-void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
-                   bool half) {
-    const std::string path = outputs.target(files.lut).named;
-    if (extension(path) == ".h") {
-        // A C/C++ header: the metadata as a comment, then float texels [roughness][NdotV][scale, bias, E],
-        // printed with 9 significant digits (float round trip).
-        std::ostream& out = outputs.stream(files.lut);
-        std::string meta = metadata.dump(2);
-        for (std::size_t p = meta.find("*/"); p != std::string::npos; p = meta.find("*/", p)) meta.replace(p, 2, "* /");
-        out << "/* microshadow DFG LUT (generated; do not edit)\n" << meta << "\n*/\n";
-        out << "#pragma once\n\n";
-        out << "#define MICROSHADOW_DFG_WIDTH " << result.width << "  /* NdotV */\n";
-        out << "#define MICROSHADOW_DFG_HEIGHT " << result.height << "  /* roughness */\n\n";
-        out << "static const float microshadow_dfg[MICROSHADOW_DFG_HEIGHT][MICROSHADOW_DFG_WIDTH][3] = {\n";
-        char buf[96];
-        for (std::uint32_t y = 0; y < result.height; ++y) {
-            out << "  {";
-            for (std::uint32_t x = 0; x < result.width; ++x) {
-                const auto& v = result.at(x, y);
-                std::snprintf(buf, sizeof buf, "{%.9gf, %.9gf, %.9gf}%s", float(v.scale.term), float(v.bias.term),
-                              float(v.albedo.term), x + 1 < result.width ? ", " : "");
-                out << buf;
+namespace {
+
+// The texels channel by channel as floats, rows of NdotV texels, roughness rows downwards.
+std::vector<float> channel_data(const DfgBakeResult& result) {
+    std::vector<float> data;
+    data.reserve(result.values.size() * result.channels.size());
+    for (std::uint32_t y = 0; y < result.height; ++y)
+        for (std::uint32_t x = 0; x < result.width; ++x)
+            for (DfgChannel c : result.channels) data.push_back(float(result.channel(x, y, c)));
+    return data;
+}
+
+std::string upper(std::string s) {
+    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::toupper(c)); });
+    return s;
+}
+
+// The metadata as a C comment ("*/" inside it broken up).
+void write_c_comment(std::ostream& out, const nlohmann::json& metadata) {
+    std::string meta = metadata.dump(2);
+    for (std::size_t p = meta.find("*/"); p != std::string::npos; p = meta.find("*/", p)) meta.replace(p, 2, "* /");
+    out << "/* microshadow DFG LUT (generated; do not edit)\n" << meta << "\n*/\n";
+}
+
+// The texels as C initialiser rows: floats with 9 significant digits (a float round trip), or with
+// `half` the IEEE binary16 bits in hex (cmgen's .inc convention for RG16F / RGB16F uploads).
+void write_c_values(std::ostream& out, const DfgBakeResult& result, bool half, bool braces) {
+    const std::size_t nc = result.channels.size();
+    const std::vector<float> data = channel_data(result);
+    char buf[48];
+    for (std::uint32_t y = 0; y < result.height; ++y) {
+        out << (braces ? "  {" : "  ");
+        for (std::uint32_t x = 0; x < result.width; ++x) {
+            if (braces) out << "{";
+            for (std::size_t c = 0; c < nc; ++c) {
+                const float v = data[(std::size_t(y) * result.width + x) * nc + c];
+                if (half) std::snprintf(buf, sizeof buf, "0x%04x", unsigned(lutfmt::float_to_half(v)));
+                else std::snprintf(buf, sizeof buf, "%.9gf", v);
+                out << buf << (c + 1 < nc ? ", " : "");
             }
-            out << "}" << (y + 1 < result.height ? "," : "") << "\n";
+            if (braces) out << "}";
+            if (braces ? x + 1 < result.width : true) out << ", ";
         }
+        out << (braces ? "}" : "") << (braces && y + 1 < result.height ? "," : "") << "\n";
+    }
+}
+
+}  // namespace
+
+void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
+                   bool half, const std::string& symbol) {
+    const std::string path = outputs.target(files.lut).named;
+    const std::string ext = extension(path);
+    const std::size_t nc = result.channels.size();
+    if (ext == ".h") {
+        // A C/C++ header: the metadata as a comment, then the texels [roughness][NdotV][channel] under
+        // `symbol`, with SYMBOL_WIDTH / _HEIGHT / _CHANNELS.
+        std::ostream& out = outputs.stream(files.lut);
+        write_c_comment(out, metadata);
+        const std::string macro = upper(symbol);
+        out << "#pragma once\n\n";
+        out << "/* channels: " << channels_string(result.channels) << (half ? " (IEEE binary16 bits)" : "") << " */\n";
+        out << "#define " << macro << "_WIDTH " << result.width << "  /* NdotV */\n";
+        out << "#define " << macro << "_HEIGHT " << result.height << "  /* roughness */\n";
+        out << "#define " << macro << "_CHANNELS " << nc << "\n\n";
+        out << "static const " << (half ? "unsigned short " : "float ") << symbol << "[" << macro << "_HEIGHT][" << macro
+            << "_WIDTH][" << nc << "] = {\n";
+        write_c_values(out, result, half, /*braces=*/true);
         out << "};\n";
         return;
     }
-    if (extension(path) == ".exr") {
-        env::Image img(result.width, result.height, {"R", "G", "B"});
-        for (std::uint32_t y = 0; y < result.height; ++y)
-            for (std::uint32_t x = 0; x < result.width; ++x) {
-                const auto& v = result.at(x, y);
-                img.at(x, y, 0) = float(v.scale.term);
-                img.at(x, y, 1) = float(v.bias.term);
-                img.at(x, y, 2) = float(v.albedo.term);
+    if (ext == ".inc") {
+        // An initialiser list to #include inside an array definition (cmgen's DFG .inc): the metadata
+        // as a comment, then width x height x channels values, rows of NdotV, roughness increasing.
+        std::ostream& out = outputs.stream(files.lut);
+        write_c_comment(out, metadata);
+        out << "/* " << result.width << " x " << result.height << " texels (NdotV across, roughness down), channels "
+            << channels_string(result.channels) << (half ? ", IEEE binary16 bits" : ", floats") << " */\n";
+        write_c_values(out, result, half, /*braces=*/false);
+        return;
+    }
+    if (ext == ".png") {
+        // 16-bit PNG, RGB (1-3 channels; unused ones 0) or RGBA (4), q = round(v * 65535) with v
+        // clamped to [0, 1]; the metadata in an iTXt chunk "microshadow".
+        const int png_channels = nc == 4 ? 4 : 3;
+        const std::vector<float> data = channel_data(result);
+        std::vector<std::uint8_t> pixels(std::size_t(result.width) * result.height * png_channels * 2, 0);
+        for (std::size_t i = 0; i < result.values.size(); ++i)
+            for (std::size_t c = 0; c < nc; ++c) {
+                const std::uint32_t q = lutfmt::to_unorm(data[i * nc + c], 16);
+                pixels[(i * png_channels + c) * 2] = std::uint8_t(q >> 8);  // PNG samples are big-endian
+                pixels[(i * png_channels + c) * 2 + 1] = std::uint8_t(q & 0xff);
             }
+        nlohmann::json meta = metadata;
+        meta["file_format"] = "png16";
+        meta["quantisation"] = {{"kind", "unorm16"}, {"max_abs", 0.5 / 65535}};
+        if (nc < 3) meta["unused_channels_zero"] = true;
+        PngImage image;
+        image.width = result.width;
+        image.height = result.height;
+        image.channels = png_channels;
+        image.bits = 16;
+        image.pixels = pixels.data();
+        write_png(outputs.temp_path(files.lut), image, "microshadow", meta.dump());
+        return;
+    }
+    if (ext == ".exr") {
+        const char* names[4] = {"R", "G", "B", "A"};
+        std::vector<std::string> channel_names(names, names + nc);
+        env::Image img(result.width, result.height, channel_names);
+        const std::vector<float> data = channel_data(result);
+        for (std::uint32_t y = 0; y < result.height; ++y)
+            for (std::uint32_t x = 0; x < result.width; ++x)
+                for (std::size_t c = 0; c < nc; ++c) img.at(x, y, int(c)) = data[(std::size_t(y) * result.width + x) * nc + c];
         env::write_exr_file(outputs.temp_path(files.lut), path, img, metadata, half);
         return;
     }
-    // KTX2 / DDS (lut/formats/texture.hpp): a 2D RGBA texture, x = NdotV, y = roughness, R G B = scale
-    // bias E, A = E (the writers' padding: the last channel repeated).
-    const bool ktx2 = extension(path) == ".ktx2";
+    // KTX2 / DDS (lut/formats/texture.hpp): a 2D texture, x = NdotV, y = roughness; two channels are
+    // stored as RG (RG16F / RG32F), the others as RGBA with the last channel repeated.
+    const bool ktx2 = ext == ".ktx2";
     const lutfmt::PixelEncoding encoding = half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32;
     lutfmt::TextureData t;
     t.width = result.width;
     t.height = result.height;
-    t.channels = 3;
-    t.levels.emplace_back();
-    std::vector<float>& data = t.levels[0];
-    data.reserve(std::size_t(result.width) * result.height * 3);
-    for (std::uint32_t y = 0; y < result.height; ++y)
-        for (std::uint32_t x = 0; x < result.width; ++x) {
-            const auto& v = result.at(x, y);
-            data.push_back(float(v.scale.term));
-            data.push_back(float(v.bias.term));
-            data.push_back(float(v.albedo.term));
-        }
+    t.channels = std::uint32_t(nc);
+    t.stored_components = nc == 2 ? 2 : 4;
+    t.levels.push_back(channel_data(result));
+    const std::vector<float>& data = t.levels[0];
     t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
     t.metadata["file_format"] = ktx2 ? "ktx2-2d" : "dds-2d";
-    t.metadata["texture_channels"] = 4;
-    t.metadata["padded_channels"] = {"A"};
-    t.metadata["padding"] = "A repeats B (E = scale + bias); read R G B";
+    t.metadata["texture_channels"] = t.stored_components;
+    if (t.stored_components > nc) {
+        nlohmann::json padded = nlohmann::json::array();
+        for (std::size_t c = nc; c < 4; ++c) padded.push_back(std::string(1, "RGBA"[c]));
+        t.metadata["padded_channels"] = padded;
+        t.metadata["padding"] = std::string("channels after ") + "RGBA"[nc - 1] + " repeat it (" + to_string(result.channels.back()) + ")";
+    }
     if (ktx2) t.metadata["ktx2_orientation"] = "rd";
-    // The sampling term of the error budget: the largest per-texel replicate standard error.
-    if (!t.metadata.contains("max_error") && t.metadata.contains("max_std_error")) t.metadata["max_error"] = t.metadata["max_std_error"];
+    // The sampling term of the error budget: the largest per-texel replicate standard error (or the
+    // quadrature's error estimate).
+    if (!t.metadata.contains("max_error") && t.metadata.contains("max_std_error"))
+        t.metadata["max_error"] = std::max(t.metadata["max_std_error"].get<double>(),
+                                           t.metadata.value("max_quadrature_error_estimate", 0.0));
     lutfmt::add_error_budget(t.metadata, data, encoding);
     const std::vector<std::uint8_t> bytes = ktx2 ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
     outputs.stream(files.lut).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
     if (!ktx2) outputs.stream(files.sidecar.value()) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
 }
 
-void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half) {
+void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half,
+                   const std::string& symbol) {
     OutputSet outputs;
     const DfgLutFiles files = add_dfg_lut_files(outputs, path);
-    write_dfg_lut(outputs, files, result, metadata, half);
+    write_dfg_lut(outputs, files, result, metadata, half, symbol);
     outputs.commit();
 }
 
-DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed) {
-    DfgVerification v;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> sampled;
-    for (std::uint32_t y = 0; y < result.height; ++y)
-        for (std::uint32_t x = 0; x < result.width; ++x)
-            if (!result.exact[std::size_t(y) * result.width + x]) sampled.push_back({x, y});
-    if (sampled.empty() || k == 0) return v;
-    std::mt19937_64 rng(seed);
-    std::shuffle(sampled.begin(), sampled.end(), rng);
-    sampled.resize(std::min<std::size_t>(k, sampled.size()));
-    std::vector<dfg::DfgPoint> points;
-    for (const auto& [x, y] : sampled) points.push_back(dfg_texel_point(spec, x, y));
-    dfg::DfgIntegrand oracle(points, 1, spec.plan, spec.routine);
-    schedule::Scheduler scheduler(schedule::Backend::oracle(spec.oracle_threads));
-    scheduler.run(oracle);
-    const int df = int(spec.plan.replicates) - 1;
-    v.threshold = spec.oracle ? 1.0 : student_t_quantile(1 - 0.001 / (3.0 * double(points.size())), df);
-    for (std::size_t i = 0; i < points.size(); ++i) {
-        const auto& lut = result.at(sampled[i].first, sampled[i].second);
-        const auto& ref = oracle.values()[i];
-        const Estimate* a[3] = {&lut.scale, &lut.bias, &lut.albedo};
-        const Estimate* b[3] = {&ref.scale, &ref.bias, &ref.albedo};
-        bool bad = false;
+namespace {
+
+// The Bonferroni-t comparison of sampled estimates (scale, bias, E) with a reference at the texels.
+void compare_sampled(DfgVerification& v, const std::vector<dfg::DfgValue>& sampled, const std::vector<dfg::DfgValue>& reference,
+                     const std::vector<std::pair<std::uint32_t, std::uint32_t>>& texels, int df, std::vector<std::uint8_t>& bad) {
+    v.threshold = student_t_quantile(1 - 0.001 / (3.0 * double(texels.size())), df);
+    for (std::size_t i = 0; i < texels.size(); ++i) {
+        const Estimate* a[3] = {&sampled[i].scale, &sampled[i].bias, &sampled[i].albedo};
+        const Estimate* b[3] = {&reference[i].scale, &reference[i].bias, &reference[i].albedo};
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(a[c]->term - b[c]->term);
             const double slack = b[c]->std_error + 1e-6;
@@ -252,15 +453,97 @@ DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result,
             if (z > v.worst_z) {
                 v.worst_z = z;
                 std::ostringstream s;
-                s << "texel (" << sampled[i].first << ", " << sampled[i].second << ") channel " << "RGB"[c] << ": " << a[c]->term
-                  << " vs oracle " << b[c]->term;
+                s << "texel (" << texels[i].first << ", " << texels[i].second << ") channel " << "RGB"[c] << ": " << a[c]->term
+                  << " vs " << b[c]->term;
                 v.worst_texel = s.str();
             }
-            if (z > v.threshold) bad = true;
+            if (z > v.threshold) bad[i] = 1;
         }
-        ++v.checked;
-        if (bad) ++v.failed;
     }
+}
+
+// The deterministic comparison: every channel (and sheen when asked) within `tolerance`.
+void compare_deterministic(DfgVerification& v, const std::vector<dfg::DfgValue>& mine, const std::vector<dfg::DfgValue>& reference,
+                           const std::vector<std::pair<std::uint32_t, std::uint32_t>>& texels, bool ggx, bool sheen,
+                           double tolerance, std::vector<std::uint8_t>& bad) {
+    v.deterministic_tolerance = tolerance;
+    const char* names[4] = {"scale", "bias", "E", "sheen"};
+    for (std::size_t i = 0; i < texels.size(); ++i) {
+        const double a[4] = {mine[i].scale.term, mine[i].bias.term, mine[i].albedo.term, mine[i].sheen.term};
+        const double b[4] = {reference[i].scale.term, reference[i].bias.term, reference[i].albedo.term, reference[i].sheen.term};
+        for (int c = ggx ? 0 : 3; c < (sheen ? 4 : 3); ++c) {
+            const double diff = std::abs(a[c] - b[c]);
+            if (diff > v.worst_deterministic_diff) {
+                v.worst_deterministic_diff = diff;
+                std::ostringstream s;
+                s << std::setprecision(12) << "texel (" << texels[i].first << ", " << texels[i].second << ") " << names[c] << ": "
+                  << a[c] << " vs " << b[c];
+                v.worst_deterministic_texel = s.str();
+            }
+            if (diff > tolerance) bad[i] = 1;
+        }
+    }
+}
+
+std::vector<dfg::DfgValue> run_host(const DfgBakeSpec& spec, const std::vector<dfg::DfgPoint>& points, dfg::DfgHostRule rule,
+                                    bool sheen, int quadrature_order) {
+    dfg::DfgRoutineConfig config = spec.routine;
+    config.host_rule = rule;
+    config.sheen = sheen;
+    config.quadrature_order = quadrature_order;
+    dfg::DfgIntegrand integrand(points, 1, spec.plan, config);
+    schedule::Scheduler scheduler(schedule::Backend::oracle(spec.oracle_threads));
+    scheduler.run(integrand);
+    return integrand.take_values();
+}
+
+}  // namespace
+
+DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed) {
+    DfgVerification v;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> texels;
+    for (std::uint32_t y = 0; y < result.height; ++y)
+        for (std::uint32_t x = 0; x < result.width; ++x)
+            if (!result.exact[std::size_t(y) * result.width + x]) texels.push_back({x, y});
+    if (texels.empty() || k == 0) return v;
+    std::mt19937_64 rng(seed);
+    std::shuffle(texels.begin(), texels.end(), rng);
+    texels.resize(std::min<std::size_t>(k, texels.size()));
+    std::vector<dfg::DfgPoint> points;
+    std::vector<dfg::DfgValue> mine;
+    for (const auto& [x, y] : texels) {
+        points.push_back(dfg_texel_point(spec, x, y));
+        mine.push_back(result.at(x, y));
+    }
+    const bool sheen = has_sheen(result.channels);
+    std::vector<std::uint8_t> bad(points.size(), 0);
+    const int df = int(spec.plan.replicates) - 1;
+    if (spec.method == DfgMethod::sampled) {
+        // The quadrature at its usual order: its error (~1e-9) is far inside the kernel's bars.
+        const auto reference = run_host(spec, points, dfg::DfgHostRule::quadrature, sheen, spec.routine.quadrature_order);
+        compare_sampled(v, mine, reference, texels, df, bad);
+        if (sheen) {
+            // The sheen channel came from the exact path: against the quadrature's at order 20.
+            const auto q20 = run_host(spec, points, dfg::DfgHostRule::quadrature, true, 20);
+            compare_deterministic(v, mine, q20, texels, /*ggx=*/false, true, kDfgExactTolerance, bad);
+        }
+        v.reference = "the quadrature oracle";
+    } else if (spec.method == DfgMethod::exact) {
+        const auto q20 = run_host(spec, points, dfg::DfgHostRule::quadrature, sheen, 20);
+        compare_deterministic(v, mine, q20, texels, true, sheen, kDfgExactTolerance, bad);
+        // And the sampled kernel, the method with nothing in common with either quadrature.
+        dfg::DfgIntegrand kernel(points, 1, spec.plan, spec.routine);
+        schedule::Scheduler device(schedule::Backend::opencl(ocl::select_devices(spec.device)));
+        device.run(kernel);
+        compare_sampled(v, kernel.values(), mine, texels, df, bad);
+        v.reference = "the quadrature oracle (order 20) and the VNDF kernel";
+    } else {
+        const auto reference = run_host(spec, points, dfg::DfgHostRule::exact, sheen, spec.routine.quadrature_order);
+        compare_deterministic(v, mine, reference, texels, true, sheen, kDfgExactTolerance, bad);
+        v.reference = "the exact path";
+    }
+    v.checked = std::uint32_t(points.size());
+    for (std::uint8_t b : bad) v.failed += b;
     return v;
 }
 
@@ -272,21 +555,31 @@ namespace ms {
 
 namespace {
 env::Canvas dfg_preview_canvas(const DfgBakeResult& result, const DfgBakeSpec& spec) {
-    std::vector<env::PlotTile> tiles(3);
-    const char* titles[3] = {"scale", "bias", "E = scale + bias"};
-    for (int c = 0; c < 3; ++c) {
-        tiles[c].title = titles[c];
-        tiles[c].width = result.width;
-        tiles[c].height = result.height;
-        tiles[c].values.resize(result.values.size());
-        for (std::size_t i = 0; i < result.values.size(); ++i) {
-            const auto& v = result.values[i];
-            tiles[c].values[i] = float(c == 0 ? v.scale.term : c == 1 ? v.bias.term : v.albedo.term);
-        }
+    // One tile per channel, each on its own scale from 0 (black) to its largest value (white), the
+    // scale in its title: bias is at most ~0.2 and would be near black on scale's, sheen exceeds 1.
+    std::vector<env::PlotTile> tiles;
+    for (DfgChannel c : result.channels) {
+        env::PlotTile tile;
+        tile.width = result.width;
+        tile.height = result.height;
+        tile.values.resize(result.values.size());
+        double top = 0;
+        for (std::uint32_t y = 0; y < result.height; ++y)
+            for (std::uint32_t x = 0; x < result.width; ++x) top = std::max(top, result.channel(x, y, c));
+        const double scale = top > 0 ? 1 / top : 1;
+        for (std::uint32_t y = 0; y < result.height; ++y)
+            for (std::uint32_t x = 0; x < result.width; ++x)
+                tile.values[std::size_t(y) * result.width + x] = float(result.channel(x, y, c) * scale);
+        char title[64];
+        std::snprintf(title, sizeof title, "%s 0 to %.3g", to_string(c), top);
+        tile.title = title;
+        tiles.push_back(std::move(tile));
     }
-    const std::string caption = "DFG LUT " + std::to_string(result.width) + " x " + std::to_string(result.height) +
-                                ", " + to_string(spec.n_dot_v.texel) + ", alpha = roughness^2, values 0 (black) to 1 (white)";
-    return env::plot_canvas(tiles, "NdotV", "roughness", caption);
+    const std::string caption = "DFG LUT " + std::to_string(result.width) + " x " + std::to_string(result.height) + ", " +
+                                to_string(spec.n_dot_v.texel) + ", x = " +
+                                (spec.parameterization == DfgParameterization::linear ? "NdotV" : "sqrt(NdotV)") +
+                                ", alpha = roughness^2; each panel black (0) to white (its maximum)";
+    return env::plot_canvas(tiles, spec.parameterization == DfgParameterization::linear ? "NdotV" : "sqrt NdotV", "roughness", caption);
 }
 }  // namespace
 

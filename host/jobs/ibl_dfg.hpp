@@ -28,13 +28,39 @@ class OutputSet;
 
 constexpr double kMinNdotV = 1e-4;
 
+// How the texels are computed: `exact` (exact/dfg_exact.hpp: Gauss-Legendre to ~1e-12, host threads),
+// `sampled` (the VNDF kernel with replicate error bars) or `quadrature` (the independent quadrature that
+// checks both, integrands/dfg/dfg_quadrature.hpp).
+enum class DfgMethod { exact, sampled, quadrature };
+const char* to_string(DfgMethod m);
+DfgMethod parse_dfg_method(const std::string& s);  // throws std::invalid_argument naming the value
+
+// What a file's channels hold, in order (1 to 4 of them): scale and bias of the split sum
+// (integral f F NdotL dL = F0 scale + bias), E = scale + bias (the single-scattering albedo, for
+// Filament's and Turquin's multiple-scattering compensation 1 + F0 (1/E - 1)) and sheen (the cloth
+// Charlie albedo). Filament's cmgen layout with multiscatter and cloth is bias, E, sheen.
+enum class DfgChannel { scale, bias, albedo, sheen };
+const char* to_string(DfgChannel c);
+// "scale,bias,E,sheen" (names case-insensitive; "albedo" = "E"); throws std::invalid_argument.
+std::vector<DfgChannel> parse_dfg_channels(const std::string& s);
+std::string channels_string(const std::vector<DfgChannel>& channels);
+bool has_sheen(const std::vector<DfgChannel>& channels);
+
+// The x axis: NdotV itself (`linear`) or sqrt(NdotV) (HDRP's FGD tables: x = sqrt(NdotV), so texel
+// coordinate a holds NdotV = a^2, denser at grazing views).
+enum class DfgParameterization { linear, sqrt_n_dot_v };
+const char* to_string(DfgParameterization p);
+DfgParameterization parse_dfg_parameterization(const std::string& s);
+
 struct DfgBakeSpec {
     Axis n_dot_v{"n_dot_v", 0, 1, 64};
     Axis roughness{"roughness", 0, 1, 64};
     SamplingPlan plan{Sequence::sobol, 65536, 8, 0};
     dfg::DfgRoutineConfig routine;
     std::string device = "default";
-    bool oracle = false;  // the quadrature on oracle threads
+    DfgMethod method = DfgMethod::sampled;
+    std::vector<DfgChannel> channels{DfgChannel::scale, DfgChannel::bias, DfgChannel::albedo};
+    DfgParameterization parameterization = DfgParameterization::linear;
     unsigned oracle_threads = 0;
     std::string command_line;  // provenance
     schedule::FaultInjection fault;  // test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE
@@ -43,6 +69,8 @@ struct DfgBakeSpec {
 struct DfgBakeResult {
     std::uint32_t width = 0, height = 0;  // NdotV count, roughness count
     std::vector<dfg::DfgValue> values;    // values[y * width + x]
+    std::vector<DfgChannel> channels;     // what the files hold (the spec's)
+    double max_exact_error = 0;           // exact / quadrature: the largest error estimate over texels and channels
     std::vector<std::uint8_t> exact;      // 1 where the texel is an exact limit (roughness 0)
     double max_std_error = 0;             // over sampled texels and the three channels
     double seconds = 0;
@@ -51,6 +79,8 @@ struct DfgBakeResult {
     std::uint64_t rerun_items = 0;
     std::vector<std::string> failed_devices;
     const dfg::DfgValue& at(std::uint32_t x, std::uint32_t y) const { return values[std::size_t(y) * width + x]; }
+    // Channel c of texel (x, y).
+    double channel(std::uint32_t x, std::uint32_t y, DfgChannel c) const;
 };
 
 struct DfgBakeCallbacks {
@@ -67,12 +97,17 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callback
 
 nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result);
 
-// Writes the LUT, the format by the extension: OpenEXR (".exr"; FLOAT or HALF, R G B = scale bias E), KTX2
-// (".ktx2") or DDS (".dds", metadata in "<file>.json"): a 2D RGBA texture, x = NdotV, y = roughness, R G B =
-// scale bias E, A = E (padding), float32 or float16 with `half` (lut/formats/texture.hpp; the metadata
-// gains the error budget with the float16 rounding), or a C header (".h": the metadata as a
-// comment, float microshadow_dfg[height][width][3]). Other extensions are refused.
+// Writes the LUT, the format by the extension, the channels in the result's order (R G B A; default
+// scale, bias, E): OpenEXR (".exr"; FLOAT or HALF), KTX2 (".ktx2") or DDS (".dds", metadata in
+// "<file>.json"): a 2D texture, x = NdotV, y = roughness, RG for two channels (RG16F / RG32F), else
+// RGBA with the last channel repeated, float32 or float16 with `half` (lut/formats/texture.hpp; the
+// metadata gains the error budget with the float16 rounding); a 16-bit PNG (".png", RGB or RGBA,
+// metadata in iTXt "microshadow"); a C header (".h": the metadata as a comment,
+// float symbol[height][width][channels], or unsigned short half bits with `half`) or a C initialiser
+// list (".inc", the same values without a declaration). Other extensions are refused.
 void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work
+// The format and what it can hold (a PNG cannot hold sheen, which exceeds 1), and the C symbol.
+void check_dfg_lut_output(const std::string& path, const std::vector<DfgChannel>& channels, const std::string& symbol);
 // The LUT's files as entries of an output set (io/atomic_file.hpp), added before any work so a bad or
 // colliding destination is refused first: the file, and for DDS its "<file>.json".
 struct DfgLutFiles {
@@ -81,18 +116,29 @@ struct DfgLutFiles {
 };
 DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path);
 // Writes the LUT into those entries' temporaries (the caller commits the set).
+// `symbol` names the array of a ".h" file (and its SYMBOL_WIDTH / _HEIGHT / _CHANNELS macros).
 void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
-                   bool half = false);
+                   bool half = false, const std::string& symbol = "microshadow_dfg");
 // One LUT on its own, committed at once.
-void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half = false);
+void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half = false,
+                   const std::string& symbol = "microshadow_dfg");
 
-// Re-checks k random sampled texels with the quadrature oracle: a texel fails when
-// |lut - oracle| > t * std_error + oracle error + 1e-6 (float rounding) in any channel, with t the
-// Student-t quantile at 1 - 0.001 / (3k) (Bonferroni over texels and channels).
+// Re-checks k random integrated texels with methods that share no formula code with the bake's:
+// - sampled: against the quadrature oracle; a texel fails when |lut - oracle| > t * std_error +
+//   oracle error + 1e-6 (float rounding) in any GGX channel, t the Student-t quantile at
+//   1 - 0.001 / (3k) (Bonferroni over texels and channels); sheen (from the exact path) as for exact.
+// - exact: against the quadrature oracle at order 20, failing beyond kDfgExactTolerance in any
+//   channel, and against the VNDF kernel (spec.plan, spec.device) within its Bonferroni-t bars as above.
+// - quadrature: against the exact path, failing beyond kDfgExactTolerance.
+constexpr double kDfgExactTolerance = 1e-10;
 struct DfgVerification {
     std::uint32_t checked = 0, failed = 0;
     double worst_z = 0, threshold = 0, worst_abs_diff = 0;
     std::string worst_texel;
+    // The deterministic comparison (exact against quadrature): largest |difference| and its tolerance.
+    double worst_deterministic_diff = 0, deterministic_tolerance = 0;
+    std::string worst_deterministic_texel;  // where that difference is (worst_texel: the largest z)
+    std::string reference;  // what the texels were compared with, in words
 };
 DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result, std::uint32_t k, std::uint64_t seed = 1);
 

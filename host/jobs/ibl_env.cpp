@@ -5,7 +5,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <sstream>
 #include <stdexcept>
 
 #include "core/cancel.hpp"
@@ -129,6 +132,65 @@ void commit_outputs(OutputSet& outputs, const std::vector<std::string>& stale) {
     throw_if_cancelled();
     outputs.commit();
     for (const auto& path : stale) ::unlink(path.c_str());
+}
+
+env::Sh9 sh_shader_constants(const env::Sh9& sh) {
+    const double pi = kPi;
+    // c_k: the basis functions' normalisations in env/sh.hpp's order; band l of index k.
+    const double c[9] = {0.5 / std::sqrt(pi),         std::sqrt(3 / (4 * pi)),  std::sqrt(3 / (4 * pi)),
+                         std::sqrt(3 / (4 * pi)),     std::sqrt(15 / (4 * pi)), std::sqrt(15 / (4 * pi)),
+                         std::sqrt(5 / (16 * pi)),    std::sqrt(15 / (4 * pi)), std::sqrt(15 / (16 * pi))};
+    const int band[9] = {0, 1, 1, 1, 2, 2, 2, 2, 2};
+    env::Sh9 k{};
+    for (int i = 0; i < 9; ++i)
+        for (int ch = 0; ch < 3; ++ch) k[i][ch] = env::kClampedCosine[band[i]] / pi * c[i] * sh[i][ch];
+    return k;
+}
+
+namespace {
+std::string lower_extension(const std::string& path) {
+    const auto dot = path.find_last_of('.');
+    std::string ext = dot == std::string::npos ? "" : path.substr(dot);
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+    return ext;
+}
+}  // namespace
+
+void check_sh_shader_output(const std::string& path, const std::string& name) {
+    const std::string ext = lower_extension(path);
+    if (ext != ".glsl" && ext != ".hlsl") throw std::invalid_argument("--shader " + path + ": the extension picks the language: .glsl or .hlsl");
+    const bool identifier = !name.empty() && !std::isdigit(static_cast<unsigned char>(name[0])) &&
+                            std::all_of(name.begin(), name.end(), [](unsigned char ch) { return std::isalnum(ch) || ch == '_'; });
+    if (!identifier) throw std::invalid_argument("--symbol: '" + name + "' is not a C identifier (letters, digits, _; not starting with a digit)");
+}
+
+std::string sh_shader_source(const env::Sh9& sh, const std::string& path, const std::string& name, const std::string& comment) {
+    check_sh_shader_output(path, name);
+    const bool glsl = lower_extension(path) == ".glsl";
+    const env::Sh9 k = sh_shader_constants(sh);
+    const char* vec = glsl ? "vec3" : "float3";
+    std::ostringstream out;
+    std::string text = comment;
+    for (std::size_t p = text.find("*/"); p != std::string::npos; p = text.find("*/", p)) text.replace(p, 2, "* /");
+    out << "/* microshadow order-2 SH irradiance (generated; do not edit)\n" << text << "\n"
+        << "   E(n) / pi = max(0, sum_k " << name << "[k] P_k(n)), P = (1, y, z, x, xy, yz, 3z^2 - 1, xz, x^2 - y^2),\n"
+        << "   n the unit normal in the environment's frame (+Y up; the latlong centre looks down -Z). */\n";
+    out << (glsl ? "const vec3 " : "static const float3 ") << name << "[9] = " << (glsl ? "vec3[9](\n" : "{\n");
+    char buf[128];
+    for (int i = 0; i < 9; ++i) {
+        std::snprintf(buf, sizeof buf, "    %s(%.9g, %.9g, %.9g)%s\n", vec, k[i][0], k[i][1], k[i][2], i < 8 ? "," : "");
+        out << buf;
+    }
+    out << (glsl ? ");\n\n" : "};\n\n");
+    out << vec << " " << name << "_irradiance(" << vec << " n) {\n"
+        << "    return max(" << vec << "(0.0, 0.0, 0.0),\n"
+        << "        " << name << "[0]\n"
+        << "        + " << name << "[1] * n.y + " << name << "[2] * n.z + " << name << "[3] * n.x\n"
+        << "        + " << name << "[4] * (n.x * n.y) + " << name << "[5] * (n.y * n.z)\n"
+        << "        + " << name << "[6] * (3.0 * n.z * n.z - 1.0) + " << name << "[7] * (n.x * n.z)\n"
+        << "        + " << name << "[8] * (n.x * n.x - n.y * n.y));\n"
+        << "}\n";
+    return out.str();
 }
 
 }  // namespace ms

@@ -32,6 +32,17 @@ IrradianceResult compute_irradiance(const env::Image& equirect, std::uint32_t fa
 IrradianceResult compute_irradiance(const env::Cubemap& cube, std::uint32_t face_size);
 nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string& source, const std::string& command_line);
 
+// The order-2 irradiance as shader constants (the form of cmgen's --sh-shader and Filament's
+// Irradiance_SphericalHarmonics): E(n) / pi = max(0, sum_k K_k P_k(n)) with the polynomials
+// P = (1, y, z, x, xy, yz, 3 z^2 - 1, xz, x^2 - y^2) of the unit normal, K_k = (A_l / pi) c_k L_k, c_k the
+// basis normalisations (env/sh.hpp), so a shader needs no constants of its own. [k][channel].
+env::Sh9 sh_shader_constants(const env::Sh9& sh);
+// A GLSL (".glsl") or HLSL (".hlsl") snippet: the nine constants as `NAME[9]` and a function
+// `NAME_irradiance(n)` returning E / pi, with `comment` (provenance) above. The language by `path`'s
+// extension; std::invalid_argument for another extension or a name that is not a C identifier.
+void check_sh_shader_output(const std::string& path, const std::string& name);
+std::string sh_shader_source(const env::Sh9& sh, const std::string& path, const std::string& name, const std::string& comment);
+
 // The outputs of an `ibl` command into a folder are one set (io/atomic_file.hpp's OutputSet): all of
 // this run's files, or the previous ones. stale_job_files lists the regular files directly in `dir`
 // that `is_job_file` claims for the job and whose names are not in `written` (an earlier run's mips

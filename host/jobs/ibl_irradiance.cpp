@@ -240,35 +240,39 @@ IrradianceFiles add_irradiance_files(OutputSet& outputs, const std::string& dir,
     return files;
 }
 
+void write_irradiance_cube(OutputSet& outputs, std::size_t map, std::optional<std::size_t> sidecar, const env::Cubemap& cube,
+                           const std::string& format, const std::string& encoding_name, const nlohmann::json& metadata) {
+    const lutfmt::PixelEncoding encoding = irradiance_encoding(encoding_name);
+    lutfmt::TextureData t;
+    t.width = t.height = cube.size;
+    t.faces = 6;
+    t.channels = 3;
+    t.alpha = 1.0f;
+    std::vector<float> level;
+    for (int f = 0; f < 6; ++f) level.insert(level.end(), cube.faces[f].data.begin(), cube.faces[f].data.end());
+    t.levels.push_back(std::move(level));
+    t.metadata = metadata;
+    t.metadata["file_format"] = format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
+    t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    t.metadata["padding"] = "A = 1";
+    t.metadata["encoding"] = lutfmt::to_string(encoding);
+    const std::vector<std::uint8_t> bytes = format == "ktx2" ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
+    outputs.stream(map).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    if (sidecar) outputs.stream(*sidecar) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
+}
+
 void write_irradiance_files(OutputSet& outputs, const IrradianceFiles& files, const IrradianceMapResult& r,
                             const nlohmann::json& metadata, double exposure) {
     if (files.format == "exr") {
         env::write_exr_file(outputs.temp_path(files.map), outputs.target(files.map).named, env::cross_image(r.map), metadata);
     } else {
-        const lutfmt::PixelEncoding encoding = irradiance_encoding(files.encoding);
-        lutfmt::TextureData t;
-        t.width = t.height = r.map.size;
-        t.faces = 6;
-        t.channels = 3;
-        t.alpha = 1.0f;
-        std::vector<float> level;
-        for (int f = 0; f < 6; ++f) level.insert(level.end(), r.map.faces[f].data.begin(), r.map.faces[f].data.end());
-        t.levels.push_back(std::move(level));
-        t.metadata = metadata;
-        t.metadata["file_format"] = files.format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
-        t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
-        t.metadata["padding"] = "A = 1";
-        t.metadata["encoding"] = lutfmt::to_string(encoding);
-        const std::vector<std::uint8_t> bytes =
-            files.format == "ktx2" ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
-        outputs.stream(files.map).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-        if (files.sidecar) outputs.stream(*files.sidecar) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
+        write_irradiance_cube(outputs, files.map, files.sidecar, r.map, files.format, files.encoding, metadata);
     }
     outputs.stream(files.json) << metadata.dump(2) << "\n";
     char caption[160];
     std::snprintf(caption, sizeof caption, "irradiance E / pi by direct convolution (%u^2 source), cross: +Y top; -X, +Z, +X, -Z; -Y bottom",
                   r.convolution_size);
-    env::write_png_file(outputs.temp_path(files.preview), env::preview_canvas(env::cross_image(r.map), exposure, caption));
+    env::write_png_file(outputs.temp_path(files.preview), env::cross_preview_canvas(env::cross_image(r.map), exposure, caption));
 }
 
 std::vector<std::string> stale_irradiance_files(const std::string& dir, const std::set<std::string>& written) {

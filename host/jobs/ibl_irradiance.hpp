@@ -83,6 +83,11 @@ struct IrradianceFiles {
 IrradianceFiles add_irradiance_files(OutputSet& outputs, const std::string& dir, const std::string& format,
                                      const std::string& encoding = "float16");
 // Writes them into the set's temporaries (the caller commits the set). `exposure`: the preview's.
+// One cubemap level (E / pi) as KTX2 or DDS ("ktx2" | "dds"; encoding "float16" | "float32"): RGBA, A = 1,
+// faces +X -X +Y -Y +Z -Z, into the set's entry `map` (and a DDS's "<file>.json" into `sidecar`).
+// `ibl irradiance` and `ibl prefilter --format ktx2|dds` write their irradiance with it.
+void write_irradiance_cube(OutputSet& outputs, std::size_t map, std::optional<std::size_t> sidecar, const env::Cubemap& cube,
+                           const std::string& format, const std::string& encoding, const nlohmann::json& metadata);
 void write_irradiance_files(OutputSet& outputs, const IrradianceFiles& files, const IrradianceMapResult& result,
                             const nlohmann::json& metadata, double exposure = 1.0);
 // An earlier run's irradiance.<format> (and irradiance.dds.json) of another format than this run's.

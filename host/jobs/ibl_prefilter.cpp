@@ -344,7 +344,8 @@ env::Canvas prefilter_preview_canvas(const PrefilterResult& result, double expos
     const std::uint32_t n = result.mips[0].size;
     const std::uint32_t cols = std::uint32_t((result.mips.size() + 1) / 2);
     const std::uint32_t cw = 4 * n + 8, ch = 3 * n + 28;
-    env::Image img(cols * cw, 2 * ch, {"R", "G", "B"});
+    // A strip at the bottom names the tone map.
+    env::Image img(std::max(cols * cw, env::text_width(env::tone_map_caption(exposure), 1) + 8), 2 * ch + 14, {"R", "G", "B"});
     for (std::size_t m = 0; m < result.mips.size(); ++m) {
         const env::Image cross = env::cross_image(result.mips[m]);
         const std::uint32_t zoom = n / result.mips[m].size;
@@ -360,7 +361,9 @@ env::Canvas prefilter_preview_canvas(const PrefilterResult& result, double expos
                       result.roughness[m]);
         const std::int64_t ox = std::int64_t(m % cols) * cw, oy = std::int64_t(m / cols) * ch;
         canvas.text(ox + 2, oy + 3 * n + 4, label, n >= 64 ? 2 : 1, 255);
+        env::label_cross_faces(canvas, ox, oy, n);
     }
+    canvas.text(4, 2 * ch + 3, env::tone_map_caption(exposure), 1, 255);
     return canvas;
 }
 
@@ -421,7 +424,8 @@ void write_prefilter_files(OutputSet& outputs, const PrefilterFiles& files, cons
 
 std::vector<std::string> stale_prefilter_files(const std::string& dir, const std::set<std::string>& written) {
     static const std::set<std::string> kOthers = {"specular.ktx2", "specular.dds", "specular.dds.json", "dfg.exr", "dfg.ktx2",
-                                                  "dfg.dds",       "dfg.dds.json", "dfg_preview.png"};
+                                                  "dfg.dds",       "dfg.dds.json", "dfg_preview.png",   "irradiance.exr",
+                                                  "irradiance.ktx2", "irradiance.dds", "irradiance.dds.json"};
     return stale_job_files(dir, written, [](const std::string& name) { return is_mip_file(name) || kOthers.count(name) > 0; });
 }
 

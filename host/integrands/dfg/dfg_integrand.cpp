@@ -7,6 +7,7 @@
 
 #include "core/cancel.hpp"
 #include "core/estimate.hpp"
+#include "exact/dfg_exact.hpp"
 #include "integrands/dfg/dfg_quadrature.hpp"
 
 namespace ms::dfg {
@@ -110,11 +111,21 @@ public:
         for (std::size_t t = 0; t < count; ++t) {
             throw_if_cancelled();
             const DfgPoint& p = owner_.points_[first + t];
-            const DfgQuadrature q = dfg_quadrature(p.n_dot_v, p.alpha, owner_.config_.quadrature_order);
             DfgValue& v = owner_.values_[first + t];
+            const DfgRoutineConfig& config = owner_.config_;
+            if (config.host_rule == DfgHostRule::exact) {
+                const exact::DfgExact e = exact::dfg_exact(p.n_dot_v, p.alpha, config.sheen, config.exact_order);
+                v.scale = {e.scale, e.scale_error};
+                v.bias = {e.bias, e.bias_error};
+                v.albedo = {e.scale + e.bias, e.scale_error + e.bias_error};
+                if (config.sheen) v.sheen = {e.sheen, e.sheen_error};
+                continue;
+            }
+            const DfgQuadrature q = dfg_quadrature(p.n_dot_v, p.alpha, config.quadrature_order, config.sheen);
             v.scale = {q.scale, q.scale_error};
             v.bias = {q.bias, q.bias_error};
             v.albedo = {q.scale + q.bias, q.scale_error + q.bias_error};
+            if (config.sheen) v.sheen = {q.sheen, q.sheen_error};
         }
     }
 

@@ -26,7 +26,12 @@ struct DfgPoint {
 // degrees of freedom) or the quadrature's error estimate (oracle).
 struct DfgValue {
     Estimate scale, bias, albedo;  // albedo = scale + bias (E with F = 1)
+    Estimate sheen;                // the cloth (Charlie) albedo; 0 where it was not asked for
 };
+
+// Which host rule the oracle worker (host threads) evaluates: the independent quadrature of
+// dfg_quadrature.hpp (the check), or the exact path of exact/dfg_exact.hpp (`ibl dfg --method exact`).
+enum class DfgHostRule { quadrature, exact };
 
 struct DfgRoutineConfig {
     ocl::BuildConfig build;
@@ -34,6 +39,9 @@ struct DfgRoutineConfig {
     std::uint32_t max_points_per_work_item = 4096;  // bounds each lane's float sum (256 terms)
     int quadrature_order = 12;
     int warp = 3;  // MS_DFG_WARP of kernels/dfg/dfg.cl: 1 (none), 2 or 3
+    DfgHostRule host_rule = DfgHostRule::quadrature;
+    int exact_order = 16;  // Gauss-Legendre nodes per panel of the exact path
+    bool sheen = false;    // host rules: also the cloth channel (the kernel computes GGX only)
 };
 
 class DfgIntegrand final : public schedule::Integrand {

@@ -159,9 +159,54 @@ Pair integrate(double n_dot_v, double alpha, int order) {
     return total;
 }
 
+// The sheen (Charlie) channel: D_C(h) V_N NdotL dL with D_C = (2 + 1/alpha) sin^(1/alpha) t / (2 pi) and
+// V_N = 1 / (4 (NdotL + NdotV - NdotL NdotV)), over the same two segments as the GGX integrals but in
+// the polar variable sigma = sin t (dw_h = sigma / cos t dsigma dphi; D_C = k sigma^(1/alpha) has no
+// square-root end in sigma) and the azimuth inner, as above.
+double charlie_integrate(double n_dot_v, double alpha, int order) {
+    // D_C peaks at the largest admissible t for small alpha, a layer ~alpha wide in sigma; the azimuth
+    // end phi* has its square-root end at t2, as for GGX.
+    const double layer = std::min(alpha, n_dot_v * n_dot_v);
+    const int levels = std::clamp(int(std::ceil(std::log(layer * 1e-2) / std::log(0.25))), 8, 20);
+    const Rule& rule = graded_rule(order, levels);
+    const double sin_v = std::sqrt(std::max(0.0, 1 - n_dot_v * n_dot_v));
+    const double t_v = std::acos(n_dot_v);
+    const double t1 = 0.5 * (kPi / 2 - t_v), t2 = 0.5 * (kPi / 2 + t_v);
+    const double s1 = std::sin(t1), s2 = std::sin(t2);
+    const double k = (2 + 1 / alpha) / (2 * kPi);
+    const Vec3 view{sin_v, 0, n_dot_v};
+    auto azimuths = [&](double sigma, double phi_max) {
+        const double cos_t = std::sqrt(std::max(0.0, 1 - sigma * sigma));
+        double sum = 0;
+        for (std::size_t i = 0; i < rule.x.size(); ++i) {
+            const double phi = phi_max * rule.x[i];
+            const Vec3 h{sigma * std::cos(phi), sigma * std::sin(phi), cos_t};
+            const double vh = view.x * h.x + view.z * h.z;
+            const double lz = 2 * vh * h.z - view.z;
+            if (!(lz > 0) || !(vh > 0)) continue;
+            const double visibility = 0.25 / (lz + n_dot_v - lz * n_dot_v);
+            // rule.x spans [0, phi_max]: dphi = phi_max dx, and x 2 for the mirror half [-phi_max, 0].
+            sum += rule.w[i] * 2 * phi_max * visibility * lz * 4 * vh;
+        }
+        return k * std::pow(sigma, 1 / alpha) * sigma / cos_t * sum;
+    };
+    double total = 0;
+    for (std::size_t j = 0; j < rule.x.size(); ++j) total += s1 * rule.w[j] * azimuths(s1 * rule.x[j], kPi);
+    if (sin_v > 0 && s2 > s1) {
+        for (std::size_t j = 0; j < rule.x.size(); ++j) {
+            const double sigma = s1 + (s2 - s1) * rule.x[j];
+            const double c = std::sqrt(1 - sigma * sigma);
+            const double cos2t = c * c - sigma * sigma, sin2t = 2 * sigma * c;
+            const double phi_max = std::acos(std::clamp(-cos2t * n_dot_v / (sin2t * sin_v), -1.0, 1.0));
+            if (phi_max > 0) total += (s2 - s1) * rule.w[j] * azimuths(sigma, phi_max);
+        }
+    }
+    return total;
+}
+
 }  // namespace
 
-DfgQuadrature dfg_quadrature(double n_dot_v, double alpha, int order) {
+DfgQuadrature dfg_quadrature(double n_dot_v, double alpha, int order, bool sheen) {
     if (!(n_dot_v > 0 && n_dot_v <= 1)) throw std::invalid_argument("dfg_quadrature: NdotV must be in (0, 1]");
     if (!(alpha > 0 && alpha <= 1)) throw std::invalid_argument("dfg_quadrature: alpha must be in (0, 1]");
     if (order < 6) throw std::invalid_argument("dfg_quadrature: order >= 6");
@@ -172,6 +217,10 @@ DfgQuadrature dfg_quadrature(double n_dot_v, double alpha, int order) {
     q.bias = hi.bias;
     q.scale_error = std::abs(hi.scale - lo.scale);
     q.bias_error = std::abs(hi.bias - lo.bias);
+    if (sheen) {
+        q.sheen = charlie_integrate(n_dot_v, alpha, order);
+        q.sheen_error = std::abs(q.sheen - charlie_integrate(n_dot_v, alpha, order - 4));
+    }
     return q;
 }
 

@@ -20,11 +20,14 @@ namespace ms::dfg {
 struct DfgQuadrature {
     double scale = 0, bias = 0;
     double scale_error = 0, bias_error = 0;  // |high order - low order|, a bound on the high order's error in practice
+    // The cloth (Charlie sheen) albedo: int D_C V_N NdotL dL (Estevez & Kulla's NDF with alpha as its
+    // roughness, Neubelt & Pettineo's visibility), and its two-order error estimate.
+    double sheen = 0, sheen_error = 0;
 };
 
 // n_dot_v in (0, 1], alpha in (0, 1]. order: Gauss-Legendre nodes per panel of the higher order (the
-// lower order uses order - 4). Throws std::invalid_argument outside the domain.
-DfgQuadrature dfg_quadrature(double n_dot_v, double alpha, int order = 12);
+// lower order uses order - 4). sheen: also the cloth channel. Throws std::invalid_argument outside the domain.
+DfgQuadrature dfg_quadrature(double n_dot_v, double alpha, int order = 12, bool sheen = false);
 
 // Gauss-Legendre nodes and weights on [-1, 1] (Newton on the Legendre recurrence), exposed for tests.
 void gauss_legendre(int n, std::vector<double>& nodes, std::vector<double>& weights);

@@ -14,6 +14,16 @@ std::uint32_t dxgi_format(PixelEncoding e) {
     return 0;
 }
 
+std::uint32_t dxgi_format_rg(PixelEncoding e) {
+    switch (e) {
+        case PixelEncoding::float32: return kDxgiR32G32Float;
+        case PixelEncoding::float16: return kDxgiR16G16Float;
+        case PixelEncoding::unorm8: return kDxgiR8G8Unorm;
+        case PixelEncoding::unorm16: return kDxgiR16G16Unorm;
+    }
+    return 0;
+}
+
 void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encoding) {
     check_lut_shape(lut);
     const bool volume = lut.n_dot_v().count > 1;

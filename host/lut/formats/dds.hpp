@@ -25,7 +25,9 @@ namespace ms::lutfmt {
 
 constexpr std::uint32_t kDxgiR32G32B32A32Float = 2, kDxgiR16G16B16A16Float = 10, kDxgiR16G16B16A16Unorm = 11,
                         kDxgiR8G8B8A8Unorm = 28;
+constexpr std::uint32_t kDxgiR32G32Float = 16, kDxgiR16G16Float = 34, kDxgiR16G16Unorm = 35, kDxgiR8G8Unorm = 49;
 std::uint32_t dxgi_format(PixelEncoding);
+std::uint32_t dxgi_format_rg(PixelEncoding);  // the two-component (RG) format of the encoding
 
 void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encoding);
 

@@ -14,6 +14,16 @@ std::uint32_t vk_format(PixelEncoding e) {
     return 0;
 }
 
+std::uint32_t vk_format_rg(PixelEncoding e) {
+    switch (e) {
+        case PixelEncoding::float32: return kVkR32G32Sfloat;
+        case PixelEncoding::float16: return kVkR16G16Sfloat;
+        case PixelEncoding::unorm8: return kVkR8G8Unorm;
+        case PixelEncoding::unorm16: return kVkR16G16Unorm;
+    }
+    return 0;
+}
+
 void write_ktx2(const std::string& path, const LutFile& lut, PixelEncoding encoding) {
     check_lut_shape(lut);
     const bool three_d = lut.n_dot_v().count > 1;

@@ -34,7 +34,9 @@ namespace ms::lutfmt {
 // VkFormat enum values (Vulkan 1.0 core).
 constexpr std::uint32_t kVkR8G8B8A8Unorm = 37, kVkR16G16B16A16Unorm = 91, kVkR16G16B16A16Sfloat = 97,
                         kVkR32G32B32A32Sfloat = 109;
+constexpr std::uint32_t kVkR8G8Unorm = 16, kVkR16G16Unorm = 77, kVkR16G16Sfloat = 83, kVkR32G32Sfloat = 103;
 std::uint32_t vk_format(PixelEncoding);
+std::uint32_t vk_format_rg(PixelEncoding);  // the two-component (RG) format of the encoding
 
 // The LUT as a TextureData (texture.hpp, which writes the file). Writes atomically. Throws std::invalid_argument (bad LUT) or std::runtime_error (I/O), naming the file.
 void write_ktx2(const std::string& path, const LutFile& lut, PixelEncoding encoding);

@@ -14,23 +14,23 @@ namespace ms::lutfmt {
 namespace {
 
 // The basic DFD (with its leading dfdTotalSize) of an RGBA format with 4 equal components.
-std::vector<std::uint8_t> rgba_dfd(PixelEncoding e) {
+std::vector<std::uint8_t> rgba_dfd(PixelEncoding e, std::uint32_t components) {
     const std::uint32_t comp_bytes = bytes_per_component(e), bits = comp_bytes * 8;
     const bool is_float = e == PixelEncoding::float32 || e == PixelEncoding::float16;
-    const std::uint32_t block_size = 24 + 16 * 4;
+    const std::uint32_t block_size = 24 + 16 * components;
     ByteWriter w;
     w.u32(4 + block_size);                 // dfdTotalSize (includes itself)
     w.u32(0u | (0u << 17));                // vendorId KHR (17 bits), descriptorType BASICFORMAT (15 bits)
     w.u32(2u | (block_size << 16));        // versionNumber 1.3 = 2, descriptorBlockSize
     w.u32(1u | (1u << 8) | (1u << 16) | (0u << 24));  // model RGBSDA, primaries BT709, transfer LINEAR, flags STRAIGHT
     w.u32(0);                              // texelBlockDimension0..3: value - 1, a 1x1x1x1 block
-    w.u32(4 * comp_bytes);                 // bytesPlane0 (bytes per texel), bytesPlane1..3 = 0
+    w.u32(components * comp_bytes);        // bytesPlane0 (bytes per texel), bytesPlane1..3 = 0
     w.u32(0);                              // bytesPlane4..7
     const std::uint32_t channel_ids[4] = {0, 1, 2, 15};  // KHR_DF_CHANNEL_RGBSDA_RED, GREEN, BLUE, ALPHA
     // Qualifier bits of channelType: LINEAR 0x10, EXPONENT 0x20, SIGNED 0x40, FLOAT 0x80. LINEAR only
     // matters for alpha under a non-linear transfer function; ours is LINEAR already, so it stays clear.
     const std::uint32_t qualifiers = is_float ? 0x80u | 0x40u : 0u;
-    for (std::uint32_t c = 0; c < 4; ++c) {
+    for (std::uint32_t c = 0; c < components; ++c) {
         w.u32((c * bits) | ((bits - 1) << 16) | ((channel_ids[c] | qualifiers) << 24));
         w.u32(0);  // samplePosition0..3: the sample sits at the block origin
         if (is_float) {
@@ -60,6 +60,8 @@ void check_texture(const TextureData& t) {
         throw std::invalid_argument("texture: a cubemap's faces must be square and 2D");
     if (t.channels < 1 || t.channels > 4) throw std::invalid_argument("texture: 1 to 4 channels");
     if (t.alpha && t.channels != 3) throw std::invalid_argument("texture: an alpha fill needs 3 data channels");
+    if (t.stored_components != 4 && !(t.stored_components == 2 && t.channels == 2))
+        throw std::invalid_argument("texture: stored components are 4 (RGBA) or 2 (RG, for 2 channels)");
     if (t.levels.empty()) throw std::invalid_argument("texture: no levels");
     const std::uint32_t largest = std::max({t.width, t.height, t.depth});
     std::uint32_t max_levels = 1;
@@ -73,6 +75,7 @@ void check_texture(const TextureData& t) {
 }
 
 std::vector<float> rgba_level(const TextureData& t, std::size_t p) {
+    if (t.stored_components == 2) return t.levels.at(p);  // RG: stored as given
     const std::size_t n = level_texels(t, p), nc = t.channels;
     const std::vector<float>& in = t.levels.at(p);
     std::vector<float> out(n * 4);
@@ -86,13 +89,13 @@ std::vector<float> rgba_level(const TextureData& t, std::size_t p) {
 std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncoding encoding) {
     check_texture(t);
     const bool three_d = t.depth > 1;
-    const std::uint32_t comp_bytes = bytes_per_component(encoding), texel_bytes = 4 * comp_bytes;
+    const std::uint32_t comp_bytes = bytes_per_component(encoding), texel_bytes = t.stored_components * comp_bytes;
     const std::uint32_t levels = std::uint32_t(t.levels.size());
 
     ByteWriter w;
     const std::uint8_t identifier[12] = {0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
     w.raw(identifier, 12);
-    w.u32(vk_format(encoding));
+    w.u32(t.stored_components == 2 ? vk_format_rg(encoding) : vk_format(encoding));
     w.u32(comp_bytes);  // typeSize: size of the data type the texels are made of (for byte swapping)
     w.u32(t.width);
     w.u32(t.height);
@@ -108,7 +111,7 @@ std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncodin
     for (std::uint32_t p = 0; p < levels; ++p) w.u64(0), w.u64(0), w.u64(0);  // base level first: patched below
 
     const std::size_t dfd_at = w.size();
-    const std::vector<std::uint8_t> dfd = rgba_dfd(encoding);
+    const std::vector<std::uint8_t> dfd = rgba_dfd(encoding, t.stored_components);
     w.raw(dfd.data(), dfd.size());
 
     // Key/value data, sorted by key as the specification requires (std::map orders bytewise).
@@ -154,7 +157,7 @@ void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEnco
 std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding encoding) {
     check_texture(t);
     const bool volume = t.depth > 1, cube = t.faces == 6, mipped = t.levels.size() > 1;
-    const std::uint32_t texel_bytes = 4 * bytes_per_component(encoding);
+    const std::uint32_t texel_bytes = t.stored_components * bytes_per_component(encoding);
     const std::uint32_t levels = std::uint32_t(t.levels.size());
 
     constexpr std::uint32_t DDSD_CAPS = 0x1, DDSD_HEIGHT = 0x2, DDSD_WIDTH = 0x4, DDSD_PITCH = 0x8,
@@ -181,7 +184,7 @@ std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding
     w.u32(DDSCAPS_TEXTURE | (volume || cube || mipped ? DDSCAPS_COMPLEX : 0) | (mipped ? DDSCAPS_MIPMAP : 0));
     w.u32((volume ? DDSCAPS2_VOLUME : 0) | (cube ? DDSCAPS2_CUBEMAP | DDSCAPS2_CUBEMAP_ALLFACES : 0));
     w.u32(0), w.u32(0), w.u32(0);
-    w.u32(dxgi_format(encoding));
+    w.u32(t.stored_components == 2 ? dxgi_format_rg(encoding) : dxgi_format(encoding));
     w.u32(volume ? 4 : 3);         // D3D10_RESOURCE_DIMENSION_TEXTURE3D / TEXTURE2D (a cubemap is 2D)
     w.u32(cube ? D3D10_RESOURCE_MISC_TEXTURECUBE : 0);  // miscFlag
     w.u32(1);                      // arraySize: 1 (a 3D texture; one cube for a cubemap)
@@ -201,7 +204,7 @@ std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding
 
 nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding) {
     nlohmann::json meta = t.metadata;
-    meta["dds_dxgi_format"] = dxgi_format(encoding);
+    meta["dds_dxgi_format"] = t.stored_components == 2 ? dxgi_format_rg(encoding) : dxgi_format(encoding);
     return meta;
 }
 

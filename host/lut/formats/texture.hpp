@@ -42,6 +42,10 @@ struct TextureData {
     std::uint32_t faces = 1;    // 1, or 6 for a cubemap
     std::uint32_t channels = 4; // floats per texel in `levels`, 1-4
     std::optional<float> alpha; // A when the data have 3 channels and A is not a data channel
+    // Components per stored texel: 4 (RGBA, padded as above) or 2 (RG: R16G16_SFLOAT / R32G32_SFLOAT /
+    // R16G16_UNORM / R8G8_UNORM, DXGI R16G16_FLOAT / R32G32_FLOAT / R16G16_UNORM / R8G8_UNORM), which
+    // needs channels = 2: two-channel tables (split-sum scale and bias) at half the bytes.
+    std::uint32_t stored_components = 4;
     // levels[p]: level p's texels (all faces), channels floats per texel.
     std::vector<std::vector<float>> levels;
     nlohmann::json metadata = nlohmann::json::object();  // recorded verbatim ("microshadow" key / sidecar)

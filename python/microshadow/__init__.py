@@ -591,6 +591,8 @@ def bake(
     if samples != 0:
         _count("samples", samples, 16, _MAX_SAMPLES)
     tolerance = _sampling(method, tolerance, 65536, replicates, seed, sequence, form, ao_weighting, backend, device)
+    if tolerance and not 1e-7 <= tolerance <= 1.0:
+        raise ValueError(f"tolerance = {tolerance!r}: 1e-7 to 1 (0: one batch, or the exact method's 1e-6)")
     if samples and tolerance:
         raise ValueError("give samples or tolerance, not both (tolerance adds batches of the default size)")
     if method == "exact" and samples:

@@ -164,3 +164,30 @@ def test_ctrl_c_stops_a_long_call_with_keyboard_interrupt():
     assert elapsed < 3.0, f"stopped only after {elapsed:.1f} s"
     term, _ = ms.evaluate_iso(0.6, 0.5, 0.7, 0.5, 60.0, backend="oracle")
     assert term[0] > 0
+
+
+def test_a_long_call_releases_the_gil():
+    # While evaluate() runs in a worker thread (between its first and its last progress report), the
+    # main thread keeps running Python: with the GIL held it could run only inside the reports.
+    n = 20_000
+    nl = np.random.default_rng(2).uniform(0.05, 1.0, n)
+    state = {"in_call": False, "done": False}
+    reports = []
+
+    def progress(done, total):
+        state["in_call"] = True
+        reports.append(done)
+
+    def work():
+        ms.evaluate_iso(0.6, 0.5, 0.7, nl, 60.0, backend="oracle", tolerance=1e-8, progress=progress)
+        state["done"] = True
+
+    worker = threading.Thread(target=work)
+    worker.start()
+    counted = 0
+    while not state["done"]:
+        if state["in_call"]:
+            counted += 1
+    worker.join()
+    assert reports[-1] == n
+    assert counted > 10_000, f"the main thread ran {counted} steps during the call"

@@ -21,7 +21,6 @@ rm -rf "$venv"
 # --system-site-packages: Debian's numpy (and matplotlib for the example's plot) serve the venv.
 "$python" -m venv --system-site-packages "$venv"
 venv=$(cd "$venv" && pwd)
-"$venv/bin/python" -m pip install -q --upgrade pip
 # scikit-build-core reads CMAKE_ARGS; the Makefile generator and the core count as the Release build's.
 CMAKE_ARGS="${MICROSHADOW_CMAKE_ARGS:-}" CMAKE_GENERATOR="Unix Makefiles" CMAKE_BUILD_PARALLEL_LEVEL="$(nproc)" \
   "$venv/bin/python" -m pip install -q .

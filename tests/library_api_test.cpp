@@ -14,7 +14,6 @@
 #include "core/cancel.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/eval.hpp"
-#include "jobs/ibl_dfg.hpp"
 #include "lut/exr_lut.hpp"
 #include "sampling/point_set.hpp"
 
@@ -192,25 +191,6 @@ TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
     EXPECT_NE(file.metadata_json().find("\"layout\""), std::string::npos);
     std::filesystem::remove(path);
     EXPECT_THROW(microshadow::open_file(path.string()), std::runtime_error);
-}
-
-TEST(LibraryApi, BakeDfgGivesTheDfgJobsTexels) {
-    microshadow::DfgOptions o;
-    o.size = 3;
-    o.samples = 256;
-    o.replicates = 4;
-    o.backend = microshadow::Backend::oracle;
-    const microshadow::DfgLut lut = microshadow::bake_dfg(o);
-    ms::DfgBakeSpec spec;
-    spec.n_dot_v.count = spec.roughness.count = 3;
-    spec.plan.samples = 256, spec.plan.replicates = 4;
-    spec.oracle = true;
-    const ms::DfgBakeResult want = ms::bake_dfg(spec);
-    const std::vector<double> got = lut.values();
-    ASSERT_EQ(got.size(), 27u);
-    EXPECT_EQ(got[(2 * 3 + 1) * 3 + 0], want.at(1, 2).scale.term);  // [roughness][n_dot_v][scale, bias, E]
-    EXPECT_EQ(got[(2 * 3 + 1) * 3 + 2], want.at(1, 2).albedo.term);
-    EXPECT_EQ(lut.n_dot_v_values(), spec.n_dot_v.values());
 }
 
 }  // namespace

@@ -8,7 +8,7 @@ packages=(
   pocl-opencl-icd ocl-icd-opencl-dev opencl-c-headers opencl-clhpp-headers clinfo
   libopenexr-dev libcli11-dev libtomlplusplus-dev nlohmann-json3-dev libpng-dev
   googletest libgtest-dev libbenchmark-dev
-  python3 python3-matplotlib python3-numpy python3-venv
+  python3 python3-dev python3-matplotlib python3-numpy python3-venv
   glslang-tools mesa-vulkan-drivers libvulkan-dev openimageio-tools
   clang libclang-rt-14-dev
   openmpi-bin libopenmpi-dev

@@ -3,6 +3,8 @@
 // values (three.js) quoted as facts, the job's verification, and the CLI's file with its metadata.
 #include <gtest/gtest.h>
 
+#include <microshadow/microshadow.hpp>
+
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -220,6 +222,29 @@ TEST_F(IblDfgBake, CliWritesTheExrWithMetadataAndPreview) {
                                " --size 4 --samples 1024 --quiet 2>&1");
     EXPECT_NE(tga.exit_code, 0);
     EXPECT_NE(tga.output.find(".ktx2"), std::string::npos) << tga.output;
+}
+
+}  // namespace
+
+// The public API's DFG bake (include/microshadow/ibl.hpp) gives the DFG job's texels.
+namespace {
+TEST(LibraryApi, BakeDfgGivesTheDfgJobsTexels) {
+    microshadow::DfgOptions o;
+    o.size = 3;
+    o.samples = 256;
+    o.replicates = 4;
+    o.backend = microshadow::Backend::oracle;
+    const microshadow::DfgLut lut = microshadow::bake_dfg(o);
+    ms::DfgBakeSpec spec;
+    spec.n_dot_v.count = spec.roughness.count = 3;
+    spec.plan.samples = 256, spec.plan.replicates = 4;
+    spec.oracle = true;
+    const ms::DfgBakeResult want = ms::bake_dfg(spec);
+    const std::vector<double> got = lut.values();
+    ASSERT_EQ(got.size(), 27u);
+    EXPECT_EQ(got[(2 * 3 + 1) * 3 + 0], want.at(1, 2).scale.term);  // [roughness][n_dot_v][scale, bias, E]
+    EXPECT_EQ(got[(2 * 3 + 1) * 3 + 2], want.at(1, 2).albedo.term);
+    EXPECT_EQ(lut.n_dot_v_values(), spec.n_dot_v.values());
 }
 
 }  // namespace

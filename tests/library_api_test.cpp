@@ -10,6 +10,8 @@
 
 #include <filesystem>
 
+#include "analytic/part1_terms.hpp"
+#include "core/cancel.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/eval.hpp"
 #include "lut/exr_lut.hpp"
@@ -113,6 +115,82 @@ TEST(LibraryApi, BadOptionsAreRefusedWithTheFieldNamed) {
     EXPECT_THROW(microshadow::bake(layout), std::invalid_argument);
     EXPECT_THROW(microshadow::open_lut("/nonexistent/l.exr"), std::runtime_error);
     EXPECT_EQ(microshadow::version(), MICROSHADOW_VERSION);
+}
+
+TEST(LibraryApi, AProgressThatReturnsFalseStopsTheCallWithCancelledAndTheNextCallRuns) {
+    microshadow::SamplingOptions o;
+    o.method = microshadow::Method::exact;
+    o.backend = microshadow::Backend::oracle;
+    o.tolerance = 1e-6;
+    std::vector<microshadow::Query> queries(64, microshadow::isotropic_query(0.5, 0.6, 0.7, 0.4, 90));
+    std::uint64_t reports = 0;
+    EXPECT_THROW(microshadow::evaluate(queries, o,
+                                       [&](std::uint64_t, std::uint64_t) {
+                                           ++reports;
+                                           return false;
+                                       }),
+                 microshadow::Cancelled);
+    EXPECT_GE(reports, 1u);
+    // The jobs' cancel flag is lowered again: the same call now completes, its progress told the total.
+    EXPECT_FALSE(ms::cancel_requested().load());
+    std::uint64_t last_done = 0, last_total = 0;
+    const auto values = microshadow::evaluate(queries, o, [&](std::uint64_t done, std::uint64_t total) {
+        last_done = done, last_total = total;
+        return true;
+    });
+    ASSERT_EQ(values.size(), queries.size());
+    EXPECT_EQ(last_done, last_total);
+    EXPECT_GT(values[0].value, 0.0);
+}
+
+TEST(LibraryApi, IsotropicQueryHasTheSweepsDirections) {
+    const microshadow::Query q = microshadow::isotropic_query(0.3, 0.5, 0.8, 0.6, 90);
+    EXPECT_EQ(q.visibility, 0.3);
+    EXPECT_EQ(q.alpha_x, 0.25);
+    EXPECT_EQ(q.alpha_y, 0.25);
+    EXPECT_NEAR(q.wi.x, 0.6, 1e-15);
+    EXPECT_EQ(q.wi.y, 0.0);
+    EXPECT_EQ(q.wi.z, 0.8);
+    EXPECT_NEAR(q.wo.x, 0.0, 1e-15);  // 90 degrees from the view's side
+    EXPECT_NEAR(q.wo.y, 0.8, 1e-15);
+    EXPECT_EQ(q.wo.z, 0.6);
+}
+
+TEST(LibraryApi, AnalyticTermsByNameAreThePart1Terms) {
+    const auto names = microshadow::analytic_term_names();
+    ASSERT_EQ(names.size(), ms::analytic::kAllAnalyticTerms.size());
+    EXPECT_EQ(names[1], "naughty-dog");
+    const std::vector<microshadow::AnalyticInputs> in = {{0.5, 0.3, 0.8, 0.6}, {0.9, 0.1, 0.4, 0.2}};
+    const auto nd = microshadow::analytic_term("naughty-dog", in);
+    EXPECT_EQ(nd[0], ms::analytic::naughty_dog(0.5, 0.3));
+    EXPECT_EQ(nd[1], ms::analytic::naughty_dog(0.9, 0.1));
+    const auto act = microshadow::analytic_term("activision-adjusted", in, microshadow::AoWeighting::uniform);
+    EXPECT_EQ(act[0], ms::analytic::activision_with_cone_adjustment(
+                          0.5, ms::analytic::activision_roughness_from_alpha(0.36), 0.3, 0.8, ms::AoWeighting::uniform));
+    EXPECT_THROW(microshadow::analytic_term("naughty-cat", in), std::invalid_argument);
+}
+
+TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
+    microshadow::BakeOptions b;
+    b.layout = "custom";
+    b.visibility_count = 4, b.n_dot_l_count = 3, b.n_dot_v_count = 2;
+    b.roughness = {0.5};
+    b.sampling.backend = microshadow::Backend::oracle;
+    b.sampling.samples = 512;
+    const microshadow::Lut lut = microshadow::bake(b);
+    EXPECT_EQ(lut.axis_values("n_dot_l"), (std::vector<double>{1.0 / 6, 0.5, 5.0 / 6}));
+    const std::vector<float> texels = lut.texels();
+    ASSERT_EQ(texels.size(), 4u * 3 * 2);
+    EXPECT_EQ(texels[(1 * 3 + 2) * 4 + 3], lut.texel(0, 3, 2, 1));  // [n_dot_v][n_dot_l][visibility][channel]
+    const auto path = std::filesystem::temp_directory_path() / ("microshadow_api_open_" + std::to_string(::getpid()) + ".exr");
+    lut.save(path.string());
+    const microshadow::LookupFile file = microshadow::open_file(path.string());
+    EXPECT_EQ(file.kind(), "lut");
+    EXPECT_FALSE(file.keeps_azimuth());
+    EXPECT_EQ(file.lookup(0.4, 0.5, 0.6, 0.5, 120), lut.lookup(0.4, 0.5, 0.6, 0.5));
+    EXPECT_NE(file.metadata_json().find("\"layout\""), std::string::npos);
+    std::filesystem::remove(path);
+    EXPECT_THROW(microshadow::open_file(path.string()), std::runtime_error);
 }
 
 }  // namespace

@@ -2,15 +2,27 @@
 // specs and back. Everything numeric happens in the layers below (jobs/eval, jobs/bake, lut/).
 #include "microshadow/microshadow.hpp"
 
+#include <algorithm>
+#include <filesystem>
+#include <cmath>
+#include <optional>
 #include <stdexcept>
 
+#include "api/facade.hpp"
+#include "core/query.hpp"
 #include "core/types.hpp"
 #include "device/runtime.hpp"
+#include "exact/exact_term.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "jobs/bake.hpp"
+#include "jobs/compare.hpp"
 #include "jobs/eval.hpp"
 #include "lut/exr_lut.hpp"
 #include "lut/formats/lut_formats.hpp"
+#include "lut/formats/lut_reader.hpp"
 #include "lut/lookup.hpp"
+#include <nlohmann/json.hpp>
+#include "repr/representation.hpp"
 #include "sampling/point_set.hpp"
 
 namespace microshadow {
@@ -19,15 +31,30 @@ struct Lut::Data {
     ms::sweep::LutLookup lookup;
 };
 
-namespace {
+namespace detail {
 
+ms::AoWeighting to_ms(AoWeighting w) { return w == AoWeighting::cosine ? ms::AoWeighting::cosine : ms::AoWeighting::uniform; }
+ms::Sequence to_ms(Sequence s) { return s == Sequence::sobol ? ms::Sequence::sobol : ms::Sequence::random; }
 
-ms::TermOptions term_options(const SamplingOptions& o) {
+ms::TermOptions term_options(AoWeighting weighting, Form form) {
     ms::TermOptions t;
-    t.ao_weighting = o.ao_weighting == AoWeighting::cosine ? ms::AoWeighting::cosine : ms::AoWeighting::uniform;
-    t.form = o.form == Form::height_correlated ? ms::Form::height_correlated : ms::Form::uncorrelated;
+    t.ao_weighting = to_ms(weighting);
+    t.form = form == Form::height_correlated ? ms::Form::height_correlated : ms::Form::uncorrelated;
     return t;
 }
+
+std::unique_ptr<ms::TermBackend> make_backend(Backend backend, const std::string& device, bool fast_math) {
+    if (backend == Backend::oracle) return ms::make_oracle_backend();
+    ms::OpenClBackendConfig config;
+    config.build.fast_math = fast_math;
+    return ms::make_opencl_backend(ms::ocl::select_devices(device), config);
+}
+
+}  // namespace detail
+
+namespace {
+
+ms::TermOptions term_options(const SamplingOptions& o) { return detail::term_options(o.ao_weighting, o.form); }
 
 void check_replicates(std::uint32_t replicates, const char* where) {
     if (replicates < 2)
@@ -36,8 +63,7 @@ void check_replicates(std::uint32_t replicates, const char* where) {
 }
 
 std::unique_ptr<ms::TermBackend> make_backend(const SamplingOptions& o) {
-    if (o.backend == Backend::oracle) return ms::make_oracle_backend();
-    return ms::make_opencl_backend(ms::ocl::select_devices(o.device));
+    return detail::make_backend(o.backend, o.device, o.fast_math);
 }
 
 Lut make_lut(ms::LutFile file) {
@@ -48,7 +74,7 @@ Lut make_lut(ms::LutFile file) {
 
 std::string version() { return MICROSHADOW_VERSION; }
 
-std::vector<Estimate> evaluate(const std::vector<Query>& queries, const SamplingOptions& options) {
+std::vector<Estimate> evaluate(const std::vector<Query>& queries, const SamplingOptions& options, const Progress& progress) {
     if (options.method == Method::sampled) check_replicates(options.replicates, "microshadow::evaluate");
     std::vector<ms::Query> qs;
     qs.reserve(queries.size());
@@ -58,19 +84,43 @@ std::vector<Estimate> evaluate(const std::vector<Query>& queries, const Sampling
     plan.samples = ms::round_up_samples(options.samples, options.replicates);
     plan.replicates = options.replicates;
     plan.seed = options.seed;
+    plan.sequence = detail::to_ms(options.sequence);
+    // What `microshadow eval` builds from the same options (cli/common.cpp: SamplingOptions::plan).
+    plan.tolerance = options.tolerance;
+    plan.single_precision = options.exact_float;
     if (options.method == Method::exact) {
         plan.method = ms::Method::exact;
-        plan.tolerance = options.tolerance > 0 ? options.tolerance : 1e-10;
+        if (plan.tolerance == 0) plan.tolerance = ms::exact::kDefaultTolerance;
+        ms::exact_term::validate_tolerance(plan.tolerance);
     }
     auto backend = make_backend(options);
-    const std::vector<ms::Estimate> got = ms::evaluate(*backend, qs, term_options(options), plan);
+    const std::vector<ms::Estimate> got = detail::run_with_progress(progress, [&](const auto& report) {
+        return ms::evaluate(*backend, qs, term_options(options), plan, nullptr,
+                            [&](std::size_t done, std::size_t total) { report(done, total); });
+    });
     std::vector<Estimate> out;
     out.reserve(got.size());
     for (const ms::Estimate& e : got) out.push_back({e.term, e.std_error});
     return out;
 }
 
-Lut bake(const BakeOptions& options) {
+Query isotropic_query(double visibility, double roughness, double n_dot_v, double n_dot_l, double relative_azimuth_degrees) {
+    // The sweeps' directions (jobs/sweep/points.cpp: to_query) with phi_i = 0, so that the same
+    // parameters give the same query bits here and in a sweep.
+    constexpr double kDegree = M_PI / 180.0;
+    auto direction = [](double cos_theta, double phi) {
+        const double s = std::sqrt(std::max(0.0, 1 - cos_theta * cos_theta));
+        return Direction{s * std::cos(phi), s * std::sin(phi), cos_theta};
+    };
+    Query q;
+    q.visibility = visibility;
+    q.alpha_x = q.alpha_y = roughness * roughness;
+    q.wi = direction(n_dot_v, 0.0);
+    q.wo = direction(n_dot_l, relative_azimuth_degrees * kDegree);
+    return q;
+}
+
+Lut bake(const BakeOptions& options, const Progress& progress) {
     const SamplingOptions& o = options.sampling;
     if (o.method == Method::sampled) check_replicates(o.replicates, "microshadow::bake");
     const ms::LutLayout layout = ms::parse_lut_layout(options.layout);
@@ -83,6 +133,41 @@ Lut bake(const BakeOptions& options) {
             throw std::invalid_argument("microshadow::bake: roughness applies to the custom layout (the seeds fix theirs)");
         spec.roughness = options.roughness;
     }
+    // The axes, texel convention and azimuth policy as `microshadow bake` sets them (cli/cmd_bake.cpp).
+    const ms::TexelConvention texel = ms::parse_texel_convention(options.texel);
+    spec.visibility.texel = spec.n_dot_l.texel = texel;
+    if (layout != ms::LutLayout::seed_2d) spec.n_dot_v.texel = texel;
+    auto set_range = [&](ms::LutAxis& axis, const std::vector<double>& range) {
+        if (range.empty()) return;
+        if (layout != ms::LutLayout::custom)
+            throw std::invalid_argument("microshadow::bake: " + axis.name + "_range applies to the custom layout");
+        if (range.size() != 2) throw std::invalid_argument("microshadow::bake: " + axis.name + "_range takes {min, max}");
+        axis.min = range[0];
+        axis.max = range[1];
+    };
+    set_range(spec.visibility, options.visibility_range);
+    set_range(spec.n_dot_l, options.n_dot_l_range);
+    set_range(spec.n_dot_v, options.n_dot_v_range);
+    if (options.azimuth == "mean") {
+        spec.azimuth_mean = true;
+    } else {
+        std::size_t used = 0;
+        double degrees = 0;
+        try {
+            degrees = std::stod(options.azimuth, &used);
+        } catch (const std::exception&) {
+            used = 0;
+        }
+        if (used != options.azimuth.size() || options.azimuth.empty())
+            throw std::invalid_argument("microshadow::bake: azimuth must be 'mean' or degrees in [0, 180], not '" +
+                                        options.azimuth + "'");
+        spec.azimuth_mean = false;
+        spec.azimuth_degrees = degrees;
+    }
+    spec.max_batches = options.max_batches;
+    spec.sequence = detail::to_ms(o.sequence);
+    spec.exact_single_precision = o.exact_float;
+    spec.build.fast_math = o.fast_math;
     spec.term = term_options(o);
     spec.replicates = o.replicates;
     spec.seed = o.seed;
@@ -96,7 +181,11 @@ Lut bake(const BakeOptions& options) {
     spec.oracle = o.backend == Backend::oracle;
     spec.command_line = "microshadow::bake (library " + version() + ")";
     ms::validate(spec);
-    const ms::BakeResult result = ms::bake_lut(spec);
+    const ms::BakeResult result = detail::run_with_progress(progress, [&](const auto& report) {
+        ms::BakeCallbacks callbacks;
+        callbacks.progress = [&](std::size_t done, std::size_t total) { report(done, total); };
+        return ms::bake_lut(spec, callbacks);
+    });
     // The channels as the CLI's bake records them: R, G, B, A by increasing index, isotropic alpha.
     std::vector<ms::LutChannel> channels;
     const char* names[4] = {"R", "G", "B", "A"};
@@ -127,6 +216,26 @@ std::vector<double> Lut::roughness() const {
     return r;
 }
 
+std::vector<double> Lut::axis_values(const std::string& axis) const {
+    const ms::LutFile& f = data_->lookup.file();
+    if (axis == "visibility") return f.visibility().values();
+    if (axis == "n_dot_l") return f.n_dot_l().values();
+    if (axis == "n_dot_v") return f.n_dot_v().values();
+    throw std::invalid_argument("microshadow::Lut::axis_values: axis '" + axis + "' (visibility, n_dot_l or n_dot_v)");
+}
+
+std::vector<float> Lut::texels() const {
+    const ms::LutFile& f = data_->lookup.file();
+    const std::uint32_t channels = std::uint32_t(f.channels.size());
+    std::vector<float> out;
+    out.reserve(f.data.size());
+    for (std::uint32_t k = 0; k < f.n_dot_v().count; ++k)
+        for (std::uint32_t j = 0; j < f.n_dot_l().count; ++j)
+            for (std::uint32_t i = 0; i < f.visibility().count; ++i)
+                for (std::uint32_t c = 0; c < channels; ++c) out.push_back(f.at(c, i, j, k));
+    return out;
+}
+
 float Lut::texel(std::uint32_t channel, std::uint32_t visibility, std::uint32_t n_dot_l, std::uint32_t n_dot_v) const {
     const ms::LutFile& f = data_->lookup.file();
     if (channel >= f.channels.size() || visibility >= f.visibility().count || n_dot_l >= f.n_dot_l().count || n_dot_v >= f.n_dot_v().count)
@@ -148,6 +257,147 @@ std::string Lut::metadata_json() const { return data_->lookup.file().metadata.du
 void Lut::save(const std::string& path, const std::string& encoding) const {
     const ms::lutfmt::LutOutput output = ms::lutfmt::resolve_lut_output(path, "", encoding, false);
     ms::lutfmt::write_lut_output(path, data_->lookup.file(), output);
+}
+
+// --- LookupFile: a LUT or a representation, through the comparators that eval --compare and the sweeps use
+
+struct LookupFile::Data {
+    std::string kind;
+    std::optional<Lut> lut;
+    std::shared_ptr<const ms::repr::Representation> representation;
+    std::string metadata_json;
+};
+
+namespace {
+// The representation formats by extension, as `repr bake --out` takes them.
+void save_representation(const ms::repr::Representation& r, const std::string& path, bool half) {
+    const std::string ext = std::filesystem::path(path).extension().string();
+    if (ext == ".exr") return r.write(path, half);
+    if (ext == ".ktx2") return r.write_ktx2(path, half);
+    if (ext == ".dds") return r.write_dds(path, half);
+    throw std::invalid_argument("microshadow::LookupFile::save: a representation is written as .exr, .ktx2 or .dds, not " + path);
+}
+}  // namespace
+
+LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
+    // What `microshadow repr bake` builds from the same options (cli/cmd_repr.cpp).
+    ms::repr::AzimuthBakeSpec spec;
+    spec.grid.visibility = a.visibility_count;
+    spec.grid.n_dot_l = a.n_dot_l_count;
+    spec.grid.n_dot_v = a.n_dot_v_count;
+    spec.grid.roughness = a.roughness;
+    spec.grid.warps.n_dot_v = ms::repr::parse_n_dot_v_warp(a.n_dot_v_warp);
+    spec.grid.warps.n_dot_l = ms::repr::parse_n_dot_l_warp(a.n_dot_l_warp);
+    spec.grid.warps.visibility = ms::repr::parse_visibility_warp(a.visibility_warp);
+    spec.term = term_options(a.sampling);
+    spec.grid.weighting = spec.term.ao_weighting;
+    spec.azimuth_nodes = a.azimuth_nodes;
+    const SamplingOptions& o = a.sampling;
+    if (o.method == Method::sampled) check_replicates(o.replicates, "microshadow::repr_bake");
+    spec.plan.samples = ms::round_up_samples(o.samples, o.replicates);
+    spec.plan.replicates = o.replicates;
+    spec.plan.seed = o.seed;
+    spec.plan.sequence = detail::to_ms(o.sequence);
+    spec.plan.tolerance = o.tolerance;
+    spec.plan.single_precision = o.exact_float;
+    if (o.method == Method::exact) {
+        spec.plan.method = ms::Method::exact;
+        if (spec.plan.tolerance == 0) spec.plan.tolerance = ms::exact::kDefaultTolerance;
+        ms::exact_term::validate_tolerance(spec.plan.tolerance);
+    }
+    spec.command_line = "microshadow::repr_bake (library " + version() + ")";
+    const auto kinds = ms::repr::representation_kinds();
+    if (std::find(kinds.begin(), kinds.end(), a.kind) == kinds.end())
+        throw std::invalid_argument("microshadow::repr_bake: kind '" + a.kind + "' (azimuth-axis or azimuth-harmonics)");
+    if (a.roughness_count && (a.roughness_count < 2 || a.roughness_count > a.roughness.size()))
+        throw std::invalid_argument("microshadow::repr_bake: roughness_count must be between 2 and the number of roughness values");
+    if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
+        throw std::invalid_argument("microshadow::repr_bake: azimuth-axis holds 1 to 4 roughness nodes (RGBA): set roughness_count 4");
+    if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
+        throw std::invalid_argument("microshadow::repr_bake: azimuth-harmonics projects on cos(m phi), m <= 3: azimuth_nodes must be at least 7");
+    auto backend = make_backend(o);
+    ms::repr::AzimuthBake baked = detail::run_with_progress(progress, [&](const auto& report) {
+        return ms::repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { report(done, total); });
+    });
+    if (a.roughness_count) {
+        double worst = 0;
+        const auto keep = ms::repr::choose_roughness_nodes(baked, a.roughness_count, &worst);
+        baked = baked.with_roughness(keep);
+        baked.metadata["roughness_chosen_from"] = a.roughness;
+        baked.metadata["roughness_blend_rms"] = worst;
+    }
+    auto data = std::make_shared<LookupFile::Data>();
+    data->representation = ms::repr::build_representation(a.kind, baked);
+    data->kind = a.kind;
+    nlohmann::json metadata = baked.metadata;
+    metadata["kind"] = "representation";
+    metadata["representation"] = a.kind;
+    data->metadata_json = metadata.dump();
+    return LookupFile(std::move(data));
+}
+
+std::uint32_t LookupFile::texture_width() const {
+    return data_->lut ? data_->lut->visibility_count() : data_->representation->texture_width();
+}
+std::uint32_t LookupFile::texture_height() const {
+    return data_->lut ? data_->lut->n_dot_l_count() : data_->representation->texture_height();
+}
+std::uint32_t LookupFile::texture_depth() const {
+    return data_->lut ? data_->lut->n_dot_v_count() : data_->representation->texture_depth();
+}
+std::vector<float> LookupFile::texture() const {
+    return data_->lut ? data_->lut->texels() : data_->representation->texels();
+}
+
+void LookupFile::save(const std::string& path, bool half) const {
+    if (data_->lut) return data_->lut->save(path, half ? "float16" : "");
+    save_representation(*data_->representation, path, half);
+}
+
+LookupFile::LookupFile(std::shared_ptr<const Data> data) : data_(std::move(data)) {
+    if (!data_) throw std::invalid_argument("microshadow::LookupFile: no data");
+}
+
+LookupInputs lookup_inputs(const Query& q) {
+    const ms::Query query{q.visibility, q.alpha_x, q.alpha_y, {q.wi.x, q.wi.y, q.wi.z}, {q.wo.x, q.wo.y, q.wo.z}};
+    ms::validate_query(query);
+    const ms::compare::ComparatorInputs in = ms::compare::inputs_of(query, ms::AoWeighting::cosine);
+    return {in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.relative_azimuth * (180.0 / M_PI)};
+}
+
+LookupFile open_file(const std::string& path) {
+    auto data = std::make_shared<LookupFile::Data>();
+    if (ms::repr::is_representation_file(path)) {
+        data->representation = ms::repr::open_representation(path);
+        data->kind = data->representation->kind();
+        data->metadata_json = ms::lutfmt::read_file_metadata(path).dump();
+    } else {
+        data->lut = open_lut(path);
+        data->kind = "lut";
+        data->metadata_json = data->lut->metadata_json();
+    }
+    return LookupFile(std::move(data));
+}
+
+std::string LookupFile::kind() const { return data_->kind; }
+bool LookupFile::keeps_azimuth() const { return data_->representation != nullptr; }
+std::string LookupFile::metadata_json() const { return data_->metadata_json; }
+
+const Lut& LookupFile::lut() const {
+    if (!data_->lut) throw std::logic_error("microshadow::LookupFile::lut: the file is a " + data_->kind + " representation");
+    return *data_->lut;
+}
+
+double LookupFile::lookup(double visibility, double n_dot_l, double n_dot_v, double roughness,
+                          double relative_azimuth_degrees) const {
+    if (data_->lut) return data_->lut->lookup(visibility, n_dot_l, n_dot_v, roughness);
+    ms::compare::ComparatorInputs in;
+    in.visibility = visibility;
+    in.n_dot_l = n_dot_l;
+    in.n_dot_v = n_dot_v;
+    in.roughness = roughness;
+    in.relative_azimuth = relative_azimuth_degrees * (M_PI / 180.0);
+    return (*data_->representation)(in);
 }
 
 }  // namespace microshadow

@@ -1,7 +1,8 @@
 // microshadow as a C++ library: the generic VNDF-based micro-shadowing term of a rough GGX
 // microsurface, evaluated on queries, baked into LUTs, and looked up from LUT files.
 //
-// This umbrella header is the whole public API (types.hpp, evaluate.hpp, lut.hpp; docs/library.md
+// This umbrella header is the whole public API (types.hpp, evaluate.hpp, lut.hpp, analytic.hpp,
+// sweep.hpp, ibl.hpp; docs/library.md
 // has a worked example). It uses only the standard library; the engine behind it (the term and
 // LUT-slice integrands on the scheduler, OpenCL kernels or the double-precision oracle) is linked in
 // through the microshadow::microshadow target:
@@ -16,8 +17,11 @@
 
 #include <string>
 
+#include "microshadow/analytic.hpp"
 #include "microshadow/evaluate.hpp"
+#include "microshadow/ibl.hpp"
 #include "microshadow/lut.hpp"
+#include "microshadow/sweep.hpp"
 #include "microshadow/types.hpp"
 
 namespace microshadow {

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
+#include <stdexcept>
 #include <string>
 
 namespace microshadow {
@@ -19,6 +21,9 @@ enum class Form { height_correlated, uncorrelated };
 // Where the work runs: OpenCL devices, or the scalar double-precision oracle on the CPU threads
 // (no OpenCL needed; slower, for checks and small jobs).
 enum class Backend { opencl, oracle };
+// The sampled method's point sets: scrambled Sobol' nets (randomised quasi-Monte Carlo) or
+// independent uniform random points.
+enum class Sequence { sobol, random };
 
 struct Direction {
     double x = 0, y = 0, z = 1;
@@ -49,8 +54,25 @@ struct SamplingOptions {
     std::uint64_t seed = 0;
     AoWeighting ao_weighting = AoWeighting::cosine;
     Form form = Form::height_correlated;
-    // exact only: the estimated absolute error asked of each value (0: 1e-10 for evaluate, 1e-6 for bake).
+    // The estimated absolute error asked of each value. exact: the quadrature's estimate (0: 1e-10 for
+    // evaluate, 1e-6 for bake). sampled evaluate: the replicate standard error, reached by quadrupling the
+    // samples of the queries above it (0: one pass of `samples`); sampled bake: BakeOptions::tolerance.
     double tolerance = 0;
+    Sequence sequence = Sequence::sobol;  // sampled only
+    bool fast_math = false;               // OpenCL kernels built with -cl-fast-relaxed-math
+    bool exact_float = false;             // exact on OpenCL: the float kernel even where the device has fp64
+};
+
+// Told of a long call's progress: (done, total) in the call's own units (queries, slices, texels,
+// chunks). Return false to stop the call: it then throws Cancelled and returns nothing. Called from the
+// thread that made the call or from a worker thread; keep it short.
+using Progress = std::function<bool(std::uint64_t done, std::uint64_t total)>;
+
+// Thrown by a call whose Progress asked it to stop. Nothing was written.
+class Cancelled : public std::runtime_error {
+public:
+    Cancelled() : std::runtime_error("interrupted; nothing was written") {}
+    explicit Cancelled(const std::string& message) : std::runtime_error(message) {}
 };
 
 }  // namespace microshadow

@@ -1,0 +1,884 @@
+"""microshadow: the generic VNDF-based micro-shadowing term of rough GGX surfaces, from Python.
+
+The term is the fraction of visible microfacets of a rough, anisotropic GGX microsurface that are not
+micro-shadowed, seen through the visibility cone of a micro-occlusion (AO) map ("Improving Direct
+Lighting Material Occlusion", part 2). This package calls the same C++ engine as the ``microshadow``
+command: every function takes numpy arrays (broadcast against each other) and keyword options with the
+command's names and defaults, and returns numpy arrays.
+
+- :func:`evaluate` / :func:`evaluate_iso`: the term at queries (``microshadow eval``);
+- :func:`bake`: a LUT (``microshadow bake``), with ``.data``, ``.metadata``, ``.save(path)``;
+- :func:`repr_bake`: a representation that keeps the relative azimuth (``microshadow repr bake``);
+- :func:`open`: any LUT or representation file, with ``.lookup(...)`` as a renderer samples it;
+- :func:`analytic`: part 1's analytic terms by name (``eval --compare NAME``);
+- :func:`sweep`: a parameter study (``microshadow sweep``) as a dict of arrays;
+- :func:`ibl_dfg`: the split-sum DFG LUT (``microshadow ibl dfg``).
+
+Bad arguments raise ValueError naming the argument and the index of the first bad element. Long calls
+release the GIL, report progress when asked (``progress=True`` or a callable ``(done, total)``) and stop
+on Ctrl-C with KeyboardInterrupt, leaving nothing half written. Documentation: docs/python.md.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import time
+from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+
+from . import _microshadow as _core
+
+__all__ = [
+    "__version__",
+    "evaluate",
+    "evaluate_iso",
+    "lookup_inputs",
+    "bake",
+    "open",
+    "Lut",
+    "Representation",
+    "repr_bake",
+    "analytic",
+    "ANALYTIC_TERMS",
+    "sweep",
+    "SweepTable",
+    "ibl_dfg",
+    "DfgLut",
+]
+
+__version__: str = _core.version()
+
+ArrayLike = Union[float, Sequence[float], np.ndarray]
+ProgressArg = Union[bool, Callable[[int, int], object], None]
+PathArg = Union[str, "os.PathLike[str]"]
+
+#: Part 1's analytic terms, by the names ``eval --compare`` and sweep specs use.
+ANALYTIC_TERMS: Tuple[str, ...] = tuple(_core.analytic_term_names())
+
+
+# --- argument checks ----------------------------------------------------------------------------------
+
+
+def _index(flat_index: int, shape: Tuple[int, ...]) -> str:
+    """The index of element `flat_index` of an array of `shape`, as the user would write it."""
+    if len(shape) == 0:
+        return ""
+    return "[" + ", ".join(str(i) for i in np.unravel_index(flat_index, shape)) + "]"
+
+
+def _array(name: str, value: ArrayLike) -> np.ndarray:
+    """`value` as a float64 array; ValueError naming the argument when it holds no numbers."""
+    try:
+        a = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name}: not an array of numbers ({e})") from None
+    return a
+
+
+def _check_finite(name: str, a: np.ndarray) -> None:
+    bad = ~np.isfinite(a)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: not a finite number")
+
+
+def _check_range(name: str, a: np.ndarray, lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> None:
+    """Finite and within [lo, hi] (or open at an end); the message names the first offender."""
+    _check_finite(name, a)
+    below = a <= lo if lo_open else a < lo
+    above = a >= hi if hi_open else a > hi
+    bad = below | above
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        interval = ("(" if lo_open else "[") + f"{lo:g}, {hi:g}" + (")" if hi_open else "]")
+        raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: outside {interval}")
+
+
+def _scalar_or_vector(name: str, value: ArrayLike) -> np.ndarray:
+    a = _array(name, value)
+    if a.ndim > 1:
+        raise ValueError(f"{name}: shape {a.shape}; expected a number or a 1-D array (N,)")
+    return a
+
+
+def _directions(name: str, value: ArrayLike) -> np.ndarray:
+    """(3,) or (N, 3) finite, non-zero directions."""
+    a = _array(name, value)
+    if a.ndim not in (1, 2) or a.shape[-1] != 3:
+        raise ValueError(f"{name}: shape {a.shape}; expected (3,) or (N, 3) (x, y, z in the tangent frame)")
+    _check_finite(name, a)
+    rows = a.reshape(-1, 3)
+    zero = ~(np.einsum("ij,ij->i", rows, rows) > 0)
+    if zero.any():
+        i = int(np.flatnonzero(zero)[0])
+        where = f"[{i}]" if a.ndim == 2 else ""
+        raise ValueError(f"{name}{where} = {tuple(rows[i])}: a zero-length direction")
+    return a
+
+
+def _broadcast(named: Dict[str, np.ndarray]) -> int:
+    """The common length N of 1-D arguments (scalars broadcast); ValueError naming two that differ."""
+    n = 1
+    first = None
+    for name, a in named.items():
+        length = a.shape[0] if a.ndim >= 1 else 1
+        if a.ndim >= 1 and length != 1:
+            if first is not None and length != n:
+                raise ValueError(
+                    f"{first[0]} has {first[1]} queries and {name} has {length}: they do not broadcast "
+                    "(give arrays of one length, or numbers)"
+                )
+            if first is None:
+                first = (name, length)
+                n = length
+    return n
+
+
+def _column(a: np.ndarray, n: int) -> np.ndarray:
+    return np.broadcast_to(a.reshape(-1) if a.ndim else a, (n,))
+
+
+def _rows(a: np.ndarray, n: int) -> np.ndarray:
+    return np.broadcast_to(a.reshape(-1, 3), (n, 3))
+
+
+def _choice(name: str, value: str, allowed: Sequence[str]) -> str:
+    if value not in allowed:
+        raise ValueError(f"{name} = {value!r}: one of {', '.join(allowed)}")
+    return value
+
+
+def _count(name: str, value: int, lo: int, hi: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= int(value) <= hi:
+        raise ValueError(f"{name} = {value!r}: an integer from {lo} to {hi}")
+    return int(value)
+
+
+class _StderrProgress:
+    """progress=True: one line on stderr, redrawn at most ten times a second, like the CLI's."""
+
+    def __init__(self, what: str) -> None:
+        self.what = what
+        self.last = 0.0
+
+    def __call__(self, done: int, total: int) -> None:
+        now = time.monotonic()
+        if done < total and now - self.last < 0.1:
+            return
+        self.last = now
+        percent = 100.0 * done / total if total else 100.0
+        sys.stderr.write(f"\r{self.what}: {done}/{total} ({percent:.0f} %)")
+        if done >= total:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+def _progress(what: str, progress: ProgressArg):
+    if progress is True:
+        return _StderrProgress(what)
+    if progress is None or progress is False:
+        return None
+    if not callable(progress):
+        raise ValueError(f"progress = {progress!r}: True, False, None or a callable (done, total)")
+    return progress
+
+
+_METHODS = ("exact", "sampled")
+_SEQUENCES = ("sobol", "random")
+_FORMS = ("height-correlated", "uncorrelated")
+_WEIGHTINGS = ("cosine", "uniform")
+_BACKENDS = ("opencl", "oracle")
+_MAX_REPLICATES = 1024
+_MAX_SAMPLES = (1 << 28) * _MAX_REPLICATES
+
+
+def _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device):
+    _choice("method", method, _METHODS)
+    _choice("sequence", sequence, _SEQUENCES)
+    _choice("form", form, _FORMS)
+    _choice("ao_weighting", ao_weighting, _WEIGHTINGS)
+    _choice("backend", backend, _BACKENDS)
+    if not isinstance(device, str):
+        raise ValueError(f"device = {device!r}: 'default', 'all', an index or part of a name, as a string")
+    _count("samples", samples, 16, _MAX_SAMPLES)
+    _count("replicates", replicates, 2, _MAX_REPLICATES)
+    _count("seed", seed, 0, 2**64 - 1)
+    t = float(tolerance)
+    if not (np.isfinite(t) and t >= 0):
+        raise ValueError(f"tolerance = {tolerance!r}: a finite number >= 0 (0: the method's default)")
+    return t
+
+
+# --- evaluation -----------------------------------------------------------------------------------------
+
+
+def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
+    """The (N, 9) rows of checked, broadcast queries (the columns of ``microshadow eval``'s CSV)."""
+    v = _scalar_or_vector("visibility", visibility)
+    ax = _scalar_or_vector("alpha_x", alpha_x)
+    ay = _scalar_or_vector("alpha_y", alpha_y)
+    _check_range("visibility", v, 0.0, 1.0)
+    for name, a in (("alpha_x", ax), ("alpha_y", ay)):
+        _check_finite(name, a)
+        bad = ~(a > 0)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: must be > 0")
+    wi_a = _directions("wi", wi)
+    wo_a = _directions("wo", wo)
+    wi_rows = wi_a.reshape(-1, 3)
+    below = ~(wi_rows[:, 2] / np.linalg.norm(wi_rows, axis=1) > 0)
+    if below.any():
+        i = int(np.flatnonzero(below)[0])
+        where = f"[{i}]" if wi_a.ndim == 2 else ""
+        raise ValueError(f"wi{where} = {tuple(wi_rows[i])}: below the horizon (wi_z must be > 0)")
+    n = _broadcast(
+        {
+            "visibility": v,
+            "alpha_x": ax,
+            "alpha_y": ay,
+            "wi": wi_a if wi_a.ndim == 2 else wi_a[None, :],
+            "wo": wo_a if wo_a.ndim == 2 else wo_a[None, :],
+        }
+    )
+    rows = np.empty((n, 9))
+    rows[:, 0] = _column(v, n)
+    rows[:, 1] = _column(ax, n)
+    rows[:, 2] = _column(ay, n)
+    rows[:, 3:6] = _rows(wi_a, n)
+    rows[:, 6:9] = _rows(wo_a, n)
+    return rows
+
+
+def evaluate(
+    visibility: ArrayLike,
+    alpha_x: ArrayLike,
+    alpha_y: ArrayLike,
+    wi: ArrayLike,
+    wo: ArrayLike,
+    *,
+    method: str = "exact",
+    tolerance: float = 0.0,
+    samples: int = 65536,
+    seed: int = 0,
+    replicates: int = 8,
+    sequence: str = "sobol",
+    form: str = "height-correlated",
+    ao_weighting: str = "cosine",
+    backend: str = "opencl",
+    device: str = "default",
+    fast_math: bool = False,
+    exact_float: bool = False,
+    progress: ProgressArg = None,
+) -> Tuple[np.ndarray, np.ndarray]:
+    """The micro-shadowing term at each query: ``microshadow eval`` on the same columns.
+
+    Args:
+        visibility: AO visibility in [0, 1], a number or (N,).
+        alpha_x, alpha_y: GGX roughness along the tangent and bitangent (> 0), numbers or (N,).
+        wi: the view V, the direction the VNDF is sampled from, (3,) or (N, 3) in the tangent frame
+            (normal = +z, normalised here); above the horizon (wi_z > 0).
+        wo: the light L, (3,) or (N, 3); below the horizon it is legal and gives 0.
+        method: "exact" (the deterministic boundary-integral evaluator; its error estimate is the
+            std_error) or "sampled" (VNDF sampling; the replicates' standard error).
+        tolerance: exact: the estimated error asked of each value (0: 1e-10; 1e-13 to 0.1). sampled: the
+            standard error asked, reached by quadrupling the samples of the queries above it (0: one pass).
+        samples, seed, replicates, sequence: the sampled method's point sets (samples rounded up to
+            replicates x a power of two).
+        form: Smith form of the masking-shadowing weight, "height-correlated" or "uncorrelated".
+        ao_weighting: how the AO map was baked: "cosine" (cone cos = sqrt(1 - v)) or "uniform" (1 - v).
+        backend, device: "opencl" on `device` ("default": PoCL's CPU device, "all", an index or part of
+            a name, as ``microshadow devices`` lists them) or "oracle" (scalar double on CPU threads).
+        fast_math: kernels built with -cl-fast-relaxed-math. exact_float: the exact method's float kernel
+            even on fp64 devices.
+        progress: True prints progress on stderr; a callable gets (done, total) queries.
+
+    Returns:
+        (term, std_error): two float64 arrays of shape (N,). Visibility 1 and the provable zero region
+        are exact (std_error 0). The values are the bits ``microshadow eval`` writes for the same inputs.
+    """
+    tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
+    if method == "exact" and tolerance > 0 and not (1e-13 <= tolerance <= 0.1):
+        raise ValueError(f"tolerance = {tolerance!r}: the exact method takes 1e-13 to 0.1 (0: 1e-10)")
+    rows = _query_rows(visibility, alpha_x, alpha_y, wi, wo)
+    return _evaluate_rows(rows, method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend,
+                          device, fast_math, exact_float, progress)
+
+
+def _evaluate_rows(rows, method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device,
+                   fast_math, exact_float, progress):
+    if rows.shape[0] == 0:
+        return np.empty(0), np.empty(0)
+    out = _core.evaluate_rows(rows, method, tolerance, int(samples), int(replicates), int(seed), sequence, form,
+                              ao_weighting, backend, device, bool(fast_math), bool(exact_float),
+                              _progress("evaluate", progress))
+    return np.ascontiguousarray(out[:, 0]), np.ascontiguousarray(out[:, 1])
+
+
+def evaluate_iso(
+    visibility: ArrayLike,
+    roughness: ArrayLike,
+    n_dot_v: ArrayLike,
+    n_dot_l: ArrayLike,
+    relative_azimuth: ArrayLike = 0.0,
+    **options,
+) -> Tuple[np.ndarray, np.ndarray]:
+    """The term of an isotropic surface in the LUTs' parameters: :func:`evaluate` on its query.
+
+    Args:
+        visibility: in [0, 1].
+        roughness: perceptual roughness in (0, 1] (alpha_x = alpha_y = roughness^2).
+        n_dot_v: cosine of the view in (0, 1]; wi = (sqrt(1 - n_dot_v^2), 0, n_dot_v).
+        n_dot_l: cosine of the light in [-1, 1] (below 0 the term is 0).
+        relative_azimuth: the light's azimuth from the view's, in degrees (0: on the view's side,
+            180: opposite); wo = (s cos phi, s sin phi, n_dot_l) with s = sqrt(1 - n_dot_l^2): the
+            directions of a sweep point with phi_i = 0 and delta_phi = relative_azimuth.
+        **options: :func:`evaluate`'s keyword options (method, tolerance, samples, ...).
+
+    All arguments broadcast against each other (numbers or (N,) arrays). Returns (term, std_error).
+    """
+    for key in options:
+        if key not in _EVALUATE_OPTIONS:
+            raise TypeError(f"evaluate_iso() got an unexpected keyword argument {key!r}")
+    v = _scalar_or_vector("visibility", visibility)
+    r = _scalar_or_vector("roughness", roughness)
+    nv = _scalar_or_vector("n_dot_v", n_dot_v)
+    nl = _scalar_or_vector("n_dot_l", n_dot_l)
+    az = _scalar_or_vector("relative_azimuth", relative_azimuth)
+    _check_range("visibility", v, 0.0, 1.0)
+    _check_range("roughness", r, 0.0, 1.0, lo_open=True)
+    _check_range("n_dot_v", nv, 0.0, 1.0, lo_open=True)
+    _check_range("n_dot_l", nl, -1.0, 1.0)
+    _check_finite("relative_azimuth", az)
+    n = _broadcast({"visibility": v, "roughness": r, "n_dot_v": nv, "n_dot_l": nl, "relative_azimuth": az})
+    params = np.empty((n, 4))
+    params[:, 0] = _column(v, n)
+    params[:, 1] = _column(r, n)
+    params[:, 2] = _column(nv, n)
+    params[:, 3] = _column(nl, n)
+    rows = _core.isotropic_rows(params, np.ascontiguousarray(_column(az, n)))
+    merged = dict(_EVALUATE_DEFAULTS)
+    merged.update(options)
+    tolerance = _sampling(merged["method"], merged["tolerance"], merged["samples"], merged["replicates"], merged["seed"],
+                          merged["sequence"], merged["form"], merged["ao_weighting"], merged["backend"], merged["device"])
+    return _evaluate_rows(rows, merged["method"], tolerance, merged["samples"], merged["replicates"], merged["seed"],
+                          merged["sequence"], merged["form"], merged["ao_weighting"], merged["backend"],
+                          merged["device"], merged["fast_math"], merged["exact_float"], merged["progress"])
+
+
+def lookup_inputs(
+    visibility: ArrayLike, alpha_x: ArrayLike, alpha_y: ArrayLike, wi: ArrayLike, wo: ArrayLike
+) -> Dict[str, np.ndarray]:
+    """What a LUT lookup and the analytic terms read of queries, as ``eval --compare`` and the sweeps
+    compute it: "visibility", "n_dot_l" (wo_z) and "n_dot_v" (wi_z) of the normalised directions,
+    "roughness" = (alpha_x alpha_y)^(1/4) and "relative_azimuth" in degrees in [0, 180]. The arguments
+    are :func:`evaluate`'s; returns a dict of (N,) arrays, ready for ``lut.lookup(**inputs)``."""
+    rows = _query_rows(visibility, alpha_x, alpha_y, wi, wo)
+    out = _core.lookup_input_rows(rows) if rows.shape[0] else np.empty((0, 5))
+    names = ("visibility", "n_dot_l", "n_dot_v", "roughness", "relative_azimuth")
+    return {name: np.ascontiguousarray(out[:, k]) for k, name in enumerate(names)}
+
+
+_EVALUATE_DEFAULTS = {
+    "method": "exact",
+    "tolerance": 0.0,
+    "samples": 65536,
+    "seed": 0,
+    "replicates": 8,
+    "sequence": "sobol",
+    "form": "height-correlated",
+    "ao_weighting": "cosine",
+    "backend": "opencl",
+    "device": "default",
+    "fast_math": False,
+    "exact_float": False,
+    "progress": None,
+}
+_EVALUATE_OPTIONS = frozenset(_EVALUATE_DEFAULTS)
+
+
+# --- LUTs and representations ---------------------------------------------------------------------------
+
+
+def _lookup_rows(name_prefix: str, visibility, n_dot_l, n_dot_v, roughness, relative_azimuth) -> Tuple[np.ndarray, Tuple[int, ...]]:
+    """The (N, 5) rows of a lookup and the broadcast shape of its arguments (any shapes that broadcast)."""
+    arrays = {
+        "visibility": _array("visibility", visibility),
+        "n_dot_l": _array("n_dot_l", n_dot_l),
+        "n_dot_v": _array("n_dot_v", n_dot_v),
+        "roughness": _array("roughness", roughness),
+        "relative_azimuth": _array("relative_azimuth", 0.0 if relative_azimuth is None else relative_azimuth),
+    }
+    for name, a in arrays.items():
+        # NaN would make every blend weight NaN; the renderer's clamps cover the rest.
+        if np.isnan(a).any():
+            i = int(np.flatnonzero(np.isnan(a))[0])
+            raise ValueError(f"{name}{_index(i, a.shape)} = nan: not a number")
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in arrays.items())
+        raise ValueError(f"{name_prefix}: the arguments do not broadcast ({shapes})") from None
+    rows = np.empty(shape + (5,))
+    for k, a in enumerate(arrays.values()):
+        rows[..., k] = a
+    return rows.reshape(-1, 5), shape
+
+
+class Lut:
+    """A baked or opened LUT: texels over (visibility, NdotL, NdotV) per roughness channel.
+
+    Attributes:
+        data: float32 array (n_dot_v, n_dot_l, visibility, channels): the stored texels (for a 2D LUT
+            n_dot_v has one entry, standing for NdotV = 1).
+        metadata: dict, how it was made (the file's "microshadow" record: layout, axes, roughness,
+            azimuth policy, samples, error budget, ...).
+        roughness: the roughness of each channel.
+        visibility, n_dot_l, n_dot_v: the parameter of each texel along each axis.
+        max_total_error: the bound on |texel - term| recorded (sampling + azimuth quadrature +
+            quantisation).
+    """
+
+    def __init__(self, native: "_core.Lut", path: Optional[str] = None) -> None:
+        self._native = native
+        self.path = path
+        self.data: np.ndarray = native.texels()
+        self.data.setflags(write=False)
+        self.metadata: dict = json.loads(native.metadata_json)
+        self.roughness: np.ndarray = np.array(native.roughness)
+        self.visibility: np.ndarray = np.array(native.axis_values("visibility"))
+        self.n_dot_l: np.ndarray = np.array(native.axis_values("n_dot_l"))
+        self.n_dot_v: np.ndarray = np.array(native.axis_values("n_dot_v"))
+        self.max_total_error: float = native.max_total_error
+
+    kind = "lut"
+    keeps_azimuth = False
+
+    def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, roughness: ArrayLike,
+               relative_azimuth: Optional[ArrayLike] = None) -> np.ndarray:
+        """The renderer's lookup: linear filtering, clamp to edge, linear blend between roughness channels.
+
+        The arguments broadcast against each other (any shapes); roughness is the perceptual roughness
+        (an anisotropic surface uses (alpha_x alpha_y)^(1/4)). A LUT stores the azimuth's mean, so
+        relative_azimuth is accepted and ignored. Returns float64 of the broadcast shape.
+        """
+        rows, shape = _lookup_rows("Lut.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
+        return self._native.lookup_rows(np.ascontiguousarray(rows)).reshape(shape)
+
+    def save(self, path: PathArg, encoding: Optional[str] = None) -> None:
+        """Writes the LUT, the format from the extension as ``microshadow bake --out``: .exr, .ktx2, .dds
+        (+ .dds.json), .h/.hpp, .inc or .png; encoding "float32", "float16", "unorm16" or "unorm8" (None:
+        the format's default). The file appears complete or not at all."""
+        if encoding is not None:
+            _choice("encoding", encoding, ("float32", "float16", "unorm16", "unorm8"))
+        self._native.save(os.fspath(path), encoding or "")
+
+    def __repr__(self) -> str:
+        n_v, n_l, n_nv = self.data.shape[2], self.data.shape[1], self.data.shape[0]
+        return f"<microshadow.Lut {n_v} x {n_l} x {n_nv}, roughness {list(self.roughness)}>"
+
+
+class Representation:
+    """A representation file of ``microshadow repr bake`` (azimuth-axis or azimuth-harmonics): a texture
+    that keeps the relative azimuth between view and light.
+
+    Attributes:
+        kind: "azimuth-axis" or "azimuth-harmonics". metadata: dict, how it was made.
+    """
+
+    keeps_azimuth = True
+
+    def __init__(self, native: "_core.LookupFile", path: Optional[str] = None) -> None:
+        self._native = native
+        self.path = path
+        self.kind: str = native.kind
+        self.metadata: dict = json.loads(native.metadata_json)
+        #: float32 (depth, height, width, 4): the RGBA texture as a renderer uploads it (its layout: docs/representations.md).
+        self.data: np.ndarray = native.texture()
+        self.data.setflags(write=False)
+
+    def save(self, path: PathArg, half: bool = False) -> None:
+        """Writes it as ``repr bake --out``: .exr (what eval --compare and sweeps open), .ktx2 or .dds
+        (+ .dds.json); half: 16-bit channels, as an engine uploads them."""
+        p = os.fspath(path)
+        if os.path.splitext(p)[1] not in (".exr", ".ktx2", ".dds"):
+            raise ValueError(f"path = {p!r}: a representation is written as .exr, .ktx2 or .dds")
+        self._native.save(p, bool(half))
+
+    def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, roughness: ArrayLike,
+               relative_azimuth: Optional[ArrayLike] = None) -> np.ndarray:
+        """The renderer's lookup (the generated shader's arithmetic, in double) at the relative azimuth in
+        degrees (0: light on the view's side, 180: opposite). The arguments broadcast; relative_azimuth is
+        required (this file keeps the azimuth)."""
+        if relative_azimuth is None:
+            raise ValueError(f"relative_azimuth: required by a {self.kind} representation (it keeps the azimuth)")
+        rows, shape = _lookup_rows("Representation.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
+        return self._native.lookup_rows(np.ascontiguousarray(rows)).reshape(shape)
+
+    def __repr__(self) -> str:
+        return f"<microshadow.Representation {self.kind} {self.path!r}>"
+
+
+def open(path: PathArg) -> Union[Lut, Representation]:  # noqa: A001 - the module's open, as in PIL / h5py
+    """Opens any LUT file the bake writes (OpenEXR, KTX2, DDS with its .dds.json, C header, .inc, PNG) or
+    a representation file of ``repr bake``, told apart by its metadata. RuntimeError naming the file when
+    it cannot be read."""
+    p = os.fspath(path)
+    if not os.path.exists(p):
+        raise FileNotFoundError(f"{p}: no such file")
+    native = _core.open_file(p)
+    if native.kind == "lut":
+        return Lut(native.lut(), p)
+    return Representation(native, p)
+
+
+_LAYOUTS = ("seed-3d", "seed-2d", "custom")
+
+
+def bake(
+    *,
+    layout: str = "seed-3d",
+    size: int = 32,
+    size_visibility: int = 0,
+    size_n_dot_l: int = 0,
+    size_n_dot_v: int = 0,
+    roughness: Optional[Sequence[float]] = None,
+    visibility_range: Optional[Tuple[float, float]] = None,
+    n_dot_l_range: Optional[Tuple[float, float]] = None,
+    n_dot_v_range: Optional[Tuple[float, float]] = None,
+    texel: str = "centres",
+    azimuth: Union[str, float] = "mean",
+    method: str = "sampled",
+    tolerance: float = 0.0,
+    samples: int = 0,
+    max_batches: int = 64,
+    seed: int = 0,
+    replicates: int = 8,
+    sequence: str = "sobol",
+    form: str = "height-correlated",
+    ao_weighting: str = "cosine",
+    backend: str = "opencl",
+    device: str = "default",
+    fast_math: bool = False,
+    exact_float: bool = False,
+    progress: ProgressArg = None,
+) -> Lut:
+    """Bakes a LUT: ``microshadow bake`` without its file outputs (call ``.save(path)``).
+
+    Args:
+        layout: "seed-3d" (visibility x NdotL x NdotV, roughness 0.1, 0.4, 0.7, 1 in RGBA), "seed-2d" (the
+            NdotV = 1 slice) or "custom" (roughness and ranges from here).
+        size: texels on every axis; size_visibility, size_n_dot_l, size_n_dot_v: one axis's own (0: size).
+        roughness: custom layout: 1 to 4 values in (0, 1]. *_range: custom layout: (min, max) of an axis.
+        texel: "centres" ((i + 0.5) / n) or "endpoints" (i / (n - 1)).
+        azimuth: "mean" (the mean over [0, 180] degrees) or a fixed relative azimuth in degrees.
+        method: "sampled" (the command's default) or "exact" (every texel to `tolerance`, default 1e-6).
+        tolerance: sampled: batches until every texel's standard error is at most this (up to
+            max_batches); exact: the error asked of each texel. samples: per batch and slice (0: the
+            default batch); seed, replicates, sequence, form, ao_weighting, backend, device, fast_math,
+            exact_float: as :func:`evaluate`.
+        progress: True prints progress on stderr; a callable gets (slices done, slices).
+    """
+    _choice("layout", layout, _LAYOUTS)
+    _choice("texel", texel, ("centres", "centers", "endpoints"))
+    _count("size", size, 1, 4096)
+    for name, value in (("size_visibility", size_visibility), ("size_n_dot_l", size_n_dot_l), ("size_n_dot_v", size_n_dot_v)):
+        _count(name, value, 0, 4096)
+    _count("max_batches", max_batches, 1, 4096)
+    if samples != 0:
+        _count("samples", samples, 16, _MAX_SAMPLES)
+    tolerance = _sampling(method, tolerance, 65536, replicates, seed, sequence, form, ao_weighting, backend, device)
+    if tolerance and not 1e-7 <= tolerance <= 1.0:
+        raise ValueError(f"tolerance = {tolerance!r}: 1e-7 to 1 (0: one batch, or the exact method's 1e-6)")
+    if samples and tolerance:
+        raise ValueError("give samples or tolerance, not both (tolerance adds batches of the default size)")
+    if method == "exact" and samples:
+        raise ValueError("samples applies to method='sampled' only (the exact method integrates every texel to tolerance)")
+    rough: List[float] = []
+    if roughness is not None:
+        if layout != "custom":
+            raise ValueError("roughness needs layout='custom' (the seeds fix theirs)")
+        r = _scalar_or_vector("roughness", roughness).reshape(-1)
+        if not 1 <= r.size <= 4:
+            raise ValueError(f"roughness: {r.size} values; 1 to 4 (channels R, G, B, A)")
+        _check_range("roughness", r, 0.0, 1.0, lo_open=True)
+        rough = [float(x) for x in r]
+    ranges = {}
+    for name, value in (("visibility_range", visibility_range), ("n_dot_l_range", n_dot_l_range),
+                        ("n_dot_v_range", n_dot_v_range)):
+        if value is None:
+            ranges[name] = []
+            continue
+        if layout != "custom":
+            raise ValueError(f"{name} needs layout='custom'")
+        a = _array(name, value)
+        if a.shape != (2,):
+            raise ValueError(f"{name}: shape {a.shape}; expected (min, max)")
+        _check_range(name, a, 0.0, 1.0)
+        ranges[name] = [float(a[0]), float(a[1])]
+    if isinstance(azimuth, str):
+        if azimuth != "mean":
+            raise ValueError(f"azimuth = {azimuth!r}: 'mean' or degrees in [0, 180]")
+        azimuth_text = "mean"
+    else:
+        a = float(azimuth)
+        if not (np.isfinite(a) and 0 <= a <= 180):
+            raise ValueError(f"azimuth = {azimuth!r}: 'mean' or degrees in [0, 180]")
+        azimuth_text = repr(a)
+    native = _core.bake(layout, int(size), int(size_visibility), int(size_n_dot_l), int(size_n_dot_v), rough,
+                        ranges["visibility_range"], ranges["n_dot_l_range"], ranges["n_dot_v_range"], texel,
+                        azimuth_text, tolerance, int(max_batches), method, int(samples), int(replicates), int(seed),
+                        sequence, form, ao_weighting, backend, device, bool(fast_math), bool(exact_float),
+                        _progress("bake", progress))
+    return Lut(native)
+
+
+_REPR_KINDS = ("azimuth-axis", "azimuth-harmonics")
+
+
+def repr_bake(
+    *,
+    kind: str,
+    visibility_count: int = 16,
+    n_dot_l_count: int = 16,
+    n_dot_v_count: int = 16,
+    azimuth_nodes: int = 9,
+    roughness: Sequence[float] = (0.1, 0.4, 0.7, 1.0),
+    roughness_count: int = 0,
+    n_dot_v_warp: str = "linear",
+    n_dot_l_warp: str = "linear",
+    visibility_warp: str = "linear",
+    method: str = "exact",
+    tolerance: float = 0.0,
+    samples: int = 65536,
+    seed: int = 0,
+    replicates: int = 8,
+    sequence: str = "sobol",
+    form: str = "height-correlated",
+    ao_weighting: str = "cosine",
+    backend: str = "opencl",
+    device: str = "default",
+    fast_math: bool = False,
+    exact_float: bool = False,
+    progress: ProgressArg = None,
+) -> Representation:
+    """Bakes a representation that keeps the relative azimuth: ``microshadow repr bake`` without its
+    files (call ``.save(path)``); docs/representations.md compares them.
+
+    Args:
+        kind: "azimuth-axis" (the azimuth as a texture axis; 1 to 4 roughness nodes in RGBA) or
+            "azimuth-harmonics" (cos(m phi) coefficients, m <= 3; roughness slabs).
+        visibility_count, n_dot_l_count, n_dot_v_count: texels (2 to 256). azimuth_nodes: nodes over
+            [0, 180] degrees, ends included (2 to 64; harmonics: at least 7).
+        roughness: roughness nodes, increasing, in (0, 1]; roughness_count > 0: keep that many of them,
+            chosen by error.
+        n_dot_v_warp: "linear" or "sqrt"; n_dot_l_warp: "linear", "shadow-edge" or "sqrt-top";
+            visibility_warp: "linear" or "sqrt-top".
+        method ... exact_float, progress: as :func:`evaluate` (progress counts queries).
+    """
+    _choice("kind", kind, _REPR_KINDS)
+    for name, value in (("visibility_count", visibility_count), ("n_dot_l_count", n_dot_l_count),
+                        ("n_dot_v_count", n_dot_v_count)):
+        _count(name, value, 2, 256)
+    _count("azimuth_nodes", azimuth_nodes, 2, 64)
+    _count("roughness_count", roughness_count, 0, 64)
+    _choice("n_dot_v_warp", n_dot_v_warp, ("linear", "sqrt"))
+    _choice("n_dot_l_warp", n_dot_l_warp, ("linear", "shadow-edge", "sqrt-top"))
+    _choice("visibility_warp", visibility_warp, ("linear", "sqrt-top"))
+    r = _scalar_or_vector("roughness", roughness).reshape(-1)
+    if r.size == 0:
+        raise ValueError("roughness: no values")
+    _check_range("roughness", r, 0.0, 1.0, lo_open=True)
+    if (np.diff(r) <= 0).any():
+        i = int(np.flatnonzero(np.diff(r) <= 0)[0]) + 1
+        raise ValueError(f"roughness[{i}] = {r[i]!r}: the nodes must increase")
+    tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
+    native = _core.repr_bake(kind, int(visibility_count), int(n_dot_l_count), int(n_dot_v_count), int(azimuth_nodes),
+                             [float(x) for x in r], int(roughness_count), n_dot_v_warp, n_dot_l_warp, visibility_warp,
+                             method, tolerance, int(samples), int(replicates), int(seed), sequence, form, ao_weighting,
+                             backend, device, bool(fast_math), bool(exact_float), _progress("repr bake", progress))
+    return Representation(native)
+
+
+# --- analytic terms -------------------------------------------------------------------------------------
+
+
+def analytic(
+    name: str,
+    visibility: ArrayLike,
+    n_dot_l: ArrayLike,
+    n_dot_v: ArrayLike = 1.0,
+    roughness: ArrayLike = 0.5,
+    *,
+    ao_weighting: str = "cosine",
+) -> np.ndarray:
+    """Part 1's analytic term `name` (one of :data:`ANALYTIC_TERMS`), as ``eval --compare NAME`` and the
+    sweeps evaluate it.
+
+    roughness is the perceptual roughness (alpha = roughness^2; "activision-adjusted" converts it to
+    Activision's own roughness of that alpha, the other terms ignore it); n_dot_v is read by
+    "naughty-dog-ao-fresnel" and "activision-adjusted". The arguments broadcast (any shapes); returns
+    float64 of the broadcast shape.
+    """
+    if name not in ANALYTIC_TERMS:
+        raise ValueError(f"name = {name!r}: one of {', '.join(ANALYTIC_TERMS)}")
+    _choice("ao_weighting", ao_weighting, _WEIGHTINGS)
+    arrays = {
+        "visibility": _array("visibility", visibility),
+        "n_dot_l": _array("n_dot_l", n_dot_l),
+        "n_dot_v": _array("n_dot_v", n_dot_v),
+        "roughness": _array("roughness", roughness),
+    }
+    _check_range("visibility", arrays["visibility"], 0.0, 1.0)
+    _check_range("n_dot_l", arrays["n_dot_l"], -1.0, 1.0)
+    _check_range("n_dot_v", arrays["n_dot_v"], -1.0, 1.0)
+    _check_range("roughness", arrays["roughness"], 0.0, 1.0, lo_open=True)
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in arrays.items())
+        raise ValueError(f"analytic: the arguments do not broadcast ({shapes})") from None
+    rows = np.empty(shape + (4,))
+    for k, a in enumerate(arrays.values()):
+        rows[..., k] = a
+    return _core.analytic_rows(name, np.ascontiguousarray(rows.reshape(-1, 4)), ao_weighting).reshape(shape)
+
+
+# --- sweeps ---------------------------------------------------------------------------------------------
+
+
+def sweep(
+    spec: Optional[PathArg] = None,
+    *,
+    toml: Optional[str] = None,
+    out: Optional[PathArg] = None,
+    method: Optional[str] = None,
+    tolerance: Optional[float] = None,
+    samples: Optional[int] = None,
+    replicates: Optional[int] = None,
+    seed: Optional[int] = None,
+    sequence: Optional[str] = None,
+    form: Optional[str] = None,
+    ao_weighting: Optional[str] = None,
+    backend: str = "opencl",
+    device: str = "default",
+    fast_math: bool = False,
+    exact_float: bool = False,
+    progress: ProgressArg = None,
+) -> Dict[str, np.ndarray]:
+    """Runs a parameter sweep: ``microshadow sweep SPEC.toml`` (docs/sweep-spec.md has the format).
+
+    Args:
+        spec: the spec file, or None with `toml`: the spec as TOML text (its comparator files relative
+            to the current directory).
+        out: the output directory (chunks, sweep.csv, summary.md; resumable as the command's); None: a
+            temporary one, removed afterwards.
+        method, tolerance, samples, replicates, seed, sequence: override the spec's [sampling] values
+            (default: the spec's, else the exact method at 1e-10). form, ao_weighting: for specs that do not
+            sweep them. backend, device, fast_math, exact_float: as :func:`evaluate`.
+        progress: True prints progress on stderr; a callable gets (chunks done, chunks).
+
+    Returns:
+        sweep.csv as a dict of arrays, one per column in order: "point", "form", "ao_weighting" (text),
+        "roughness", "alpha_x", "alpha_y", "n_dot_v", "phi_i", "phi_o", "delta_phi", "n_dot_l",
+        "visibility", "term", "std_error", then one per comparator (a :class:`SweepTable`, a dict whose
+        ``summary`` attribute holds summary.md: each comparator's error against the term).
+    """
+    if (spec is None) == (toml is None):
+        raise ValueError("give spec (a file) or toml (the spec's text), one of them")
+    if method is not None:
+        _choice("method", method, _METHODS)
+    if sequence is not None:
+        _choice("sequence", sequence, _SEQUENCES)
+    if form is not None:
+        _choice("form", form, _FORMS)
+    if ao_weighting is not None:
+        _choice("ao_weighting", ao_weighting, _WEIGHTINGS)
+    _choice("backend", backend, _BACKENDS)
+    if samples is not None:
+        _count("samples", samples, 16, _MAX_SAMPLES)
+    if replicates is not None:
+        _count("replicates", replicates, 2, _MAX_REPLICATES)
+    if seed is not None:
+        _count("seed", seed, 0, 2**64 - 1)
+    if tolerance is not None and not (np.isfinite(float(tolerance)) and float(tolerance) > 0):
+        raise ValueError(f"tolerance = {tolerance!r}: a finite number > 0")
+    spec_path = "" if spec is None else os.fspath(spec)
+    if spec_path and not os.path.isfile(spec_path):
+        raise FileNotFoundError(f"{spec_path}: no such file")
+    table, summary = _core.sweep(spec_path, toml or "", os.getcwd(), "" if out is None else os.fspath(out), method,
+                                 tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device,
+                                 bool(fast_math), bool(exact_float), _progress("sweep", progress))
+    return SweepTable(table, summary)
+
+
+class SweepTable(dict):
+    """sweep.csv as a dict of numpy arrays (column name -> array), plus ``summary``: the markdown table of
+    each comparator's error against the term (summary.md)."""
+
+    def __init__(self, columns: Dict[str, np.ndarray], summary: str) -> None:
+        super().__init__(columns)
+        self.summary = summary
+
+
+# --- image-based lighting -------------------------------------------------------------------------------
+
+
+class DfgLut:
+    """The split-sum DFG LUT: x = NdotV, y = roughness (alpha = roughness^2).
+
+    Attributes:
+        data: float64 (roughness, n_dot_v, 3): scale, bias and the single-scattering albedo E = scale + bias.
+        std_error: their standard errors, alike.
+        n_dot_v, roughness: the parameter of each texel along each axis.
+        metadata: dict, how it was made.
+    """
+
+    def __init__(self, native: "_core.DfgLut") -> None:
+        self._native = native
+        self.data: np.ndarray = native.values()
+        self.std_error: np.ndarray = native.std_errors()
+        self.n_dot_v: np.ndarray = np.array(native.n_dot_v)
+        self.roughness: np.ndarray = np.array(native.roughness)
+        self.metadata: dict = json.loads(native.metadata_json)
+
+    def save(self, path: PathArg, half: bool = False) -> None:
+        """Writes it as ``microshadow ibl dfg --out``: .exr, .ktx2, .dds (+ .dds.json) or .h; half: float16."""
+        self._native.save(os.fspath(path), bool(half))
+
+
+def ibl_dfg(
+    *,
+    size: int = 64,
+    size_n_dot_v: int = 0,
+    size_roughness: int = 0,
+    texel: str = "centres",
+    samples: int = 65536,
+    replicates: int = 8,
+    seed: int = 0,
+    backend: str = "opencl",
+    device: str = "default",
+    fast_math: bool = False,
+    progress: ProgressArg = None,
+) -> DfgLut:
+    """Bakes the DFG LUT: ``microshadow ibl dfg`` without its file (call ``.save(path)``).
+
+    size: texels on both axes (size_n_dot_v, size_roughness: one axis's own, 0: size); texel: "centres" or
+    "endpoints"; samples: VNDF samples per texel (all replicates; at most 2^24 a replicate); backend
+    "oracle": the quadrature on CPU threads. progress: True or a callable (texels done, texels).
+    """
+    _choice("texel", texel, ("centres", "centers", "endpoints"))
+    _choice("backend", backend, _BACKENDS)
+    _count("size", size, 1, 4096)
+    _count("size_n_dot_v", size_n_dot_v, 0, 4096)
+    _count("size_roughness", size_roughness, 0, 4096)
+    _count("replicates", replicates, 2, 64)
+    _count("samples", samples, 1, (1 << 24) * 64)
+    _count("seed", seed, 0, 2**64 - 1)
+    native = _core.bake_dfg(int(size), int(size_n_dot_v), int(size_roughness), texel, int(samples), int(replicates),
+                            int(seed), backend, device, bool(fast_math), _progress("ibl dfg", progress))
+    return DfgLut(native)
+

@@ -1,0 +1,429 @@
+// microshadow._microshadow: the pybind11 layer over the public C++ API (<microshadow/microshadow.hpp>).
+// It converts numpy arrays and option strings, releases the GIL around long calls and turns Ctrl-C into
+// KeyboardInterrupt; the argument checks that name the argument and index, the broadcasting and the
+// documentation live in the Python package (python/microshadow/__init__.py).
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <microshadow/microshadow.hpp>
+
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+namespace py = pybind11;
+using namespace microshadow;
+using namespace pybind11::literals;
+
+namespace {
+
+using Doubles = py::array_t<double, py::array::c_style | py::array::forcecast>;
+
+// --- option strings, spelled as the CLI's -----------------------------------------------------------
+
+Method parse_method(const std::string& s) {
+    if (s == "exact") return Method::exact;
+    if (s == "sampled") return Method::sampled;
+    throw std::invalid_argument("method = '" + s + "' (exact or sampled)");
+}
+Backend parse_backend(const std::string& s) {
+    if (s == "opencl") return Backend::opencl;
+    if (s == "oracle") return Backend::oracle;
+    throw std::invalid_argument("backend = '" + s + "' (opencl or oracle)");
+}
+Sequence parse_sequence(const std::string& s) {
+    if (s == "sobol") return Sequence::sobol;
+    if (s == "random") return Sequence::random;
+    throw std::invalid_argument("sequence = '" + s + "' (sobol or random)");
+}
+Form parse_form(const std::string& s) {
+    if (s == "height-correlated") return Form::height_correlated;
+    if (s == "uncorrelated") return Form::uncorrelated;
+    throw std::invalid_argument("form = '" + s + "' (height-correlated or uncorrelated)");
+}
+AoWeighting parse_ao_weighting(const std::string& s) {
+    if (s == "cosine") return AoWeighting::cosine;
+    if (s == "uniform") return AoWeighting::uniform;
+    throw std::invalid_argument("ao_weighting = '" + s + "' (cosine or uniform)");
+}
+
+// --- progress, Ctrl-C and the GIL --------------------------------------------------------------------
+
+// The Progress of one long call. Each report takes the GIL for a moment: it lets Python run its
+// signal handlers (PyErr_CheckSignals; Ctrl-C raises KeyboardInterrupt there) and calls the user's
+// callback. Either raising stops the call (the C++ side throws Cancelled); the Python exception is kept
+// and raised again once the call has unwound.
+class PythonProgress {
+public:
+    explicit PythonProgress(py::object callback) : callback_(std::move(callback)) {}
+    ~PythonProgress() {
+        if (type_ || value_ || traceback_) {
+            py::gil_scoped_acquire gil;
+            Py_XDECREF(type_);
+            Py_XDECREF(value_);
+            Py_XDECREF(traceback_);
+        }
+    }
+    Progress progress() {
+        return [this](std::uint64_t done, std::uint64_t total) {
+            py::gil_scoped_acquire gil;
+            if (pending()) return false;
+            if (PyErr_CheckSignals() != 0) {
+                keep_error();
+                return false;
+            }
+            if (!callback_.is_none()) {
+                try {
+                    callback_(done, total);
+                } catch (py::error_already_set& e) {
+                    e.restore();
+                    keep_error();
+                    return false;
+                }
+            }
+            return true;
+        };
+    }
+    // After Cancelled: the exception that stopped the call (KeyboardInterrupt when none was kept).
+    [[noreturn]] void raise() {
+        if (pending()) {
+            PyErr_Restore(type_, value_, traceback_);
+            type_ = value_ = traceback_ = nullptr;
+            throw py::error_already_set();
+        }
+        PyErr_SetNone(PyExc_KeyboardInterrupt);
+        throw py::error_already_set();
+    }
+
+private:
+    bool pending() const { return type_ != nullptr; }
+    void keep_error() { PyErr_Fetch(&type_, &value_, &traceback_); }
+    py::object callback_;
+    PyObject* type_ = nullptr;
+    PyObject* value_ = nullptr;
+    PyObject* traceback_ = nullptr;
+};
+
+// Runs `call(progress)` without the GIL (so other Python threads run meanwhile).
+template <class Call>
+auto run_long(const py::object& callback, Call&& call) {
+    PythonProgress bridge(callback);
+    try {
+        py::gil_scoped_release release;
+        return call(bridge.progress());
+    } catch (const Cancelled&) {
+        bridge.raise();
+    }
+}
+
+template <class T>
+py::array_t<T> to_array(const std::vector<T>& values, std::vector<py::ssize_t> shape) {
+    py::array_t<T> out(shape);
+    if (!values.empty()) std::memcpy(out.mutable_data(), values.data(), values.size() * sizeof(T));
+    return out;
+}
+
+SamplingOptions sampling_options(const std::string& method, double tolerance, std::uint64_t samples, std::uint32_t replicates,
+                                 std::uint64_t seed, const std::string& sequence, const std::string& form,
+                                 const std::string& ao_weighting, const std::string& backend, const std::string& device,
+                                 bool fast_math, bool exact_float) {
+    SamplingOptions o;
+    o.method = parse_method(method);
+    o.tolerance = tolerance;
+    o.samples = samples;
+    o.replicates = replicates;
+    o.seed = seed;
+    o.sequence = parse_sequence(sequence);
+    o.form = parse_form(form);
+    o.ao_weighting = parse_ao_weighting(ao_weighting);
+    o.backend = parse_backend(backend);
+    o.device = device;
+    o.fast_math = fast_math;
+    o.exact_float = exact_float;
+    return o;
+}
+
+// (N, 9) rows of visibility, alpha_x, alpha_y, wi (3), wo (3) -> (N, 2) of term, std_error.
+py::array_t<double> evaluate_rows(const Doubles& rows, const SamplingOptions& options, const py::object& progress) {
+    if (rows.ndim() != 2 || rows.shape(1) != 9) throw std::invalid_argument("queries must be an (N, 9) array");
+    const std::size_t n = std::size_t(rows.shape(0));
+    std::vector<Query> queries(n);
+    const double* r = rows.data();
+    for (std::size_t i = 0; i < n; ++i, r += 9)
+        queries[i] = {r[0], r[1], r[2], {r[3], r[4], r[5]}, {r[6], r[7], r[8]}};
+    const std::vector<Estimate> got = run_long(progress, [&](const Progress& p) { return evaluate(queries, options, p); });
+    std::vector<double> flat(2 * n);
+    for (std::size_t i = 0; i < n; ++i) {
+        flat[2 * i] = got[i].value;
+        flat[2 * i + 1] = got[i].std_error;
+    }
+    return to_array(flat, {py::ssize_t(n), 2});
+}
+
+// (N, 9) query rows -> (N, 5) rows of visibility, n_dot_l, n_dot_v, roughness, relative azimuth (degrees).
+py::array_t<double> lookup_input_rows(const Doubles& rows) {
+    if (rows.ndim() != 2 || rows.shape(1) != 9) throw std::invalid_argument("queries must be an (N, 9) array");
+    const std::size_t n = std::size_t(rows.shape(0));
+    std::vector<double> flat(5 * n);
+    const double* r = rows.data();
+    for (std::size_t i = 0; i < n; ++i, r += 9) {
+        const LookupInputs in = lookup_inputs({r[0], r[1], r[2], {r[3], r[4], r[5]}, {r[6], r[7], r[8]}});
+        const double row[5] = {in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.relative_azimuth_degrees};
+        std::memcpy(&flat[5 * i], row, sizeof row);
+    }
+    return to_array(flat, {py::ssize_t(n), 5});
+}
+
+// (N, 4) rows of visibility, roughness, n_dot_v, n_dot_l and (N,) relative azimuths in degrees ->
+// (N, 9) query rows, by isotropic_query.
+py::array_t<double> isotropic_rows(const Doubles& params, const Doubles& azimuth) {
+    if (params.ndim() != 2 || params.shape(1) != 4) throw std::invalid_argument("params must be an (N, 4) array");
+    const std::size_t n = std::size_t(params.shape(0));
+    if (azimuth.ndim() != 1 || std::size_t(azimuth.shape(0)) != n) throw std::invalid_argument("azimuth must be (N,)");
+    std::vector<double> flat(9 * n);
+    const double* p = params.data();
+    for (std::size_t i = 0; i < n; ++i, p += 4) {
+        const Query q = isotropic_query(p[0], p[1], p[2], p[3], azimuth.data()[i]);
+        const double row[9] = {q.visibility, q.alpha_x, q.alpha_y, q.wi.x, q.wi.y, q.wi.z, q.wo.x, q.wo.y, q.wo.z};
+        std::memcpy(&flat[9 * i], row, sizeof row);
+    }
+    return to_array(flat, {py::ssize_t(n), 9});
+}
+
+double lookup_one(const LookupFile& f, const double* r) { return f.lookup(r[0], r[1], r[2], r[3], r[4]); }
+double lookup_one(const Lut& f, const double* r) { return f.lookup(r[0], r[1], r[2], r[3]); }
+
+// (N, 5) rows of visibility, n_dot_l, n_dot_v, roughness, relative azimuth (degrees) -> (N,) lookups
+// (a LUT ignores the azimuth).
+template <class Table>
+py::array_t<double> lookup_rows(const Table& file, const Doubles& rows) {
+    if (rows.ndim() != 2 || rows.shape(1) != 5) throw std::invalid_argument("lookup rows must be an (N, 5) array");
+    const std::size_t n = std::size_t(rows.shape(0));
+    std::vector<double> out(n);
+    const double* r = rows.data();
+    {
+        py::gil_scoped_release release;
+        for (std::size_t i = 0; i < n; ++i, r += 5) {
+            try {
+                out[i] = lookup_one(file, r);
+            } catch (const std::domain_error& e) {
+                throw std::domain_error("lookup " + std::to_string(i) + ": " + e.what());
+            }
+        }
+    }
+    return to_array(out, {py::ssize_t(n)});
+}
+
+// (N, 4) rows of visibility, n_dot_l, n_dot_v, roughness -> (N,) values of the analytic term.
+py::array_t<double> analytic_rows(const std::string& name, const Doubles& rows, const std::string& ao_weighting) {
+    if (rows.ndim() != 2 || rows.shape(1) != 4) throw std::invalid_argument("analytic rows must be an (N, 4) array");
+    const std::size_t n = std::size_t(rows.shape(0));
+    std::vector<AnalyticInputs> inputs(n);
+    const double* r = rows.data();
+    for (std::size_t i = 0; i < n; ++i, r += 4) inputs[i] = {r[0], r[1], r[2], r[3]};
+    return to_array(analytic_term(name, inputs, parse_ao_weighting(ao_weighting)), {py::ssize_t(n)});
+}
+
+py::dict table_dict(const SweepTable& t) {
+    py::dict out;
+    for (std::size_t k = 0; k < t.columns.size(); ++k) {
+        if (!t.texts[k].empty() || t.numbers[k].empty()) {
+            py::list texts;
+            for (const auto& s : t.texts[k]) texts.append(s);
+            out[py::str(t.columns[k])] = py::module_::import("numpy").attr("array")(texts, "dtype"_a = "U");
+        } else {
+            out[py::str(t.columns[k])] = to_array(t.numbers[k], {py::ssize_t(t.numbers[k].size())});
+        }
+    }
+    return out;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_microshadow, m) {
+    m.doc() = "microshadow's C++ engine (use the microshadow package, which checks and documents the arguments)";
+    m.def("version", &version);
+
+    m.def(
+        "evaluate_rows",
+        [](const Doubles& rows, const std::string& method, double tolerance, std::uint64_t samples, std::uint32_t replicates,
+           std::uint64_t seed, const std::string& sequence, const std::string& form, const std::string& ao_weighting,
+           const std::string& backend, const std::string& device, bool fast_math, bool exact_float, const py::object& progress) {
+            return evaluate_rows(rows,
+                                 sampling_options(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting,
+                                                  backend, device, fast_math, exact_float),
+                                 progress);
+        },
+        "rows"_a, "method"_a, "tolerance"_a, "samples"_a, "replicates"_a, "seed"_a, "sequence"_a, "form"_a, "ao_weighting"_a,
+        "backend"_a, "device"_a, "fast_math"_a, "exact_float"_a, "progress"_a);
+    m.def("isotropic_rows", &isotropic_rows, "params"_a, "azimuth"_a);
+    m.def("lookup_input_rows", &lookup_input_rows, "rows"_a);
+
+    py::class_<LookupFile>(m, "LookupFile")
+        .def_property_readonly("kind", &LookupFile::kind)
+        .def_property_readonly("keeps_azimuth", &LookupFile::keeps_azimuth)
+        .def_property_readonly("metadata_json", &LookupFile::metadata_json)
+        .def("lookup_rows", &lookup_rows<LookupFile>, "rows"_a)
+        .def("lut", &LookupFile::lut, py::return_value_policy::copy)
+        .def("texture",
+             [](const LookupFile& f) {
+                 return to_array(f.texture(), {py::ssize_t(f.texture_depth()), py::ssize_t(f.texture_height()),
+                                               py::ssize_t(f.texture_width()), 4});
+             })
+        .def("save", [](const LookupFile& f, const std::string& path, bool half) {
+            py::gil_scoped_release release;
+            f.save(path, half);
+        }, "path"_a, "half"_a = false);
+    py::class_<Lut>(m, "Lut")
+        .def_property_readonly("visibility_count", &Lut::visibility_count)
+        .def_property_readonly("n_dot_l_count", &Lut::n_dot_l_count)
+        .def_property_readonly("n_dot_v_count", &Lut::n_dot_v_count)
+        .def_property_readonly("roughness", &Lut::roughness)
+        .def_property_readonly("max_total_error", &Lut::max_total_error)
+        .def_property_readonly("metadata_json", &Lut::metadata_json)
+        .def("axis_values", &Lut::axis_values, "axis"_a)
+        .def("texels",
+             [](const Lut& lut) {
+                 return to_array(lut.texels(), {py::ssize_t(lut.n_dot_v_count()), py::ssize_t(lut.n_dot_l_count()),
+                                                py::ssize_t(lut.visibility_count()), py::ssize_t(lut.roughness().size())});
+             })
+        .def("lookup_rows", &lookup_rows<Lut>, "rows"_a)
+        .def("save", [](const Lut& lut, const std::string& path, const std::string& encoding) {
+            py::gil_scoped_release release;
+            lut.save(path, encoding);
+        }, "path"_a, "encoding"_a = "");
+    m.def("open_file", [](const std::string& path) {
+        py::gil_scoped_release release;
+        return open_file(path);
+    }, "path"_a);
+    m.def(
+        "bake",
+        [](const std::string& layout, std::uint32_t size, std::uint32_t size_visibility, std::uint32_t size_n_dot_l,
+           std::uint32_t size_n_dot_v, const std::vector<double>& roughness, const std::vector<double>& visibility_range,
+           const std::vector<double>& n_dot_l_range, const std::vector<double>& n_dot_v_range, const std::string& texel,
+           const std::string& azimuth, double tolerance, std::uint32_t max_batches, const std::string& method,
+           std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed, const std::string& sequence,
+           const std::string& form, const std::string& ao_weighting, const std::string& backend, const std::string& device,
+           bool fast_math, bool exact_float, const py::object& progress) {
+            BakeOptions o;
+            o.layout = layout;
+            o.size = size;
+            o.visibility_count = size_visibility;
+            o.n_dot_l_count = size_n_dot_l;
+            o.n_dot_v_count = size_n_dot_v;
+            o.roughness = roughness;
+            o.visibility_range = visibility_range;
+            o.n_dot_l_range = n_dot_l_range;
+            o.n_dot_v_range = n_dot_v_range;
+            o.texel = texel;
+            o.azimuth = azimuth;
+            o.tolerance = tolerance;
+            o.max_batches = max_batches;
+            o.sampling = sampling_options(method, 0, samples, replicates, seed, sequence, form, ao_weighting, backend, device,
+                                          fast_math, exact_float);
+            return run_long(progress, [&](const Progress& p) { return bake(o, p); });
+        },
+        "layout"_a, "size"_a, "size_visibility"_a, "size_n_dot_l"_a, "size_n_dot_v"_a, "roughness"_a, "visibility_range"_a,
+        "n_dot_l_range"_a, "n_dot_v_range"_a, "texel"_a, "azimuth"_a, "tolerance"_a, "max_batches"_a, "method"_a, "samples"_a,
+        "replicates"_a, "seed"_a, "sequence"_a, "form"_a, "ao_weighting"_a, "backend"_a, "device"_a, "fast_math"_a,
+        "exact_float"_a, "progress"_a);
+
+    m.def(
+        "repr_bake",
+        [](const std::string& kind, std::uint32_t visibility_count, std::uint32_t n_dot_l_count, std::uint32_t n_dot_v_count,
+           std::uint32_t azimuth_nodes, const std::vector<double>& roughness, std::uint32_t roughness_count,
+           const std::string& n_dot_v_warp, const std::string& n_dot_l_warp, const std::string& visibility_warp,
+           const std::string& method, double tolerance, std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed,
+           const std::string& sequence, const std::string& form, const std::string& ao_weighting, const std::string& backend,
+           const std::string& device, bool fast_math, bool exact_float, const py::object& progress) {
+            ReprBakeOptions o;
+            o.kind = kind;
+            o.visibility_count = visibility_count;
+            o.n_dot_l_count = n_dot_l_count;
+            o.n_dot_v_count = n_dot_v_count;
+            o.azimuth_nodes = azimuth_nodes;
+            o.roughness = roughness;
+            o.roughness_count = roughness_count;
+            o.n_dot_v_warp = n_dot_v_warp;
+            o.n_dot_l_warp = n_dot_l_warp;
+            o.visibility_warp = visibility_warp;
+            o.sampling = sampling_options(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend,
+                                          device, fast_math, exact_float);
+            return run_long(progress, [&](const Progress& p) { return repr_bake(o, p); });
+        },
+        "kind"_a, "visibility_count"_a, "n_dot_l_count"_a, "n_dot_v_count"_a, "azimuth_nodes"_a, "roughness"_a,
+        "roughness_count"_a, "n_dot_v_warp"_a, "n_dot_l_warp"_a, "visibility_warp"_a, "method"_a, "tolerance"_a, "samples"_a,
+        "replicates"_a, "seed"_a, "sequence"_a, "form"_a, "ao_weighting"_a, "backend"_a, "device"_a, "fast_math"_a,
+        "exact_float"_a, "progress"_a);
+
+    m.def("analytic_term_names", &analytic_term_names);
+    m.def("analytic_rows", &analytic_rows, "name"_a, "rows"_a, "ao_weighting"_a);
+
+    m.def(
+        "sweep",
+        [](const std::string& spec_path, const std::string& toml, const std::string& base_dir, const std::string& out_dir,
+           const std::optional<std::string>& method, const std::optional<double>& tolerance,
+           const std::optional<std::uint64_t>& samples, const std::optional<std::uint32_t>& replicates,
+           const std::optional<std::uint64_t>& seed, const std::optional<std::string>& sequence,
+           const std::optional<std::string>& form, const std::optional<std::string>& ao_weighting, const std::string& backend,
+           const std::string& device, bool fast_math, bool exact_float, const py::object& progress) {
+            SweepOptions o;
+            o.out_dir = out_dir;
+            if (method) o.method = parse_method(*method);
+            o.tolerance = tolerance;
+            o.samples = samples;
+            o.replicates = replicates;
+            o.seed = seed;
+            if (sequence) o.sequence = parse_sequence(*sequence);
+            if (form) o.form = parse_form(*form);
+            if (ao_weighting) o.ao_weighting = parse_ao_weighting(*ao_weighting);
+            o.backend = parse_backend(backend);
+            o.device = device;
+            o.fast_math = fast_math;
+            o.exact_float = exact_float;
+            const SweepTable table = run_long(progress, [&](const Progress& p) {
+                return spec_path.empty() ? sweep_toml(toml, base_dir, o, p) : sweep(spec_path, o, p);
+            });
+            py::dict out = table_dict(table);
+            return py::make_tuple(out, table.summary_markdown);
+        },
+        "spec_path"_a, "toml"_a, "base_dir"_a, "out_dir"_a, "method"_a, "tolerance"_a, "samples"_a, "replicates"_a, "seed"_a,
+        "sequence"_a, "form"_a, "ao_weighting"_a, "backend"_a, "device"_a, "fast_math"_a, "exact_float"_a, "progress"_a);
+
+    py::class_<DfgLut>(m, "DfgLut")
+        .def_property_readonly("metadata_json", &DfgLut::metadata_json)
+        .def_property_readonly("n_dot_v", &DfgLut::n_dot_v_values)
+        .def_property_readonly("roughness", &DfgLut::roughness_values)
+        .def("values", [](const DfgLut& d) {
+            return to_array(d.values(), {py::ssize_t(d.roughness_count()), py::ssize_t(d.n_dot_v_count()), 3});
+        })
+        .def("std_errors", [](const DfgLut& d) {
+            return to_array(d.std_errors(), {py::ssize_t(d.roughness_count()), py::ssize_t(d.n_dot_v_count()), 3});
+        })
+        .def("save", [](const DfgLut& d, const std::string& path, bool half) {
+            py::gil_scoped_release release;
+            d.save(path, half);
+        }, "path"_a, "half"_a = false);
+    m.def(
+        "bake_dfg",
+        [](std::uint32_t size, std::uint32_t size_n_dot_v, std::uint32_t size_roughness, const std::string& texel,
+           std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed, const std::string& backend,
+           const std::string& device, bool fast_math, const py::object& progress) {
+            DfgOptions o;
+            o.size = size;
+            o.n_dot_v_count = size_n_dot_v;
+            o.roughness_count = size_roughness;
+            o.texel = texel;
+            o.samples = samples;
+            o.replicates = replicates;
+            o.seed = seed;
+            o.backend = parse_backend(backend);
+            o.device = device;
+            o.fast_math = fast_math;
+            return run_long(progress, [&](const Progress& p) { return bake_dfg(o, p); });
+        },
+        "size"_a, "size_n_dot_v"_a, "size_roughness"_a, "texel"_a, "samples"_a, "replicates"_a, "seed"_a, "backend"_a,
+        "device"_a, "fast_math"_a, "progress"_a);
+}

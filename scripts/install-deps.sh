@@ -10,7 +10,7 @@ packages=(
   googletest libgtest-dev libbenchmark-dev
   python3 python3-dev python3-matplotlib python3-numpy python3-venv
   glslang-tools mesa-vulkan-drivers libvulkan-dev openimageio-tools
-  clang libclang-rt-14-dev
+  clang libclang-rt-14-dev ccache
   openmpi-bin libopenmpi-dev
 )
 

@@ -238,7 +238,7 @@ TEST(LibraryApi, BakeDfgGivesTheDfgJobsTexels) {
     ms::DfgBakeSpec spec;
     spec.n_dot_v.count = spec.roughness.count = 3;
     spec.plan.samples = 256, spec.plan.replicates = 4;
-    spec.oracle = true;
+    spec.method = ms::DfgMethod::quadrature;
     const ms::DfgBakeResult want = ms::bake_dfg(spec);
     const std::vector<double> got = lut.values();
     ASSERT_EQ(got.size(), 27u);

@@ -32,10 +32,11 @@ DfgLut bake_dfg(const DfgOptions& o, const Progress& progress) {
     spec.plan.samples = ms::round_up_samples(o.samples, o.replicates);
     if (spec.plan.samples / o.replicates > (1u << 24))
         throw std::invalid_argument("microshadow::bake_dfg: samples: at most 2^24 per replicate");
-    spec.oracle = o.backend == Backend::oracle;
+    // The oracle backend is the quadrature oracle, as the CLI's --backend oracle spells it.
+    spec.method = o.backend == Backend::oracle ? ms::DfgMethod::quadrature : ms::DfgMethod::sampled;
     spec.device = o.device;
     spec.routine.build.fast_math = o.fast_math;
-    if (spec.oracle && o.fast_math) throw std::invalid_argument("microshadow::bake_dfg: fast_math builds kernels; the oracle has none");
+    if (o.backend == Backend::oracle && o.fast_math) throw std::invalid_argument("microshadow::bake_dfg: fast_math builds kernels; the oracle has none");
     spec.command_line = "microshadow::bake_dfg (library " MICROSHADOW_VERSION ")";
     ms::validate(spec);
     data->result = detail::run_with_progress(progress, [&](const auto& report) {

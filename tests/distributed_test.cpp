@@ -126,7 +126,8 @@ TEST(ItemBytes, RoundTripAndShortInput) {
     const std::vector<float> v = r.get_vector<float>(3);
     EXPECT_TRUE(same_bits(v, {1.5f, -0.0f, 3e-40f}));
     EXPECT_NO_THROW(r.finish());
-    schedule::ItemReader cut(bytes.substr(0, bytes.size() - 1), "item");
+    const std::string short_bytes = bytes.substr(0, bytes.size() - 1);
+    schedule::ItemReader cut(short_bytes, "item");
     cut.get<std::uint32_t>();
     EXPECT_THROW(cut.get_vector<float>(3), std::runtime_error);
     schedule::ItemReader wrong(bytes, "item");

@@ -35,7 +35,9 @@ private:
 // Reads what ItemWriter wrote; throws std::runtime_error naming `what` when the bytes run out or are left over.
 class ItemReader {
 public:
+    // Reads `bytes` in place: they must outlive the reader (a temporary is refused at compile time).
     ItemReader(const std::string& bytes, std::string what) : bytes_(bytes), what_(std::move(what)) {}
+    ItemReader(std::string&&, std::string) = delete;
     template <class T>
     T get() {
         static_assert(std::is_trivially_copyable_v<T>);

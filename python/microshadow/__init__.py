@@ -846,7 +846,7 @@ class DfgLut:
         self.metadata: dict = json.loads(native.metadata_json)
 
     def save(self, path: PathArg, half: bool = False) -> None:
-        """Writes it as ``microshadow ibl dfg --out``: .exr, .ktx2, .dds (+ .dds.json) or .h; half: float16."""
+        """Writes it as ``microshadow ibl dfg --out``: .exr, .ktx2, .dds (+ .dds.json), .png (16-bit), .h or .inc; half: float16."""
         self._native.save(os.fspath(path), bool(half))
 
 

@@ -75,4 +75,4 @@ def test_ibl_dfg_gives_the_clis_lut(cli, tmp_path):
     with pytest.raises(ValueError, match="replicates = 1"):
         ms.ibl_dfg(replicates=1)
     with pytest.raises(ValueError, match="extension picks the format"):
-        dfg.save(tmp_path / "d.png")
+        dfg.save(tmp_path / "d.tga")

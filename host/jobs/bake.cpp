@@ -2,6 +2,8 @@
 // file. The algorithm and its derivation live in host/integrands/lut_slice/ and kernels/lut_slice/.
 #include "jobs/bake.hpp"
 
+#include "core/digest.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -181,10 +183,7 @@ schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Schedule
         {"method", to_string(spec.method)}, {"exact_single_precision", spec.exact_single_precision},
         {"baked_rows", spec.baked_rows.size()}, {"baked_rows_fnv1a", rows}, {"oracle", spec.oracle},
         {"results", scheduler.results_label()}, {"version", MICROSHADOW_VERSION}};
-    std::uint64_t h = 1469598103934665603ULL;
-    for (unsigned char c : decides.dump()) h = (h ^ c) * 1099511628211ULL;
-    char hex[17];
-    std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+    const std::string hex = hex16(fnv1a(decides.dump()));
     std::uint64_t slices = std::uint64_t(spec.n_dot_v.count) * spec.roughness.size();
     return {"bake", hex, slices};
 }

@@ -1,5 +1,7 @@
 #include "jobs/reference_set.hpp"
 
+#include "core/digest.hpp"
+
 #include <toml++/toml.h>
 
 #include <fcntl.h>
@@ -39,12 +41,6 @@ constexpr int kCacheFormat = 2;
 const std::vector<std::string> kPointColumns = {"visibility", "n_dot_l", "n_dot_v", "roughness",
                                                 "relative_azimuth_deg", "weight"};
 const std::string kCacheHeader = "visibility,n_dot_l,n_dot_v,roughness,relative_azimuth,weight,term,std_error";
-
-std::uint64_t fnv1a(const std::string& bytes) {
-    std::uint64_t h = 1469598103934665603ULL;
-    for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ULL;
-    return h;
-}
 
 // The radical inverse of i in `base`: the Halton sequence's coordinate.
 double radical_inverse(std::uint64_t i, unsigned base) {

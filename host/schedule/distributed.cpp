@@ -1,5 +1,7 @@
 #include "schedule/distributed.hpp"
 
+#include "core/digest.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -29,21 +31,6 @@ constexpr const char* kManifestFormat = "microshadow-item-store/1";
 constexpr const char* kItemMagic = "microshadow-item/1";
 // An item's payload is at most a LUT slice or a sweep chunk; anything far larger is a damaged header.
 constexpr std::uint64_t kMaxItemBytes = std::uint64_t(1) << 32;
-
-std::uint64_t fnv1a(const std::string& bytes) {
-    std::uint64_t h = 1469598103934665603ULL;
-    for (unsigned char c : bytes) {
-        h ^= c;
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
-
-std::string hex(std::uint64_t v) {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016" PRIx64, v);
-    return buf;
-}
 
 std::string item_path(const std::string& dir, std::uint64_t id) {
     char name[48];
@@ -239,7 +226,7 @@ std::optional<std::string> ItemStore::load(std::uint64_t id, std::string* warnin
             problem = "size: " + std::to_string(text.size() < header ? 0 : text.size() - header) + " payload bytes, the header says " + size_text;
         else {
             payload = text.substr(header);
-            if (digest != hex(fnv1a(payload))) problem = "digest: its payload's digest is " + hex(fnv1a(payload)) + ", not " + digest;
+            if (digest != hex16(fnv1a(payload))) problem = "digest: its payload's digest is " + hex16(fnv1a(payload)) + ", not " + digest;
         }
     } catch (const std::exception& e) {
         problem = std::string("read: ") + e.what();
@@ -258,7 +245,7 @@ std::optional<std::string> ItemStore::load(std::uint64_t id, std::string* warnin
 
 void ItemStore::save(std::uint64_t id, const std::string& payload) const {
     AtomicFile f(item_path(dir_, id), true);
-    f.stream() << kItemMagic << "\n" << key_.spec_hash << "\n" << id << "\n" << payload.size() << "\n" << hex(fnv1a(payload)) << "\n" << payload;
+    f.stream() << kItemMagic << "\n" << key_.spec_hash << "\n" << id << "\n" << payload.size() << "\n" << hex16(fnv1a(payload)) << "\n" << payload;
     f.commit();
 }
 

@@ -1,5 +1,7 @@
 #include "jobs/sweep/runner.hpp"
 
+#include "core/digest.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -40,20 +42,6 @@ namespace {
 // are still read, and their chunks checked by structure only.
 constexpr const char* kManifestFormat = "microshadow-sweep-manifest/2";
 
-std::uint64_t fnv1a(const std::string& bytes, std::uint64_t h = 1469598103934665603ULL) {
-    for (unsigned char c : bytes) {
-        h ^= c;
-        h *= 1099511628211ULL;
-    }
-    return h;
-}
-
-std::string hex(std::uint64_t v) {
-    char buf[17];
-    std::snprintf(buf, sizeof buf, "%016" PRIx64, v);
-    return buf;
-}
-
 // Manifests and LUT files read whole, with the input checks of io/input_file.hpp (regular files, a size limit).
 std::string read_all(const std::string& path) { return read_input_file(path, std::uint64_t(1) << 31, "file"); }
 
@@ -67,7 +55,7 @@ std::string chunk_path(const std::string& dir, std::uint64_t c) {
 json chunk_digest(const std::string& text) {
     std::uint64_t rows = 0;
     for (char ch : text) rows += ch == '\n';
-    return {{"rows", rows}, {"fnv1a64", hex(fnv1a(text))}};
+    return {{"rows", rows}, {"fnv1a64", hex16(fnv1a(text))}};
 }
 
 // Checks chunk c's file: exactly the rows of points [first, last), each with `fields` fields and its point
@@ -190,7 +178,7 @@ std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
     // A file by its bytes; a preset by its name and this program's version (its bake is deterministic:
     // the exact method, fixed grid).
     for (const auto& l : spec.luts) h = fnv1a(l.preset.empty() ? read_all(l.file) : "preset " + l.preset + " " MICROSHADOW_VERSION, h);
-    return hex(h);
+    return hex16(h);
 }
 
 // The [[comparators.lut]] files opened: a part 2 LUT or a representation (host/repr/, opened through the

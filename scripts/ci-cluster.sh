@@ -3,13 +3,15 @@
 #
 #   scripts/ci-cluster.sh [BUILD_DIR]      (default: build; needs BUILD_DIR/microshadow)
 #
-#   1. MPI (Open MPI, when the program was built with it): `mpirun --oversubscribe -np 3` sweep and bake
-#      against one process, byte for byte (the LUT: texels and metadata apart from the command line);
+#   1. MPI (Open MPI, when the program was built with it): `mpirun --oversubscribe -np 3` sweep, bake,
+#      repr bake, bake --scene and design against one process, byte for byte (a LUT: texels and metadata
+#      apart from the command line; a representation: its texture; a design: its Pareto tables);
 #      --mpi without mpirun and mpirun -np 1 refused with exit status 2.
 #   2. Slurm: munged, slurmctld and slurmd started on localhost under a temporary folder (a generated
-#      slurm.conf on ports of their own), a 4-task array of a sweep and one of a bake, each followed by
-#      its merge job (--dependency=afterok), checked against one process; an array task killed mid-run
-#      (SIGKILL) and requeued with scontrol, which resumes from the chunk store; then everything is stopped.
+#      slurm.conf on ports of their own), a 4-task array of a sweep, of a bake and of a design, each
+#      followed by its merge job (--dependency=afterok), checked against one process; an array task
+#      killed mid-run (SIGKILL) and requeued with scontrol, which resumes from the chunk store; then
+#      everything is stopped.
 #
 # Packages (slurm-wlm, munge, openmpi-bin) are installed when missing and this runs as root; where they
 # cannot be, that part is SKIPPED with a message (never counted as passed). Exit status 0 when every part
@@ -86,8 +88,32 @@ same_lut() {
   a=$(lut_digest "$1") && b=$(lut_digest "$2") && [ "$a" = "$b" ]
 }
 
+# The other jobs that spread: a representation bake (its roughness nodes), a scene bake (its slices) and a
+# design (its reference set's chunks: 2100 points are three of 1024).
+repr_args=(repr bake --kind azimuth-harmonics --visibility-count 4 --n-dot-l-count 4 --n-dot-v-count 3 --azimuth-nodes 7
+           --roughness 0.2,0.5,0.8 --samples 1024 --seed 3 --quiet)
+scene_args=(bake --scene "$root/examples/scene/scene.toml" --scene-layout layout --size 8 --samples 4096 --no-scene-compare --quiet)
+printf 'name = "cluster"\n[points]\ncount = 2100\n[sampling]\nmethod = "sampled"\nsamples = 256\n' > "$work/ref.toml"
+design_args=(design --reference "$work/ref.toml" --quiet)
+
+# A representation's texture as an engine loads it (the DDS: header and texels; its metadata, which holds
+# the run's time, goes beside it).
+same_repr() {
+  "$bin" repr export "$1" --out "$work/a.dds" >/dev/null && "$bin" repr export "$2" --out "$work/b.dds" >/dev/null &&
+    cmp -s "$work/a.dds" "$work/b.dds"
+}
+# Two LUT files with the same texels (a scene bake's metadata records its time).
+same_texels() {
+  "$bin" lut export "$1" --out "$work/a.h" >/dev/null && "$bin" lut export "$2" --out "$work/b.h" >/dev/null &&
+    cmp -s <(sed -n '/_data\[/,$p' "$work/a.h") <(sed -n '/_data\[/,$p' "$work/b.h")
+}
+same_design() { cmp -s "$1/pareto.csv" "$2/pareto.csv" && cmp -s "$1/pareto.md" "$2/pareto.md"; }
+
 "$bin" "${sweep_args[@]}" --out "$work/one.sweep" >/dev/null
 "$bin" "${bake_args[@]}" --out "$work/one.exr"
+"$bin" "${repr_args[@]}" --out "$work/one-repr.exr"
+"$bin" "${scene_args[@]}" --out "$work/one-scene.exr" --scene-report "$work/one-scene"
+"$bin" "${design_args[@]}" --cache "$work/one-cache" --out "$work/one-design"
 
 # --- 1. MPI -------------------------------------------------------------------------------------------
 mpi_part() {
@@ -113,6 +139,18 @@ mpi_part() {
     { fail "MPI: bake on 3 ranks failed"; cat "$work/mpi-bake.log"; }
   same_lut "$work/one.exr" "$work/mpi.exr" && say "MPI: bake on 3 ranks = one process" ||
     fail "MPI: the LUT baked on 3 ranks differs from one process"
+  "${mpirun[@]}" -np 3 "$bin" "${repr_args[@]}" --out "$work/mpi-repr.exr" --mpi >"$work/mpi-repr.log" 2>&1 ||
+    { fail "MPI: repr bake on 3 ranks failed"; cat "$work/mpi-repr.log"; }
+  same_repr "$work/one-repr.exr" "$work/mpi-repr.exr" && say "MPI: repr bake on 3 ranks = one process" ||
+    fail "MPI: the representation baked on 3 ranks differs from one process"
+  "${mpirun[@]}" -np 3 "$bin" "${scene_args[@]}" --out "$work/mpi-scene.exr" --scene-report "$work/mpi-scene" --mpi \
+    >"$work/mpi-scene.log" 2>&1 || { fail "MPI: bake --scene on 3 ranks failed"; cat "$work/mpi-scene.log"; }
+  same_texels "$work/one-scene.exr" "$work/mpi-scene.exr" && say "MPI: bake --scene on 3 ranks = one process" ||
+    fail "MPI: the scene LUT baked on 3 ranks differs from one process"
+  "${mpirun[@]}" -np 3 "$bin" "${design_args[@]}" --cache "$work/mpi-cache" --out "$work/mpi-design" --mpi \
+    >"$work/mpi-design.log" 2>&1 || { fail "MPI: design on 3 ranks failed"; cat "$work/mpi-design.log"; }
+  same_design "$work/one-design" "$work/mpi-design" && say "MPI: design on 3 ranks = one process" ||
+    fail "MPI: the design on 3 ranks differs from one process"
   # Ranks whose device fails after one slice (the test hook): the job stops naming a rank and its item,
   # writes no LUT, keeps what it gathered; the same command without the fault resumes to the same bytes.
   status=0
@@ -230,15 +268,19 @@ EOF
   say "Slurm: $(slurmctld -V) up on $host (port $port)"
 
   # A 4-task array per job, each task one shard (from SLURM_ARRAY_TASK_ID/COUNT), then the dependent merge.
-  local sweep_array bake_array sweep_merge bake_merge
+  local sweep_array bake_array sweep_merge bake_merge design_array design_merge
   sweep_array=$(sbatch --parsable --array=0-3 -c1 -o "$s/jobs/sweep-%a.out" --wrap "$(printf '%q ' "$bin" "${sweep_args[@]}" --out "$work/slurm.sweep")")
   sweep_merge=$(sbatch --parsable --dependency=afterok:$sweep_array -c1 -o "$s/jobs/sweep-merge.out" \
     --wrap "$(printf '%q ' "$bin" merge --quiet --out "$work/slurm-merged.sweep" "$work/slurm.sweep")")
   bake_array=$(sbatch --parsable --array=0-3 -c1 -o "$s/jobs/bake-%a.out" --wrap "$(printf '%q ' "$bin" "${bake_args[@]}" --out "$work/slurm.exr")")
   bake_merge=$(sbatch --parsable --dependency=afterok:$bake_array -c1 -o "$s/jobs/bake-merge.out" \
     --wrap "$(printf '%q ' "$bin" "${bake_args[@]}" --out "$work/slurm.exr" --merge)")
-  wait_for_queue || scancel "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge"
-  for j in "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge"; do
+  design_array=$(sbatch --parsable --array=0-3 -c1 -o "$s/jobs/design-%a.out" \
+    --wrap "$(printf '%q ' "$bin" "${design_args[@]}" --cache "$work/slurm-cache")")
+  design_merge=$(sbatch --parsable --dependency=afterok:$design_array -c1 -o "$s/jobs/design-merge.out" \
+    --wrap "$(printf '%q ' "$bin" "${design_args[@]}" --cache "$work/slurm-cache" --out "$work/slurm-design" --merge)")
+  wait_for_queue || scancel "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge" "$design_array" "$design_merge"
+  for j in "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge" "$design_array" "$design_merge"; do
     local states
     states=$(scontrol -o show job "$j" | grep -o 'JobState=[A-Z_]*' | sort -u | tr '\n' ' ')
     [ "$states" = "JobState=COMPLETED " ] || { fail "Slurm: job $j ended $states"; cat "$s"/jobs/*.out; }
@@ -250,6 +292,8 @@ EOF
     say "Slurm: sweep as a 4-task array + merge = one process" || fail "Slurm: the merged sweep.csv differs from one process"
   same_lut "$work/one.exr" "$work/slurm.exr" &&
     say "Slurm: bake as a 4-task array + merge = one process" || fail "Slurm: the merged LUT differs from one process"
+  same_design "$work/one-design" "$work/slurm-design" &&
+    say "Slurm: design as a 4-task array + merge = one process" || fail "Slurm: the merged design differs from one process"
 }
 slurm_part
 

@@ -17,6 +17,9 @@
 #include "integrands/lut_slice/lut_slice_integrand.hpp"
 #include "jobs/bake.hpp"
 #include "lut/exr_lut.hpp"
+#include "repr/representation.hpp"
+#include "repr/texture_repr.hpp"
+#include "scene/image_io.hpp"
 #include "schedule/distributed.hpp"
 #include "schedule/item_bytes.hpp"
 
@@ -337,7 +340,115 @@ TEST_F(Distributed, CliBadShardsAndMergesExitTwoAndWriteNothing) {
     refused("", "--shard 0/3", "splits this job into 2 shards, not 3");
     refused("", "--shard 1/2 --replicates 4", "spec hash");
     refused("", "--merge --shard 1/2", "--merge assembles");
-    refused("", "--scene x.toml --shard 1/2", "does not apply to --scene");
+}
+
+// Runs `command` (with OUT replaced by `out`) as shards 0/2 and 1/2, then as the merge; each shard
+// writes nothing but its store, the merge writes `out`.
+void shards_then_merge(const std::string& command, const std::string& out) {
+    auto with = [&](const std::string& extra) {
+        std::string c = command;
+        c.replace(c.find("OUT"), 3, out);
+        return c + " " + extra;
+    };
+    for (int i = 0; i < 2; ++i) {
+        const RunResult r = cli("", with("--shard " + std::to_string(i) + "/2"));
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+        EXPECT_FALSE(fs::exists(out)) << "shard " << i << " wrote " << out;
+    }
+    const RunResult m = cli("", with("--merge"));
+    ASSERT_EQ(m.exit_code, 0) << m.output;
+}
+
+// A representation bake's items are its roughness nodes: shards merge to one process's texels, and the
+// metadata differs only in the run's time and command line.
+TEST_F(Distributed, CliReprBakeShardsMergeToOneProcess) {
+    const std::string repr_bake =
+        "repr bake -q --kind azimuth-harmonics --visibility-count 3 --n-dot-l-count 3 --n-dot-v-count 2 --azimuth-nodes 7 "
+        "--roughness 0.3,0.6,0.9 --samples 512 --seed 5 --backend oracle --out OUT";
+    std::string whole = repr_bake;
+    whole.replace(whole.find("OUT"), 3, path("whole.exr"));
+    ASSERT_EQ(cli("", whole).exit_code, 0);
+    shards_then_merge(repr_bake, path("split.exr"));
+    const auto a = repr::open_representation(path("whole.exr")), b = repr::open_representation(path("split.exr"));
+    EXPECT_TRUE(same_bits(a->texels(), b->texels()));
+    const auto* ta = dynamic_cast<const repr::TextureRepresentation*>(a.get());
+    const auto* tb = dynamic_cast<const repr::TextureRepresentation*>(b.get());
+    ASSERT_TRUE(ta && tb);
+    nlohmann::json x = ta->metadata(), y = tb->metadata();
+    ASSERT_TRUE(x.contains("bake"));
+    for (auto* j : {&x, &y}) {
+        for (const char* key : {"command_line", "seconds"}) (*j)["bake"].erase(key);
+        j->erase("command_line");
+    }
+    EXPECT_EQ(x.dump(), y.dump());
+    EXPECT_EQ(x["bake"]["queries"].get<std::uint64_t>(), 3u * 7 * 3 * 3 * 2);
+    EXPECT_TRUE(fs::exists(path("split.exr.chunks/manifest.shard-1-of-2.json")));
+}
+
+// A design's reference set: its chunks split over shards (sharing the cache's chunk folder), merged
+// into the same cached set and the same Pareto table.
+TEST_F(Distributed, CliDesignShardsMergeToOneProcess) {
+    // 2100 points: three chunks of the cache's 1024, two in shard 0 and one in shard 1.
+    std::ofstream(path("ref.toml")) << "name = \"tiny\"\n[points]\ncount = 2100\n[sampling]\nmethod = \"sampled\"\nsamples = 256\n";
+    const std::string design = "design -q --backend oracle --reference " + path("ref.toml") + " --cache OUT";
+    std::string whole = design + " --out " + path("whole");
+    whole.replace(whole.find("OUT"), 3, path("cache-whole"));
+    ASSERT_EQ(cli("", whole).exit_code, 0);
+    for (int i = 0; i < 2; ++i) {
+        std::string c = design;
+        c.replace(c.find("OUT"), 3, path("cache-split"));
+        const RunResult r = cli("", c + " --shard " + std::to_string(i) + "/2");
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+    }
+    EXPECT_FALSE(fs::exists(path("split")));
+    std::string merge = design + " --merge --out " + path("split");
+    merge.replace(merge.find("OUT"), 3, path("cache-split"));
+    const RunResult m = cli("", merge);
+    ASSERT_EQ(m.exit_code, 0) << m.output;
+    for (const char* f : {"pareto.csv", "pareto.md"}) {
+        std::ifstream a(path("whole/") + f), b(path("split/") + f);
+        const std::string x((std::istreambuf_iterator<char>(a)), {}), y((std::istreambuf_iterator<char>(b)), {});
+        EXPECT_FALSE(x.empty());
+        EXPECT_EQ(x, y) << f;
+    }
+}
+
+// bake --scene: the scene bake's slices split, merged into the same LUT texels.
+TEST_F(Distributed, CliSceneBakeShardsMergeToOneProcess) {
+    std::vector<float> ao(16);
+    for (int i = 0; i < 16; ++i) ao[std::size_t(i)] = float(0.3 + 0.6 * (i % 4) / 3.0);
+    scene::write_exr(path("ao.exr"), 4, 4, {{"ao", ao.data()}});
+    std::ofstream(path("s.toml")) << "[normal]\nvalue = [0, 0, 1]\n[visibility]\nfile = \"ao.exr\"\nchannel = \"ao\"\n"
+                                     "[roughness]\nvalue = 0.5\n[view]\ndirection = [0.8, 0, 0.6]\n[[light]]\nname = \"sun\"\n"
+                                     "direction = [0, 0.6, 0.8]\n";
+    const std::string bake = "bake --scene " + path("s.toml") + " --scene-layout layout --size 4 --samples 1024 --backend oracle "
+                             "--no-scene-compare --quiet --out OUT --scene-report " + path("rep");
+    std::string whole = bake;
+    whole.replace(whole.find("OUT"), 3, path("whole.exr"));
+    ASSERT_EQ(cli("", whole).exit_code, 0);
+    shards_then_merge(bake, path("split.exr"));
+    EXPECT_TRUE(same_bits(read_lut(path("whole.exr")).data, read_lut(path("split.exr")).data));
+}
+
+TEST_F(Distributed, CliNewJobsRefuseBadSplitsExitTwoAndWriteNothing) {
+    std::ofstream(path("ref.toml")) << "name = \"tiny\"\n[points]\ncount = 24\n[sampling]\nmethod = \"sampled\"\nsamples = 512\n";
+    const std::string design = "design -q --backend oracle --reference " + path("ref.toml") + " --cache " + path("cache");
+    auto refused = [&](const std::string& args, const std::string& says) {
+        const RunResult r = cli("", args);
+        EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+        EXPECT_FALSE(fs::exists(path("out")));
+    };
+    refused(design + " --merge --out " + path("out"), "no shard manifests");
+    ASSERT_EQ(cli("", design + " --shard 0/2").exit_code, 0);
+    refused(design + " --shard 0/3", "splits this job into 2 shards, not 3");
+    refused(design + " --merge --shard 1/2", "--merge assembles");
+    const std::string repr_bake = "repr bake -q --kind azimuth-axis --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2 "
+                                  "--azimuth-nodes 3 --roughness 0.3,0.9 --samples 256 --backend oracle --out " + path("out");
+    refused(repr_bake + " --merge", "no shard manifests");
+    refused(repr_bake + " --shard 3/2", "--shard: expected I/N");
+    ASSERT_EQ(cli("", repr_bake + " --shard 0/2").exit_code, 0);
+    refused(repr_bake + " --merge", "shard 1/2 lacks 1 item(s)");
 }
 
 }  // namespace

@@ -40,8 +40,7 @@ struct BakeArgs {
     bool no_scene_compare = false;
     double scene_error = 0.01;
     // Beyond one process (docs/cluster.md): shards and their chunk store, the merge, MPI ranks.
-    std::string shard, store;
-    bool merge = false, mpi = false;
+    DistributionArgs distribution;
 };
 
 // The oracle bake of a 16^3 x 4 layout at the default samples takes about a minute on 2 cores; larger
@@ -158,7 +157,8 @@ std::string azimuth_summary(const BakeResult& result) {
 }
 
 // --- bake --scene (the scene's domain decides the bake; jobs/scene_bake.hpp) ---
-void run_scene_bake_command(const BakeArgs& args) {
+void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
+    const bool rank0 = !world || world->writer();
     for (const char* o : {"--preview", "--verify", "--verify-method", "--half", "--format", "--encoding", "--shader-glsl", "--shader-hlsl", "--ao-weighting", "--form"})
         if (args.cmd->get_option(o)->count() > 0) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
     if (args.out.size() < 4 || args.out.substr(args.out.size() - 4) != ".exr")
@@ -169,10 +169,10 @@ void run_scene_bake_command(const BakeArgs& args) {
     // The scene's AO weighting decides the cone, and its form the term: the LUT must be baked with them.
     base.term.ao_weighting = description.ao_weighting;
     base.term.form = description.sampling.form;
-    check_writable_destination(args.out);
+    if (rank0) check_writable_destination(args.out);
     // The report folder and its files, before any work (a bad one used to be found after the bakes).
-    scene::check_output_folder(args.scene_report);
-    if (std::error_code ec; std::filesystem::is_directory(args.scene_report, ec)) {
+    if (rank0) scene::check_output_folder(args.scene_report);
+    if (std::error_code ec; rank0 && std::filesystem::is_directory(args.scene_report, ec)) {
         for (const char* f : {"histograms.json", "histograms.csv", "report.json", "report.md"})
             check_writable_destination((std::filesystem::path(args.scene_report) / f).string());
         for (const auto& l : description.lights)
@@ -197,14 +197,30 @@ void run_scene_bake_command(const BakeArgs& args) {
     options.progress = [&](const std::string& p, std::size_t done, std::size_t total) {
         if (p != phase) {
             if (progress) progress->finish();
-            progress = std::make_unique<Progress>("bake --scene: " + p, args.sampling.quiet);
+            progress = std::make_unique<Progress>("bake --scene: " + p, args.sampling.quiet || !rank0);
             phase = p;
         }
         progress->update(done, total);
     };
     const std::vector<scene::LightDomain> domain = scene::scene_domain(inputs);
+    // The scene bake's slices split as asked (docs/cluster.md): the plan is the one run_scene_bake makes.
+    const schedule::Distribution distribution(
+        distribution_request(args.distribution, world),
+        scene::scene_bake_store_key(scene::plan_scene_bake(domain, base, options.fit), backend->scheduler()), args.out + ".chunks",
+        [quiet = args.sampling.quiet](const std::string& w) {
+            if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "; computed again\n";
+        });
+    options.items = &distribution.plan();
     const scene::SceneBakeResult result = scene::run_scene_bake(inputs, domain, base, *backend, options);
     if (progress) progress->finish();
+    if (!distribution.writer() || !result.bake.complete) {
+        if (!world && !args.sampling.quiet)
+            std::cerr << "bake --scene: " << distribution.shard_finished(
+                             result.bake.loaded_slices, result.bake.computed_slices,
+                             "write " + args.out + " and the report with the same command, --merge in place of --shard")
+                      << "\n";
+        return;
+    }
     const nlohmann::json provenance = {{"program", "microshadow " MICROSHADOW_VERSION},
                                        {"command_line", command_line()},
                                        {"scene", json_safe(args.scene)}};
@@ -230,53 +246,13 @@ void run_scene_bake_command(const BakeArgs& args) {
     }
 }
 
-// How this bake's slices are split: a shard of a Slurm array (or --shard), a resumable store, the merge
-// of a store's shards, or the ranks of an MPI world. Checked before any work; nothing is written here.
-struct Distribution {
-    schedule::Shard shard;
-    std::optional<schedule::ItemStore> store;
-    schedule::ItemPlan plan;
-    bool writer = true;  // this process writes the LUT (not a shard of several, not an MPI rank > 0)
-};
-
-void plan_distribution(const BakeArgs& args, const BakeSpec& spec, const schedule::Scheduler& scheduler, Distribution& d) {
-    const bool shard_given = given(args.cmd, "--shard");
-    if (args.merge && (shard_given || args.mpi))
-        throw std::invalid_argument("--merge assembles the shards a chunk store holds: it takes neither --shard nor --mpi");
-    if (args.mpi && shard_given) throw std::invalid_argument("--mpi shares the slices among the ranks: it takes no --shard");
-    // An MPI world or a merge is one job, not a task of an array: Slurm's array variables do not apply.
-    d.shard = args.merge || args.mpi ? schedule::Shard{} : resolve_shard(args.shard);
-    const bool sharded = d.shard.count > 1;
-    const std::string store_dir = !args.store.empty() ? args.store : (sharded || args.merge) ? args.out + ".chunks" : "";
-    const schedule::StoreKey key = bake_store_key(spec, scheduler);
-    if (args.merge) {
-        d.store.emplace(schedule::ItemStore::open_for_merge(store_dir, key));
-        d.plan.merge_only = true;
-    } else if (!store_dir.empty()) {
-        d.store.emplace(store_dir, key, d.shard);
-    }
-    if (d.store) d.plan.store = &*d.store;
-    d.plan.shard = d.shard;
-    d.plan.warn = [quiet = args.sampling.quiet](const std::string& w) {
-        if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
-    };
-    d.writer = !sharded;
-}
-
 void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world);
 
 void run_bake(const BakeArgs& args) {
-    if (!args.scene.empty()) {
-        for (const char* o : {"--shard", "--store", "--merge", "--mpi"})
-            if (given(args.cmd, o)) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
-        return run_scene_bake_command(args);
-    }
+    if (!args.scene.empty()) return with_distribution(args.distribution, [&](MpiWorld* world) { run_scene_bake_command(args, world); });
     const BakeSpec spec = make_spec(args);
     // The MPI world first: every rank reads the same command line, and only rank 0 touches the outputs.
-    std::unique_ptr<MpiWorld> world;
-    if (args.mpi) world = std::make_unique<MpiWorld>();
-    if (world) return world->guard([&] { run_bake_job(args, spec, world.get()); });
-    run_bake_job(args, spec, nullptr);
+    with_distribution(args.distribution, [&](MpiWorld* world) { run_bake_job(args, spec, world); });
 }
 
 void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
@@ -293,13 +269,12 @@ void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
     BakeCallbacks callbacks;
     callbacks.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
     schedule::Scheduler scheduler(bake_backend(spec));
-    Distribution distribution;
-    // Only rank 0 keeps the chunk store (the other ranks send it their slices).
-    BakeArgs store_args = args;
-    if (!rank0) store_args.store.clear();
-    plan_distribution(store_args, spec, scheduler, distribution);
-    if (world) distribution.plan.transport = &world->transport();
-    if (world) distribution.writer = rank0;
+    // How the slices are split: a shard of a Slurm array (or --shard), a resumable store, the merge of a
+    // store's shards, or the ranks of an MPI world. Checked before any work; nothing is written here.
+    const schedule::Distribution distribution(distribution_request(args.distribution, world), bake_store_key(spec, scheduler),
+                                              args.out + ".chunks", [quiet = args.sampling.quiet](const std::string& w) {
+                                                  if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
+                                              });
     // Refuse what cannot fit before computing (a 4096^3 bake used to end in bad_alloc).
     if (const std::uint64_t need = bake_host_memory(spec, scheduler.places()), memory = physical_memory();
         memory > 0 && need > memory / 2)
@@ -307,12 +282,12 @@ void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
                                     "more than the limit of " + gib(memory / 2) + " (half the " + gib(memory) +
                                     " of physical memory); use fewer texels, channels or samples");
     scheduler.set_fault_injection(fault_injection_from_environment());
-    const BakeResult result = bake_lut(spec, scheduler, callbacks, distribution.plan);
+    const BakeResult result = bake_lut(spec, scheduler, callbacks, distribution.plan());
     progress.finish();
-    if (!distribution.writer || !result.complete) {
+    if (!distribution.writer() || !result.complete) {
         if (!world && !args.sampling.quiet)
-            std::cerr << "bake: shard " << distribution.shard.index << "/" << distribution.shard.count << " finished in "
-                      << distribution.store->dir() << " (" << result.loaded_slices << " of its slices found there, "
+            std::cerr << "bake: shard " << distribution.shard().index << "/" << distribution.shard().count << " finished in "
+                      << distribution.store()->dir() << " (" << result.loaded_slices << " of its slices found there, "
                       << result.computed_slices << " computed); when every shard has, write "
                       << args.out << " with the same command, --merge in place of --shard\n";
         return;
@@ -425,13 +400,7 @@ void add_bake_command(CLI::App& app) {
         ->check(CLI::IsMember({"fit", "layout"}))
         ->capture_default_str();
     // Beyond one process (docs/cluster.md)
-    cmd->add_option("--shard", a->shard,
-                    "bake only the slices s with s % N == I (I/N; default: the Slurm array task's, from SLURM_ARRAY_TASK_ID "
-                    "and SLURM_ARRAY_TASK_COUNT), keeping them in the chunk store; write the LUT with --merge");
-    cmd->add_option("--store", a->store,
-                    "chunk store folder of finished slices (default with --shard or --merge: OUT.chunks); a rerun resumes from it");
-    cmd->add_flag("--merge", a->merge, "write the LUT from the slices the shards left in the chunk store (same options, no --shard)");
-    cmd->add_flag("--mpi", a->mpi, "share the slices among the ranks of an MPI world (mpirun -np N, N >= 2): rank 0 hands them out and writes");
+    add_distribution_options(cmd, a->distribution, "slices", "OUT.chunks");
     cmd->add_flag("--no-scene-compare", a->no_scene_compare, "with --scene: skip the full bake, the default LUT and the reference");
     cmd->add_option("--scene-error", a->scene_error, "with --scene: the weighted error within which the default LUT serves the scene")
         ->check(real_range(1e-6, 1.0))

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "cli/common.hpp"
+#include "cli/mpi_world.hpp"
 #include "cli/plot_runner.hpp"
 #include "cli/progress.hpp"
 #include "core/cancel.hpp"
@@ -44,6 +45,10 @@ struct DesignArgs {
     unsigned max_fetches = UINT32_MAX, max_alu = UINT32_MAX;
     bool plot = false, no_analytic = false, strict_domain = false;
     SamplingOptions sampling;
+    // Beyond one process (docs/cluster.md): the reference sets' chunks split into shards, merged, or
+    // shared among MPI ranks.
+    DistributionArgs distribution;
+    schedule::DistributionRequest request;  // of `distribution`, resolved in run_design
 };
 
 // "65536", "64KiB", "1.5MiB", "unlimited": bytes. Decimal digits with an optional fraction and unit,
@@ -184,11 +189,25 @@ design::ReferenceSet reference_set(const design::ReferenceDefinition& def, const
         return backend;
     };
     config.warn = [&](const std::string& w) { std::cerr << "\ndesign: warning: " << w << "\n"; };
-    Progress progress(std::string("design: ") + what + " reference " + def.name, args.sampling.quiet);
+    config.shard = args.request.shard;
+    config.merge = args.request.merge;
+    config.transport = args.request.transport;
+    const bool rank0 = !config.transport || config.transport->coordinator();
+    Progress progress(std::string("design: ") + what + " reference " + def.name, args.sampling.quiet || !rank0);
     config.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
     design::CacheReport report;
     design::ReferenceSet set = design::load_or_compute(def, config, &report);
     progress.finish();
+    if (!report.complete) {
+        // A shard (or a rank that only computed): its chunks are in the chunk folder, the rest is the merge's.
+        if (!config.transport && !args.sampling.quiet)
+            std::cerr << "design: " << what << " reference '" << def.name << "': shard " << config.shard.index << "/"
+                      << config.shard.count << " finished in " << report.chunk_folder << " (" << report.chunks_found
+                      << " of its chunks found there, " << report.chunks_computed
+                      << " computed); when every shard has, run the same command with --merge in place of --shard\n";
+        set.points.clear();
+        return set;
+    }
     if (!args.sampling.quiet)
         std::cerr << "design: " << what << " reference '" << def.name << "': " << set.points.size() << " points, "
                   << (def.plan.method == Method::exact ? std::string("exact method, max estimated error ")
@@ -199,7 +218,13 @@ design::ReferenceSet reference_set(const design::ReferenceDefinition& def, const
     return set;
 }
 
-void run_design(const DesignArgs& args) {
+void run_design(DesignArgs args, MpiWorld* world) {
+    args.request = distribution_request(args.distribution, world);
+    if (world && !args.fit_reference.empty())
+        throw std::invalid_argument("--mpi shares one reference set's chunks: compute the --fit-reference set first "
+                                    "(design --reference FIT.toml --mpi ...), then run with both");
+    // Only one process writes: not a shard, not an MPI rank other than 0.
+    const bool writer = (!world || world->writer()) && args.request.shard.count == 1;
     design::Budget budget;
     budget.max_bytes = parse_bytes(args.max_bytes);
     budget.max_fetches = args.max_fetches;
@@ -232,7 +257,7 @@ void run_design(const DesignArgs& args) {
     // Outputs checked before any work.
     OutputSet outputs;
     std::size_t csv_out = 0, md_out = 0, json_out = 0;
-    if (!args.out.empty()) {
+    if (!args.out.empty() && writer) {
         std::error_code ec;
         fs::create_directories(args.out, ec);
         if (ec) throw std::invalid_argument("--out " + args.out + ": cannot create the folder (" + ec.message() + ")");
@@ -269,6 +294,11 @@ void run_design(const DesignArgs& args) {
     TermBackend* backend = nullptr;
     std::unique_ptr<TermBackend> owned;
     const design::ReferenceSet set = reference_set(evaluation_def, args, backend, owned, "evaluation");
+    if (!writer) {
+        // A shard computes its part of both sets; the merge evaluates the candidates and writes.
+        if (has_fit) reference_set(fit_def, args, backend, owned, "fit");
+        return;
+    }
     nlohmann::json fits = nlohmann::json::array();
     if (has_fit) {
         const design::ReferenceSet training = reference_set(fit_def, args, backend, owned, "fit");
@@ -473,9 +503,10 @@ void add_design_command(CLI::App& app) {
     cmd->add_option("--device", args->sampling.device, "OpenCL device(s): default, all, an index from `devices`, or part of a name")
         ->capture_default_str();
     cmd->add_flag("-q,--quiet", args->sampling.quiet, "no progress or summary on stderr");
+    add_distribution_options(cmd, args->distribution, "reference chunks", "");
     cmd->callback([args] {
         if (args->plot && args->out.empty()) throw std::invalid_argument("--plot needs --out");
-        run_design(*args);
+        with_distribution(args->distribution, [&](MpiWorld* world) { run_design(*args, world); });
     });
 }
 

@@ -2,14 +2,21 @@
 // docs/representations.md). `repr bake` bakes the term at K azimuth nodes per texel and builds one
 // representation (file, shaders); `repr shader` regenerates the sampling code of a file; `repr info`
 // prints its layout and cost; `repr export` writes a file's texture as KTX2 or DDS.
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
+#include <optional>
 #include <fstream>
 #include <iostream>
 #include <sstream>
 
 #include "cli/common.hpp"
+#include "cli/mpi_world.hpp"
 #include "cli/progress.hpp"
+#include "core/digest.hpp"
 #include "io/atomic_file.hpp"
+#include "io/text.hpp"
+#include "schedule/item_bytes.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 
@@ -27,7 +34,99 @@ struct ReprBakeArgs {
     bool half = false;
     SamplingOptions sampling;
     CLI::App* cmd = nullptr;
+    DistributionArgs distribution;  // --shard --store --merge --mpi (docs/cluster.md)
 };
+
+// The chunk store key of a representation bake: everything that decides its texels (the grid, the
+// azimuth nodes, the sampling, the term, the kind of device, the version), not the representation built
+// from them or the command line.
+schedule::StoreKey repr_store_key(const repr::AzimuthBakeSpec& spec, const schedule::Scheduler& scheduler) {
+    const auto& g = spec.grid;
+    std::ostringstream d;
+    d.precision(17);
+    d << "grid " << g.visibility << " " << g.n_dot_l << " " << g.n_dot_v << " warps " << int(g.warps.n_dot_v) << " "
+      << int(g.warps.n_dot_l) << " " << int(g.warps.visibility) << " weighting " << to_string(g.weighting) << " edge_width "
+      << g.edge_width << "\nroughness";
+    for (double r : g.roughness) d << " " << r;
+    const SamplingPlan& p = spec.plan;
+    d << "\nazimuth_nodes " << spec.azimuth_nodes << "\nmethod " << to_string(p.method) << " samples " << p.samples
+      << " replicates " << p.replicates << " seed " << p.seed << " sequence " << to_string(p.sequence) << " tolerance "
+      << p.tolerance << " single " << p.single_precision << " kernel_on_cpu " << p.kernel_on_cpu_devices << "\nform "
+      << to_string(spec.term.form) << " ao " << to_string(spec.term.ao_weighting) << "\nresults " << scheduler.results_label()
+      << "\nversion " MICROSHADOW_VERSION "\n";
+    if (p.method == Method::exact) d << exact_cache_key(p) << "\n";
+    return {"repr-bake", hex16(fnv1a(d.str())), g.roughness.size()};
+}
+
+// The representation bake split into work items, one per roughness node: item r bakes the grid of that
+// node alone (a texel's query, and so its value, is the same in either bake: every query is sampled on
+// the plan's one point set). Each item's payload: its values, errors, query counts and the metadata of
+// its bake; the whole bake's metadata is the first item's with the counts summed.
+repr::AzimuthBake bake_by_roughness(const repr::AzimuthBakeSpec& spec, TermBackend& backend, const schedule::Distribution& d,
+                                    Progress& progress, bool* complete, schedule::ItemRunReport* report) {
+    const auto start = std::chrono::steady_clock::now();
+    const auto& g = spec.grid;
+    const std::size_t nodes = g.roughness.size(), block = std::size_t(spec.azimuth_nodes) * g.visibility * g.n_dot_l * g.n_dot_v;
+    repr::AzimuthBake bake;
+    bake.grid = g;
+    bake.azimuth_nodes = spec.azimuth_nodes;
+    bake.replicates = spec.plan.replicates;
+    bake.value.assign(nodes * block, 0.f);
+    bake.std_error.assign(nodes * block, 0.f);
+    std::vector<nlohmann::json> metadata(nodes);
+    schedule::ItemJob job;
+    job.name = "repr bake";
+    job.items = nodes;
+    job.compute = [&](std::uint64_t r) {
+        repr::AzimuthBakeSpec one = spec;
+        one.grid.roughness = {g.roughness[r]};
+        const repr::AzimuthBake b = repr::bake_azimuth(one, backend);
+        schedule::ItemWriter w;
+        w.put_vector(b.value);
+        w.put_vector(b.std_error);
+        w.put_string(b.metadata.dump());
+        return w.take();
+    };
+    job.accept = [&](std::uint64_t r, const std::string& payload) {
+        schedule::ItemReader in(payload, "repr bake: roughness node " + std::to_string(r));
+        const auto value = in.get_vector<float>(block), error = in.get_vector<float>(block);
+        nlohmann::json meta = nlohmann::json::parse(in.get_string(), nullptr, false);
+        in.finish();
+        if (!meta.is_object()) throw std::runtime_error("repr bake: roughness node " + std::to_string(r) + ": its metadata is not JSON");
+        std::copy(value.begin(), value.end(), bake.value.begin() + std::ptrdiff_t(r * block));
+        std::copy(error.begin(), error.end(), bake.std_error.begin() + std::ptrdiff_t(r * block));
+        metadata[r] = std::move(meta);
+    };
+    // A stored item is trusted once it reads back whole (values, errors, metadata); else it is set aside.
+    job.check = [&](std::uint64_t r, const std::string& payload) -> std::string {
+        try {
+            job.accept(r, payload);
+            return "";
+        } catch (const std::exception& e) {
+            return std::string("payload: ") + e.what();
+        }
+    };
+    schedule::RunCallbacks callbacks;
+    callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
+    *report = schedule::run_item_job(job, d.plan(), {backend.name()}, callbacks);
+    *complete = report->complete;
+    if (!report->complete) return bake;
+    // The whole bake's metadata: the first node's, the counts summed and the largest error taken over
+    // the nodes; the time and the devices are this run's.
+    bake.metadata = metadata[0];
+    for (const char* count : {"queries", "sampled", "exact_zero", "exact_one"}) {
+        std::uint64_t sum = 0;
+        for (const auto& m : metadata) sum += m.value(count, std::uint64_t(0));
+        bake.metadata[count] = sum;
+    }
+    double worst = 0;
+    for (const auto& m : metadata) worst = std::max(worst, m.value("max_std_error", 0.0));
+    bake.metadata["max_std_error"] = worst;
+    bake.metadata["seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    bake.metadata["device"] = backend.name();
+    bake.metadata["command_line"] = spec.command_line;
+    return bake;
+}
 
 // The representation file formats, by --out's extension: the OpenEXR atlas (what `eval --compare` and
 // sweeps open), or the 3D texture alone as an engine loads it (KTX2, DDS + `<file>.json`).
@@ -87,7 +186,8 @@ void check_range(const char* option, const std::vector<double>& v) {
         throw std::invalid_argument(std::string(option) + " must be LO,HI with 0 <= LO < HI <= 1");
 }
 
-void run_repr_bake(ReprBakeArgs a) {
+void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
+    const bool rank0 = !world || world->writer();
     // No layout option and no preset: the full-range preset, what a renderer that does not know its
     // content's roughness should ship.
     bool layout_given = false;
@@ -140,15 +240,41 @@ void run_repr_bake(ReprBakeArgs a) {
         throw std::invalid_argument("azimuth-axis holds 1 to 4 roughness nodes (RGBA): use --roughness-count 4");
     if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
         throw std::invalid_argument("azimuth-harmonics projects on cos(m phi), m <= 3: --azimuth-nodes must be at least 7");
-    // Every output checked before the bake; all appear together or none.
+    // Every output checked before the bake (only rank 0 of an MPI world writes); all appear together or none.
     OutputSet outputs;
-    const ReprOutput file(outputs, a.out);
-    const std::size_t glsl = a.shader_glsl.empty() ? 0 : outputs.add(a.shader_glsl);
-    const std::size_t hlsl = a.shader_hlsl.empty() ? 0 : outputs.add(a.shader_hlsl);
+    std::optional<ReprOutput> file;
+    std::size_t glsl = 0, hlsl = 0;
+    if (rank0) {
+        file.emplace(outputs, a.out);
+        glsl = a.shader_glsl.empty() ? 0 : outputs.add(a.shader_glsl);
+        hlsl = a.shader_hlsl.empty() ? 0 : outputs.add(a.shader_hlsl);
+    }
     auto backend = a.sampling.make_backend();
 
-    Progress progress("repr bake", a.sampling.quiet);
-    repr::AzimuthBake bake = repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); });
+    Progress progress("repr bake", a.sampling.quiet || !rank0);
+    repr::AzimuthBake bake;
+    if (!distribution_given(a.distribution)) {
+        bake = repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); });
+    } else {
+        // Beyond one process (docs/cluster.md): the roughness nodes are the work items.
+        const schedule::Distribution distribution(
+            distribution_request(a.distribution, world), repr_store_key(spec, backend->scheduler()), a.out + ".chunks",
+            [quiet = a.sampling.quiet](const std::string& w) {
+                if (!quiet) std::cerr << "\nrepr bake: warning: " << w << "; computed again\n";
+            });
+        bool complete = false;
+        schedule::ItemRunReport report;
+        bake = bake_by_roughness(spec, *backend, distribution, progress, &complete, &report);
+        if (!distribution.writer() || !complete) {
+            progress.finish();
+            if (!world && !a.sampling.quiet)
+                std::cerr << "repr bake: "
+                          << distribution.shard_finished(report.loaded, report.run.done,
+                                                         "write " + a.out + " with the same command, --merge in place of --shard")
+                          << "\n";
+            return;
+        }
+    }
     progress.finish();
     bake.metadata["domain"] = domain.to_json(a.preset.empty() ? "the lookups this representation was made for; outside, its axes clamp"
                                                               : "the preset's domain: its measured errors hold here; outside, its axes clamp");
@@ -167,7 +293,7 @@ void run_repr_bake(ReprBakeArgs a) {
     }
     const auto rep = repr::build_representation(a.kind, bake);
     const std::string name = std::filesystem::path(a.out).filename().string();
-    file.write(outputs, *rep, a.half);
+    file->write(outputs, *rep, a.half);
     if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
     if (!a.shader_hlsl.empty()) outputs.stream(hlsl) << rep->shader(repr::ShaderLanguage::hlsl, name);
     outputs.commit();
@@ -244,7 +370,8 @@ void add_repr_command(CLI::App& app) {
                          "Default exact: at its default tolerance 1e-10 it takes ~10 us a texel x node query per core, "
                          "less than the sampled default's 65536 samples (~45 us a query per core for ~5e-4)");
     add_tolerance_option(bake, a->sampling);
-    bake->callback([a] { run_repr_bake(*a); });
+    add_distribution_options(bake, a->distribution, "roughness nodes", "OUT.chunks");
+    bake->callback([a] { with_distribution(a->distribution, [&](MpiWorld* world) { run_repr_bake(*a, world); }); });
 
     auto s = std::make_shared<ReprFileArgs>();
     auto* shader = repr_cmd->add_subcommand("shader", "write the GLSL or HLSL that samples a representation file");

@@ -1,5 +1,7 @@
 #include "cli/mpi_world.hpp"
 
+#include "cli/common.hpp"
+
 #include <stdexcept>
 
 #ifdef MICROSHADOW_HAVE_MPI
@@ -244,3 +246,47 @@ void MpiWorld::guard(const std::function<void()>& body) { body(); }
 }  // namespace ms::cli
 
 #endif
+
+namespace ms::cli {
+
+void add_distribution_options(CLI::App* cmd, DistributionArgs& args, const std::string& items, const std::string& default_store) {
+    args.cmd = cmd;
+    cmd->add_option("--shard", args.shard,
+                    "run only the " + items + " i with i % N == I (I/N; default: the Slurm array task's, from SLURM_ARRAY_TASK_ID "
+                    "and SLURM_ARRAY_TASK_COUNT), keeping them in the chunk store; write the outputs with --merge");
+    if (!default_store.empty())
+        cmd->add_option("--store", args.store,
+                        "chunk store folder of finished " + items + " (default with --shard or --merge: " + default_store +
+                            "); a rerun resumes from it");
+    cmd->add_flag("--merge", args.merge,
+                  "write the outputs from the " + items + " the shards left in the chunk store (same options, no --shard)");
+    cmd->add_flag("--mpi", args.mpi,
+                  "share the " + items + " among the ranks of an MPI world (mpirun -np N, N >= 2): rank 0 hands them out and writes");
+}
+
+bool distribution_given(const DistributionArgs& args) {
+    for (const char* o : {"--shard", "--store", "--merge", "--mpi"})
+        if (args.cmd->get_option_no_throw(o) && args.cmd->get_option(o)->count() > 0) return true;
+    return false;
+}
+
+schedule::DistributionRequest distribution_request(const DistributionArgs& args, MpiWorld* world) {
+    schedule::DistributionRequest r;
+    r.shard_given = args.cmd->get_option("--shard")->count() > 0;
+    if (args.merge && (r.shard_given || args.mpi))
+        throw std::invalid_argument("--merge assembles the shards a chunk store holds: it takes neither --shard nor --mpi");
+    if (args.mpi && r.shard_given) throw std::invalid_argument("--mpi shares the work among the ranks: it takes no --shard");
+    if (!args.merge && !args.mpi) r.shard = resolve_shard(args.shard);
+    r.store = args.store;
+    r.merge = args.merge;
+    r.transport = world ? &world->transport() : nullptr;
+    return r;
+}
+
+void with_distribution(const DistributionArgs& args, const std::function<void(MpiWorld*)>& body) {
+    if (!args.mpi) return body(nullptr);
+    MpiWorld world;
+    world.guard([&] { body(&world); });
+}
+
+}  // namespace ms::cli

@@ -4,8 +4,11 @@
 // (CMake's find_package(MPI)); without it --mpi is refused as bad input.
 #pragma once
 
+#include <CLI/CLI.hpp>
+
 #include <functional>
 #include <memory>
+#include <string>
 
 #include "schedule/distributed.hpp"
 
@@ -33,5 +36,23 @@ private:
     struct State;
     std::unique_ptr<State> state_;
 };
+
+// --shard, --store, --merge and --mpi of a command whose work items can be spread (docs/cluster.md).
+struct DistributionArgs {
+    std::string shard, store;
+    bool merge = false, mpi = false;
+    CLI::App* cmd = nullptr;
+};
+// `items` names the command's items in the help ("slices", "chunks", "roughness nodes");
+// `default_store` the store folder without --store ("" : the command has no --store).
+void add_distribution_options(CLI::App* cmd, DistributionArgs& args, const std::string& items, const std::string& default_store);
+// True when any of the four was given (a command that cannot spread some of its modes refuses them).
+bool distribution_given(const DistributionArgs& args);
+// The request of the options: --shard, or the Slurm array task's when not given (never for --merge or
+// --mpi: one job, not a task of an array), and the world's transport.
+schedule::DistributionRequest distribution_request(const DistributionArgs& args, MpiWorld* world);
+// Runs `body` inside an MPI world when --mpi was given (its argument then the world, else null): every
+// rank reads the same command line, and a failure on any rank stops the others cleanly.
+void with_distribution(const DistributionArgs& args, const std::function<void(MpiWorld*)>& body);
 
 }  // namespace ms::cli

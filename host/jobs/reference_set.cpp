@@ -28,6 +28,9 @@
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "io/text.hpp"
 #include "sampling/point_set.hpp"
+#include "schedule/chunk_store.hpp"
+
+#include <optional>
 
 namespace ms::design {
 
@@ -107,17 +110,10 @@ std::string row_text(const ReferencePoint& p, const Estimate& e) {
            "," + format_number(e.term) + "," + format_number(e.std_error) + "\n";
 }
 
-// What a cache file must hold, recorded when it is written: its row count and FNV-1a 64 digest. Rows
-// changed afterwards (a term out of range, or merely a different number) no longer match it.
-std::string digest_text(const std::string& rows) {
-    std::size_t lines = 0;
-    for (char ch : rows) lines += ch == '\n';
-    char text[17];
-    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fnv1a(rows)));
-    return "rows " + std::to_string(lines) + " fnv1a64 " + text;
-}
-// A chunk file ends with this line over the rows before it: each chunk checks itself.
-const std::string kDigestPrefix = "# ";
+// What a cache file must hold, recorded when it is written: its row count and FNV-1a 64 digest
+// ("rows N fnv1a64 H", the chunk store's digest line). Rows changed afterwards (a term out of range, or
+// merely a different number) no longer match it.
+std::string digest_text(const std::string& rows) { return schedule::digest_text(schedule::digest_of(rows)); }
 
 std::string read_whole(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
@@ -174,21 +170,6 @@ std::vector<Estimate> parse_rows(const std::string& text, const std::vector<Refe
         return {};
     }
     return out;
-}
-
-// A chunk file: the rows, then the digest line over them.
-std::vector<Estimate> read_chunk(const std::string& path, const std::vector<ReferencePoint>& points, std::size_t first,
-                                 std::size_t count, Damage* damage) {
-    const std::string text = read_whole(path);
-    const std::size_t last_line = text.size() >= 2 ? text.rfind('\n', text.size() - 2) : std::string::npos;
-    const std::size_t rows_end = last_line == std::string::npos ? 0 : last_line + 1;
-    const std::string trailer = text.substr(rows_end);
-    const std::string rows = text.substr(0, rows_end);
-    if (trailer != kDigestPrefix + digest_text(rows) + "\n") {
-        *damage = {"digest", "its rows do not match the digest line written with them"};
-        return {};
-    }
-    return parse_rows(rows, points, first, count, damage);
 }
 
 // The finished file: the header, the rows, and the digest its sidecar recorded.
@@ -264,12 +245,6 @@ public:
 private:
     int fd_ = -1;
 };
-
-std::string chunk_path(const std::string& chunk_dir, std::size_t chunk) {
-    char name[32];
-    std::snprintf(name, sizeof name, "chunk-%06zu.csv", chunk);
-    return (fs::path(chunk_dir) / name).string();
-}
 
 }  // namespace
 
@@ -521,22 +496,40 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
         set.values.clear();
         return false;
     };
-    if (try_finished()) {
+    const bool rank0 = !config.transport || config.transport->coordinator();
+    const bool sharded = config.shard.count > 1;
+    if (config.merge && (sharded || config.transport))
+        throw std::invalid_argument("a merge of the reference set's shards takes neither a shard nor an MPI world");
+    // Rank 0 of an MPI world that has nothing to hand out still runs the exchange, so the ranks stop.
+    auto release_ranks = [&] {
+        if (config.transport) config.transport->coordinate({}, [](std::uint64_t, const std::string&) {}, nullptr);
+    };
+    if (rank0 && try_finished()) {
         rep.from_cache = true;
+        release_ranks();
         return finish();
     }
     std::error_code ec;
-    fs::create_directories(config.dir, ec);
-    if (ec) throw std::invalid_argument(config.dir + ": cannot create the cache directory (" + ec.message() + ")");
-    // Both outputs checked before the long computation.
-    OutputSet outputs;
-    const std::size_t csv_out = outputs.add(set.file);
-    const std::size_t json_out = outputs.add(json_file);
-    const CacheLock lock(fs::path(set.file).replace_extension(".lock").string(), config.warn);
-    // Another run may have finished the set while this one waited for the lock.
-    if (try_finished()) {
-        rep.from_cache = true;
-        return finish();
+    // The finished set's two outputs, checked before the long computation (a shard writes neither).
+    std::optional<OutputSet> outputs;
+    std::size_t csv_out = 0, json_out = 0;
+    std::optional<CacheLock> lock;
+    if (rank0) {
+        fs::create_directories(config.dir, ec);
+        if (ec) throw std::invalid_argument(config.dir + ": cannot create the cache directory (" + ec.message() + ")");
+        // Shards share the chunk folder (their items are disjoint) and write no finished file: no lock.
+        if (!sharded) {
+            outputs.emplace();
+            csv_out = outputs->add(set.file);
+            json_out = outputs->add(json_file);
+            lock.emplace(fs::path(set.file).replace_extension(".lock").string(), config.warn);
+            // Another run may have finished the set while this one waited for the lock.
+            if (try_finished()) {
+                rep.from_cache = true;
+                release_ranks();
+                return finish();
+            }
+        }
     }
     TermBackend* backend = config.backend;
     auto need_backend = [&]() -> TermBackend& {
@@ -545,10 +538,11 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
         return *backend;
     };
     const std::string chunk_dir = fs::path(set.file).replace_extension(".chunks").string();
-    fs::create_directories(chunk_dir, ec);
-    if (ec) throw std::invalid_argument(chunk_dir + ": cannot create (" + ec.message() + ")");
-    // The definition beside the chunks: a chunk folder is only ever of this hash, but say what it is.
-    {
+    rep.chunk_folder = chunk_dir;
+    if (rank0) {
+        fs::create_directories(chunk_dir, ec);
+        if (ec) throw std::invalid_argument(chunk_dir + ": cannot create (" + ec.message() + ")");
+        // The definition beside the chunks: a chunk folder is only ever of this hash, but say what it is.
         AtomicFile f((fs::path(chunk_dir) / "definition.txt").string());
         f.stream() << def.canonical_text();
         f.commit();
@@ -556,45 +550,76 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
     const std::size_t chunk = std::max<std::size_t>(1, config.chunk_points);
     const std::size_t chunks = (n + chunk - 1) / chunk;
     set.values.assign(n, Estimate{});
-    std::size_t done = 0;
-    for (std::size_t c = 0; c < chunks; ++c) {
-        const std::size_t first = c * chunk, count = std::min(chunk, n - first);
-        const std::string path = chunk_path(chunk_dir, c);
-        if (fs::exists(path)) {
-            Damage damage;
-            const auto rows = read_chunk(path, set.points, first, count, &damage);
-            if (damage.tag.empty()) {
-                std::copy(rows.begin(), rows.end(), set.values.begin() + std::ptrdiff_t(first));
-                ++rep.chunks_found;
-                done += count;
-                if (config.progress) config.progress(done, n);
-                continue;
-            }
-            warn(path + ": " + damage.what + set_aside(path, damage.tag) + "; computed again");
-        }
-        if (config.max_chunks && rep.chunks_computed >= config.max_chunks)
-            throw IncompleteReference("reference set " + def.hash() + ": stopped after " +
-                                      std::to_string(rep.chunks_computed) + " chunks (resumable)");
+    // The chunks are the items of the chunk store (schedule/chunk_store.hpp) in the chunk folder: each
+    // chunk-NNNNNN.csv the rows of its points, sealed by a last line with their digest.
+    schedule::ChunkLayout layout;
+    layout.folder = chunk_dir;
+    layout.prefix = "chunk-";
+    layout.suffix = ".csv";
+    layout.digits = 6;
+    layout.seal = schedule::ItemSeal::trailer;
+    const schedule::StoreKey key{"design-reference", def.hash(), chunks};
+    std::optional<schedule::ItemStore> store;
+    schedule::ItemPlan plan;
+    if (config.merge) {
+        store.emplace(schedule::ItemStore::open_for_merge(chunk_dir, key, layout));
+        plan.merge_only = true;
+    } else if (rank0) {
+        store.emplace(chunk_dir, key, config.shard, schedule::CommitPolicy{}, layout);
+    }
+    plan.store = store ? &*store : nullptr;
+    plan.shard = config.shard;
+    plan.transport = config.transport;
+    plan.warn = [&](const std::string& w) { warn(w + (config.merge ? "; rerun its shard, then merge" : "; computed again")); };
+    auto first_of = [&](std::uint64_t c) { return std::size_t(c) * chunk; };
+    auto count_of = [&](std::uint64_t c) { return std::min(chunk, n - first_of(c)); };
+    std::size_t points_done = 0;
+    schedule::ItemJob job;
+    job.name = "reference set " + def.hash();
+    job.items = chunks;
+    job.check = [&](std::uint64_t c, const std::string& rows) -> std::string {
+        Damage damage;
+        parse_rows(rows, set.points, first_of(c), count_of(c), &damage);
+        return damage.tag.empty() ? "" : damage.tag + ": " + damage.what;
+    };
+    job.accept = [&](std::uint64_t c, const std::string& rows) {
+        Damage damage;
+        const auto values = parse_rows(rows, set.points, first_of(c), count_of(c), &damage);
+        if (!damage.tag.empty()) throw std::runtime_error("chunk " + std::to_string(c) + " of " + job.name + ": " + damage.what);
+        std::copy(values.begin(), values.end(), set.values.begin() + std::ptrdiff_t(first_of(c)));
+        points_done += count_of(c);
+        if (config.progress) config.progress(points_done, n);
+    };
+    std::size_t computed = 0;
+    job.compute = [&](std::uint64_t c) {
+        if (config.max_chunks && computed >= config.max_chunks)
+            throw IncompleteReference("reference set " + def.hash() + ": stopped after " + std::to_string(computed) +
+                                      " chunks (resumable)");
         throw_if_cancelled();
         TermBackend& b = need_backend();
+        const std::size_t first = first_of(c), count = count_of(c);
         std::vector<Query> queries;
         for (std::size_t i = first; i < first + count; ++i) queries.push_back(query_of(set.points[i]));
         const auto values = evaluate(b, queries, def.options, def.plan, nullptr, [&](std::size_t d, std::size_t) {
-            if (config.progress) config.progress(done + d, n);
+            if (config.progress) config.progress(points_done + d, n);
         });
         std::string rows;
         for (std::size_t i = 0; i < count; ++i) rows += row_text(set.points[first + i], values[i]);
-        AtomicFile f(path);
-        f.stream() << rows << kDigestPrefix << digest_text(rows) << "\n";
-        f.commit();
-        std::copy(values.begin(), values.end(), set.values.begin() + std::ptrdiff_t(first));
-        ++rep.chunks_computed;
-        done += count;
-        if (config.progress) config.progress(done, n);
+        ++computed;
+        return rows;
+    };
+    const schedule::ItemRunReport run = schedule::run_item_job(job, plan, {def.backend_label});
+    rep.chunks_found = run.loaded;
+    rep.chunks_computed = run.run.done;
+    if (!run.complete) {
+        rep.complete = false;
+        rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        return set;
     }
+    // Both outputs appear together or not at all.
     std::string text = kCacheHeader + "\n";
     for (std::size_t i = 0; i < n; ++i) text += row_text(set.points[i], set.values[i]);
-    outputs.stream(csv_out) << text;
+    outputs->stream(csv_out) << text;
     ReferenceSet result = finish();
     nlohmann::json meta = {{"program", "microshadow " MICROSHADOW_VERSION},
                            {"command_line", config.command_line},
@@ -615,10 +640,11 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
                             {"replicates", def.plan.replicates},
                             {"seed", def.plan.seed},
                             {"sequence", to_string(def.plan.sequence)}};
-    outputs.stream(json_out) << dump_json(meta, 2) << "\n";
-    outputs.commit();
-    // The finished file holds everything the chunks did. Only this run (holding the lock) ever wrote
-    // into this folder, so removing it cannot take another run's chunks.
+    outputs->stream(json_out) << dump_json(meta, 2) << "\n";
+    outputs->commit();
+    // The finished file holds everything the chunks did. Only this run (holding the lock, or merging
+    // shards that have all finished) writes into this folder now, so removing it takes no other run's chunks.
+    store.reset();
     fs::remove_all(chunk_dir, ec);
     return result;
 }

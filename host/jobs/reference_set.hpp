@@ -15,7 +15,8 @@
 //                            points are evaluated, its last line the digest of its rows; a resumed run
 //                            computes only the missing chunks and the folder is removed once the
 //                            finished set is written.
-//   reference-H.lock         held (flock) by the run computing the set.
+//   reference-H.lock         held (flock) by the run computing the set (not by shards: they share the
+//                            chunk folder, each with its manifest.shard-I-of-N.json, the chunk store's).
 //   rejected/                damaged files, set aside with the reason as a suffix.
 // A changed definition (points, region, sampling, form, AO weighting, backend) has another hash, so a
 // cache never answers for another definition.
@@ -30,6 +31,7 @@
 
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
+#include "schedule/distributed.hpp"
 
 namespace ms::design {
 
@@ -97,6 +99,12 @@ struct CacheConfig {
     std::function<TermBackend*()> open_backend;
     // Damaged files set aside and waits for another run's lock, as they happen.
     std::function<void(const std::string&)> warn;
+    // Beyond one process (docs/cluster.md): the chunks of one shard (kept in the chunk folder, which
+    // every shard of the definition shares), the merge of the shards' chunks, or an MPI world (rank 0
+    // hands the chunks out and writes the set; the other ranks compute and touch no file).
+    schedule::Shard shard;
+    bool merge = false;
+    schedule::ItemTransport* transport = nullptr;
 };
 
 struct CacheReport {
@@ -104,6 +112,10 @@ struct CacheReport {
     std::size_t chunks_found = 0, chunks_computed = 0;
     double seconds = 0;
     std::vector<std::string> warnings;  // damaged files set aside (each named, with where it went)
+    // false: this process holds only some chunks (a shard, or an MPI rank other than 0): the set is not
+    // whole here and was not written.
+    bool complete = true;
+    std::string chunk_folder;           // where the chunks were kept
 };
 
 // Stopped by CacheConfig::max_chunks before the set was complete (the chunks so far are kept).

@@ -309,6 +309,12 @@ json scene_lut_metadata(const SceneBakePlan& plan, const BakeResult& bake) {
     return meta;
 }
 
+schedule::StoreKey scene_bake_store_key(const SceneBakePlan& plan, const schedule::Scheduler& scheduler) {
+    schedule::StoreKey key = bake_store_key(plan.spec, scheduler);
+    key.job = "scene-bake";
+    return key;
+}
+
 SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<LightDomain>& domain, const BakeSpec& base,
                                TermBackend& backend, const SceneBakeOptions& options) {
     const SceneDescription& d = inputs.description();
@@ -321,7 +327,10 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
         if (options.progress) cb.progress = [&options, phase](std::size_t done, std::size_t total) { options.progress(phase, done, total); };
         return cb;
     };
-    if (options.compare) {
+    // Only the process that writes (one process, the merge, MPI rank 0) compares, so only it warms up.
+    const schedule::ItemPlan* items = options.items;
+    const bool writer = !items || ((!items->transport || items->transport->coordinator()) && items->shard.count == 1);
+    if (options.compare && writer) {
         // Warm-up: the first bake on a scheduler builds the kernels (PoCL: seconds), which would be
         // charged to whichever timed bake ran first. One row of one slice builds them.
         BakeSpec warm = r.plan.spec;
@@ -331,8 +340,9 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
         warm.tolerance = 0;  // one batch of the spec's samples: their point set is then cached for both bakes
         bake_lut(warm, backend.scheduler());
     }
-    r.bake = bake_lut(r.plan.spec, backend.scheduler(), progress("scene bake"));
-    if (!options.compare) return r;
+    r.bake = bake_lut(r.plan.spec, backend.scheduler(), progress("scene bake"), options.items ? *options.items : schedule::ItemPlan{});
+    // A shard, or a rank that only computed: the comparison is the writer's.
+    if (!options.compare || !r.bake.complete) return r;
 
     // The same layout in full (same scheduler, same run): what skipping saves.
     BakeSpec full = r.plan.spec;

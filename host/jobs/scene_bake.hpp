@@ -106,6 +106,10 @@ struct SceneBakeOptions {
     std::uint64_t azimuth_floor_samples = 16384;  // per azimuth node (0: no azimuth floor)
     double serve_error = 0.01;              // the verdict's threshold on the weighted error
     std::function<void(const std::string& phase, std::size_t done, std::size_t total)> progress;
+    // How the scene bake's slices are split (schedule/distributed.hpp; null: all here): a shard or an
+    // MPI rank other than 0 bakes its slices into the plan's store and returns with bake.complete false
+    // (no comparison, nothing to write). Its store key: scene_bake_store_key().
+    const schedule::ItemPlan* items = nullptr;
 };
 
 struct SceneBakeResult {
@@ -141,6 +145,9 @@ struct SceneBakeResult {
 // Plans, bakes and compares on `backend`'s scheduler (the reference uses the backend's term routine).
 SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<LightDomain>& domain, const BakeSpec& base,
                                TermBackend& backend, const SceneBakeOptions& options);
+
+// The chunk store key of the scene bake of `plan` (the slices of its partial bake).
+schedule::StoreKey scene_bake_store_key(const SceneBakePlan& plan, const schedule::Scheduler& scheduler);
 
 // The LUT's channels (R, G, B, A) of a spec.
 std::vector<LutChannel> lut_channels(const BakeSpec& spec);

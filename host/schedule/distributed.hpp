@@ -6,14 +6,7 @@
 // spec and the item's id alone, and save_item/load_item carry it between processes bit for bit. So the
 // same items, however they were split, run or rerun, assemble into the same bytes.
 //
-// The chunk store (ItemStore) is a directory:
-//   items/item-XXXXXXXXXX.bin        one finished item: a text header (format, spec hash, id, payload
-//                                    size and FNV-1a digest) then the payload; written atomically, so a
-//                                    killed process leaves either the whole item or nothing
-//   items/rejected/                  items found damaged, set aside (never read again) and recomputed
-//   manifest.shard-I-of-N.json       what shard I of N is (job, version, spec hash, item count), whether
-//                                    it finished, its devices and its reruns after device failures
-// Every shard of a job writes into the same directory (its items are disjoint): a merge reads one folder.
+// The chunk store that keeps finished items, resumes and merges is schedule/chunk_store.hpp.
 #pragma once
 
 #include <cstdint>
@@ -23,61 +16,17 @@
 #include <string>
 #include <vector>
 
+#include "schedule/chunk_store.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms::schedule {
 
-struct Shard {
-    std::uint32_t index = 0, count = 1;  // this process runs the items id with id % count == index
-};
 // "I/N" with 0 <= I < N <= 1000000; throws std::invalid_argument naming `option` and the text.
 Shard parse_shard(const std::string& text, const std::string& option = "--shard");
 // The shard of a Slurm array task (SLURM_ARRAY_TASK_ID, _MIN, _STEP, _COUNT from `lookup`, normally
 // getenv): nullopt outside an array; std::invalid_argument when the variables do not describe a task
 // of an array of consecutive ids (e.g. --array=0,3,7 or a %-throttle gives no I/N).
 std::optional<Shard> slurm_array_shard(const std::function<const char*(const char*)>& lookup);
-
-// What identifies a job's items: results from stores of another job, spec, version or item count are
-// never mixed.
-struct StoreKey {
-    std::string job;        // "bake", "sweep", ...
-    std::string spec_hash;  // hash of everything that decides the items' bits (spec, backend kind, version)
-    std::uint64_t items = 0;
-};
-
-class ItemStore {
-public:
-    // Opens (creating it if needed) the store in `dir` for `shard` of the job `key`. Throws
-    // std::invalid_argument (bad input: nothing is written) when a manifest there belongs to another
-    // job, spec, version or item count, or splits the job into another number of shards.
-    ItemStore(std::string dir, StoreKey key, Shard shard);
-    // Opens an existing store to merge it: every manifest must be of this key and one shard count.
-    // Throws std::invalid_argument when `dir` holds no manifest or mixes jobs or shard counts.
-    static ItemStore open_for_merge(std::string dir, StoreKey key);
-
-    const std::string& dir() const { return dir_; }
-    const Shard& shard() const { return shard_; }
-    // Item `id`'s payload when a sound file holds it; a damaged file is set aside, `warning` says so, and
-    // nullopt is returned (the caller recomputes the item).
-    std::optional<std::string> load(std::uint64_t id, std::string* warning = nullptr) const;
-    // Writes item `id` atomically.
-    void save(std::uint64_t id, const std::string& payload) const;
-    // Writes this shard's manifest (atomically). devices: the labels of the places that ran it.
-    void write_manifest(bool complete, const std::vector<std::string>& devices, std::uint64_t rerun) const;
-    // Merge: the shard count the manifests agree on, and the shards that have no manifest or are not
-    // complete (a shard that never ran or died).
-    std::uint32_t merge_shard_count() const { return shard_.count; }
-    std::vector<std::uint32_t> unfinished_shards() const;
-    // Merge: summed reruns and the devices of every manifest, first seen first.
-    std::uint64_t recorded_reruns() const;
-    std::vector<std::string> recorded_devices() const;
-
-private:
-    ItemStore() = default;
-    std::string dir_;
-    StoreKey key_;
-    Shard shard_;
-};
 
 // How rank 0 of an MPI world and the other ranks talk (implemented over MPI by the CLI; an interface
 // here so the jobs do not depend on MPI being built in).
@@ -122,5 +71,63 @@ struct ItemRunReport {
 // items (naming the shard to rerun), ms::Cancelled, and whatever Scheduler::run throws.
 ItemRunReport run_items(Scheduler& scheduler, Integrand& integrand, const ItemPlan& plan,
                         const RunCallbacks& callbacks = {});
+
+// A job whose items run one after another in this process, each on the whole scheduler (a batch of
+// queries handed to evaluate(), a bake of some channels, ...): split, kept, resumed, merged and spread
+// over MPI ranks by the same plan as run_items. The contract is the integrand's: an item's payload
+// depends on the job's spec and the item's id alone.
+struct ItemJob {
+    std::string name;              // in messages ("repr bake", "design reference set")
+    std::uint64_t items = 0;
+    // Computes item `id` and returns its payload (the bytes the store keeps and ranks send).
+    std::function<std::string(std::uint64_t id)> compute;
+    // Takes a finished item's payload: computed here, loaded from the store or gathered from a rank.
+    // Throws std::runtime_error when the bytes are not an item of this job.
+    std::function<void(std::uint64_t id, const std::string& payload)> accept;
+    // Optional: checks a stored item's payload before it is accepted ("" or "tag: reason"); a damaged
+    // one is set aside and computed again.
+    std::function<std::string(std::uint64_t id, const std::string& payload)> check;
+};
+
+// Runs the job's items as the plan says; `places` are the labels the manifests record (a shard's; one
+// process's store needs none: its items are the whole job). Throws as run_items does.
+ItemRunReport run_item_job(const ItemJob& job, const ItemPlan& plan, const std::vector<std::string>& places,
+                           const RunCallbacks& callbacks = {});
+
+// How a command asked for its items to be split, as parsed from its options.
+struct DistributionRequest {
+    Shard shard;                           // --shard I/N, or the Slurm array task's
+    bool shard_given = false;              // --shard was given (not only the array's variables)
+    std::string store;                     // --store DIR
+    bool merge = false;                    // --merge
+    ItemTransport* transport = nullptr;    // --mpi: the world
+};
+
+// The plan of a request for the job `key`: the store opened (for this shard, or for merging), where
+// the items are kept, and whether this process writes the outputs. Throws std::invalid_argument (bad
+// input, nothing written) for --merge with --shard or --mpi, --mpi with --shard, and whatever ItemStore
+// refuses (a store of another job, another split).
+class Distribution {
+public:
+    // default_store: the store folder when sharding or merging without --store (the job's output beside it).
+    Distribution(const DistributionRequest& request, const StoreKey& key, const std::string& default_store,
+                 std::function<void(const std::string&)> warn = {});
+    Distribution(const Distribution&) = delete;
+    Distribution& operator=(const Distribution&) = delete;
+
+    const ItemPlan& plan() const { return plan_; }
+    const Shard& shard() const { return shard_; }
+    const ItemStore* store() const { return store_ ? &*store_ : nullptr; }
+    // This process writes the job's outputs: one process, the merge, or rank 0 of an MPI world.
+    bool writer() const { return writer_; }
+    // "shard 1/4 finished in DIR (3 of its items found there, 5 computed); ..." for a shard's stderr.
+    std::string shard_finished(std::uint64_t loaded, std::uint64_t computed, const std::string& merge_hint) const;
+
+private:
+    std::optional<ItemStore> store_;
+    ItemPlan plan_;
+    Shard shard_;
+    bool writer_ = true;
+};
 
 }  // namespace ms::schedule

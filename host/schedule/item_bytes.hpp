@@ -26,6 +26,11 @@ public:
         put(std::uint64_t(v.size()));
         if (!v.empty()) bytes_.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
     }
+    // Text of any length (its size first).
+    void put_string(const std::string& text) {
+        put(std::uint64_t(text.size()));
+        bytes_ += text;
+    }
     std::string take() { return std::move(bytes_); }
 
 private:
@@ -58,6 +63,14 @@ public:
         if (n) std::memcpy(v.data(), bytes_.data() + at_, n * sizeof(T));
         at_ += n * sizeof(T);
         return v;
+    }
+    // What put_string wrote.
+    std::string get_string() {
+        const std::uint64_t n = get<std::uint64_t>();
+        need(n);
+        std::string text = bytes_.substr(at_, std::size_t(n));
+        at_ += std::size_t(n);
+        return text;
     }
     void finish() const {
         if (at_ != bytes_.size()) throw std::runtime_error(what_ + ": " + std::to_string(bytes_.size() - at_) + " bytes left over");

@@ -30,6 +30,7 @@
 #include "jobs/compare.hpp"
 #include "lut/lookup.hpp"
 #include "jobs/sweep/points.hpp"
+#include "schedule/chunk_store.hpp"
 
 namespace ms::sweep {
 
@@ -45,31 +46,24 @@ constexpr const char* kManifestFormat = "microshadow-sweep-manifest/2";
 // Manifests and LUT files read whole, with the input checks of io/input_file.hpp (regular files, a size limit).
 std::string read_all(const std::string& path) { return read_input_file(path, std::uint64_t(1) << 31, "file"); }
 
-std::string chunk_path(const std::string& dir, std::uint64_t c) {
-    char name[64];
-    std::snprintf(name, sizeof name, "chunk-%010" PRIu64 ".csv", c);
-    return (fs::path(dir) / "chunks" / name).string();
+// A sweep's chunks in the chunk store (schedule/chunk_store.hpp): chunks/chunk-XXXXXXXXXX.csv, the bare
+// rows, their digests recorded in the manifest; damaged ones go to chunks/rejected/.
+schedule::ChunkLayout chunk_layout(const std::string& dir) {
+    schedule::ChunkLayout layout;
+    layout.folder = (fs::path(dir) / "chunks").string();
+    layout.prefix = "chunk-";
+    layout.suffix = ".csv";
+    layout.seal = schedule::ItemSeal::recorded;
+    return layout;
 }
 
-// What a finished chunk must hold, recorded in the manifest when the chunk is written.
-json chunk_digest(const std::string& text) {
-    std::uint64_t rows = 0;
-    for (char ch : text) rows += ch == '\n';
-    return {{"rows", rows}, {"fnv1a64", hex16(fnv1a(text))}};
-}
+// The manifest's record of a chunk: {rows, fnv1a64}.
+json digest_json(const schedule::ItemDigest& d) { return {{"rows", d.rows}, {"fnv1a64", hex16(d.fnv1a)}}; }
 
-// Checks chunk c's file: exactly the rows of points [first, last), each with `fields` fields and its point
-// index first, and the digest recorded when it was written (when the manifest has one). Returns "" when
-// it is sound, else the reason (a short tag first: "missing", "digest", "rows", "index", "fields").
-std::string check_chunk_text(const std::string& text, std::uint64_t first, std::uint64_t last, std::size_t fields,
-                             const json* recorded) {
-    if (recorded) {
-        const json d = chunk_digest(text);
-        if (d != *recorded)
-            return "digest: its " + std::to_string(d["rows"].get<std::uint64_t>()) + " rows and digest " +
-                   d["fnv1a64"].get<std::string>() + " are not the " + std::to_string((*recorded)["rows"].get<std::uint64_t>()) +
-                   " rows and digest " + (*recorded)["fnv1a64"].get<std::string>() + " recorded when it was written";
-    }
+// Checks a chunk's rows: exactly the rows of points [first, last), each with `fields` fields and its
+// point index first. Returns "" when they are, else the reason (a short tag first: "rows", "index",
+// "fields").
+std::string check_chunk_text(const std::string& text, std::uint64_t first, std::uint64_t last, std::size_t fields) {
     std::uint64_t expect = first;
     std::size_t line_start = 0;
     while (line_start < text.size()) {
@@ -90,26 +84,26 @@ std::string check_chunk_text(const std::string& text, std::uint64_t first, std::
     return "";
 }
 
-std::string check_chunk(const std::string& path, std::uint64_t first, std::uint64_t last, std::size_t fields,
-                        const json* recorded) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) return "missing: the file is gone";
-    std::ostringstream ss;
-    ss << in.rdbuf();
-    return check_chunk_text(ss.str(), first, last, fields, recorded);
-}
-
-// Moves a damaged chunk to chunks/rejected/ (kept as evidence, never read again) and says so.
-std::string set_aside(const std::string& path, const std::string& reason) {
-    const fs::path from(path);
-    const fs::path dir = from.parent_path() / "rejected";
-    fs::create_directories(dir);
-    const std::string tag = reason.substr(0, reason.find(':'));
-    fs::path to = dir / (from.filename().string() + "." + tag);
-    for (int n = 1; fs::exists(to); ++n) to = dir / (from.filename().string() + "." + tag + "." + std::to_string(n));
+// Chunk c of `files` checked against its recorded digest (when the manifest has one: format-1 manifests
+// do not) and its rows. Returns "" when sound; else the warning: the chunk "missing" (listed as
+// finished, but gone), or damaged and set aside (the path, the reason and where it went).
+std::string check_chunk(const schedule::ChunkFiles& files, std::uint64_t c, std::uint64_t first, std::uint64_t last,
+                        std::size_t fields, const json* recorded) {
     std::error_code ec;
-    fs::rename(from, to, ec);
-    return path + ": " + reason + (ec ? " (could not be moved aside: " + ec.message() + ")" : "; moved to " + to.string());
+    if (!fs::exists(files.path(c), ec)) return "missing: the file is gone";
+    std::string warning;
+    const auto rows = files.read(c, &warning, [&](const std::string& text) -> std::string {
+        if (recorded) {
+            const json d = digest_json(schedule::digest_of(text));
+            if (d != *recorded)
+                return "digest: its " + std::to_string(d["rows"].get<std::uint64_t>()) + " rows and digest " +
+                       d["fnv1a64"].get<std::string>() + " are not the " +
+                       std::to_string((*recorded)["rows"].get<std::uint64_t>()) + " rows and digest " +
+                       (*recorded)["fnv1a64"].get<std::string>() + " recorded when it was written";
+        }
+        return check_chunk_text(text, first, last, fields);
+    });
+    return rows ? std::string() : warning;
 }
 
 std::string manifest_name(const Shard& s) {
@@ -386,22 +380,7 @@ std::vector<std::string> split(const std::string& line) {
 
 void check_comparator_files(const Spec& spec) { open_comparator_files(spec); }
 
-Shard parse_shard(const std::string& text) {
-    const auto slash = text.find('/');
-    auto bad = [&] { return std::invalid_argument("--shard: expected I/N with 0 <= I < N, got '" + text + "'"); };
-    if (slash == std::string::npos) throw bad();
-    try {
-        std::size_t used = 0;
-        const unsigned long i = std::stoul(text.substr(0, slash), &used);
-        if (used != slash) throw bad();
-        const std::string rest = text.substr(slash + 1);
-        const unsigned long n = std::stoul(rest, &used);
-        if (used != rest.size() || n == 0 || i >= n || n > 1000000) throw bad();
-        return {std::uint32_t(i), std::uint32_t(n)};
-    } catch (const std::logic_error&) {
-        throw bad();
-    }
-}
+Shard parse_shard(const std::string& text) { return schedule::parse_shard(text, "--shard"); }
 
 std::string csv_header(const Spec& spec) {
     std::string h = "point,form,ao_weighting,roughness,alpha_x,alpha_y,n_dot_v,phi_i,phi_o,delta_phi,n_dot_l,visibility,term,std_error";
@@ -552,26 +531,29 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     }
 
     // Chunks are the term integrand's work items: the scheduler deals the unfinished ones of this shard
-    // to the places; each worker writes its chunk file (atomically) as soon as the chunk is computed, and
-    // the manifest names it only after that, one update at a time, so a kill between the two only costs
-    // recomputing that chunk.
+    // to the places; each worker writes its chunk file (atomically, in the chunk store) as soon as the
+    // chunk is computed, and the manifest names it only once it is synced, a group at a time
+    // (schedule/chunk_store.hpp), so a kill costs at most recomputing one group of chunks.
     // Every chunk the manifest lists is checked before it is trusted: a damaged one is set aside (kept in
     // chunks/rejected/ as evidence), named in the result's warnings, and computed again.
+    schedule::CommitPolicy commit_policy;
+    commit_policy.automatic = false;  // synced where the manifest records them (on_done)
+    schedule::ChunkFiles files(chunk_layout(config.out_dir), commit_policy);
     const std::string header = csv_header(spec);
     const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
     for (auto it = finished.begin(); it != finished.end();) {
         const std::uint64_t c = *it;
         const std::string key = std::to_string(c);
         const json* recorded = digests.contains(key) ? &digests[key] : nullptr;
-        const std::string path = chunk_path(config.out_dir, c);
-        const std::string problem = c >= result.chunks ? "" : check_chunk(path, c * chunk_size, chunk_end(c), fields, recorded);
+        const std::string path = files.path(c);
+        const std::string problem = c >= result.chunks ? "" : check_chunk(files, c, c * chunk_size, chunk_end(c), fields, recorded);
         if (problem.empty()) {
             ++it;
             continue;
         }
         result.warnings.push_back(problem.rfind("missing", 0) == 0 ? path + ": listed as finished but " + problem.substr(9) +
                                                                          "; computed again"
-                                                                   : set_aside(path, problem) + "; computed again");
+                                                                   : problem + "; computed again");
         if (config.warn) config.warn(result.warnings.back());
         digests.erase(key);
         it = finished.erase(it);
@@ -583,11 +565,9 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     std::mutex digest_mutex;
     std::map<std::uint64_t, json> fresh;  // digests of chunks written in this run, until on_done records them
     auto store_rows = [&](std::uint64_t c, const std::string& rows) {
-        AtomicFile f(chunk_path(config.out_dir, c), true);
-        f.stream() << rows;
-        f.commit();
+        const schedule::ItemDigest d = files.write(c, rows);
         std::lock_guard<std::mutex> lock(digest_mutex);
-        fresh[c] = chunk_digest(rows);
+        fresh[c] = digest_json(d);
     };
     auto write_chunk = [&](std::uint64_t c, std::vector<Estimate>&& est) {
         store_rows(c, computer.rows(c * chunk_size, chunk_end(c), est));
@@ -606,33 +586,49 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
             fresh.erase(c);
         }
         finished.insert(c);
-        save_manifest(false);
+        // The manifest is rewritten when a group of chunks is synced, not after every chunk: it grows
+        // with the chunk count, and rewriting it per chunk made a long sweep quadratic.
+        if (files.commit_if_due()) save_manifest(false);
         ++result.computed;
     };
     if (config.progress)
         callbacks.progress = [&](std::uint64_t done, std::uint64_t) { config.progress(found + done, result.shard_chunks); };
-    if (config.transport) {
-        // Rank 0 of an MPI world: the other ranks compute the unfinished chunks; each one that comes back
-        // is written and recorded exactly as a local place's would be.
-        std::deque<std::uint64_t> pending;
-        for (std::uint64_t c = 0; c < result.chunks; ++c)
-            if (!chunk_done(c)) pending.push_back(c);
-        config.transport->coordinate(
-            std::move(pending),
-            [&](std::uint64_t c, const std::string& rows) {
-                if (c >= result.chunks) throw std::runtime_error("chunk " + std::to_string(c) + " is not a chunk of this sweep");
-                // The rows must be the chunk's points in the sweep's fields before they are trusted.
-                const std::string problem = check_chunk_text(rows, c * chunk_size, chunk_end(c), fields, nullptr);
-                if (!problem.empty()) throw std::runtime_error("chunk " + std::to_string(c) + " as received: " + problem);
-                store_rows(c, rows);
-                callbacks.on_done(c);
-            },
-            [&](std::uint64_t done, std::uint64_t) {
-                if (config.progress) config.progress(found + done, result.shard_chunks);
-            });
-    } else {
-        config.backend->scheduler().run(*integrand, selection, callbacks);
+    // The manifest of this run from the start (the chunks found sound), so a run stopped before its
+    // first group still names what it kept; and on the way out of a stopped run, every chunk finished.
+    save_manifest(false);
+    try {
+        if (config.transport) {
+            // Rank 0 of an MPI world: the other ranks compute the unfinished chunks; each one that comes
+            // back is written and recorded exactly as a local place's would be.
+            std::deque<std::uint64_t> pending;
+            for (std::uint64_t c = 0; c < result.chunks; ++c)
+                if (!chunk_done(c)) pending.push_back(c);
+            config.transport->coordinate(
+                std::move(pending),
+                [&](std::uint64_t c, const std::string& rows) {
+                    if (c >= result.chunks) throw std::runtime_error("chunk " + std::to_string(c) + " is not a chunk of this sweep");
+                    // The rows must be the chunk's points in the sweep's fields before they are trusted.
+                    const std::string problem = check_chunk_text(rows, c * chunk_size, chunk_end(c), fields);
+                    if (!problem.empty()) throw std::runtime_error("chunk " + std::to_string(c) + " as received: " + problem);
+                    store_rows(c, rows);
+                    callbacks.on_done(c);
+                },
+                [&](std::uint64_t done, std::uint64_t) {
+                    if (config.progress) config.progress(found + done, result.shard_chunks);
+                });
+        } else {
+            config.backend->scheduler().run(*integrand, selection, callbacks);
+        }
+    } catch (...) {
+        try {
+            files.commit();
+            save_manifest(false);
+        } catch (const std::exception&) {
+            // The first error is the one to report; the chunks not recorded are computed again.
+        }
+        throw;
     }
+    files.commit();
     std::uint64_t mine = 0;
     for (std::uint64_t c : finished) mine += (c % config.shard.count == config.shard.index && c < result.chunks);
     result.complete = mine == result.shard_chunks;
@@ -648,18 +644,17 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
         prov["complete"] = true;
         auto check = [&](std::uint64_t c) -> std::string {
             const std::string key = std::to_string(c);
-            const std::string path = chunk_path(config.out_dir, c);
-            const std::string problem = check_chunk(path, c * chunk_size, chunk_end(c), fields,
+            const std::string problem = check_chunk(files, c, c * chunk_size, chunk_end(c), fields,
                                                     digests.contains(key) ? &digests[key] : nullptr);
             if (problem.empty()) return "";
             // Forget it, so the next run computes it again.
             finished.erase(c);
             digests.erase(key);
             save_manifest(false);
-            return set_aside(path, problem) + "; sweep.csv was not written: rerun the same command to compute it again";
+            return (problem.rfind("missing", 0) == 0 ? files.path(c) + ": " + problem : problem) +
+                   "; sweep.csv was not written: rerun the same command to compute it again";
         };
-        assemble(config.out_dir, csv_header(spec), result.chunks, [&](std::uint64_t c) { return chunk_path(config.out_dir, c); },
-                 check, prov);
+        assemble(config.out_dir, csv_header(spec), result.chunks, [&](std::uint64_t c) { return files.path(c); }, check, prov);
         save_manifest(true);
         // The chunk files stay: they are the evidence sweep.csv was assembled from, checked against the
         // digests in the manifest (sweep --restart or removing the directory frees the space).
@@ -724,21 +719,24 @@ void merge_shards(const std::vector<std::string>& shard_dirs, const std::string&
     const std::string header = first.at("header");
     const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
     const std::uint64_t points = first.at("points"), chunk_size = first.at("chunk_size");
+    // Each shard's chunks as its own chunk store holds them.
+    std::map<std::uint32_t, std::unique_ptr<schedule::ChunkFiles>> files;
+    for (const auto& [i, shard] : shards) files[i] = std::make_unique<schedule::ChunkFiles>(chunk_layout(shard.dir));
     auto check = [&](std::uint64_t c) -> std::string {
-        const Found& shard = shards.at(std::uint32_t(c % count));
+        const std::uint32_t i = std::uint32_t(c % count);
+        const Found& shard = shards.at(i);
         const std::string key = std::to_string(c);
         const json* recorded =
             shard.manifest.contains("digests") && shard.manifest["digests"].contains(key) ? &shard.manifest["digests"][key] : nullptr;
-        const std::string path = chunk_path(shard.dir, c);
-        const std::string problem = check_chunk(path, c * chunk_size, std::min(points, (c + 1) * chunk_size), fields, recorded);
+        const std::string path = files.at(i)->path(c);
+        const std::string problem = check_chunk(*files.at(i), c, c * chunk_size, std::min(points, (c + 1) * chunk_size), fields, recorded);
         if (problem.empty()) return "";
-        return (problem.rfind("missing", 0) == 0 ? path + ": " + problem : set_aside(path, problem)) + "; rerun shard " +
+        return (problem.rfind("missing", 0) == 0 ? path + ": " + problem : problem) + "; rerun shard " +
                std::to_string(c % count) + "/" + std::to_string(count) + " in " + shard.dir +
                " (it computes the chunk again), then merge";
     };
     fs::create_directories(out_dir);
-    assemble(out_dir, header, chunks, [&](std::uint64_t c) { return chunk_path(shards.at(std::uint32_t(c % count)).dir, c); },
-             check, prov);
+    assemble(out_dir, header, chunks, [&](std::uint64_t c) { return files.at(std::uint32_t(c % count))->path(c); }, check, prov);
 }
 
 void ErrorStats::add(double e) {

@@ -31,9 +31,8 @@
 
 namespace ms::sweep {
 
-struct Shard {
-    std::uint32_t index = 0, count = 1;  // this run does chunks c with c % count == index
-};
+// This run does chunks c with c % count == index (the chunk store's shard).
+using Shard = schedule::Shard;
 // Parses "I/N" (0 <= I < N); throws std::invalid_argument.
 Shard parse_shard(const std::string& text);
 

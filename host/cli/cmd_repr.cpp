@@ -11,6 +11,7 @@
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
 #include "repr/presets.hpp"
+#include "jobs/repr_bake.hpp"
 #include "repr/representation.hpp"
 
 namespace ms::cli {

@@ -15,6 +15,7 @@
 #include "jobs/design.hpp"
 #include "jobs/design_closed_form.hpp"
 #include "jobs/reference_set.hpp"
+#include "jobs/repr_bake.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 
@@ -62,7 +63,7 @@ design::Candidate representation_candidate(const std::string& name, const std::s
     c.kind = r->kind();
     c.cost = r->cost();
     c.cost.alu_per_light = design::count_alu(r->shader(ms::repr::ShaderLanguage::glsl, file));
-    c.value = [r](const ms::compare::ComparatorInputs& in) { return (*r)(in); };
+    c.value = [r](const ms::approx::Inputs& in) { return (*r)(in); };
     c.domain = r->domain();
     c.provenance = r->provenance();
     return c;
@@ -117,7 +118,6 @@ DesignTable design(const DesignOptions& o, const Progress& progress) {
         const auto [name, file] = named_file("luts", l);
         candidates.push_back(design::lut_candidate(name, file));
     }
-    ms::repr::install_comparators();
     for (const auto& l : o.reprs) {
         const auto [name, file] = named_file("reprs", l);
         candidates.push_back(representation_candidate(name, file));

@@ -29,7 +29,8 @@ public:
     LutApproximation(std::shared_ptr<const LutLookup> lut, std::string path)
         : lut_(std::move(lut)), path_(std::move(path)) {}
     std::string kind() const override { return "lut"; }
-    std::string name() const override { return cost().storage; }
+    // The file, not the layout: the layout's words come with the cost, which generates the shader.
+    std::string name() const override { return "LUT " + path_; }
     // Computed when asked (it generates the shader): eval and sweeps ask only for provenance.
     Cost cost() const override { return lut_cost(lut_->file(), path_); }
     double operator()(const Inputs& in) const override { return lut_value(*lut_, in); }

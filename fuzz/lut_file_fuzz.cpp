@@ -25,7 +25,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
             if (!(c.roughness > 0 && c.roughness <= 1)) ms::fuzz::finding("roughness outside (0, 1] accepted");
         for (float v : lut.data)
             if (!(v >= 0 && v <= 1)) ms::fuzz::finding("a texel outside [0, 1] (or NaN) accepted");
-        const ms::sweep::LutLookup lookup(lut);
+        const ms::LutLookup lookup(lut);
         const double v = lookup(0.5, 0.5, 0.5, 0.5);
         if (!(v >= 0 && v <= 1)) ms::fuzz::finding("a lookup outside [0, 1]");
     } catch (const std::runtime_error&) {

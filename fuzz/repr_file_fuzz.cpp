@@ -23,7 +23,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
         if (r->texels().size() != texels * 4) ms::fuzz::finding("texel count differs from the texture's size");
         for (float v : r->texels())
             if (!(v >= -2 && v <= 2)) ms::fuzz::finding("a texel outside [-2, 2] accepted");
-        ms::compare::ComparatorInputs in;
+        ms::approx::Inputs in;
         for (double phi : {0.0, 1.0, 3.14159}) {
             in.visibility = 0.8;
             in.n_dot_l = 0.6;

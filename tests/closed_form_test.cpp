@@ -10,6 +10,7 @@
 #include <random>
 #include <sstream>
 
+#include "approx/analytic.hpp"
 #include "cli_runner.hpp"
 #include "exact/exact_term.hpp"
 #include "fit/closed_form.hpp"
@@ -180,7 +181,7 @@ TEST(ClosedFormCost, OrderOneIsCheaperInAluThanPart1sPzTerm) {
     f.order = 1;
     f.coefficients = {0.3, 2.0};
     const unsigned closed = ms::design::count_alu(ms::fit::generate_closed_form_shader(f, ms::fit::ClosedFormLanguage::glsl, "t"));
-    const unsigned pz = ms::design::count_alu(ms::design::analytic_glsl(ms::analytic::AnalyticTerm::pz_analytic));
+    const unsigned pz = ms::design::count_alu(ms::approx::analytic_glsl(ms::analytic::AnalyticTerm::pz_analytic));
     std::cout << "[ figures  ] ALU per light: closed-form-1 " << closed << ", pz-analytic " << pz << "\n";
     // The form itself is cheaper than the PZ term; the zero region's early-out (return 0 where the term
     // provably is: max, multiply, subtract, compare) costs 4 more, which puts order 1 one ALU above it.

@@ -372,7 +372,6 @@ void expect_refused(const std::string& file, const std::string& words) {
 }
 
 TEST_F(DesignReliability, RepresentationFilesWithTexelsOutOfRangeOrWrongChannelsAreRefused) {
-    ms::repr::install_comparators();
     ASSERT_EQ(cli("repr bake -q --kind azimuth-axis --visibility-count 4 --n-dot-l-count 4 --n-dot-v-count 2 --azimuth-nodes 3 "
                   "--roughness 0.3,0.7 --samples 1024 --out axis.exr")
                   .exit_code,
@@ -520,7 +519,6 @@ protected:
 };
 
 TEST_P(JobFaults, AFailingDeviceOrASigtermChangesNoBitAndLeavesNoTemporary) {
-    ms::repr::install_comparators();
     const Job job = job_named(GetParam(), dir_);
     const ChildRun clean = run_microshadow(dir_, with_out(job.args, "clean") + " -q");
     ASSERT_EQ(clean.exit_code, 0) << clean.log;

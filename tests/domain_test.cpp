@@ -83,7 +83,7 @@ TEST_F(DomainTest, LutFilesRecordTheirDomainAndLookupsOutsideAreAnsweredNotRefus
     ASSERT_TRUE(file.metadata.contains("domain")) << file.metadata.dump();
     EXPECT_EQ(file.metadata["domain"]["roughness"], nlohmann::json({0.3, 0.7}));
     EXPECT_EQ(file.metadata["domain"]["outside"], "counted");
-    const ms::sweep::LutLookup lookup(file);
+    const ms::LutLookup lookup(file);
     EXPECT_EQ(lookup.domain().describe(), "roughness [0.3, 0.7], visibility [0, 1], NdotV [0, 1]");
     EXPECT_NO_THROW(lookup(0.5, 0.5, 0.5, 0.1));  // clamped, as before; counted by the commands
 }
@@ -160,7 +160,7 @@ TEST_F(DomainTest, SweepsReportPointsOutsideAComparatorFilesDomainAndStrictRefus
 TEST(DesignDomain, CandidatesCountReferencePointsOutsideTheirDomain) {
     ms::design::Candidate c;
     c.name = "c";
-    c.value = [](const ms::compare::ComparatorInputs&) { return 0.5; };
+    c.value = [](const ms::approx::Inputs&) { return 0.5; };
     ms::design::ReferenceSet set;
     for (double r : {0.1, 0.35, 0.5, 0.95}) {
         ms::design::ReferencePoint p;
@@ -182,7 +182,6 @@ TEST_F(DomainTest, RepresentationFilesRecordTheirDomainAndEvalCountsIt) {
     const auto bake = run("repr bake -q --kind azimuth-harmonics --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2"
                           " --azimuth-nodes 7 --roughness 0.4,0.8 --domain-visibility 0.5,1 --out " + path("h.exr"));
     ASSERT_EQ(bake.exit_code, 0) << bake.output;
-    ms::repr::install_comparators();
     const auto rep = ms::repr::open_representation(path("h.exr"));
     ASSERT_TRUE(rep->domain().has_value());
     EXPECT_EQ(rep->domain()->describe(), "roughness [0.4, 0.8], visibility [0.5, 1], NdotV [0, 1]");
@@ -215,7 +214,6 @@ protected:
 TEST_F(PresetTest, BakeWithoutOptionsIsFullRangeAndPresetNamesAreComparators) {
     const auto bake = run_shell("cd " + dir_.string() + " && " + MICROSHADOW_CLI + " repr bake -q 2>&1");
     ASSERT_EQ(bake.exit_code, 0) << bake.output;
-    ms::repr::install_comparators();
     const auto rep = ms::repr::open_representation(path("full-range.exr"));
     const auto* tex = dynamic_cast<const ms::repr::TextureRepresentation*>(rep.get());
     ASSERT_NE(tex, nullptr);

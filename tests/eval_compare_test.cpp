@@ -165,7 +165,7 @@ TEST_F(EvalCompareTest, NamedLutAndSidecarProvenance) {
     auto cols = read_columns(path("r.csv"));
     EXPECT_EQ(cols["my-bake"], cols["mine"]);
     // The second query's wo = (0, 0, 2) is normalised: NdotL = 1; roughness = (0.2 * 0.5)^(1/4).
-    const ms::sweep::LutLookup lookup = ms::sweep::LutLookup::open(lut.string());
+    const ms::LutLookup lookup = ms::LutLookup::open(lut.string());
     EXPECT_NEAR(std::stod(cols["mine"][1]), lookup(0.3, 1.0, 0.8, std::pow(0.1, 0.25)), 1e-12);
     EXPECT_NEAR(std::stod(cols["naughty-dog"][1]), 1.0 + 2 * 0.09 - 1, 1e-12);
 
@@ -234,7 +234,7 @@ TEST(ComparatorInputs, RelativeAzimuthIsTheAngleBetweenTheProjections) {
             q.wi = {0.6 * std::cos(phi_i), 0.6 * std::sin(phi_i), 0.8};
             // wo scaled by 3: comparators see normalised directions.
             q.wo = {3 * 0.28 * std::cos(phi_i + dphi), 3 * 0.28 * std::sin(phi_i + dphi), 3 * 0.96};
-            const auto in = ms::compare::inputs_of(q, ms::AoWeighting::cosine);
+            const auto in = ms::approx::inputs_of(q, ms::AoWeighting::cosine);
             const double expected = std::fabs(std::remainder(dphi, 2 * pi));
             EXPECT_NEAR(in.relative_azimuth, expected, 1e-12) << "phi_i " << phi_i << " dphi " << dphi;
             EXPECT_NEAR(in.n_dot_l, 0.96, 1e-12);
@@ -243,7 +243,7 @@ TEST(ComparatorInputs, RelativeAzimuthIsTheAngleBetweenTheProjections) {
     ms::Query normal_view;  // wi along the normal: no azimuth to speak of
     normal_view.wi = {0, 0, 1};
     normal_view.wo = {0.6, 0, 0.8};
-    EXPECT_EQ(ms::compare::inputs_of(normal_view, ms::AoWeighting::cosine).relative_azimuth, 0.0);
+    EXPECT_EQ(ms::approx::inputs_of(normal_view, ms::AoWeighting::cosine).relative_azimuth, 0.0);
 }
 
 }  // namespace

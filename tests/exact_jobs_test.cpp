@@ -21,6 +21,7 @@
 #include "jobs/sweep/spec.hpp"
 #include "jobs/verify.hpp"
 #include "lut/exr_lut.hpp"
+#include "jobs/repr_bake.hpp"
 #include "repr/representation.hpp"
 
 namespace {

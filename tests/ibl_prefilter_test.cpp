@@ -270,3 +270,24 @@ TEST_F(IblPrefilterCli, WritesMipsIrradianceAndPreviews) {
 }
 
 }  // namespace
+
+namespace {
+// The automatic split: on a scene with a small disc 1000x brighter than the rest it takes the disc's texels
+// (the rest's coefficient of variation falls from ~5 to ~0.3, worth far more than their explicit cost) and
+// keeps the split exact (the texels plus the rest's power are the source's); a constant environment gets none.
+TEST(IblPrefilter, AutomaticSplitTakesTheDisc) {
+    const env::Dir d0{0.2, 0.1, std::sqrt(1 - 0.05)};
+    const env::Cubemap src = make_cube(32, [&](const env::Dir& d) {
+        const double c = d.x * d0.x + d.y * d0.y + d.z * d0.z;
+        return std::array<double, 3>{c > std::cos(3 * kPi / 180) ? 1000.0 : 0.5 + 0.3 * d.y, 1, 0.2};
+    });
+    const env::BrightSplit fixed = env::split_bright_texels(src, 50, 1024);
+    const env::BrightSplit chosen = env::choose_bright_split(src, 0.01, 1024);
+    EXPECT_GE(chosen.texels.size(), fixed.texels.size());  // at least every disc texel
+    EXPECT_GE(chosen.bright_power_fraction, fixed.bright_power_fraction - 1e-12);
+    EXPECT_GT(chosen.threshold, 0);
+    const env::Cubemap flat = make_cube(8, [](const env::Dir&) { return std::array<double, 3>{2, 2, 2}; });
+    EXPECT_TRUE(env::choose_bright_split(flat, 0.01, 1024).texels.empty());
+    EXPECT_THROW(env::choose_bright_split(flat, 0, 1024), std::invalid_argument);
+}
+}  // namespace

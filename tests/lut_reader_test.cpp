@@ -121,7 +121,7 @@ TEST_F(LutReaderTest, EveryFormatAndEncodingReadsBackEqualToTheExrWithinItsStep)
         EXPECT_EQ(info.encoding, c.encoding) << c.name;
         expect_equal_within_step(back, exr, c.encoding, c.name);
         // A lookup blends texels with weights summing to 1: it moves by at most the texels' step.
-        const sweep::LutLookup a(exr), b(back);
+        const LutLookup a(exr), b(back);
         for (double q : {0.1, 0.37, 0.8})
             EXPECT_LE(std::abs(a(q, 1 - q, 0.5, q) - b(q, 1 - q, 0.5, q)), encoding_step_bound(c.encoding) + 1e-7) << c.name;
     }
@@ -307,7 +307,7 @@ TEST_F(LutReaderTest, RepresentationDdsOpensLikeItsExr) {
     const auto a = repr::open_representation(path("r.exr"));
     const auto b = repr::open_representation(path("r.dds"));
     EXPECT_EQ(a->texels(), b->texels()) << "RGBA32F: the same floats";
-    compare::ComparatorInputs in;
+    approx::Inputs in;
     for (double v : {0.3, 0.9}) {
         in.visibility = v, in.n_dot_l = 0.7, in.n_dot_v = 0.6, in.roughness = 0.5, in.relative_azimuth = 1.0;
         EXPECT_EQ((*a)(in), (*b)(in));

@@ -22,6 +22,7 @@
 #include <sstream>
 
 #include "cli_runner.hpp"
+#include "jobs/compare.hpp"
 #include "repr/representation.hpp"
 #include "vulkan_compute.hpp"
 
@@ -140,7 +141,7 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
             const float v = float(u(rng)), l = float(u(rng) * 1.1 - 0.05), nv = float(0.02 + 0.98 * u(rng)), r = float(u(rng));
             const float cos_phi = i % 16 == 0 ? 1.0f : i % 16 == 1 ? -1.0f : float(2 * u(rng) - 1);
             inputs.insert(inputs.end(), {v, l, nv, r, cos_phi, 0, 0, 0});
-            ms::compare::ComparatorInputs in;
+            ms::approx::Inputs in;
             in.visibility = v, in.n_dot_l = l, in.n_dot_v = nv, in.roughness = r;
             in.relative_azimuth = std::acos(double(cos_phi));
             expected.push_back((*rep)(in));
@@ -254,13 +255,12 @@ TEST(ReprKtx2Test, TextureEqualsTheExrAndTheGeneratedShaderSamplesIt) {
             EXPECT_EQ(differ, 0u);
         }
         // The KTX2 opens as a representation (eval --compare, sweeps) equal to the EXR of the same precision.
-        ms::repr::install_comparators();
         const auto from_ktx2 = repr::open_representation(base + "_half.ktx2");
         const auto cmp = ms::compare::Comparator::parse("k=" + base + "_half.ktx2");
         ASSERT_TRUE(cmp.is_representation());
         EXPECT_EQ(from_ktx2->kind(), c.kind);
         for (int i = 0; i < 200; ++i) {
-            ms::compare::ComparatorInputs in;
+            ms::approx::Inputs in;
             in.visibility = u(rng), in.n_dot_l = u(rng), in.n_dot_v = 0.05 + 0.95 * u(rng), in.roughness = u(rng);
             in.relative_azimuth = M_PI * u(rng);
             EXPECT_EQ((*from_ktx2)(in), (*exr)(in));
@@ -296,7 +296,7 @@ TEST(ReprKtx2Test, TextureEqualsTheExrAndTheGeneratedShaderSamplesIt) {
             const float v = float(u(rng)), l = float(u(rng)), nv = float(0.02 + 0.98 * u(rng)), r = float(u(rng));
             const float cos_phi = float(2 * u(rng) - 1);
             inputs.insert(inputs.end(), {v, l, nv, r, cos_phi, 0, 0, 0});
-            ms::compare::ComparatorInputs in;
+            ms::approx::Inputs in;
             in.visibility = v, in.n_dot_l = l, in.n_dot_v = nv, in.roughness = r;
             in.relative_azimuth = std::acos(double(cos_phi));
             expected.push_back((*exr)(in));

@@ -74,7 +74,6 @@ protected:
 };
 
 TEST_F(ReprSweepTest, RepresentationColumnsEqualEvalCompareAndResumeRefusesAChangedFile) {
-    repr::install_comparators();
     repr::build_representation("azimuth-harmonics", synthetic_bake(0))->write(path("harm.exr"), true);
     repr::build_representation("azimuth-axis", synthetic_bake(0))->write(path("axis.exr"), false);
     // Points inside and on the edges of the grid: NdotL = 1 and NdotV = 1 (no azimuth), the zero
@@ -125,7 +124,7 @@ TEST_F(ReprSweepTest, RepresentationColumnsEqualEvalCompareAndResumeRefusesAChan
             EXPECT_NEAR(s, e, 1e-9) << name << " at sweep point " << i;
             const auto in0 = [&] {
                 auto p = grid.at(i);
-                ms::compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
+                ms::approx::Inputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
                 return in;
             }();
             const auto c = ms::compare::Comparator::open_file(name, path(std::string(name) + ".exr"));

@@ -125,8 +125,8 @@ TEST_F(SceneBakeTest, PartialBakeMatchesTheFullBakeAndUnbakedTexelsAreMarkedAndR
     write_lut(path("part.exr"), {plan.spec.visibility, plan.spec.n_dot_l, plan.spec.n_dot_v}, channels, part.value, meta, false);
     write_lut(path("full.exr"), {plan.spec.visibility, plan.spec.n_dot_l, plan.spec.n_dot_v}, channels, full.value,
               bake_metadata(full_spec, full), false);
-    const auto part_lut = sweep::LutLookup::open(path("part.exr"));
-    const auto full_lut = sweep::LutLookup::open(path("full.exr"));
+    const auto part_lut = LutLookup::open(path("part.exr"));
+    const auto full_lut = LutLookup::open(path("full.exr"));
     for (const auto& l : domain[0].lookups)
         EXPECT_EQ(part_lut(l.visibility, l.n_dot_l, l.n_dot_v, l.roughness), full_lut(l.visibility, l.n_dot_l, l.n_dot_v, l.roughness));
     EXPECT_THROW(part_lut(0.5, 0.8, 0.1, 0.5), std::domain_error);   // another NdotV slice

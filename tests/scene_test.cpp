@@ -656,7 +656,6 @@ namespace {
 // and reads each pixel's relative azimuth: two lights at the same NdotL on opposite sides of the view
 // give the values the representation's own lookup gives at azimuths 0 and 180 degrees.
 TEST_F(SceneTest, RepresentationComparatorReadsEachPixelsAzimuth) {
-    repr::install_comparators();
     const auto bake = testing::run_shell(std::string(MICROSHADOW_CLI) +
                                          " repr bake -q --kind azimuth-harmonics --visibility-count 4 --n-dot-l-count 4"
                                          " --n-dot-v-count 4 --azimuth-nodes 7 --roughness 0.4,0.8 --samples 1024 --out " +
@@ -691,7 +690,7 @@ analytic = []
     EXPECT_EQ(r.comparators[0], "repr-harm");
     const compare::Comparator c = compare::Comparator::open_file("harm", path("harm.exr"));
     ASSERT_TRUE(c.is_representation());
-    compare::ComparatorInputs in;
+    approx::Inputs in;
     in.visibility = 0.75;
     in.n_dot_l = 0.8;
     in.n_dot_v = 0.8;
@@ -709,7 +708,6 @@ analytic = []
 // A comparator file's domain in a scene: lit pixels outside it are counted per comparator (report.json
 // "comparator_domains"), and --strict-domain refuses the scene before any sampling.
 TEST_F(SceneTest, LookupsOutsideAComparatorsDomainAreCountedAndStrictRefusesThem) {
-    repr::install_comparators();
     const auto bake = testing::run_shell(std::string(MICROSHADOW_CLI) +
                                          " repr bake -q --kind azimuth-harmonics --visibility-count 2 --n-dot-l-count 2"
                                          " --n-dot-v-count 2 --azimuth-nodes 7 --roughness 0.4,0.8 --out " + path("harm.exr") + " 2>&1");

@@ -1,7 +1,7 @@
 // Generated shaders: the GLSL and HLSL that `microshadow bake --shader-glsl/--shader-hlsl`
 // and `microshadow shader` write compile with glslangValidator, and run as compute shaders on a Vulkan
 // CPU device (Mesa lavapipe) over the bake's KTX2 texture they agree with the sweeps' `lut3d`
-// comparator (ms::sweep::LutLookup on the EXR): within 1e-5 for float textures, one 8-bit step for
+// comparator (ms::LutLookup on the EXR): within 1e-5 for float textures, one 8-bit step for
 // RGBA8, exactly 0 in the zero region.
 #include <gtest/gtest.h>
 
@@ -177,7 +177,7 @@ struct Agreement {
     std::size_t compared = 0, zero_region = 0;
 };
 
-Agreement compare(const ms::sweep::LutLookup& lookup, const std::vector<float>& points, const std::vector<float>& got,
+Agreement compare(const ms::LutLookup& lookup, const std::vector<float>& points, const std::vector<float>& got,
                   double tolerance, bool cosine, const std::string& what) {
     Agreement a;
     for (std::size_t i = 0; i < got.size(); ++i) {
@@ -212,7 +212,7 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
             const RunResult r = cli("bake -q " + c.bake_args + extra + " --out " + base + ext);
             ASSERT_EQ(r.exit_code, 0) << r.output;
         }
-        const auto lookup = ms::sweep::LutLookup::open(base + ".exr");
+        const auto lookup = ms::LutLookup::open(base + ".exr");
         const bool three_d = c.name != "seed2d", cosine = c.name != "uniform";
         const auto glsl = compile(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
         const auto hlsl = compile(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
@@ -237,7 +237,7 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
         for (const auto& enc : encodings) {
             ms::LutFile stored = lookup.file();
             for (float& v : stored.data) v = enc.store(v);
-            const ms::sweep::LutLookup stored_lookup(stored);
+            const ms::LutLookup stored_lookup(stored);
             const auto texture = ktx2_texture(base + enc.ext);
             for (bool use_hlsl : {false, true}) {
                 const std::string what = c.name + enc.ext + (use_hlsl ? " hlsl" : " glsl");

@@ -22,13 +22,14 @@
 #include "lut/formats/lut_reader.hpp"
 #include "lut/lookup.hpp"
 #include <nlohmann/json.hpp>
+#include "jobs/repr_bake.hpp"
 #include "repr/representation.hpp"
 #include "sampling/point_set.hpp"
 
 namespace microshadow {
 
 struct Lut::Data {
-    ms::sweep::LutLookup lookup;
+    ms::LutLookup lookup;
 };
 
 namespace detail {
@@ -67,7 +68,7 @@ std::unique_ptr<ms::TermBackend> make_backend(const SamplingOptions& o) {
 }
 
 Lut make_lut(ms::LutFile file) {
-    return Lut(std::make_shared<const Lut::Data>(Lut::Data{ms::sweep::LutLookup(std::move(file))}));
+    return Lut(std::make_shared<const Lut::Data>(Lut::Data{ms::LutLookup(std::move(file))}));
 }
 
 }  // namespace
@@ -361,7 +362,7 @@ LookupFile::LookupFile(std::shared_ptr<const Data> data) : data_(std::move(data)
 LookupInputs lookup_inputs(const Query& q) {
     const ms::Query query{q.visibility, q.alpha_x, q.alpha_y, {q.wi.x, q.wi.y, q.wi.z}, {q.wo.x, q.wo.y, q.wo.z}};
     ms::validate_query(query);
-    const ms::compare::ComparatorInputs in = ms::compare::inputs_of(query, ms::AoWeighting::cosine);
+    const ms::approx::Inputs in = ms::approx::inputs_of(query, ms::AoWeighting::cosine);
     return {in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.relative_azimuth * (180.0 / M_PI)};
 }
 
@@ -391,7 +392,7 @@ const Lut& LookupFile::lut() const {
 double LookupFile::lookup(double visibility, double n_dot_l, double n_dot_v, double roughness,
                           double relative_azimuth_degrees) const {
     if (data_->lut) return data_->lut->lookup(visibility, n_dot_l, n_dot_v, roughness);
-    ms::compare::ComparatorInputs in;
+    ms::approx::Inputs in;
     in.visibility = visibility;
     in.n_dot_l = n_dot_l;
     in.n_dot_v = n_dot_v;

@@ -97,7 +97,6 @@ SweepTable read_sweep_csv(const fs::path& path) {
 }
 
 SweepTable run(ms::sweep::Spec spec, const SweepOptions& o, const Progress& progress) {
-    ms::repr::install_comparators();  // comparator files may be representations
     // The plan as the CLI builds it: the spec's [sampling] values unless the option is given.
     ms::SamplingPlan plan;
     plan.method = o.method ? (*o.method == Method::exact ? ms::Method::exact : ms::Method::sampled)

@@ -28,6 +28,7 @@
 #include "jobs/design_closed_form.hpp"
 #include "jobs/reference_set.hpp"
 #include "repr/presets.hpp"
+#include "jobs/repr_bake.hpp"
 #include "repr/representation.hpp"
 
 
@@ -120,7 +121,7 @@ design::Candidate representation_candidate(const std::string& name, const std::s
     c.cost = r->cost();
     // ALU counted from its GLSL like every other candidate (the representation's own estimate differs).
     c.cost.alu_per_light = design::count_alu(r->shader(repr::ShaderLanguage::glsl, file));
-    c.value = [r](const compare::ComparatorInputs& in) { return (*r)(in); };
+    c.value = [r](const approx::Inputs& in) { return (*r)(in); };
     c.domain = r->domain();
     c.provenance = r->provenance();
     c.provenance["name"] = name;

@@ -41,7 +41,7 @@ void run_eval(const EvalArgs& args) {
     std::vector<std::optional<LookupDomain>> domains;
     for (const auto& c : comparators) domains.push_back(c.domain());
     for (std::size_t i = 0; i < queries.size() && !comparators.empty(); ++i) {
-        const compare::ComparatorInputs in = compare::inputs_of(queries[i], term.ao_weighting);
+        const approx::Inputs in = approx::inputs_of(queries[i], term.ao_weighting);
         n_dot_l[i] = in.n_dot_l;
         for (std::size_t k = 0; k < comparators.size(); ++k) {
             if (domains[k]) {

@@ -18,6 +18,7 @@
 #include "io/text.hpp"
 #include "schedule/item_bytes.hpp"
 #include "repr/presets.hpp"
+#include "jobs/repr_bake.hpp"
 #include "repr/representation.hpp"
 
 namespace ms::cli {

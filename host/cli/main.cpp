@@ -7,7 +7,6 @@
 #include "core/cancel.hpp"
 #include "io/csv.hpp"
 #include "device/error.hpp"
-#include "repr/representation.hpp"
 
 int main(int argc, char** argv) {
     using namespace ms;
@@ -28,7 +27,6 @@ int main(int argc, char** argv) {
     cli::add_design_command(app);
     cli::add_repr_command(app);
     cli::add_area_command(app);
-    repr::install_comparators();   // eval --compare FILE opens representation files
     cli::add_help_command(app);
     cli::install_interrupt_handlers();
     try {

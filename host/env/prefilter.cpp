@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "core/estimate.hpp"
@@ -41,16 +42,41 @@ double ggx_d(double c, double alpha) {
     return a2 / (kPi * d * d);
 }
 
+void PrefilterSums::add(const PrefilterSums& other) {
+    if (other.den.size() != den.size()) throw std::invalid_argument("PrefilterSums::add: replicate counts differ");
+    for (std::size_t i = 0; i < num.size(); ++i) num[i] += other.num[i];
+    for (std::size_t i = 0; i < den.size(); ++i) den[i] += other.den[i];
+}
+
+PrefilterValue prefilter_value(const PrefilterSums& sums, const std::array<double, 3>& exact_part) {
+    const std::uint32_t R = sums.replicates();
+    std::vector<double> num(R);
+    PrefilterValue out;
+    for (int k = 0; k < 3; ++k) {
+        for (std::uint32_t r = 0; r < R; ++r) num[r] = sums.num[3 * std::size_t(r) + k];
+        const Estimate e = reduce_replicates(num.data(), sums.den.data(), R);
+        out.value[k] = e.term + exact_part[k];
+        out.std_error[k] = e.std_error;
+    }
+    return out;
+}
+
 PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir& n, double roughness, const PointSet& points,
                                    const PrefilterOptions& options) {
+    PrefilterSums sums(points.replicates);
+    prefilter_sums(chain, n, roughness, points, options, sums);
+    return prefilter_value(sums);
+}
+
+void prefilter_sums(const std::vector<Cubemap>& chain, const Dir& n, double roughness, const PointSet& points,
+                    const PrefilterOptions& options, PrefilterSums& sums) {
     if (!(roughness > 0)) throw std::invalid_argument("prefilter_direction: roughness > 0 (roughness 0 is the source)");
+    if (sums.replicates() != points.replicates) throw std::invalid_argument("prefilter_sums: replicate counts differ");
     const double alpha = roughness * roughness, a2 = alpha * alpha;
     const Frame f = frame_of(n);
     const std::uint32_t R = points.replicates, np = points.points_per_replicate;
     const double omega_p = 4.0 / (double(chain[0].size) * chain[0].size);  // a texel at a face's centre
     const double total = double(points.total());
-    std::vector<double> num[3], den(R, 0.0);
-    for (auto& v : num) v.assign(R, 0.0);
     for (std::uint32_t r = 0; r < R; ++r)
         for (std::uint32_t i = 0; i < np; ++i) {
             const double u1 = points.u1[std::size_t(r) * np + i], u2 = points.u2[std::size_t(r) * np + i];
@@ -76,54 +102,97 @@ PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir&
                 lod = std::max(0.0, 0.5 * std::log2(1 / (total * pdf) / omega_l) + options.lod_bias);
             }
             const auto v = sample_trilinear(chain, l, lod);
-            for (int k = 0; k < 3; ++k) num[k][r] += v[k] * n_dot_l;
-            den[r] += n_dot_l;
+            for (int k = 0; k < 3; ++k) sums.num[3 * std::size_t(r) + k] += v[k] * n_dot_l;
+            sums.den[r] += n_dot_l;
         }
-    PrefilterValue out;
-    for (int k = 0; k < 3; ++k) {
-        const Estimate e = reduce_replicates(num[k].data(), den.data(), R);
-        out.value[k] = e.term;
-        out.std_error[k] = e.std_error;
-    }
-    return out;
 }
 
-BrightSplit split_bright_texels(const Cubemap& source, double threshold, std::size_t max_texels) {
+namespace {
+double luminance(const float* v) { return (double(v[0]) + v[1] + v[2]) / 3; }
+
+// Every source texel's luminance and solid angle, and the brightest `max_texels` of them, brightest first.
+struct TexelStats {
+    std::vector<double> omega;  // per (y, x) of a face
+    double power = 0, second_moment = 0;  // int lum dl, int lum^2 dl
+    std::vector<std::pair<double, BrightTexel>> brightest;
+};
+TexelStats texel_stats(const Cubemap& source, double min_luminance, std::size_t max_texels) {
+    TexelStats s;
+    const std::uint32_t n = source.size;
+    s.omega.resize(std::size_t(n) * n);
+    for (std::uint32_t y = 0; y < n; ++y)
+        for (std::uint32_t x = 0; x < n; ++x) s.omega[std::size_t(y) * n + x] = cube_texel_solid_angle(x, y, n);
+    std::vector<std::pair<double, BrightTexel>> candidates;
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < n; ++y)
+            for (std::uint32_t x = 0; x < n; ++x) {
+                const float* v = source.texel(f, x, y);
+                const double l = luminance(v), w = s.omega[std::size_t(y) * n + x];
+                s.power += l * w;
+                s.second_moment += l * l * w;
+                if (l > min_luminance) candidates.push_back({l, {f, x, y, {v[0], v[1], v[2]}}});
+            }
+    // The brightest first, so a cap keeps the texels that matter most (ties in scan order: deterministic).
+    const std::size_t keep = std::min(max_texels, candidates.size());
+    std::partial_sort(candidates.begin(), candidates.begin() + std::ptrdiff_t(keep), candidates.end(), [](const auto& a, const auto& b) {
+        if (a.first != b.first) return a.first > b.first;
+        if (a.second.face != b.second.face) return a.second.face < b.second.face;
+        return a.second.y != b.second.y ? a.second.y < b.second.y : a.second.x < b.second.x;
+    });
+    candidates.resize(keep);
+    s.brightest = std::move(candidates);
+    return s;
+}
+
+BrightSplit split_off(const Cubemap& source, const TexelStats& stats, std::size_t count, double threshold) {
     BrightSplit split;
     split.size = source.size;
     split.threshold = threshold;
-    const std::uint32_t n = source.size;
-    double power = 0;
-    std::vector<double> omega(std::size_t(n) * n);
-    for (std::uint32_t y = 0; y < n; ++y)
-        for (std::uint32_t x = 0; x < n; ++x) omega[std::size_t(y) * n + x] = cube_texel_solid_angle(x, y, n);
-    auto lum = [](const float* v) { return (double(v[0]) + v[1] + v[2]) / 3; };
-    for (int f = 0; f < 6; ++f)
-        for (std::uint32_t y = 0; y < n; ++y)
-            for (std::uint32_t x = 0; x < n; ++x) power += lum(source.texel(f, x, y)) * omega[std::size_t(y) * n + x];
-    split.mean_radiance = power / (4 * kPi);
-    std::vector<std::pair<double, BrightTexel>> bright;
-    if (threshold > 0)
-        for (int f = 0; f < 6; ++f)
-            for (std::uint32_t y = 0; y < n; ++y)
-                for (std::uint32_t x = 0; x < n; ++x) {
-                    const float* v = source.texel(f, x, y);
-                    if (lum(v) > threshold * split.mean_radiance) bright.push_back({lum(v), {f, x, y, {v[0], v[1], v[2]}}});
-                }
-    // The brightest first, so a cap keeps the texels that matter most.
-    std::sort(bright.begin(), bright.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-    if (bright.size() > max_texels) bright.resize(max_texels);
+    split.mean_radiance = stats.power / (4 * kPi);
     Cubemap rest = source;
     double bright_power = 0;
-    for (const auto& b : bright) {
-        split.texels.push_back(b.second);
-        float* t = rest.texel(b.second.face, b.second.x, b.second.y);
-        bright_power += lum(t) * omega[std::size_t(b.second.y) * n + b.second.x];
+    for (std::size_t i = 0; i < count && i < stats.brightest.size(); ++i) {
+        const BrightTexel& b = stats.brightest[i].second;
+        split.texels.push_back(b);
+        float* t = rest.texel(b.face, b.x, b.y);
+        bright_power += luminance(t) * stats.omega[std::size_t(b.y) * source.size + b.x];
         t[0] = t[1] = t[2] = 0;
     }
-    split.bright_power_fraction = power > 0 ? bright_power / power : 0;
+    split.bright_power_fraction = stats.power > 0 ? bright_power / stats.power : 0;
     split.rest_chain = mip_chain(rest);
     return split;
+}
+}  // namespace
+
+BrightSplit split_bright_texels(const Cubemap& source, double threshold, std::size_t max_texels) {
+    // The mean radiance first (the threshold is relative to it), then the texels above threshold x mean.
+    const TexelStats all = texel_stats(source, std::numeric_limits<double>::infinity(), 0);
+    const double mean = all.power / (4 * kPi);
+    const TexelStats stats = threshold > 0 ? texel_stats(source, threshold * mean, max_texels) : all;
+    return split_off(source, stats, stats.brightest.size(), threshold);
+}
+
+BrightSplit choose_bright_split(const Cubemap& source, double tolerance, std::size_t max_texels, double explicit_cost_ratio) {
+    if (!(tolerance > 0)) throw std::invalid_argument("choose_bright_split: tolerance must be > 0");
+    const TexelStats stats = texel_stats(source, 0.0, max_texels);
+    const double mean = stats.power / (4 * kPi);
+    // cost(k) over k = 0 .. the candidates, the rest's moments by running subtraction (in long double: the
+    // moments of the rest are differences of nearly equal sums once most of the power is removed).
+    long double power = stats.power, second = stats.second_moment;
+    std::size_t best_k = 0;
+    double best_cost = std::numeric_limits<double>::infinity();
+    for (std::size_t k = 0;; ++k) {
+        const double cv2 = power > 0 ? std::max(0.0, double(4 * kPi * second / (power * power)) - 1) : 0.0;
+        const double cost = cv2 / (tolerance * tolerance) + explicit_cost_ratio * double(k);
+        if (cost < best_cost) best_cost = cost, best_k = k;
+        if (k == stats.brightest.size() || power <= 0) break;
+        const BrightTexel& b = stats.brightest[k].second;
+        const double l = stats.brightest[k].first, w = stats.omega[std::size_t(b.y) * source.size + b.x];
+        power -= l * w;
+        second -= l * l * w;
+    }
+    const double threshold = best_k > 0 && mean > 0 ? stats.brightest[best_k - 1].first / mean : 0.0;
+    return split_off(source, stats, best_k, threshold);
 }
 
 double ggx_prefilter_normalisation(double alpha) {
@@ -145,14 +214,19 @@ double ggx_prefilter_normalisation(double alpha) {
 
 PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n, double roughness, const PointSet& points,
                                          const PrefilterOptions& options) {
-    PrefilterValue v = prefilter_direction(split.rest_chain, n, roughness, points, options);
-    if (split.texels.empty()) return v;
+    PrefilterSums sums(points.replicates);
+    prefilter_sums(split.rest_chain, n, roughness, points, options, sums);
+    return prefilter_value(sums, bright_texel_share(split, n, roughness));
+}
+
+std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness) {
+    std::array<double, 3> sum{};
+    if (split.texels.empty()) return sum;
     const double alpha = roughness * roughness;
     const std::uint32_t size = split.size;
     // As the oracle: while the lobe is narrow against a texel, texels near n are integrated on 8 x 8 sub-directions.
     const double texel_angle = 2.0 / size;
     const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
-    std::array<double, 3> sum{};
     for (const BrightTexel& t : split.texels) {
         const Dir l = cube_direction(t.face, 2 * (t.x + 0.5) / size - 1, 2 * (t.y + 0.5) / size - 1);
         const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
@@ -186,8 +260,8 @@ PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n,
         for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
     }
     const double z = ggx_prefilter_normalisation(alpha);
-    for (int c = 0; c < 3; ++c) v.value[c] += sum[c] / z;
-    return v;
+    for (int c = 0; c < 3; ++c) sum[c] /= z;
+    return sum;
 }
 
 std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness) {

@@ -38,6 +38,23 @@ struct PrefilterValue {
     std::array<double, 3> value{}, std_error{};
 };
 
+// The ratio estimator's per-replicate tallies of one direction: num[3 r + c] = sum L_c (n.l),
+// den[r] = sum (n.l) over replicate r's points. Rounds of samples on independently scrambled point sets
+// add replicate by replicate (replicate r of the sum is still independent of replicate r' != r), so a
+// texel can be sampled until its error bar is small enough (jobs/ibl_prefilter.hpp, tolerance).
+struct PrefilterSums {
+    std::vector<double> num, den;
+    explicit PrefilterSums(std::uint32_t replicates = 0) : num(3 * std::size_t(replicates), 0.0), den(replicates, 0.0) {}
+    std::uint32_t replicates() const { return std::uint32_t(den.size()); }
+    void add(const PrefilterSums& other);  // same replicate count
+};
+// Accumulates one direction's tallies on `points` into `sums` (sums.replicates() == points.replicates).
+void prefilter_sums(const std::vector<Cubemap>& chain, const Dir& n, double roughness, const PointSet& points,
+                    const PrefilterOptions& options, PrefilterSums& sums);
+// The pooled ratio and its replicate standard error per channel, plus a deterministic part added to the value
+// (the bright texels' exact share, bright_texel_share).
+PrefilterValue prefilter_value(const PrefilterSums& sums, const std::array<double, 3>& exact_part = {});
+
 // One direction, roughness r > 0, on `points` (all replicates). chain: the source's mip chain.
 PrefilterValue prefilter_direction(const std::vector<Cubemap>& chain, const Dir& n, double roughness, const PointSet& points,
                                    const PrefilterOptions& options);
@@ -64,6 +81,17 @@ struct BrightSplit {
     double threshold = 0, mean_radiance = 0, bright_power_fraction = 0;
 };
 BrightSplit split_bright_texels(const Cubemap& source, double threshold, std::size_t max_texels);
+// The split chosen automatically: the k brightest texels (k <= max_texels) that minimise the modelled cost per
+// output texel of reaching relative error `tolerance`,
+//     cost(k) = CV_rest(k)^2 / tolerance^2 + explicit_cost_ratio * k,
+// CV_rest(k)^2 = 4 pi int L_rest^2 dl / (int L_rest dl)^2 - 1 the squared coefficient of variation of the rest
+// over the sphere (the variance per sample of an estimator spreading its samples over the whole sphere, the
+// widest lobe; narrower lobes see less of the sphere and gain less), and explicit_cost_ratio the cost of one
+// texel of the explicit sum against one sample (measured ~0.1: a dot product and D against a trilinear read).
+// The threshold recorded is the k-th texel's luminance over the mean radiance (0 when k = 0).
+BrightSplit choose_bright_split(const Cubemap& source, double tolerance, std::size_t max_texels, double explicit_cost_ratio = 0.1);
+// The bright texels' share of P(n): sum_i L_i integral_{T_i} (n.l) D(h) dl / Z (the deterministic part above).
+std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness);
 // Z(alpha) = integral (n.l) D(h) dl over n.l > 0 with l = reflect(-n, h): 4 int_0^u* (2 (1 - u) / (1 + b u) - 1) du,
 // b = alpha^2 - 1, u* = 1 / (1 + alpha^2) (the GGX CDF in u = the sampling variable); 1 at alpha = 1.
 double ggx_prefilter_normalisation(double alpha);

@@ -1,3 +1,4 @@
+#include "approx/analytic.hpp"
 #include "jobs/design.hpp"
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 
 #include "io/csv.hpp"
 #include "io/text.hpp"
+#include "approx/lut.hpp"
 #include "lut/shader/shader_gen.hpp"
 
 namespace ms::design {
@@ -41,8 +43,8 @@ void check_candidate_name(const std::string& name) {
     }
 }
 
-compare::ComparatorInputs inputs_of(const ReferencePoint& p, AoWeighting weighting) {
-    compare::ComparatorInputs in;
+approx::Inputs inputs_of(const ReferencePoint& p, AoWeighting weighting) {
+    approx::Inputs in;
     in.visibility = p.visibility;
     in.n_dot_l = p.n_dot_l;
     in.n_dot_v = p.n_dot_v;
@@ -201,49 +203,18 @@ std::size_t choose(const std::vector<Candidate>& candidates, const std::vector<M
     return best;
 }
 
-std::string analytic_glsl(analytic::AnalyticTerm term) {
-    using analytic::AnalyticTerm;
-    // Part 1's formulas (host/analytic/part1_terms.cpp) as a shader writes them, cosine AO
-    // (cos_t = sqrt(1 - v)); `roughness` of activision-adjusted is its own (gloss = 1 - roughness).
-    const std::string head = "float ms_part1(float v, float n_dot_l, float n_dot_v, float roughness) {\n";
-    switch (term) {
-        case AnalyticTerm::reference_step:
-            return head + "    return n_dot_l >= sqrt(1.0 - v) ? 1.0 : 0.0;\n}\n";
-        case AnalyticTerm::naughty_dog:
-            return head + "    return clamp(n_dot_l + 2.0 * v * v - 1.0, 0.0, 1.0);\n}\n";
-        case AnalyticTerm::naughty_dog_ao_fresnel:
-            return head + "    float w = mix(1.0, v, clamp(n_dot_v, 0.0, 1.0));\n"
-                          "    return clamp(n_dot_l + 2.0 * w * w - 1.0, 0.0, 1.0);\n}\n";
-        case AnalyticTerm::activision:
-            return head + "    if (v == 1.0) return 1.0;\n"
-                          "    float s = clamp(n_dot_l / sqrt(1.0 - v), 0.0, 1.0);\n    return s * s;\n}\n";
-        case AnalyticTerm::activision_adjusted:
-            return head + "    float g = clamp((1.0 - roughness) * 1.5, 0.0, 1.0);\n"
-                          "    float g2 = g * g, g4 = g2 * g2, g8 = g4 * g4;\n"
-                          "    float o = (1.0 - n_dot_v) * (1.0 - n_dot_v);\n"
-                          "    float c = max(mix(0.0, sqrt(1.0 - v), (1.0 - g8) * (1.0 - o * o)), 0.001);\n"
-                          "    float s = clamp(n_dot_l / c, 0.0, 1.0);\n    return s * s;\n}\n";
-        case AnalyticTerm::pz_analytic:
-            return head + "    if (fract(v) == 0.0) return v;\n"
-                          "    float v2 = v * v;\n"
-                          "    float c = sqrt(1.0 - v2 * v2 * v);\n"
-                          "    return pow(clamp(n_dot_l / c, 0.0, 1.0), 0.75 / v);\n}\n";
-    }
-    throw std::invalid_argument("analytic_glsl: invalid term");
-}
-
 std::vector<Candidate> analytic_candidates(AoWeighting weighting) {
     std::vector<Candidate> out;
     for (auto t : analytic::kAllAnalyticTerms) {
         Candidate c;
         c.name = analytic::to_string(t);
         c.kind = "analytic";
-        c.cost.alu_per_light = count_alu(analytic_glsl(t));
+        c.cost.alu_per_light = count_alu(approx::analytic_glsl(t));
         c.cost.storage = "none (part 1's formula)";
-        c.value = [t, weighting](const compare::ComparatorInputs& in) {
-            compare::ComparatorInputs w = in;
+        c.value = [t, weighting](const approx::Inputs& in) {
+            approx::Inputs w = in;
             w.weighting = weighting;
-            return compare::analytic_value(t, w);
+            return approx::analytic_value(t, w);
         };
         c.provenance = {{"name", c.name}, {"kind", "analytic"}, {"term", c.name}};
         out.push_back(std::move(c));
@@ -252,9 +223,9 @@ std::vector<Candidate> analytic_candidates(AoWeighting weighting) {
 }
 
 Candidate lut_candidate(const std::string& name, const std::string& file) {
-    std::shared_ptr<const sweep::LutLookup> lut;
+    std::shared_ptr<const LutLookup> lut;
     try {
-        lut = std::make_shared<const sweep::LutLookup>(sweep::LutLookup::open(file));
+        lut = std::make_shared<const LutLookup>(LutLookup::open(file));
     } catch (const std::exception& e) {
         throw std::invalid_argument(std::string("--lut ") + file + ": " + e.what());
     }
@@ -263,8 +234,8 @@ Candidate lut_candidate(const std::string& name, const std::string& file) {
     c.name = name;
     c.kind = "lut";
     // The LUT's cost model is the comparator's (compare::Comparator::cost): one for eval, sweeps and design.
-    c.cost = *compare::Comparator::open_file(name, file).cost();
-    c.value = [lut](const compare::ComparatorInputs& in) { return compare::lut_value(*lut, in); };
+    c.cost = compare::Comparator::open_file(name, file).cost();
+    c.value = [lut](const approx::Inputs& in) { return approx::lut_value(*lut, in); };
     c.domain = lut->domain();
     c.provenance = {{"name", name}, {"kind", "lut"}, {"file", json_safe(file)}};
     for (const char* key : {"version", "command_line"})

@@ -19,6 +19,7 @@
 
 #include "core/lookup_domain.hpp"
 #include "io/atomic_file.hpp"
+#include "approx/analytic.hpp"
 #include "jobs/compare.hpp"
 #include "jobs/reference_set.hpp"
 #include "lut/shader/alu_count.hpp"
@@ -33,8 +34,8 @@ void check_candidate_name(const std::string& name);
 struct Candidate {
     std::string name;
     std::string kind;  // "analytic", "lut", "closed-form", or the representation's own kind
-    compare::ComparatorCost cost;
-    std::function<double(const compare::ComparatorInputs&)> value;
+    approx::Cost cost;
+    std::function<double(const approx::Inputs&)> value;
     nlohmann::json provenance;
     // Where it answers as measured (a file's or a fit's "domain"); none: everywhere (part 1's formulas).
     std::optional<LookupDomain> domain;
@@ -49,7 +50,7 @@ struct Metrics {
 };
 
 // The comparator inputs of a reference point (roughness as stored, the set's AO weighting).
-compare::ComparatorInputs inputs_of(const ReferencePoint& p, AoWeighting weighting);
+approx::Inputs inputs_of(const ReferencePoint& p, AoWeighting weighting);
 
 // The candidate's errors against the set. A candidate that throws at a point (std::domain_error: a
 // roughness outside its domain) is an std::invalid_argument naming the candidate and the point.
@@ -81,7 +82,7 @@ struct Budget {
     std::uint64_t max_bytes = UINT64_MAX;
     unsigned max_fetches = UINT32_MAX;
     unsigned max_alu = UINT32_MAX;
-    bool fits(const compare::ComparatorCost& c) const {
+    bool fits(const approx::Cost& c) const {
         return c.bytes <= max_bytes && c.fetches_per_light <= max_fetches && c.alu_per_light <= max_alu;
     }
 };
@@ -90,10 +91,9 @@ struct Budget {
 // std::invalid_argument when none fits (naming the cheapest candidate's cost).
 std::size_t choose(const std::vector<Candidate>& candidates, const std::vector<Metrics>& metrics, const Budget& budget);
 
-// Part 1's terms as candidates (cost: 0 bytes, 0 fetches, ALU counted from their GLSL below).
+// Part 1's terms as candidates (cost: 0 bytes, 0 fetches, ALU counted from their GLSL,
+// approx/analytic.hpp's analytic_glsl).
 std::vector<Candidate> analytic_candidates(AoWeighting weighting);
-// Part 1's term written as GLSL (for the ALU count: the same counting as every other candidate).
-std::string analytic_glsl(analytic::AnalyticTerm term);
 // A baked LUT as a candidate: bytes at float16 per channel (as engines ship it), 1 fetch, ALU counted
 // from its generated GLSL; bake() copies the file and writes its GLSL and HLSL.
 // Throws std::invalid_argument (unreadable file).

@@ -251,7 +251,7 @@ Candidate closed_form_candidate(const fit::ClosedForm& form, const std::string& 
     c.cost.alu_per_light = count_alu(glsl);
     c.cost.storage = "none (" + std::to_string(form.coefficients.size()) + " constants)";
     auto shared = std::make_shared<const fit::ClosedForm>(form);
-    c.value = [shared](const compare::ComparatorInputs& in) {
+    c.value = [shared](const approx::Inputs& in) {
         return (*shared)(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.relative_azimuth);
     };
     c.provenance = {{"name", c.name}, {"kind", "closed-form"}, {"order", form.order}, {"coefficients", form.coefficients}};

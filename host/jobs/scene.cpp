@@ -72,7 +72,7 @@ struct Comparator {
     std::string name;
     bool is_lut = false;
     analytic::AnalyticTerm term{};
-    std::shared_ptr<sweep::LutLookup> lut;
+    std::shared_ptr<LutLookup> lut;
     // A comparator file (a LUT or a representation that keeps the azimuth, opened as eval --compare and
     // sweeps open them): it reads the pixel's relative azimuth too.
     std::shared_ptr<compare::Comparator> file;
@@ -88,7 +88,7 @@ struct Comparator {
     }
 };
 
-std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescription& d, TermBackend& backend) {
+std::shared_ptr<LutLookup> bake_seed(LutLayout layout, const SceneDescription& d, TermBackend& backend) {
     BakeSpec spec = default_bake_spec(layout, d.comparators.lut_size);
     spec.samples = d.comparators.lut_samples;
     spec.term.ao_weighting = d.ao_weighting;
@@ -103,7 +103,7 @@ std::shared_ptr<sweep::LutLookup> bake_seed(LutLayout layout, const SceneDescrip
         const double rr = spec.roughness[c];
         channels.push_back({names[c], rr, rr * rr, rr * rr});
     }
-    return std::make_shared<sweep::LutLookup>(
+    return std::make_shared<LutLookup>(
         lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, r.value, bake_metadata(spec, r)));
 }
 
@@ -120,7 +120,7 @@ double comparator_value(const Comparator& c, const PixelSurface& p, const LightQ
     if (c.builtin != Comparator::Builtin::none) return q.status == PixelStatus::shaded ? exact_point(q.query, w) : 0.0;
     const double n_dot_l = std::clamp(q.n_dot_l, -1.0, 1.0), n_dot_v = std::clamp(q.n_dot_v, 0.0, 1.0);
     if (c.file) {
-        compare::ComparatorInputs in;
+        approx::Inputs in;
         in.visibility = p.visibility;
         in.n_dot_l = std::max(0.0, n_dot_l);
         in.n_dot_v = n_dot_v;
@@ -128,7 +128,7 @@ double comparator_value(const Comparator& c, const PixelSurface& p, const LightQ
         in.weighting = w;
         // Isotropic pixels carry the relative azimuth; an anisotropic pixel's is that of its tangent-frame
         // query's projections (the same angle, measured in the tangent frame).
-        in.relative_azimuth = p.anisotropic && q.status == PixelStatus::shaded ? compare::inputs_of(q.query, w).relative_azimuth : q.azimuth;
+        in.relative_azimuth = p.anisotropic && q.status == PixelStatus::shaded ? approx::inputs_of(q.query, w).relative_azimuth : q.azimuth;
         return (*c.file)(in);
     }
     if (c.is_lut) return (*c.lut)(p.visibility, std::max(0.0, n_dot_l), n_dot_v, p.roughness);

@@ -368,11 +368,11 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     r.default_size = base.n_dot_l.count;
     const BakeResult standard_bake = bake_lut(standard, backend.scheduler(), progress("default LUT"));
     r.default_seconds = standard_bake.seconds;
-    const sweep::LutLookup default_lut(lutfmt::make_lut_file({standard.visibility, standard.n_dot_l, standard.n_dot_v},
+    const LutLookup default_lut(lutfmt::make_lut_file({standard.visibility, standard.n_dot_l, standard.n_dot_v},
                                                              lut_channels(standard), standard_bake.value,
                                                              bake_metadata(standard, standard_bake)));
     const json meta = scene_lut_metadata(r.plan, r.bake);
-    const sweep::LutLookup scene_lut(lutfmt::make_lut_file({r.plan.spec.visibility, r.plan.spec.n_dot_l, r.plan.spec.n_dot_v},
+    const LutLookup scene_lut(lutfmt::make_lut_file({r.plan.spec.visibility, r.plan.spec.n_dot_l, r.plan.spec.n_dot_v},
                                                            r.channels, r.bake.value, meta));
 
     // The reference on an evenly strided sample of each light's lookups (deterministic).

@@ -2,7 +2,7 @@
 //
 // 1. The domain. Every shaded pixel (inside the mask, view above its normal's horizon) lit by a light
 //    (N.L > 0) is one lookup a renderer makes, at (visibility, NdotL, NdotV, roughness) with roughness
-//    (alpha_x alpha_y)^(1/4) as sweep::LutLookup takes it; the relative azimuth is recorded too (the LUT
+//    (alpha_x alpha_y)^(1/4) as LutLookup takes it; the relative azimuth is recorded too (the LUT
 //    averages over it). Histograms of the five, per light, are what a person reads to see the domain.
 // 2. The layout. Either the base layout (the seed-3d axes and roughness channels, or --layout custom)
 //    with only what the lookups touch baked, or (fit, the default) a layout fitted to the data:

@@ -6,7 +6,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace ms::sweep {
+namespace ms {
 
 namespace {
 
@@ -91,4 +91,4 @@ double LutLookup::blend(double visibility, double n_dot_l, double n_dot_v, doubl
     return (1 - f) * sample(order_[k - 1]) + f * sample(order_[k]);
 }
 
-}  // namespace ms::sweep
+}  // namespace ms

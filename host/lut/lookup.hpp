@@ -20,7 +20,7 @@
 #include "core/lookup_domain.hpp"
 #include "lut/exr_lut.hpp"
 
-namespace ms::sweep {
+namespace ms {
 
 class LutLookup {
 public:
@@ -43,4 +43,4 @@ private:
     LookupDomain domain_;
 };
 
-}  // namespace ms::sweep
+}  // namespace ms

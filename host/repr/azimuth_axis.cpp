@@ -38,7 +38,7 @@ public:
         return names;
     }
 
-    double operator()(const compare::ComparatorInputs& in) const override {
+    double operator()(const approx::Inputs& in) const override {
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
         const double tv = visibility_texel(in.visibility), tl = n_dot_l_texel(in.visibility, in.n_dot_l),
                      tz = n_dot_v_texel(in.n_dot_v);

@@ -1,12 +1,6 @@
-// The bake that keeps the relative azimuth, and the roughness placement by error.
-//
-// Why the term integrand (one query per texel and node) and not K fixed-azimuth LUT bakes: the LUT slice
-// integrand bins a whole (roughness, NdotV) slice per VNDF pass, but only on rows of constant NdotL;
-// the shadow-edge warp puts every visibility column on its own NdotL values, which no row holds. The
-// linear grid agrees with the fixed-azimuth LUT bake at the same nodes (tests/repr_test.cpp), and
-// docs/representations.md gives the measured cost of both.
+// The bake that keeps the relative azimuth (its nodes and roughness subsets; the bake itself is the job
+// jobs/repr_bake.cpp), and the roughness placement by error.
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -32,86 +26,6 @@ AzimuthBake AzimuthBake::with_roughness(const std::vector<std::uint32_t>& keep) 
         out.std_error.insert(out.std_error.end(), std_error.begin() + r * block, std_error.begin() + (r + 1) * block);
     }
     return out;
-}
-
-namespace {
-
-void validate(const AzimuthBakeSpec& s) {
-    const auto& g = s.grid;
-    for (auto n : {g.visibility, g.n_dot_l, g.n_dot_v})
-        if (n < 2 || n > 256) throw std::invalid_argument("representation grid: every axis needs 2 to 256 texels");
-    if (g.roughness.empty() || g.roughness.size() > 64) throw std::invalid_argument("representation grid: 1 to 64 roughness nodes");
-    for (std::size_t i = 0; i < g.roughness.size(); ++i) {
-        if (!(g.roughness[i] > 0 && g.roughness[i] <= 1)) throw std::invalid_argument("representation grid: roughness must be in (0, 1]");
-        if (i && !(g.roughness[i] > g.roughness[i - 1])) throw std::invalid_argument("representation grid: roughness must increase");
-    }
-    if (s.azimuth_nodes < 2 || s.azimuth_nodes > 64) throw std::invalid_argument("representation bake: 2 to 64 azimuth nodes");
-    if (g.warps.n_dot_l == NdotLWarp::edge_roughness && !(g.edge_width > 0 && g.edge_width <= 100))
-        throw std::invalid_argument("representation grid: the edge-roughness warp's width factor must be in (0, 100]");
-    if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("representation bake: term and grid AO weightings differ");
-    const std::uint64_t queries = std::uint64_t(g.visibility) * g.n_dot_l * g.n_dot_v * g.roughness.size() * s.azimuth_nodes;
-    if (queries > (std::uint64_t(1) << 24)) throw std::invalid_argument("representation bake: more than 2^24 texels x nodes");
-}
-
-}  // namespace
-
-AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
-                         const std::function<void(std::size_t, std::size_t)>& progress) {
-    validate(spec);
-    const auto start = std::chrono::steady_clock::now();
-    AzimuthBake bake;
-    bake.grid = spec.grid;
-    bake.azimuth_nodes = spec.azimuth_nodes;
-    bake.replicates = spec.plan.replicates;
-    const auto& g = spec.grid;
-    const std::size_t n = std::size_t(g.roughness.size()) * spec.azimuth_nodes * g.n_dot_v * g.n_dot_l * g.visibility;
-    std::vector<Query> queries(n);
-    for (std::uint32_t r = 0; r < g.roughness.size(); ++r)
-        for (std::uint32_t k = 0; k < spec.azimuth_nodes; ++k) {
-            const double phi = bake.azimuth_at(k);
-            for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv) {
-                const double nv = g.n_dot_v_at(ivv);
-                for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
-                    for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
-                        // The texel's query as eval takes it: V in the xz plane, L at azimuth phi from it.
-                        const double nl = g.n_dot_l_at(iv, il, r), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
-                        Query& q = queries[bake.index(r, k, iv, il, ivv)];
-                        q.visibility = g.visibility_at(iv);
-                        q.alpha_x = q.alpha_y = g.roughness[r] * g.roughness[r];
-                        q.wi = {std::sqrt(std::max(0.0, 1 - nv * nv)), 0, nv};
-                        q.wo = {sl * std::cos(phi), sl * std::sin(phi), nl};
-                    }
-            }
-        }
-    EvalStats stats;
-    const auto estimates = evaluate(backend, queries, spec.term, spec.plan, &stats, progress);
-    bake.value.resize(n);
-    bake.std_error.resize(n);
-    double max_se = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-        bake.value[i] = float(estimates[i].term);
-        bake.std_error[i] = float(estimates[i].std_error);
-        max_se = std::max(max_se, estimates[i].std_error);
-    }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    bake.metadata = {{"method", to_string(spec.plan.method)},
-                     {"form", to_string(spec.term.form)}, {"ao_weighting", to_string(spec.term.ao_weighting)},
-                     {"azimuth_nodes", spec.azimuth_nodes}, {"queries", n},
-                     {"sampled", stats.sampled},       {"exact_zero", stats.exact_zero},
-                     {"exact_one", stats.exact_one},   {"max_std_error", max_se},
-                     {"seconds", seconds},             {"device", backend.name()},
-                     {"command_line", spec.command_line}, {"version", MICROSHADOW_VERSION}};
-    // What decided the texels and what their std_error holds: the exact method's tolerance and rule (an
-    // estimated error), or the sampled method's point set (a replicate standard error).
-    if (spec.plan.method == Method::exact) {
-        bake.metadata["exact"] = exact_provenance(spec.plan);
-    } else {
-        bake.metadata["samples"] = spec.plan.samples;
-        bake.metadata["replicates"] = spec.plan.replicates;
-        bake.metadata["seed"] = spec.plan.seed;
-        bake.metadata["sequence"] = to_string(spec.plan.sequence);
-    }
-    return bake;
 }
 
 std::vector<std::uint32_t> choose_roughness_nodes(const AzimuthBake& bake, std::uint32_t count, double* rms_out) {

@@ -45,7 +45,7 @@ public:
         return c == 0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{-2.0, 2.0};
     }
 
-    double operator()(const compare::ComparatorInputs& in) const override {
+    double operator()(const approx::Inputs& in) const override {
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
         const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(in.n_dot_v);
         const double c = std::cos(in.relative_azimuth);

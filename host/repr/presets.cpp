@@ -77,18 +77,4 @@ Preset preset(const std::string& name, AoWeighting weighting) {
     throw std::invalid_argument("no representation preset '" + name + "' (presets: " + list + ")");
 }
 
-std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
-                                            const std::function<void(std::size_t, std::size_t)>& progress) {
-    AzimuthBakeSpec spec;
-    spec.grid = p.grid;
-    spec.azimuth_nodes = p.azimuth_nodes;
-    spec.plan.method = Method::exact;
-    spec.term.ao_weighting = p.grid.weighting;
-    spec.command_line = command_line;
-    AzimuthBake bake = bake_azimuth(spec, backend, progress);
-    bake.metadata["preset"] = p.name;
-    bake.metadata["domain"] = p.domain.to_json("the preset's domain: its measured errors hold here; outside, its axes clamp");
-    return build_representation(p.kind, bake);
-}
-
 }  // namespace ms::repr

@@ -30,9 +30,4 @@ bool is_preset(const std::string& name);
 // The preset of that name for an AO weighting (the grid's); std::invalid_argument naming the valid ones.
 Preset preset(const std::string& name, AoWeighting weighting = AoWeighting::cosine);
 
-// Bakes a preset with the exact method (its default tolerance) on `backend` and builds it; the bake's
-// metadata records the preset's name and domain.
-std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
-                                            const std::function<void(std::size_t, std::size_t)>& progress = {});
-
 }  // namespace ms::repr

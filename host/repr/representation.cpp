@@ -350,28 +350,4 @@ std::unique_ptr<Representation> build_representation(const std::string& kind, co
     throw std::invalid_argument("unknown representation '" + kind + "' (valid: azimuth-axis, azimuth-harmonics)");
 }
 
-void install_comparators() {
-    compare::set_file_comparator_opener([](const std::string& path) -> std::shared_ptr<const compare::FileComparator> {
-        if (!is_representation_file(path)) return nullptr;
-        return std::shared_ptr<const compare::FileComparator>(open_representation(path));
-    });
-    // A preset named where a comparator is: baked on this machine's CPU with the exact method (a few
-    // seconds; the same texels every time), once per process and name.
-    compare::set_named_comparator_opener([](const std::string& name) -> std::shared_ptr<const compare::FileComparator> {
-        if (!is_preset(name)) return nullptr;
-        static std::mutex mutex;
-        static std::map<std::string, std::shared_ptr<const compare::FileComparator>> baked;
-        const std::lock_guard<std::mutex> lock(mutex);
-        auto& slot = baked[name];
-        if (!slot) {
-            auto backend = make_oracle_backend();
-            slot = std::shared_ptr<const compare::FileComparator>(bake_preset(preset(name), *backend, "preset " + name));
-        }
-        return slot;
-    });
-    std::string names;
-    for (const auto& n : preset_names()) names += (names.empty() ? "" : ", ") + n;
-    compare::set_named_comparator_names(names);
-}
-
 }  // namespace ms::repr

@@ -25,8 +25,7 @@
 
 #include "core/lookup_domain.hpp"
 #include "core/types.hpp"
-#include "jobs/compare.hpp"
-#include "jobs/eval.hpp"
+#include "approx/approximation.hpp"
 
 namespace ms::repr {
 
@@ -117,19 +116,14 @@ struct AzimuthBakeSpec {
     std::string command_line;
 };
 
-// Bakes the term at every texel and node through the term integrand (jobs/eval.hpp's evaluate): one
-// query per (roughness, node, texel), the provable zeros and v = 1 answered exactly.
-AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
-                         const std::function<void(std::size_t, std::size_t)>& progress = {});
-
-class Representation : public compare::FileComparator {
+class Representation : public approx::Approximation {
 public:
     ~Representation() override = default;
-    virtual std::string kind() const = 0;  // "azimuth-axis" | "azimuth-harmonics"
+    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics"
     std::string name() const override = 0;  // kind and layout in words
-    compare::ComparatorCost cost() const override = 0;
+    approx::Cost cost() const override = 0;
     // The renderer's lookup (the generated shader's arithmetic, in double).
-    double operator()(const compare::ComparatorInputs& in) const override = 0;
+    double operator()(const approx::Inputs& in) const override = 0;
     nlohmann::json provenance() const override = 0;
 
     // The sampling code: a function library ms_micro_shadowing(tex, visibility, NdotL, NdotV,
@@ -174,8 +168,5 @@ bool is_representation_file(const std::string& path);
 // increasing, and that RMS in *rms.
 std::vector<std::uint32_t> choose_roughness_nodes(const AzimuthBake& bake, std::uint32_t count,
                                                   double* rms = nullptr);
-
-// Lets compare::Comparator::parse open representation files (jobs cannot include repr). Idempotent.
-void install_comparators();
 
 }  // namespace ms::repr

@@ -124,8 +124,8 @@ void TextureRepresentation::check_contents(const std::vector<std::string>& file_
         }
 }
 
-compare::ComparatorCost TextureRepresentation::cost() const {
-    compare::ComparatorCost c;
+approx::Cost TextureRepresentation::cost() const {
+    approx::Cost c;
     // As a renderer uploads it: RGBA16F (8 bytes a texel), whatever the file's own precision.
     c.bytes = std::uint64_t(texture_.width) * texture_.height * texture_.depth * 8;
     c.fetches_per_light = metadata_.value("fetches_per_light", 2u);

@@ -32,7 +32,7 @@ public:
     const std::vector<float>& texels() const override { return texture_.texels; }
     const ReprGrid& grid() const override { return grid_; }
     nlohmann::json provenance() const override;
-    compare::ComparatorCost cost() const override;
+    approx::Cost cost() const override;
     void write(const std::string& path, bool half) const override;
     void write_ktx2(const std::string& path, bool half) const override;
     void write_dds(const std::string& path, bool half) const override;

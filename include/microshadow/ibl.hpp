@@ -1,5 +1,6 @@
-// Image-based lighting integrals (included by <microshadow/microshadow.hpp>): the split-sum DFG LUT,
-// as `microshadow ibl dfg` bakes it (docs/ibl.md).
+// Image-based lighting integrals (included by <microshadow/microshadow.hpp>), as `microshadow ibl`
+// computes them (docs/ibl.md): the split-sum DFG LUT, the GGX-prefiltered specular cubemap, the
+// irradiance cubemap by direct convolution and order-2 spherical harmonics.
 #pragma once
 
 #include <cstdint>
@@ -47,5 +48,115 @@ private:
 
 // `progress` is told (texels done, texels) and may stop the bake.
 DfgLut bake_dfg(const DfgOptions& options = {}, const Progress& progress = {});
+
+// An environment: one image (`image`: equirectangular 2:1, or a 4:3 / 3:4 cross; OpenEXR or Radiance
+// .hdr) or six square face files (`faces`: +X -X +Y -Y +Z -Z), exactly one of the two.
+struct EnvironmentSource {
+    std::string image;
+    std::vector<std::string> faces;
+};
+
+// A cubemap of RGB floats: faces +X -X +Y -Y +Z -Z, each size x size texels from the top row,
+// laid out [face][y][x][3].
+struct CubeImage {
+    std::uint32_t size = 0;
+    std::vector<float> texels;
+};
+
+// `ibl prefilter`'s options, with its defaults.
+struct PrefilterOptions {
+    EnvironmentSource environment;
+    std::uint32_t size = 0;          // base face size, a power of two (0: the source's)
+    std::uint32_t levels = 0;        // mips (0: down to 4 x 4 faces)
+    std::string mapping = "cmgen";   // roughness per mip: "cmgen" or "linear"
+    std::uint64_t samples = 256;     // GGX samples per texel (all replicates), rounded up to replicates x 2^k
+    std::uint32_t replicates = 4;
+    std::uint64_t seed = 0;
+    bool filtered = true;            // false: every sample read from the full-resolution source
+    double lod_bias = 0;
+    double bright_threshold = 0;     // > 0: sum texels brighter than this x the mean radiance explicitly
+    double bright_min_roughness = 0.2;
+    std::uint32_t wide_samples_factor = 1;
+    std::uint64_t bright_max = 1024;
+    std::string device;              // empty: C++ on CPU threads; else OpenCL devices
+    unsigned threads = 0;            // CPU threads (0: all)
+    std::uint32_t verify = 0;        // > 0: compare this many random texels with the brute-force oracle
+    std::uint32_t irradiance_size = 32;  // the SH irradiance cubemap's face size
+};
+
+// The prefiltered chain (mip 0 is the source itself, roughness 0) and the SH irradiance beside it.
+class PrefilteredEnvironment {
+public:
+    std::vector<double> mip_roughness() const;
+    std::size_t mip_count() const;
+    CubeImage mip(std::size_t m) const;
+    CubeImage irradiance() const;        // E / pi from order-2 SH
+    std::vector<double> sh() const;      // [9][3] radiance coefficients
+    std::string metadata_json() const;   // ibl.json: {"specular": ..., "irradiance": ...}
+    // Writes the command's files into DIR (created if missing), all or none: the chain (format "exr":
+    // specular_m<m>.exr; "ktx2" / "dds": specular.<format>, encoding "float16" or "float32"),
+    // irradiance.<format>, irradiance_preview.png, specular_preview.png, sh.json and ibl.json.
+    void save(const std::string& dir, const std::string& format = "exr", const std::string& encoding = "float16",
+              double exposure = 1.0) const;
+
+    struct Data;
+    explicit PrefilteredEnvironment(std::shared_ptr<const Data> data);
+
+private:
+    std::shared_ptr<const Data> data_;
+};
+
+// `progress` is told (texels done, texels) and may stop the call.
+PrefilteredEnvironment prefilter(const PrefilterOptions& options, const Progress& progress = {});
+
+// `ibl irradiance`'s options, with its defaults.
+struct IrradianceOptions {
+    EnvironmentSource environment;
+    std::uint32_t face_size = 32;      // output faces
+    std::uint32_t source_size = 128;   // the reduced source the kernel convolves
+    Backend backend = Backend::opencl; // oracle: the exact convolution of the full source, in double
+    std::string device = "default";
+    unsigned threads = 0;              // oracle threads (0: all)
+    std::uint32_t verify = 0;          // > 0: check this many random texels against their bound (fails: runtime_error)
+};
+
+class IrradianceMap {
+public:
+    CubeImage map() const;     // E / pi
+    CubeImage bound() const;   // a bound on |map - the exact E / pi of the full-resolution source|
+    std::string metadata_json() const;  // irradiance.json
+    // DIR/irradiance.<format> ("exr": a horizontal cross; "ktx2" / "dds": one cubemap level, encoding
+    // "float16" or "float32"), irradiance.json and irradiance_preview.png, all or none.
+    void save(const std::string& dir, const std::string& format = "exr", const std::string& encoding = "float16",
+              double exposure = 1.0) const;
+
+    struct Data;
+    explicit IrradianceMap(std::shared_ptr<const Data> data);
+
+private:
+    std::shared_ptr<const Data> data_;
+};
+
+IrradianceMap irradiance(const IrradianceOptions& options, const Progress& progress = {});
+
+// `ibl sh`: order-2 spherical harmonics of an environment and the irradiance cubemap they give.
+class ShIrradiance {
+public:
+    std::vector<double> sh() const;     // [9][3] radiance coefficients L_lm
+    CubeImage irradiance() const;       // E / pi, face_size texels a side (none for face_size 0)
+    std::string metadata_json() const;  // the command's JSON: coefficients, irradiance coefficients, provenance
+    // The command's files, all or none: `json_path` (required) and, where given, the irradiance cross
+    // (.exr), its preview (.png) and the shader constants (.glsl or .hlsl, named `symbol`).
+    void save(const std::string& json_path, const std::string& irradiance_path = "", const std::string& preview_path = "",
+              const std::string& shader_path = "", const std::string& symbol = "microshadow_sh") const;
+
+    struct Data;
+    explicit ShIrradiance(std::shared_ptr<const Data> data);
+
+private:
+    std::shared_ptr<const Data> data_;
+};
+
+ShIrradiance spherical_harmonics(const EnvironmentSource& environment, std::uint32_t face_size = 32);
 
 }  // namespace microshadow

@@ -2,7 +2,7 @@
 // microsurface, evaluated on queries, baked into LUTs, and looked up from LUT files.
 //
 // This umbrella header is the whole public API (types.hpp, evaluate.hpp, lut.hpp, analytic.hpp,
-// sweep.hpp, ibl.hpp; docs/library.md
+// sweep.hpp, ibl.hpp, area.hpp, scene.hpp, design.hpp; docs/library.md
 // has a worked example). It uses only the standard library; the engine behind it (the term and
 // LUT-slice integrands on the scheduler, OpenCL kernels or the double-precision oracle) is linked in
 // through the microshadow::microshadow target:
@@ -18,9 +18,12 @@
 #include <string>
 
 #include "microshadow/analytic.hpp"
+#include "microshadow/area.hpp"
+#include "microshadow/design.hpp"
 #include "microshadow/evaluate.hpp"
 #include "microshadow/ibl.hpp"
 #include "microshadow/lut.hpp"
+#include "microshadow/scene.hpp"
 #include "microshadow/sweep.hpp"
 #include "microshadow/types.hpp"
 

@@ -12,7 +12,11 @@ command's names and defaults, and returns numpy arrays.
 - :func:`open`: any LUT or representation file, with ``.lookup(...)`` as a renderer samples it;
 - :func:`analytic`: part 1's analytic terms by name (``eval --compare NAME``);
 - :func:`sweep`: a parameter study (``microshadow sweep``) as a dict of arrays;
-- :func:`ibl_dfg`: the split-sum DFG LUT (``microshadow ibl dfg``).
+- :func:`ibl_dfg`, :func:`ibl_prefilter`, :func:`ibl_irradiance`, :func:`ibl_sh`: the image-based
+  lighting integrals (``microshadow ibl dfg | prefilter | irradiance | sh``);
+- :func:`area_eval`: the term over sphere and rectangle lights (``microshadow area eval``);
+- :func:`scene`: every pixel of a scene against the approximations (``microshadow scene``);
+- :func:`design`: every candidate representation against a reference set (``microshadow design``).
 
 Bad arguments raise ValueError naming the argument and the index of the first bad element. Long calls
 release the GIL, report progress when asked (``progress=True`` or a callable ``(done, total)``) and stop
@@ -25,7 +29,7 @@ import json
 import os
 import sys
 import time
-from typing import Callable, Dict, List, Optional, Sequence, Tuple, Union
+from typing import Callable, Dict, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -47,6 +51,18 @@ __all__ = [
     "SweepTable",
     "ibl_dfg",
     "DfgLut",
+    "ibl_prefilter",
+    "PrefilteredEnvironment",
+    "ibl_irradiance",
+    "IrradianceMap",
+    "ibl_sh",
+    "ShIrradiance",
+    "area_eval",
+    "AreaResult",
+    "scene",
+    "SceneRun",
+    "design",
+    "DesignTable",
 ]
 
 __version__: str = _core.version()
@@ -882,3 +898,505 @@ def ibl_dfg(
                             int(seed), backend, device, bool(fast_math), _progress("ibl dfg", progress))
     return DfgLut(native)
 
+
+
+# --- area lights ----------------------------------------------------------------------------------------
+
+
+class AreaResult(NamedTuple):
+    """What :func:`area_eval` returns: three float64 arrays of shape (N,)."""
+
+    term: np.ndarray          #: T_area, the term averaged over the light weighted by the lobe's f cos
+    std_error: np.ndarray     #: the (outer) sampling's standard error
+    inner_error: np.ndarray   #: method="exact": a bound on the inner values' part of the error; else 0
+
+
+def area_eval(
+    visibility: ArrayLike,
+    alpha_x: ArrayLike,
+    alpha_y: ArrayLike,
+    wi: ArrayLike,
+    *,
+    light: str = "sphere",
+    light_direction: Optional[ArrayLike] = None,
+    half_angle_deg: Optional[ArrayLike] = None,
+    corners: Optional[ArrayLike] = None,
+    lobe: str = "ggx",
+    method: str = "sampled",
+    tolerance: float = 0.0,
+    samples: Optional[int] = None,
+    seed: int = 0,
+    replicates: int = 8,
+    sequence: str = "sobol",
+    form: str = "height-correlated",
+    ao_weighting: str = "cosine",
+    backend: Optional[str] = None,
+    device: Optional[str] = None,
+    fast_math: bool = False,
+    progress: ProgressArg = None,
+) -> AreaResult:
+    """The term over a sphere or rectangle light: ``microshadow area eval`` on the same columns
+    (docs/area-lights.md).
+
+    Args:
+        visibility, alpha_x, alpha_y, wi: the surface, as :func:`evaluate` takes them.
+        light: "sphere" (give light_direction (3,) / (N, 3), the direction to its centre, and
+            half_angle_deg, its angular radius in (0, 90) degrees) or "rect" (give corners (4, 3) /
+            (N, 4, 3): the corners in order, positions relative to the shaded point in the tangent frame).
+        lobe: the BRDF lobe weighting the light: "ggx" (Fresnel-free specular at the surface's alpha) or
+            "lambert".
+        method: "sampled" (the joint kernel on `backend`) or "exact" (the exact inner term at each of
+            `samples` outer light directions, on the host's threads; backend and device do not apply).
+        tolerance: method="exact": the error asked of each inner value (0: 1e-6; 1e-13 to 0.1).
+        samples: per query (None: 65536, exact 8192 outer directions); seed, replicates, sequence, form,
+            ao_weighting, backend, device, fast_math: as :func:`evaluate`.
+        progress: True prints progress on stderr; a callable gets (done, total) queries.
+
+    Returns:
+        :class:`AreaResult` (term, std_error, inner_error), the values ``area eval`` writes.
+    """
+    _choice("light", light, ("sphere", "rect"))
+    _choice("lobe", lobe, ("ggx", "lambert"))
+    if method == "exact":
+        for name, value in (("backend", backend), ("device", device)):
+            if value is not None:
+                raise ValueError(f"{name} applies to method='sampled' only (the exact inner term runs on the host's threads)")
+        if fast_math:
+            raise ValueError("fast_math applies to method='sampled' only (the exact inner term runs on the host's threads)")
+    elif tolerance:
+        raise ValueError("tolerance applies to method='exact' only (the inner term's tolerance)")
+    backend = "opencl" if backend is None else backend
+    device = "default" if device is None else device
+    if samples is None:
+        samples = 8192 if method == "exact" else 65536
+    tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
+    if method == "exact" and tolerance > 0 and not (1e-13 <= tolerance <= 0.1):
+        raise ValueError(f"tolerance = {tolerance!r}: the exact method takes 1e-13 to 0.1 (0: 1e-6)")
+    # The surface columns, checked as evaluate() checks them (wi also serves as the unused wo).
+    rows = _query_rows(visibility, alpha_x, alpha_y, wi, wi)
+    n = rows.shape[0]
+    if light == "sphere":
+        if corners is not None:
+            raise ValueError("corners are a rect light's; a sphere takes light_direction and half_angle_deg")
+        if light_direction is None or half_angle_deg is None:
+            raise ValueError("light='sphere' needs light_direction and half_angle_deg")
+        centre = _directions("light_direction", light_direction)
+        half = _scalar_or_vector("half_angle_deg", half_angle_deg)
+        _check_range("half_angle_deg", half, 0.0, 90.0, lo_open=True, hi_open=True)
+        n = _broadcast({"surface": rows, "light_direction": centre if centre.ndim == 2 else centre[None, :],
+                        "half_angle_deg": half})
+        light_rows = np.empty((n, 4))
+        light_rows[:, 0:3] = _rows(centre, n)
+        light_rows[:, 3] = _column(half, n)
+    else:
+        if light_direction is not None or half_angle_deg is not None:
+            raise ValueError("light_direction and half_angle_deg are a sphere light's; a rect takes corners")
+        if corners is None:
+            raise ValueError("light='rect' needs corners (4, 3) or (N, 4, 3)")
+        c = _array("corners", corners)
+        if c.shape != (4, 3) and not (c.ndim == 3 and c.shape[1:] == (4, 3)):
+            raise ValueError(f"corners: shape {c.shape}; expected (4, 3) or (N, 4, 3)")
+        _check_finite("corners", c)
+        c3 = c if c.ndim == 3 else c[None]
+        n = _broadcast({"surface": rows, "corners": c3})
+        light_rows = np.ascontiguousarray(np.broadcast_to(c3.reshape(-1, 12), (n, 12)))
+    surface = np.ascontiguousarray(np.broadcast_to(rows[:, :6], (n, 6)))
+    if n == 0:
+        return AreaResult(np.empty(0), np.empty(0), np.empty(0))
+    out = _core.area_evaluate(surface, np.ascontiguousarray(light_rows), light, lobe, method, tolerance, int(samples),
+                              int(replicates), int(seed), sequence, form, ao_weighting, backend, device, bool(fast_math),
+                              _progress("area eval", progress))
+    return AreaResult(*(np.ascontiguousarray(out[:, k]) for k in range(3)))
+
+
+# --- scenes ---------------------------------------------------------------------------------------------
+
+
+class SceneRun:
+    """The result of :func:`scene`.
+
+    Attributes:
+        layers: dict of float32 (height, width) arrays, keyed as scene.exr's layers: "mask" (1 shaded,
+            0 masked), and per light "<light>.reference", "<light>.std_error", "<light>.weight"
+            (max(N.L, 0) x intensity), "<light>.<comparator>" and "<light>.<comparator>_error" (weighted).
+        report: dict, report.json's content (counts, tolerance, per light and comparator the error
+            statistics, provenance).
+        width, height: the image size; lights, comparators: their names in order.
+    """
+
+    def __init__(self, native: "_core.SceneResult") -> None:
+        self._native = native
+        self.width: int = native.width
+        self.height: int = native.height
+        self.lights: List[str] = list(native.lights)
+        self.comparators: List[str] = list(native.comparators)
+        self.layers: Dict[str, np.ndarray] = dict(native.layers())
+        for a in self.layers.values():
+            a.setflags(write=False)
+        self.report: dict = json.loads(native.report_json)
+
+    def save(self, out: PathArg) -> None:
+        """Writes the command's outputs into the folder `out` (created if missing): scene.exr,
+        report.json, report.md and the PNG images, all or none."""
+        self._native.save(os.fspath(out))
+
+
+def scene(
+    path: PathArg,
+    *,
+    tolerance: Optional[float] = None,
+    method: Optional[str] = None,
+    luts: Sequence[PathArg] = (),
+    skip: bool = True,
+    seed_luts: bool = True,
+    strict_domain: bool = False,
+    backend: str = "opencl",
+    device: str = "default",
+    fast_math: bool = False,
+    progress: ProgressArg = None,
+) -> SceneRun:
+    """The term of every pixel of a scene against the approximations: ``microshadow scene PATH`` without
+    its files (call ``.save(out)``); docs/scenes.md has the description's format.
+
+    Args:
+        path: the scene description (TOML).
+        tolerance: the per-pixel error bound of the reference, 1e-12 to 0.5 (None: the description's
+            sampling.tolerance, else the method's default).
+        method: "exact" or "sampled" (None: the description's sampling.method, default exact).
+        luts: more LUT files to compare (``--lut``).
+        skip: False sends every unmasked pixel's own query to the integrand (``--no-skip``).
+        seed_luts: False leaves out the seed's 3D and 2D LUTs (``--no-seed-luts``).
+        strict_domain: refuse a comparator looked up outside its domain at a lit pixel.
+        backend, device, fast_math: as :func:`evaluate`.
+        progress: True prints progress on stderr; a callable gets (done, total) of each phase.
+    """
+    if method is not None:
+        _choice("method", method, _METHODS)
+    _choice("backend", backend, _BACKENDS)
+    if tolerance is not None:
+        t = float(tolerance)
+        if not (np.isfinite(t) and 1e-12 <= t <= 0.5):
+            raise ValueError(f"tolerance = {tolerance!r}: 1e-12 to 0.5 (None: the description's)")
+    if isinstance(luts, (str, os.PathLike)):
+        raise ValueError("luts: a list of LUT files (give [path] for one)")
+    lut_paths = [os.fspath(p) for p in luts]
+    for i, p in enumerate(lut_paths):
+        if not os.path.isfile(p):
+            raise FileNotFoundError(f"luts[{i}] = {p!r}: no such file")
+    description = os.fspath(path)
+    if not os.path.isfile(description):
+        raise FileNotFoundError(f"{description}: no such file")
+    native = _core.scene(description, 0.0 if tolerance is None else float(tolerance), method, lut_paths, bool(skip),
+                         bool(seed_luts), bool(strict_domain), backend, device, bool(fast_math), _progress("scene", progress))
+    return SceneRun(native)
+
+
+# --- environment integrals ------------------------------------------------------------------------------
+
+
+def _environment(environment: Optional[PathArg], faces: Optional[Sequence[PathArg]]) -> Tuple[str, List[str]]:
+    """ENV or six face files, exactly one of them, each an existing file."""
+    if (environment is None) == (faces is None):
+        raise ValueError("give environment (one image) or faces (six files +X -X +Y -Y +Z -Z), one of them")
+    if environment is not None:
+        image = os.fspath(environment)
+        if not os.path.isfile(image):
+            raise FileNotFoundError(f"{image}: no such file")
+        return image, []
+    if isinstance(faces, (str, os.PathLike)):
+        raise ValueError("faces: six files +X -X +Y -Y +Z -Z, as a list")
+    files = [os.fspath(f) for f in faces]
+    if len(files) != 6:
+        raise ValueError(f"faces: {len(files)} files; six (+X -X +Y -Y +Z -Z)")
+    for i, f in enumerate(files):
+        if not os.path.isfile(f):
+            raise FileNotFoundError(f"faces[{i}] = {f!r}: no such file")
+    return "", files
+
+
+def _real(name: str, value: float, lo: float, hi: float) -> float:
+    v = float(value)
+    if not (np.isfinite(v) and lo <= v <= hi):
+        raise ValueError(f"{name} = {value!r}: a number from {lo:g} to {hi:g}")
+    return v
+
+
+def _cube_format(format: str, encoding: str) -> None:
+    _choice("format", format, ("exr", "ktx2", "dds"))
+    _choice("encoding", encoding, ("float16", "float32"))
+
+
+class PrefilteredEnvironment:
+    """The result of :func:`ibl_prefilter`.
+
+    Attributes:
+        mips: list of float32 (6, n, n, 3) cubemaps, faces +X -X +Y -Y +Z -Z (mip 0: the source).
+        roughness: float64 (mips,): the roughness each mip is prefiltered at.
+        irradiance: float32 (6, m, m, 3): E / pi from order-2 SH (m = irradiance_size).
+        sh: float64 (9, 3): the radiance SH coefficients.
+        metadata: dict, ibl.json's content ("specular", "irradiance").
+    """
+
+    def __init__(self, native: "_core.PrefilteredEnvironment") -> None:
+        self._native = native
+        self.mips: List[np.ndarray] = list(native.mips())
+        self.roughness: np.ndarray = np.array(native.mip_roughness)
+        self.irradiance: np.ndarray = native.irradiance()
+        self.sh: np.ndarray = native.sh()
+        self.metadata: dict = json.loads(native.metadata_json)
+
+    def save(self, out: PathArg, format: str = "exr", encoding: str = "float16", exposure: float = 1.0) -> None:
+        """Writes ``ibl prefilter``'s files into the folder `out` (created), all or none: the chain
+        (format "exr": specular_m<m>.exr crosses; "ktx2" / "dds": specular.<format>, one cubemap with
+        every mip, encoding "float16" or "float32"), irradiance.<format>, the previews, sh.json, ibl.json."""
+        _cube_format(format, encoding)
+        self._native.save(os.fspath(out), format, encoding, _real("exposure", exposure, 0, 1e12))
+
+
+def ibl_prefilter(
+    environment: Optional[PathArg] = None,
+    *,
+    faces: Optional[Sequence[PathArg]] = None,
+    size: int = 0,
+    levels: int = 0,
+    mapping: str = "cmgen",
+    samples: int = 256,
+    replicates: int = 4,
+    seed: int = 0,
+    no_fis: bool = False,
+    lod_bias: float = 0.0,
+    bright_threshold: float = 0.0,
+    bright_min_roughness: float = 0.2,
+    wide_samples_factor: int = 1,
+    bright_max: int = 1024,
+    device: Optional[str] = None,
+    threads: int = 0,
+    verify: int = 0,
+    irradiance_size: int = 32,
+    progress: ProgressArg = None,
+) -> PrefilteredEnvironment:
+    """The GGX-prefiltered specular mip chain and the SH irradiance of an environment: ``microshadow ibl
+    prefilter`` without its files (call ``.save(out)``); docs/ibl.md.
+
+    Args:
+        environment: an equirectangular (2:1) image or a 4:3 / 3:4 cross, .exr or .hdr; or faces: six
+            face files +X -X +Y -Y +Z -Z.
+        size: the base face size, a power of two (0: the source's). levels: mips (0: down to 4 x 4).
+        mapping: roughness per mip, "cmgen" (r = 1 - sqrt(1 - m / (levels - 1))) or "linear".
+        samples: GGX samples per texel, 16 to 2^20 (all replicates); replicates: 2 to 64; seed.
+        no_fis: read every sample from the full-resolution source (no filtered importance sampling).
+        lod_bias: filtered importance sampling's LOD bias, -16 to 16.
+        bright_threshold: > 0 sums texels brighter than this x the mean radiance explicitly (at most
+            bright_max), on the mips of roughness >= bright_min_roughness, whose samples are multiplied by
+            wide_samples_factor.
+        device: OpenCL devices for the kernel (None: C++ on CPU threads, `threads` of them, 0: all).
+        verify: > 0 compares that many random texels with the brute-force oracle (in the metadata).
+        irradiance_size: the SH irradiance cubemap's face size.
+        progress: True prints progress on stderr; a callable gets (texels done, texels).
+    """
+    image, files = _environment(environment, faces)
+    _choice("mapping", mapping, ("cmgen", "linear"))
+    _count("size", size, 0, 4096)
+    if size and size & (size - 1):
+        raise ValueError(f"size = {size!r}: a power of two (0: the source's)")
+    _count("levels", levels, 0, 13)
+    _count("samples", samples, 16, 1 << 20)
+    _count("replicates", replicates, 2, 64)
+    _count("seed", seed, 0, 2**64 - 1)
+    _count("wide_samples_factor", wide_samples_factor, 1, 64)
+    _count("bright_max", bright_max, 1, 1 << 20)
+    _count("threads", threads, 0, 1024)
+    _count("verify", verify, 0, 100000)
+    _count("irradiance_size", irradiance_size, 1, 1024)
+    if device is not None and not isinstance(device, str):
+        raise ValueError(f"device = {device!r}: 'default', 'all', an index or part of a name, as a string")
+    native = _core.prefilter(image, files, int(size), int(levels), mapping, int(samples), int(replicates), int(seed),
+                             not no_fis, _real("lod_bias", lod_bias, -16, 16),
+                             _real("bright_threshold", bright_threshold, 0, 1e12),
+                             _real("bright_min_roughness", bright_min_roughness, 0, 1), int(wide_samples_factor),
+                             int(bright_max), device or "", int(threads), int(verify), int(irradiance_size),
+                             _progress("ibl prefilter", progress))
+    return PrefilteredEnvironment(native)
+
+
+class IrradianceMap:
+    """The result of :func:`ibl_irradiance`.
+
+    Attributes:
+        data: float32 (6, n, n, 3): E / pi, faces +X -X +Y -Y +Z -Z.
+        bound: float32 (6, n, n, 3): a bound on |data - the exact E / pi of the full-resolution source|.
+        metadata: dict, irradiance.json's content (with the comparison against order-2 SH).
+    """
+
+    def __init__(self, native: "_core.IrradianceMap") -> None:
+        self._native = native
+        self.data: np.ndarray = native.map()
+        self.bound: np.ndarray = native.bound()
+        self.metadata: dict = json.loads(native.metadata_json)
+
+    def save(self, out: PathArg, format: str = "exr", encoding: str = "float16", exposure: float = 1.0) -> None:
+        """Writes ``ibl irradiance``'s files into the folder `out` (created), all or none:
+        irradiance.<format> ("exr": a horizontal cross; "ktx2" / "dds": one cubemap level, encoding
+        "float16" or "float32"), irradiance.json and irradiance_preview.png."""
+        _cube_format(format, encoding)
+        self._native.save(os.fspath(out), format, encoding, _real("exposure", exposure, 0, 1e12))
+
+
+def ibl_irradiance(
+    environment: Optional[PathArg] = None,
+    *,
+    faces: Optional[Sequence[PathArg]] = None,
+    face_size: int = 32,
+    source_size: int = 128,
+    backend: str = "opencl",
+    device: str = "default",
+    threads: int = 0,
+    verify: int = 0,
+    progress: ProgressArg = None,
+) -> IrradianceMap:
+    """The irradiance cubemap (E / pi) by direct clamped-cosine convolution, with error bounds:
+    ``microshadow ibl irradiance`` without its files (call ``.save(out)``).
+
+    Args:
+        environment / faces: as :func:`ibl_prefilter`.
+        face_size: output faces (1 to 1024); source_size: the reduced source the kernel convolves (1 to 8192).
+        backend: "opencl" (the kernel on `device`) or "oracle" (the exact convolution of the full source in
+            double, `threads` CPU threads, 0: all).
+        verify: > 0 checks that many random texels against their bound (RuntimeError if one exceeds it).
+        progress: True prints progress on stderr; a callable gets (done, total).
+    """
+    image, files = _environment(environment, faces)
+    _count("face_size", face_size, 1, 1024)
+    _count("source_size", source_size, 1, 8192)
+    _choice("backend", backend, _BACKENDS)
+    _count("threads", threads, 0, 1024)
+    _count("verify", verify, 0, 100000)
+    native = _core.irradiance(image, files, int(face_size), int(source_size), backend, device, int(threads), int(verify),
+                              _progress("ibl irradiance", progress))
+    return IrradianceMap(native)
+
+
+class ShIrradiance:
+    """The result of :func:`ibl_sh`.
+
+    Attributes:
+        coefficients: float64 (9, 3): the radiance SH coefficients L_lm (real SH, k = l(l+1)+m).
+        irradiance: float32 (6, n, n, 3): E / pi from them, faces +X -X +Y -Y +Z -Z.
+        metadata: dict, the command's JSON (coefficients, irradiance coefficients, the SH error).
+    """
+
+    def __init__(self, native: "_core.ShIrradiance") -> None:
+        self._native = native
+        self.coefficients: np.ndarray = native.sh()
+        self.irradiance: np.ndarray = native.irradiance()
+        self.metadata: dict = json.loads(native.metadata_json)
+
+    def save(self, out: PathArg, *, irradiance: Optional[PathArg] = None, preview: Optional[PathArg] = None,
+             shader: Optional[PathArg] = None, symbol: str = "microshadow_sh") -> None:
+        """Writes ``ibl sh``'s files, all or none: the JSON `out` and, where given, the irradiance cross
+        (.exr), its preview (.png) and the shader constants (.glsl or .hlsl, named `symbol`)."""
+        self._native.save(os.fspath(out), "" if irradiance is None else os.fspath(irradiance),
+                          "" if preview is None else os.fspath(preview), "" if shader is None else os.fspath(shader), symbol)
+
+
+def ibl_sh(environment: Optional[PathArg] = None, *, faces: Optional[Sequence[PathArg]] = None,
+           face_size: int = 32) -> ShIrradiance:
+    """Order-2 spherical harmonics of an environment (9 coefficients per channel) and the irradiance
+    cubemap through the clamped-cosine convolution: ``microshadow ibl sh`` (call ``.save(out, ...)``).
+
+    environment / faces: as :func:`ibl_prefilter`; face_size: the irradiance cubemap's (1 to 1024)."""
+    image, files = _environment(environment, faces)
+    _count("face_size", face_size, 1, 1024)
+    return ShIrradiance(_core.spherical_harmonics(image, files, int(face_size)))
+
+
+# --- the design study -----------------------------------------------------------------------------------
+
+
+class DesignTable(dict):
+    """The design study's table (pareto.csv) as a dict of arrays, one row per candidate, sorted by weighted
+    RMS: "name", "kind", "storage" (text), "bytes", "fetches_per_light", "alu_per_light", "weighted_rms",
+    "weighted_p99", "max_abs", "pareto", "chosen", "within_budget" (bool), "outside_domain" and "points".
+
+    Attributes:
+        by_roughness: dict: "edges" (the roughness bands [edges[k], edges[k + 1])) and "points",
+            "weighted_rms", "weighted_p99", "max_abs" as (candidates, bands) arrays, rows as the table's.
+        chosen: the chosen candidate's name (the best inside the budget, or `choose`).
+        reference: dict of the evaluation reference set: "file" (the cached CSV), "points",
+            "max_std_error", "rms_std_error".
+    """
+
+    def __init__(self, table: Dict[str, np.ndarray], by_roughness: Dict[str, np.ndarray], chosen: str,
+                 reference: dict) -> None:
+        super().__init__(table)
+        self.by_roughness = dict(by_roughness)
+        self.chosen = chosen
+        self.reference = dict(reference)
+
+
+def _files(name: str, value: Sequence[PathArg]) -> List[str]:
+    if isinstance(value, (str, os.PathLike)):
+        raise ValueError(f"{name}: a list of FILE or NAME=FILE entries (give [entry] for one)")
+    return [os.fspath(v) for v in value]
+
+
+def design(
+    reference: PathArg,
+    *,
+    fit_reference: Optional[PathArg] = None,
+    cache: PathArg = "out/design-cache",
+    luts: Sequence[PathArg] = (),
+    reprs: Sequence[PathArg] = (),
+    closed_forms: Sequence[PathArg] = (),
+    fit_orders: Sequence[int] = (1, 2, 3),
+    max_bytes: Optional[int] = None,
+    max_fetches: Optional[int] = None,
+    max_alu: Optional[int] = None,
+    choose: Optional[str] = None,
+    analytic: bool = True,
+    strict_domain: bool = False,
+    backend: str = "opencl",
+    device: str = "default",
+    progress: ProgressArg = None,
+) -> DesignTable:
+    """Judges every candidate representation against one cached reference set: ``microshadow design``'s
+    table (pareto.csv) without its files (docs/study.md).
+
+    Args:
+        reference: the reference spec (TOML: [points] region or csv, [sampling]); computed once and
+            cached in `cache` by the hash of its definition.
+        fit_reference: fit the closed form to this spec (other points than `reference`) at each of
+            fit_orders (1 to 4): candidates "closed-form-<order>".
+        luts, reprs, closed_forms: more candidates, each FILE or NAME=FILE: baked LUTs, representations
+            (files, or a preset's name: realistic, full-range) and fitted closed forms (JSON).
+        max_bytes, max_fetches, max_alu: the budget (None: unlimited); choose: this candidate instead of
+            the best inside it.
+        analytic: False leaves part 1's terms out (``--no-analytic``). strict_domain: refuse a candidate
+            whose domain leaves out reference points (else they are counted in "outside_domain").
+        backend, device: where a missing reference is computed.
+        progress: True prints progress on stderr; a callable gets (points done, points) while a reference
+            set is computed.
+    """
+    _choice("backend", backend, _BACKENDS)
+    spec = os.fspath(reference)
+    if not os.path.isfile(spec):
+        raise FileNotFoundError(f"{spec}: no such file")
+    fit = "" if fit_reference is None else os.fspath(fit_reference)
+    if fit and not os.path.isfile(fit):
+        raise FileNotFoundError(f"{fit}: no such file")
+    orders = []
+    for i, order in enumerate(fit_orders):
+        if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= int(order) <= 4:
+            raise ValueError(f"fit_orders[{i}] = {order!r}: an integer from 1 to 4")
+        orders.append(int(order))
+    budget = {}
+    for name, value, top in (("max_bytes", max_bytes, 2**64 - 1), ("max_fetches", max_fetches, 2**32 - 1),
+                             ("max_alu", max_alu, 2**32 - 1)):
+        budget[name] = top if value is None else _count(name, value, 0, top)
+    if choose is not None and not isinstance(choose, str):
+        raise ValueError(f"choose = {choose!r}: a candidate's name")
+    table, by_roughness, chosen, ref = _core.design(
+        spec, fit, os.fspath(cache), _files("luts", luts), _files("reprs", reprs), _files("closed_forms", closed_forms),
+        orders, budget["max_bytes"], budget["max_fetches"], budget["max_alu"], choose or "", bool(analytic),
+        bool(strict_domain), backend, device, _progress("design", progress))
+    return DesignTable(table, by_roughness, chosen, ref)

@@ -240,6 +240,46 @@ py::dict table_dict(const SweepTable& t) {
     return out;
 }
 
+// A cubemap as a (6, size, size, 3) float32 array (faces +X -X +Y -Y +Z -Z).
+py::array_t<float> cube_array(const CubeImage& c) {
+    return to_array(c.texels, {6, py::ssize_t(c.size), py::ssize_t(c.size), 3});
+}
+
+EnvironmentSource environment_source(const std::string& image, const std::vector<std::string>& faces) {
+    EnvironmentSource e;
+    e.image = image;
+    e.faces = faces;
+    return e;
+}
+
+// (N, 6) rows of visibility, alpha_x, alpha_y, wi (3) and (N, 4) sphere rows (centre (3), half-angle in
+// degrees) or (N, 12) rectangle rows (the corners) -> the queries of area_evaluate.
+std::vector<AreaQuery> area_queries(const Doubles& surface, const Doubles& light, LightShape shape) {
+    const py::ssize_t light_columns = shape == LightShape::sphere ? 4 : 12;
+    if (surface.ndim() != 2 || surface.shape(1) != 6) throw std::invalid_argument("surface rows must be an (N, 6) array");
+    if (light.ndim() != 2 || light.shape(1) != light_columns || light.shape(0) != surface.shape(0))
+        throw std::invalid_argument("light rows must be (N, " + std::to_string(light_columns) + ")");
+    const std::size_t n = std::size_t(surface.shape(0));
+    std::vector<AreaQuery> queries(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const double* s = surface.data() + 6 * i;
+        const double* l = light.data() + light_columns * i;
+        AreaQuery& q = queries[i];
+        q.visibility = s[0];
+        q.alpha_x = s[1];
+        q.alpha_y = s[2];
+        q.wi = {s[3], s[4], s[5]};
+        q.shape = shape;
+        if (shape == LightShape::sphere) {
+            q.centre = {l[0], l[1], l[2]};
+            q.half_angle_degrees = l[3];
+        } else {
+            for (int k = 0; k < 4; ++k) q.corners[k] = {l[3 * k], l[3 * k + 1], l[3 * k + 2]};
+        }
+    }
+    return queries;
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_microshadow, m) {
@@ -426,4 +466,250 @@ PYBIND11_MODULE(_microshadow, m) {
         },
         "size"_a, "size_n_dot_v"_a, "size_roughness"_a, "texel"_a, "samples"_a, "replicates"_a, "seed"_a, "backend"_a,
         "device"_a, "fast_math"_a, "progress"_a);
+
+    // --- area lights ---
+    m.def(
+        "area_evaluate",
+        [](const Doubles& surface, const Doubles& light, const std::string& shape, const std::string& lobe,
+           const std::string& method, double tolerance, std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed,
+           const std::string& sequence, const std::string& form, const std::string& ao_weighting, const std::string& backend,
+           const std::string& device, bool fast_math, const py::object& progress) {
+            if (shape != "sphere" && shape != "rect") throw std::invalid_argument("light = '" + shape + "' (sphere or rect)");
+            if (lobe != "ggx" && lobe != "lambert") throw std::invalid_argument("lobe = '" + lobe + "' (ggx or lambert)");
+            const std::vector<AreaQuery> queries = area_queries(surface, light, shape == "sphere" ? LightShape::sphere : LightShape::rect);
+            AreaOptions o;
+            o.lobe = lobe == "ggx" ? Lobe::ggx : Lobe::lambert;
+            o.sampling = sampling_options(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend,
+                                          device, fast_math, false);
+            const std::vector<AreaEstimate> got =
+                run_long(progress, [&](const Progress& p) { return area_evaluate(queries, o, p); });
+            std::vector<double> flat(3 * got.size());
+            for (std::size_t i = 0; i < got.size(); ++i) {
+                flat[3 * i] = got[i].value;
+                flat[3 * i + 1] = got[i].std_error;
+                flat[3 * i + 2] = got[i].inner_error;
+            }
+            return to_array(flat, {py::ssize_t(got.size()), 3});
+        },
+        "surface"_a, "light"_a, "shape"_a, "lobe"_a, "method"_a, "tolerance"_a, "samples"_a, "replicates"_a, "seed"_a,
+        "sequence"_a, "form"_a, "ao_weighting"_a, "backend"_a, "device"_a, "fast_math"_a, "progress"_a);
+
+    // --- scenes ---
+    py::class_<SceneResult>(m, "SceneResult")
+        .def_property_readonly("width", &SceneResult::width)
+        .def_property_readonly("height", &SceneResult::height)
+        .def_property_readonly("lights", &SceneResult::lights)
+        .def_property_readonly("comparators", &SceneResult::comparators)
+        .def_property_readonly("report_json", &SceneResult::report_json)
+        .def("layers",
+             [](const SceneResult& r) {
+                 py::dict out;
+                 for (const SceneLayer& l : r.layers())
+                     out[py::str(l.name)] = to_array(l.pixels, {py::ssize_t(r.height()), py::ssize_t(r.width())});
+                 return out;
+             })
+        .def("save", [](const SceneResult& r, const std::string& dir) {
+            py::gil_scoped_release release;
+            r.save(dir);
+        }, "dir"_a);
+    m.def(
+        "scene",
+        [](const std::string& path, double tolerance, const std::optional<std::string>& method, const std::vector<std::string>& luts,
+           bool skip, bool seed_luts, bool strict_domain, const std::string& backend, const std::string& device, bool fast_math,
+           const py::object& progress) {
+            SceneOptions o;
+            o.tolerance = tolerance;
+            if (method) o.method = parse_method(*method);
+            o.luts = luts;
+            o.skip = skip;
+            o.seed_luts = seed_luts;
+            o.strict_domain = strict_domain;
+            o.backend = parse_backend(backend);
+            o.device = device;
+            o.fast_math = fast_math;
+            return run_long(progress, [&](const Progress& p) { return scene(path, o, p); });
+        },
+        "path"_a, "tolerance"_a, "method"_a, "luts"_a, "skip"_a, "seed_luts"_a, "strict_domain"_a, "backend"_a, "device"_a,
+        "fast_math"_a, "progress"_a);
+
+    // --- environment integrals ---
+    py::class_<PrefilteredEnvironment>(m, "PrefilteredEnvironment")
+        .def_property_readonly("mip_roughness", &PrefilteredEnvironment::mip_roughness)
+        .def_property_readonly("metadata_json", &PrefilteredEnvironment::metadata_json)
+        .def("mips",
+             [](const PrefilteredEnvironment& p) {
+                 py::list out;
+                 for (std::size_t k = 0; k < p.mip_count(); ++k) out.append(cube_array(p.mip(k)));
+                 return out;
+             })
+        .def("irradiance", [](const PrefilteredEnvironment& p) { return cube_array(p.irradiance()); })
+        .def("sh", [](const PrefilteredEnvironment& p) { return to_array(p.sh(), {9, 3}); })
+        .def("save", [](const PrefilteredEnvironment& p, const std::string& dir, const std::string& format,
+                        const std::string& encoding, double exposure) {
+            py::gil_scoped_release release;
+            p.save(dir, format, encoding, exposure);
+        }, "dir"_a, "format"_a, "encoding"_a, "exposure"_a);
+    m.def(
+        "prefilter",
+        [](const std::string& image, const std::vector<std::string>& faces, std::uint32_t size, std::uint32_t levels,
+           const std::string& mapping, std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed, bool filtered,
+           double lod_bias, double bright_threshold, double bright_min_roughness, std::uint32_t wide_samples_factor,
+           std::uint64_t bright_max, const std::string& device, unsigned threads, std::uint32_t verify,
+           std::uint32_t irradiance_size, const py::object& progress) {
+            PrefilterOptions o;
+            o.environment = environment_source(image, faces);
+            o.size = size;
+            o.levels = levels;
+            o.mapping = mapping;
+            o.samples = samples;
+            o.replicates = replicates;
+            o.seed = seed;
+            o.filtered = filtered;
+            o.lod_bias = lod_bias;
+            o.bright_threshold = bright_threshold;
+            o.bright_min_roughness = bright_min_roughness;
+            o.wide_samples_factor = wide_samples_factor;
+            o.bright_max = bright_max;
+            o.device = device;
+            o.threads = threads;
+            o.verify = verify;
+            o.irradiance_size = irradiance_size;
+            return run_long(progress, [&](const Progress& p) { return prefilter(o, p); });
+        },
+        "image"_a, "faces"_a, "size"_a, "levels"_a, "mapping"_a, "samples"_a, "replicates"_a, "seed"_a, "filtered"_a,
+        "lod_bias"_a, "bright_threshold"_a, "bright_min_roughness"_a, "wide_samples_factor"_a, "bright_max"_a, "device"_a,
+        "threads"_a, "verify"_a, "irradiance_size"_a, "progress"_a);
+
+    py::class_<IrradianceMap>(m, "IrradianceMap")
+        .def_property_readonly("metadata_json", &IrradianceMap::metadata_json)
+        .def("map", [](const IrradianceMap& r) { return cube_array(r.map()); })
+        .def("bound", [](const IrradianceMap& r) { return cube_array(r.bound()); })
+        .def("save", [](const IrradianceMap& r, const std::string& dir, const std::string& format, const std::string& encoding,
+                        double exposure) {
+            py::gil_scoped_release release;
+            r.save(dir, format, encoding, exposure);
+        }, "dir"_a, "format"_a, "encoding"_a, "exposure"_a);
+    m.def(
+        "irradiance",
+        [](const std::string& image, const std::vector<std::string>& faces, std::uint32_t face_size, std::uint32_t source_size,
+           const std::string& backend, const std::string& device, unsigned threads, std::uint32_t verify,
+           const py::object& progress) {
+            IrradianceOptions o;
+            o.environment = environment_source(image, faces);
+            o.face_size = face_size;
+            o.source_size = source_size;
+            o.backend = parse_backend(backend);
+            o.device = device;
+            o.threads = threads;
+            o.verify = verify;
+            return run_long(progress, [&](const Progress& p) { return irradiance(o, p); });
+        },
+        "image"_a, "faces"_a, "face_size"_a, "source_size"_a, "backend"_a, "device"_a, "threads"_a, "verify"_a, "progress"_a);
+
+    py::class_<ShIrradiance>(m, "ShIrradiance")
+        .def_property_readonly("metadata_json", &ShIrradiance::metadata_json)
+        .def("sh", [](const ShIrradiance& r) { return to_array(r.sh(), {9, 3}); })
+        .def("irradiance", [](const ShIrradiance& r) { return cube_array(r.irradiance()); })
+        .def("save", [](const ShIrradiance& r, const std::string& json, const std::string& irradiance, const std::string& preview,
+                        const std::string& shader, const std::string& symbol) {
+            py::gil_scoped_release release;
+            r.save(json, irradiance, preview, shader, symbol);
+        }, "json"_a, "irradiance"_a, "preview"_a, "shader"_a, "symbol"_a);
+    m.def("spherical_harmonics", [](const std::string& image, const std::vector<std::string>& faces, std::uint32_t face_size) {
+        py::gil_scoped_release release;
+        return spherical_harmonics(environment_source(image, faces), face_size);
+    }, "image"_a, "faces"_a, "face_size"_a);
+
+    // --- the design study ---
+    m.def(
+        "design",
+        [](const std::string& reference, const std::string& fit_reference, const std::string& cache,
+           const std::vector<std::string>& luts, const std::vector<std::string>& reprs,
+           const std::vector<std::string>& closed_forms, const std::vector<unsigned>& fit_orders, std::uint64_t max_bytes,
+           unsigned max_fetches, unsigned max_alu, const std::string& choose, bool analytic, bool strict_domain,
+           const std::string& backend, const std::string& device, const py::object& progress) {
+            DesignOptions o;
+            o.reference = reference;
+            o.fit_reference = fit_reference;
+            o.cache = cache;
+            o.luts = luts;
+            o.reprs = reprs;
+            o.closed_forms = closed_forms;
+            o.fit_orders = fit_orders;
+            o.max_bytes = max_bytes;
+            o.max_fetches = max_fetches;
+            o.max_alu = max_alu;
+            o.choose = choose;
+            o.analytic = analytic;
+            o.strict_domain = strict_domain;
+            o.backend = parse_backend(backend);
+            o.device = device;
+            const DesignTable t = run_long(progress, [&](const Progress& p) { return design(o, p); });
+            // pareto.csv's columns, and the per-band metrics as (candidates, bands) arrays.
+            const std::size_t n = t.candidates.size(), bands = t.roughness_edges.size() - 1;
+            py::list name, kind, storage;
+            std::vector<std::uint64_t> bytes(n), fetches(n), alu(n), points(n), outside(n);
+            std::vector<double> rms(n), p99(n), max_abs(n);
+            std::vector<std::uint8_t> pareto(n), chosen(n), within(n);
+            std::vector<double> band_rms(n * bands), band_p99(n * bands), band_max(n * bands);
+            std::vector<std::uint64_t> band_points(n * bands);
+            for (std::size_t i = 0; i < n; ++i) {
+                const DesignCandidate& c = t.candidates[i];
+                name.append(c.name);
+                kind.append(c.kind);
+                storage.append(c.storage);
+                bytes[i] = c.bytes;
+                fetches[i] = c.fetches_per_light;
+                alu[i] = c.alu_per_light;
+                rms[i] = c.metrics.weighted_rms;
+                p99[i] = c.metrics.weighted_p99;
+                max_abs[i] = c.metrics.max_abs;
+                points[i] = c.metrics.points;
+                pareto[i] = c.pareto;
+                chosen[i] = c.chosen;
+                within[i] = c.within_budget;
+                outside[i] = c.outside_domain;
+                for (std::size_t b = 0; b < bands; ++b) {
+                    band_rms[i * bands + b] = c.by_roughness[b].weighted_rms;
+                    band_p99[i * bands + b] = c.by_roughness[b].weighted_p99;
+                    band_max[i * bands + b] = c.by_roughness[b].max_abs;
+                    band_points[i * bands + b] = c.by_roughness[b].points;
+                }
+            }
+            const auto np = py::module_::import("numpy");
+            const auto text = [&](const py::list& l) { return np.attr("array")(l, "dtype"_a = "U"); };
+            const auto flags = [&](const std::vector<std::uint8_t>& v) {
+                return to_array(v, {py::ssize_t(n)}).attr("astype")("bool");
+            };
+            const std::vector<py::ssize_t> one{py::ssize_t(n)}, two{py::ssize_t(n), py::ssize_t(bands)};
+            py::dict table;
+            table["name"] = text(name);
+            table["kind"] = text(kind);
+            table["storage"] = text(storage);
+            table["bytes"] = to_array(bytes, one);
+            table["fetches_per_light"] = to_array(fetches, one);
+            table["alu_per_light"] = to_array(alu, one);
+            table["weighted_rms"] = to_array(rms, one);
+            table["weighted_p99"] = to_array(p99, one);
+            table["max_abs"] = to_array(max_abs, one);
+            table["pareto"] = flags(pareto);
+            table["chosen"] = flags(chosen);
+            table["within_budget"] = flags(within);
+            table["outside_domain"] = to_array(outside, one);
+            table["points"] = to_array(points, one);
+            py::dict by_roughness;
+            by_roughness["edges"] = to_array(t.roughness_edges, {py::ssize_t(t.roughness_edges.size())});
+            by_roughness["points"] = to_array(band_points, two);
+            by_roughness["weighted_rms"] = to_array(band_rms, two);
+            by_roughness["weighted_p99"] = to_array(band_p99, two);
+            by_roughness["max_abs"] = to_array(band_max, two);
+            py::dict reference_set;
+            reference_set["file"] = t.reference_file;
+            reference_set["points"] = t.reference_points;
+            reference_set["max_std_error"] = t.reference_max_std_error;
+            reference_set["rms_std_error"] = t.reference_rms_std_error;
+            return py::make_tuple(table, by_roughness, t.chosen, reference_set);
+        },
+        "reference"_a, "fit_reference"_a, "cache"_a, "luts"_a, "reprs"_a, "closed_forms"_a, "fit_orders"_a, "max_bytes"_a,
+        "max_fetches"_a, "max_alu"_a, "choose"_a, "analytic"_a, "strict_domain"_a, "backend"_a, "device"_a, "progress"_a);
 }

@@ -149,7 +149,7 @@ def test_an_exception_in_the_progress_callback_stops_the_call_and_propagates():
 def test_ctrl_c_stops_a_long_call_with_keyboard_interrupt():
     # 400,000 exact queries take several seconds; SIGINT 0.2 s in must stop them within the progress
     # period (0.1 s) and a batch.
-    n = 400_000
+    n = 4_000_000
     rng = np.random.default_rng(1)
     nl = rng.uniform(0.05, 1.0, n)
     timer = threading.Timer(0.2, lambda: os.kill(os.getpid(), signal.SIGINT))

@@ -44,7 +44,7 @@ Point PointGrid::at(std::uint64_t index) const {
     } else {
         p.alpha_y = spec_.alpha_y[take(spec_.alpha_y.size())];
         p.alpha_x = spec_.alpha_x[take(spec_.alpha_x.size())];
-        p.roughness = compare::isotropic_roughness(p.alpha_x, p.alpha_y);
+        p.roughness = approx::isotropic_roughness(p.alpha_x, p.alpha_y);
     }
     p.weighting = weightings_[take(weightings_.size())];
     p.form = forms_[take(forms_.size())];

@@ -1,5 +1,7 @@
 #include "jobs/sweep/runner.hpp"
 
+#include "approx/analytic.hpp"
+
 #include "core/digest.hpp"
 
 #include <nlohmann/json.hpp>
@@ -175,8 +177,8 @@ std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
     return hex16(h);
 }
 
-// The [[comparators.lut]] files opened: a part 2 LUT or a representation (host/repr/, opened through the
-// hook repr::install_comparators() sets): compare::Comparator tells them apart by the file's metadata.
+// The [[comparators.lut]] files opened: a part 2 LUT or a representation (host/repr/):
+// compare::Comparator tells them apart by the file's metadata.
 // A file that cannot be used (missing, truncated, not a LUT) is bad input naming the comparator.
 std::vector<compare::Comparator> open_comparator_files(const Spec& spec) {
     std::vector<compare::Comparator> files;
@@ -217,11 +219,11 @@ public:
             json j = c.provenance();
             // Counted over the whole sweep (every shard the same): what its columns stand on.
             j.update(compare::domain_report(c.domain(), tallies_[k]));
-            if (const auto cost = c.cost())
-                j["cost"] = {{"bytes", cost->bytes},
-                             {"fetches_per_light", cost->fetches_per_light},
-                             {"alu_per_light", cost->alu_per_light},
-                             {"storage", cost->storage}};
+            const approx::Cost cost = c.cost();
+            j["cost"] = {{"bytes", cost.bytes},
+                         {"fetches_per_light", cost.fetches_per_light},
+                         {"alu_per_light", cost.alu_per_light},
+                         {"storage", cost.storage}};
             out.push_back(j);
         }
         return out;
@@ -238,7 +240,7 @@ public:
         for (const auto& c : files_) domains.push_back(c.domain());
         for (std::uint64_t i = 0; i < grid_.size(); ++i) {
             const Point p = grid_.at(i);
-            const compare::ComparatorInputs in = inputs(p);
+            const approx::Inputs in = inputs(p);
             for (std::size_t k = 0; k < files_.size(); ++k) {
                 if (!domains[k]) continue;
                 const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
@@ -264,13 +266,13 @@ public:
     }
 
     // A point's comparator inputs, as eval --compare computes them from a query.
-    compare::ComparatorInputs inputs(const Point& p) const {
-        compare::ComparatorInputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
+    approx::Inputs inputs(const Point& p) const {
+        approx::Inputs in{p.visibility, p.n_dot_l, p.n_dot_v, p.roughness, p.weighting};
         // delta_phi in degrees, folded to [0, 180] (the term is even and 360-periodic in it).
         const double folded = std::fabs(std::remainder(p.delta_phi, 360.0));
         in.relative_azimuth = folded * (3.14159265358979323846 / 180.0);
         // A direction along the normal has no azimuth: 0, as eval --compare reads it from the query's
-        // directions (compare::inputs_of), so a representation column equals eval's at such points.
+        // directions (approx::inputs_of), so a representation column equals eval's at such points.
         if (p.n_dot_v >= 1 || p.n_dot_l >= 1) in.relative_azimuth = 0;
         return in;
     }
@@ -300,8 +302,8 @@ public:
                 line += "," + format_number(v);
             // The comparators as eval --compare computes them (jobs/compare.hpp): Activision's adjusted
             // term reads its own roughness of the point's isotropic-equivalent alpha (see points.hpp).
-            const compare::ComparatorInputs in = inputs(p);
-            for (auto t : spec_.analytic) line += "," + format_number(compare::analytic_value(t, in));
+            const approx::Inputs in = inputs(p);
+            for (auto t : spec_.analytic) line += "," + format_number(approx::analytic_value(t, in));
             for (const auto& c : files_) line += "," + format_number(c(in));
             out += line + "\n";
         }

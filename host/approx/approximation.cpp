@@ -1,0 +1,24 @@
+#include "approx/approximation.hpp"
+
+#include <cmath>
+
+namespace ms::approx {
+
+double isotropic_roughness(double alpha_x, double alpha_y) { return std::sqrt(std::sqrt(alpha_x * alpha_y)); }
+
+Inputs inputs_of(const Query& q, AoWeighting weighting) {
+    const Query n = normalised(q);
+    Inputs in;
+    in.visibility = q.visibility;
+    in.n_dot_l = n.wo.z;
+    in.n_dot_v = n.wi.z;
+    in.roughness = isotropic_roughness(q.alpha_x, q.alpha_y);
+    in.weighting = weighting;
+    // atan2 of the cross and dot products of the projections: robust for any lengths, in [0, pi].
+    const double dot = n.wi.x * n.wo.x + n.wi.y * n.wo.y;
+    const double cross = n.wi.x * n.wo.y - n.wi.y * n.wo.x;
+    in.relative_azimuth = (dot == 0 && cross == 0) ? 0.0 : std::atan2(std::fabs(cross), dot);
+    return in;
+}
+
+}  // namespace ms::approx

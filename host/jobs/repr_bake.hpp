@@ -1,0 +1,36 @@
+// The bakes of host/repr/'s representations: the term at every texel and azimuth node through the
+// term integrand (jobs/eval.hpp's evaluate), and the presets baked with the exact method.
+//
+// Why the term integrand (one query per texel and node) and not K fixed-azimuth LUT bakes: the LUT slice
+// integrand bins a whole (roughness, NdotV) slice per VNDF pass, but only on rows of constant NdotL;
+// the shadow-edge warp puts every visibility column on its own NdotL values, which no row holds. The
+// linear grid agrees with the fixed-azimuth LUT bake at the same nodes (tests/repr_test.cpp), and
+// docs/representations.md gives the measured cost of both.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include "jobs/eval.hpp"
+#include "repr/presets.hpp"
+#include "repr/representation.hpp"
+
+namespace ms::repr {
+
+// Bakes the term at every texel and node: one query per (roughness, node, texel), the provable zeros
+// and v = 1 answered exactly. std::invalid_argument for a spec out of range.
+AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
+                         const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// Bakes a preset with the exact method (its default tolerance) on `backend` and builds it; the bake's
+// metadata records the preset's name and domain.
+std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
+                                            const std::function<void(std::size_t, std::size_t)>& progress = {});
+
+// A preset baked once per process and name on this machine's CPU with the exact method (a few seconds;
+// the same texels every time), for the comparators that name one. Thread-safe.
+std::shared_ptr<const Representation> baked_preset(const std::string& name);
+
+}  // namespace ms::repr

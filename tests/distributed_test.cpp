@@ -438,13 +438,14 @@ TEST_F(Distributed, CliNewJobsRefuseBadSplitsExitTwoAndWriteNothing) {
         EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
         EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
         EXPECT_FALSE(fs::exists(path("out")));
+        EXPECT_FALSE(fs::exists(path("out.exr")));
     };
     refused(design + " --merge --out " + path("out"), "no shard manifests");
     ASSERT_EQ(cli("", design + " --shard 0/2").exit_code, 0);
     refused(design + " --shard 0/3", "splits this job into 2 shards, not 3");
     refused(design + " --merge --shard 1/2", "--merge assembles");
     const std::string repr_bake = "repr bake -q --kind azimuth-axis --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2 "
-                                  "--azimuth-nodes 3 --roughness 0.3,0.9 --samples 256 --backend oracle --out " + path("out");
+                                  "--azimuth-nodes 3 --roughness 0.3,0.9 --samples 256 --backend oracle --out " + path("out.exr");
     refused(repr_bake + " --merge", "no shard manifests");
     refused(repr_bake + " --shard 3/2", "--shard: expected I/N");
     ASSERT_EQ(cli("", repr_bake + " --shard 0/2").exit_code, 0);

@@ -258,8 +258,19 @@ void run_design(DesignArgs args, MpiWorld* world) {
     // Outputs checked before any work.
     OutputSet outputs;
     std::size_t csv_out = 0, md_out = 0, json_out = 0;
+    // The output folder is made now (its files are checked before the work), and removed again if this
+    // run made it and stops before writing: a refused or failed run leaves nothing behind.
+    struct MadeFolder {
+        fs::path path;
+        bool keep = false;
+        ~MadeFolder() {
+            std::error_code ignored;
+            if (!keep && !path.empty()) fs::remove(path, ignored);  // removes only an empty folder
+        }
+    } made_folder;
     if (!args.out.empty() && writer) {
         std::error_code ec;
+        if (!fs::exists(args.out)) made_folder.path = args.out;
         fs::create_directories(args.out, ec);
         if (ec) throw std::invalid_argument("--out " + args.out + ": cannot create the folder (" + ec.message() + ")");
         csv_out = outputs.add((fs::path(args.out) / "pareto.csv").string());
@@ -454,6 +465,7 @@ void run_design(DesignArgs args, MpiWorld* world) {
         }
         outputs.stream(json_out) << dump_json(meta, 2) << "\n";
         outputs.commit();
+        made_folder.keep = true;
         if (!args.sampling.quiet) std::cerr << "design: wrote " << args.out << "/pareto.{csv,md}, design.json"
                                             << (candidates[chosen].bake ? " and chosen-" + candidates[chosen].name + ".*" : std::string()) << "\n";
         if (args.plot) {

@@ -247,4 +247,29 @@ TEST(LibraryApi, BakeDfgGivesTheDfgJobsTexels) {
     EXPECT_EQ(lut.n_dot_v_values(), spec.n_dot_v.values());
 }
 
+// The CLI's --method, --channels and --parameterization reach the job through the public options: the
+// channels come back in the asked order, the axis as NdotV.
+TEST(LibraryApi, BakeDfgTakesMethodChannelsAndParameterization) {
+    microshadow::DfgOptions o;
+    o.size = 3;
+    o.method = "exact";
+    o.channels = "E,sheen";
+    o.parameterization = "sqrt-n-dot-v";
+    const microshadow::DfgLut lut = microshadow::bake_dfg(o);
+    ms::DfgBakeSpec spec;
+    spec.n_dot_v.count = spec.roughness.count = 3;
+    spec.method = ms::DfgMethod::exact;
+    spec.channels = {ms::DfgChannel::albedo, ms::DfgChannel::sheen};
+    spec.parameterization = ms::DfgParameterization::sqrt_n_dot_v;
+    const ms::DfgBakeResult want = ms::bake_dfg(spec);
+    EXPECT_EQ(lut.channels(), (std::vector<std::string>{"E", "sheen"}));
+    const std::vector<double> got = lut.values();
+    ASSERT_EQ(got.size(), 18u);
+    EXPECT_EQ(got[(2 * 3 + 1) * 2 + 0], want.at(1, 2).albedo.term);  // [roughness][n_dot_v][E, sheen]
+    EXPECT_EQ(got[(2 * 3 + 1) * 2 + 1], want.at(1, 2).sheen.term);
+    EXPECT_DOUBLE_EQ(lut.n_dot_v_values()[1], 0.5 * 0.5);  // texel centre 0.5 holds NdotV 0.25
+    o.backend = microshadow::Backend::oracle;  // the quadrature's older spelling contradicts exact
+    EXPECT_THROW(microshadow::bake_dfg(o), std::invalid_argument);
+}
+
 }  // namespace

@@ -12,32 +12,47 @@
 
 namespace microshadow {
 
+// `ibl dfg`'s options, with its defaults.
 struct DfgOptions {
     std::uint32_t size = 64;                 // texels on both axes unless their own count is set
     std::uint32_t n_dot_v_count = 0, roughness_count = 0;  // 0: size
     std::string texel = "centres";           // "centres" (i + 0.5) / n or "endpoints" i / (n - 1)
-    std::uint64_t samples = 65536;           // per texel, rounded up to replicates x a power of two
-    std::uint32_t replicates = 8;
+    // "exact" (Gauss-Legendre, ~1e-12, host threads), "sampled" (the VNDF kernel with replicate error
+    // bars) or "quadrature" (the independent check). backend = oracle is the older spelling of
+    // "quadrature" (with method left "sampled").
+    std::string method = "sampled";
+    // 1-4 of scale, bias, E (= scale + bias), sheen (the cloth Charlie albedo), in the file's order.
+    std::string channels = "scale,bias,E";
+    std::string parameterization = "linear"; // the x axis: "linear" (NdotV) or "sqrt-n-dot-v" (x = sqrt(NdotV))
+    std::uint64_t samples = 65536;           // sampled: per texel, rounded up to replicates x a power of two
+    std::uint32_t replicates = 8;            // sampled
     std::uint64_t seed = 0;
-    Backend backend = Backend::opencl;       // oracle: the quadrature on CPU threads
+    Backend backend = Backend::opencl;
     std::string device = "default";
-    bool fast_math = false;
+    unsigned threads = 0;                    // exact / quadrature: host threads (0: all)
+    bool fast_math = false;                  // sampled: the kernel built with relaxed math
 };
 
-// The DFG LUT: x = NdotV, y = roughness (alpha = roughness^2); per texel the split-sum scale, bias and
-// the single-scattering albedo E = scale + bias, each with its standard error.
+// The DFG LUT: x = NdotV (or sqrt(NdotV)), y = roughness (alpha = roughness^2); per texel the channels
+// asked for (default: the split-sum scale, bias and the single-scattering albedo E = scale + bias), each
+// with its standard error (sampled) or error estimate (exact, quadrature).
 class DfgLut {
 public:
     std::uint32_t n_dot_v_count() const;
     std::uint32_t roughness_count() const;
+    // The NdotV of each column (with sqrt-n-dot-v, the square of the texel coordinate) and the roughness
+    // of each row.
     std::vector<double> n_dot_v_values() const;
     std::vector<double> roughness_values() const;
-    // [roughness][n_dot_v][3]: scale, bias, E; and their standard errors alike.
+    // The channels' names in order ("scale", "bias", "E", "sheen").
+    std::vector<std::string> channels() const;
+    // [roughness][n_dot_v][channel]; and their standard errors alike.
     std::vector<double> values() const;
     std::vector<double> std_errors() const;
     std::string metadata_json() const;
-    // .exr, .ktx2, .dds (+ .dds.json) or .h, as `ibl dfg --out`; half: float16 texels.
-    void save(const std::string& path, bool half = false) const;
+    // .exr, .ktx2, .dds (+ .dds.json), .png (16-bit), .h or .inc, as `ibl dfg --out`; half: float16
+    // texels; symbol: the array name of a .h file.
+    void save(const std::string& path, bool half = false, const std::string& symbol = "microshadow_dfg") const;
 
     struct Data;
     explicit DfgLut(std::shared_ptr<const Data> data);

@@ -844,12 +844,14 @@ class SweepTable(dict):
 
 
 class DfgLut:
-    """The split-sum DFG LUT: x = NdotV, y = roughness (alpha = roughness^2).
+    """The split-sum DFG LUT: x = NdotV (or sqrt(NdotV)), y = roughness (alpha = roughness^2).
 
     Attributes:
-        data: float64 (roughness, n_dot_v, 3): scale, bias and the single-scattering albedo E = scale + bias.
-        std_error: their standard errors, alike.
-        n_dot_v, roughness: the parameter of each texel along each axis.
+        data: float64 (roughness, n_dot_v, channels): the channels asked for, by default scale, bias and the
+            single-scattering albedo E = scale + bias.
+        std_error: their standard errors (sampled) or error estimates (exact, quadrature), alike.
+        channels: the channels' names in order ("scale", "bias", "E", "sheen").
+        n_dot_v, roughness: the NdotV of each column and the roughness of each row.
         metadata: dict, how it was made.
     """
 
@@ -857,13 +859,17 @@ class DfgLut:
         self._native = native
         self.data: np.ndarray = native.values()
         self.std_error: np.ndarray = native.std_errors()
+        self.channels: List[str] = list(native.channels)
         self.n_dot_v: np.ndarray = np.array(native.n_dot_v)
         self.roughness: np.ndarray = np.array(native.roughness)
         self.metadata: dict = json.loads(native.metadata_json)
 
-    def save(self, path: PathArg, half: bool = False) -> None:
-        """Writes it as ``microshadow ibl dfg --out``: .exr, .ktx2, .dds (+ .dds.json), .png (16-bit), .h or .inc; half: float16."""
-        self._native.save(os.fspath(path), bool(half))
+    def save(self, path: PathArg, half: bool = False, symbol: str = "microshadow_dfg") -> None:
+        """Writes it as ``microshadow ibl dfg --out``: .exr, .ktx2, .dds (+ .dds.json), .png (16-bit), .h or .inc;
+        half: float16; symbol: the C array name of a .h file."""
+        if not isinstance(symbol, str) or not symbol:
+            raise ValueError(f"symbol = {symbol!r}: a C identifier")
+        self._native.save(os.fspath(path), bool(half), symbol)
 
 
 def ibl_dfg(
@@ -872,32 +878,45 @@ def ibl_dfg(
     size_n_dot_v: int = 0,
     size_roughness: int = 0,
     texel: str = "centres",
+    method: str = "sampled",
+    channels: str = "scale,bias,E",
+    parameterization: str = "linear",
     samples: int = 65536,
     replicates: int = 8,
     seed: int = 0,
     backend: str = "opencl",
     device: str = "default",
+    threads: int = 0,
     fast_math: bool = False,
     progress: ProgressArg = None,
 ) -> DfgLut:
     """Bakes the DFG LUT: ``microshadow ibl dfg`` without its file (call ``.save(path)``).
 
     size: texels on both axes (size_n_dot_v, size_roughness: one axis's own, 0: size); texel: "centres" or
-    "endpoints"; samples: VNDF samples per texel (all replicates; at most 2^24 a replicate); backend
-    "oracle": the quadrature on CPU threads. progress: True or a callable (texels done, texels).
+    "endpoints"; method: "exact" (Gauss-Legendre, ~1e-12), "sampled" (the VNDF kernel, error bars) or
+    "quadrature" (the independent check); channels: 1-4 of scale, bias, E, sheen in the file's order (a
+    comma-separated string or a list); parameterization: "linear" or "sqrt-n-dot-v" (x = sqrt(NdotV));
+    samples: VNDF samples per texel (all replicates; at most 2^24 a replicate; sampled only); backend
+    "oracle": the older spelling of method "quadrature"; threads: host threads of exact / quadrature (0:
+    all). progress: True or a callable (texels done, texels).
     """
     _choice("texel", texel, ("centres", "centers", "endpoints"))
+    _choice("method", method, ("exact", "sampled", "quadrature"))
+    _choice("parameterization", parameterization, ("linear", "sqrt-n-dot-v"))
     _choice("backend", backend, _BACKENDS)
+    if not isinstance(channels, str):
+        channels = ",".join(channels)
     _count("size", size, 1, 4096)
     _count("size_n_dot_v", size_n_dot_v, 0, 4096)
     _count("size_roughness", size_roughness, 0, 4096)
     _count("replicates", replicates, 2, 64)
     _count("samples", samples, 1, (1 << 24) * 64)
     _count("seed", seed, 0, 2**64 - 1)
-    native = _core.bake_dfg(int(size), int(size_n_dot_v), int(size_roughness), texel, int(samples), int(replicates),
-                            int(seed), backend, device, bool(fast_math), _progress("ibl dfg", progress))
+    _count("threads", threads, 0, 1024)
+    native = _core.bake_dfg(int(size), int(size_n_dot_v), int(size_roughness), texel, method, channels, parameterization,
+                            int(samples), int(replicates), int(seed), backend, device, int(threads), bool(fast_math),
+                            _progress("ibl dfg", progress))
     return DfgLut(native)
-
 
 
 # --- area lights ----------------------------------------------------------------------------------------

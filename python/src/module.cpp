@@ -436,36 +436,44 @@ PYBIND11_MODULE(_microshadow, m) {
         .def_property_readonly("metadata_json", &DfgLut::metadata_json)
         .def_property_readonly("n_dot_v", &DfgLut::n_dot_v_values)
         .def_property_readonly("roughness", &DfgLut::roughness_values)
+        .def_property_readonly("channels", &DfgLut::channels)
         .def("values", [](const DfgLut& d) {
-            return to_array(d.values(), {py::ssize_t(d.roughness_count()), py::ssize_t(d.n_dot_v_count()), 3});
+            return to_array(d.values(), {py::ssize_t(d.roughness_count()), py::ssize_t(d.n_dot_v_count()),
+                                         py::ssize_t(d.channels().size())});
         })
         .def("std_errors", [](const DfgLut& d) {
-            return to_array(d.std_errors(), {py::ssize_t(d.roughness_count()), py::ssize_t(d.n_dot_v_count()), 3});
+            return to_array(d.std_errors(), {py::ssize_t(d.roughness_count()), py::ssize_t(d.n_dot_v_count()),
+                                             py::ssize_t(d.channels().size())});
         })
-        .def("save", [](const DfgLut& d, const std::string& path, bool half) {
+        .def("save", [](const DfgLut& d, const std::string& path, bool half, const std::string& symbol) {
             py::gil_scoped_release release;
-            d.save(path, half);
-        }, "path"_a, "half"_a = false);
+            d.save(path, half, symbol);
+        }, "path"_a, "half"_a = false, "symbol"_a = "microshadow_dfg");
     m.def(
         "bake_dfg",
         [](std::uint32_t size, std::uint32_t size_n_dot_v, std::uint32_t size_roughness, const std::string& texel,
+           const std::string& method, const std::string& channels, const std::string& parameterization,
            std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed, const std::string& backend,
-           const std::string& device, bool fast_math, const py::object& progress) {
+           const std::string& device, unsigned threads, bool fast_math, const py::object& progress) {
             DfgOptions o;
             o.size = size;
             o.n_dot_v_count = size_n_dot_v;
             o.roughness_count = size_roughness;
             o.texel = texel;
+            o.method = method;
+            o.channels = channels;
+            o.parameterization = parameterization;
             o.samples = samples;
             o.replicates = replicates;
             o.seed = seed;
             o.backend = parse_backend(backend);
             o.device = device;
+            o.threads = threads;
             o.fast_math = fast_math;
             return run_long(progress, [&](const Progress& p) { return bake_dfg(o, p); });
         },
-        "size"_a, "size_n_dot_v"_a, "size_roughness"_a, "texel"_a, "samples"_a, "replicates"_a, "seed"_a, "backend"_a,
-        "device"_a, "fast_math"_a, "progress"_a);
+        "size"_a, "size_n_dot_v"_a, "size_roughness"_a, "texel"_a, "method"_a, "channels"_a, "parameterization"_a,
+        "samples"_a, "replicates"_a, "seed"_a, "backend"_a, "device"_a, "threads"_a, "fast_math"_a, "progress"_a);
 
     // --- area lights ---
     m.def(

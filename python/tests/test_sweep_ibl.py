@@ -76,3 +76,31 @@ def test_ibl_dfg_gives_the_clis_lut(cli, tmp_path):
         ms.ibl_dfg(replicates=1)
     with pytest.raises(ValueError, match="extension picks the format"):
         dfg.save(tmp_path / "d.tga")
+
+
+def test_ibl_dfg_takes_the_clis_method_channels_axis_and_symbol(cli, tmp_path):
+    # The exact method with the cloth channel, Filament's channel order and HDRP's sqrt(NdotV) axis: the
+    # same texels as the CLI's, and the header under the chosen name.
+    dfg = ms.ibl_dfg(size=4, method="exact", channels=["bias", "E", "sheen"], parameterization="sqrt-n-dot-v")
+    assert dfg.channels == ["bias", "E", "sheen"]
+    assert dfg.data.shape == dfg.std_error.shape == (4, 4, 3)
+    np.testing.assert_allclose(dfg.n_dot_v, np.array([0.125, 0.375, 0.625, 0.875]) ** 2, rtol=0, atol=1e-15)
+    # The exact method's estimates stay at its ~1e-12 (kDfgExactTolerance = 1e-10 bounds them).
+    assert float(dfg.std_error.max()) <= 1e-10
+    dfg.save(tmp_path / "py.h", symbol="cloth_dfg")
+    cli("ibl", "dfg", "--out", tmp_path / "cli.h", "--size", "4", "--method", "exact", "--channels", "bias,E,sheen",
+        "--parameterization", "sqrt-n-dot-v", "--symbol", "cloth_dfg", "-q")
+    assert "static const float cloth_dfg[CLOTH_DFG_HEIGHT]" in (tmp_path / "py.h").read_text()
+    assert _header_array(tmp_path / "py.h") == _header_array(tmp_path / "cli.h")
+    # Bad values are refused with the option's name, before any work.
+    with pytest.raises(ValueError, match="method"):
+        ms.ibl_dfg(method="monte-carlo")
+    with pytest.raises(ValueError, match="parameterization"):
+        ms.ibl_dfg(parameterization="log")
+    with pytest.raises(ValueError, match="sheen|channel"):
+        ms.ibl_dfg(size=2, method="exact", channels="scale,gloss")
+    with pytest.raises(ValueError, match="contradicts"):
+        ms.ibl_dfg(size=2, method="exact", backend="oracle")
+    with pytest.raises(ValueError, match="symbol"):
+        dfg.save(tmp_path / "bad.h", symbol="2bad")
+    assert not (tmp_path / "bad.h").exists()

@@ -121,7 +121,7 @@ TEST_F(SceneBakeTest, PartialBakeMatchesTheFullBakeAndUnbakedTexelsAreMarkedAndR
     // footprint answers as the full LUT does, one outside is refused.
     nlohmann::json meta = bake_metadata(plan.spec, part);
     meta["coverage"] = scene::coverage_record(plan);
-    const auto channels = scene::lut_channels(plan.spec);
+    const auto channels = bake_channels(plan.spec);
     write_lut(path("part.exr"), {plan.spec.visibility, plan.spec.n_dot_l, plan.spec.n_dot_v}, channels, part.value, meta, false);
     write_lut(path("full.exr"), {plan.spec.visibility, plan.spec.n_dot_l, plan.spec.n_dot_v}, channels, full.value,
               bake_metadata(full_spec, full), false);

@@ -187,15 +187,7 @@ Lut bake(const BakeOptions& options, const Progress& progress) {
         callbacks.progress = [&](std::size_t done, std::size_t total) { report(done, total); };
         return ms::bake_lut(spec, callbacks);
     });
-    // The channels as the CLI's bake records them: R, G, B, A by increasing index, isotropic alpha.
-    std::vector<ms::LutChannel> channels;
-    const char* names[4] = {"R", "G", "B", "A"};
-    for (std::size_t c = 0; c < spec.roughness.size(); ++c) {
-        const double r = spec.roughness[c];
-        channels.push_back({names[c], r, r * r, r * r});
-    }
-    ms::LutFile file = ms::lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value,
-                                                  ms::bake_metadata(spec, result));
+    ms::LutFile file = ms::bake_lut_file(spec, result, ms::bake_metadata(spec, result));
     // The error budget a written file would record (sampling + azimuth quadrature, no quantisation).
     ms::lutfmt::add_error_budget(file.metadata, file.data, ms::lutfmt::PixelEncoding::float32);
     return make_lut(std::move(file));

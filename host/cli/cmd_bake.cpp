@@ -296,32 +296,15 @@ void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
     BakeVerification check;
     if (args.verify > 0) check = verify_bake(spec, result, args.verify, 0, 0, parse_method(args.verify_method));
 
-    std::vector<LutChannel> channels;
-    const char* names[4] = {"R", "G", "B", "A"};
-    for (std::size_t c = 0; c < spec.roughness.size(); ++c) {
-        const double r = spec.roughness[c];
-        channels.push_back({names[c], r, r * r, r * r});
-    }
     nlohmann::json meta = bake_metadata(spec, result);
-    if (args.verify > 0)
-        meta["verify"] = {{"method", to_string(check.reference)}, {"texels", check.checked}, {"failed", check.failed},
-                          {"worst_z", check.worst_z}, {"threshold", check.threshold},
-                          {"worst_abs_diff", check.worst_abs_diff}, {"max_reference_error", check.max_reference_error}};
-    if (check.failed > 0) {
-        std::ostringstream s;
-        s << "verification failed: " << check.failed << " of " << check.checked
-          << " texels differ from the " << (check.reference == Method::exact ? "exact method" : "oracle")
-          << " beyond their error bars (worst z " << std::setprecision(3) << check.worst_z
-          << " > " << check.threshold << "; " << check.worst_texel << "); nothing was written";
-        throw std::runtime_error(s.str());
-    }
+    if (args.verify > 0) meta["verify"] = verification_record(check);
+    throw_if_failed(check);
     // Preview first, LUT last: each is atomic, and the LUT appearing means the whole job finished.
     if (!args.preview.empty())
         write_lut_preview(args.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels,
                                          result.value.data(), {spec.visibility, spec.n_dot_l, spec.n_dot_v}, spec.roughness});
     // --- the LUT in the chosen format (and the shaders), from one LutFile ---
-    write_bake_outputs(args.outputs, output, args.out,
-                       lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, result.value, meta));
+    write_bake_outputs(args.outputs, output, args.out, bake_lut_file(spec, result, meta));
 
     if (!args.sampling.quiet) {
         std::cerr << std::setprecision(3) << "bake: " << spec.visibility.count << " x " << spec.n_dot_l.count << " x "

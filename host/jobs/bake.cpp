@@ -12,6 +12,7 @@
 #include "exact/cap_region.hpp"
 #include "integrands/exact_term/exact_lut_integrand.hpp"
 #include "integrands/lut_slice/lut_slice_integrand.hpp"
+#include "lut/formats/lut_formats.hpp"
 
 namespace ms {
 
@@ -282,6 +283,21 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     m["program"] = "microshadow " MICROSHADOW_VERSION;
     m["command_line"] = spec.command_line;
     return m;
+}
+
+std::vector<LutChannel> bake_channels(const BakeSpec& spec) {
+    std::vector<LutChannel> channels;
+    const char* names[4] = {"R", "G", "B", "A"};
+    for (std::size_t c = 0; c < spec.roughness.size(); ++c) {
+        const double r = spec.roughness[c];
+        channels.push_back({names[c], r, r * r, r * r});
+    }
+    return channels;
+}
+
+LutFile bake_lut_file(const BakeSpec& spec, const BakeResult& result, nlohmann::json metadata) {
+    return lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, bake_channels(spec), result.value,
+                                 std::move(metadata));
 }
 
 }  // namespace ms

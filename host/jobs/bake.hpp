@@ -104,5 +104,12 @@ schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Schedule
 // The metadata JSON recorded in the file for this spec and result.
 nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& result);
 
+// The channels a bake writes: R, G, B, A by increasing roughness index, each isotropic
+// (alpha_x = alpha_y = roughness^2).
+std::vector<LutChannel> bake_channels(const BakeSpec& spec);
+// The LUT file of a finished bake: its three axes, bake_channels, the texels and `metadata`
+// (bake_metadata, with whatever the caller adds).
+LutFile bake_lut_file(const BakeSpec& spec, const BakeResult& result, nlohmann::json metadata);
+
 
 }  // namespace ms

@@ -97,14 +97,7 @@ std::shared_ptr<LutLookup> bake_seed(LutLayout layout, const SceneDescription& d
     spec.build = backend.config().build;
     validate(spec);
     const BakeResult r = bake_lut(spec, backend.scheduler());
-    std::vector<LutChannel> channels;
-    const char* names[4] = {"R", "G", "B", "A"};
-    for (std::size_t c = 0; c < spec.roughness.size(); ++c) {
-        const double rr = spec.roughness[c];
-        channels.push_back({names[c], rr, rr * rr, rr * rr});
-    }
-    return std::make_shared<LutLookup>(
-        lutfmt::make_lut_file({spec.visibility, spec.n_dot_l, spec.n_dot_v}, channels, r.value, bake_metadata(spec, r)));
+    return std::make_shared<LutLookup>(bake_lut_file(spec, r, bake_metadata(spec, r)));
 }
 
 // The point term of the exact evaluator for the built-in comparators (its error, ~1e-6, is far below the

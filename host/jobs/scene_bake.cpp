@@ -177,16 +177,6 @@ std::vector<LightDomain> scene_domain(const SceneInputs& inputs, std::uint32_t b
     return out;
 }
 
-std::vector<LutChannel> lut_channels(const BakeSpec& spec) {
-    std::vector<LutChannel> channels;
-    const char* names[4] = {"R", "G", "B", "A"};
-    for (std::size_t c = 0; c < spec.roughness.size(); ++c) {
-        const double r = spec.roughness[c];
-        channels.push_back({names[c], r, r * r, r * r});
-    }
-    return channels;
-}
-
 SceneBakePlan plan_scene_bake(const std::vector<LightDomain>& domain, const BakeSpec& base, bool fit) {
     std::size_t lookups = 0;
     double lo[4] = {1e300, 1e300, 1e300, 1e300}, hi[4] = {-1e300, -1e300, -1e300, -1e300};  // v, NdotL, NdotV, r
@@ -320,7 +310,7 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     const SceneDescription& d = inputs.description();
     SceneBakeResult r;
     r.plan = plan_scene_bake(domain, base, options.fit);
-    r.channels = lut_channels(r.plan.spec);
+    r.channels = bake_channels(r.plan.spec);
     r.serve_error = options.serve_error;
     auto progress = [&](const std::string& phase) {
         BakeCallbacks cb;
@@ -368,9 +358,7 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
     r.default_size = base.n_dot_l.count;
     const BakeResult standard_bake = bake_lut(standard, backend.scheduler(), progress("default LUT"));
     r.default_seconds = standard_bake.seconds;
-    const LutLookup default_lut(lutfmt::make_lut_file({standard.visibility, standard.n_dot_l, standard.n_dot_v},
-                                                             lut_channels(standard), standard_bake.value,
-                                                             bake_metadata(standard, standard_bake)));
+    const LutLookup default_lut(bake_lut_file(standard, standard_bake, bake_metadata(standard, standard_bake)));
     const json meta = scene_lut_metadata(r.plan, r.bake);
     const LutLookup scene_lut(lutfmt::make_lut_file({r.plan.spec.visibility, r.plan.spec.n_dot_l, r.plan.spec.n_dot_v},
                                                            r.channels, r.bake.value, meta));

@@ -149,9 +149,6 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
 // The chunk store key of the scene bake of `plan` (the slices of its partial bake).
 schedule::StoreKey scene_bake_store_key(const SceneBakePlan& plan, const schedule::Scheduler& scheduler);
 
-// The LUT's channels (R, G, B, A) of a spec.
-std::vector<LutChannel> lut_channels(const BakeSpec& spec);
-
 // The report as JSON and Markdown.
 nlohmann::json scene_bake_report(const SceneBakeResult& result, const std::vector<LightDomain>& domain);
 std::string scene_bake_markdown(const SceneBakeResult& result, const std::vector<LightDomain>& domain);

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/estimate.hpp"
 #include "exact/exact_term.hpp"
@@ -196,6 +198,22 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
         }
     }
     return v;
+}
+
+nlohmann::json verification_record(const BakeVerification& check) {
+    return {{"method", to_string(check.reference)}, {"texels", check.checked}, {"failed", check.failed},
+            {"worst_z", check.worst_z}, {"threshold", check.threshold}, {"worst_abs_diff", check.worst_abs_diff},
+            {"max_reference_error", check.max_reference_error}};
+}
+
+void throw_if_failed(const BakeVerification& check) {
+    if (check.failed == 0) return;
+    std::ostringstream s;
+    s << "verification failed: " << check.failed << " of " << check.checked << " texels differ from the "
+      << (check.reference == Method::exact ? "exact method" : "oracle") << " beyond their error bars (worst z "
+      << std::setprecision(3) << check.worst_z << " > " << check.threshold << "; " << check.worst_texel
+      << "); nothing was written";
+    throw std::runtime_error(s.str());
 }
 
 }  // namespace ms

@@ -38,4 +38,10 @@ struct BakeVerification {
 BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std::size_t count,
                              std::uint64_t samples = 0, unsigned threads = 0, Method reference = Method::exact);
 
+// The check as the file's metadata records it ("verify": method, texels, failed, worst z, threshold,
+// worst |diff|, largest reference error).
+nlohmann::json verification_record(const BakeVerification& check);
+// Throws std::runtime_error ("verification failed: ... nothing was written") when a texel failed.
+void throw_if_failed(const BakeVerification& check);
+
 }  // namespace ms

@@ -45,10 +45,11 @@ ms::TermOptions term_options(AoWeighting weighting, Form form) {
 }
 
 std::unique_ptr<ms::TermBackend> make_backend(Backend backend, const std::string& device, bool fast_math) {
-    if (backend == Backend::oracle) return ms::make_oracle_backend();
     ms::OpenClBackendConfig config;
     config.build.fast_math = fast_math;
-    return ms::make_opencl_backend(ms::ocl::select_devices(device), config);
+    return ms::make_term_backend(backend == Backend::oracle ? ms::schedule::BackendSpec::oracle()
+                                                            : ms::schedule::BackendSpec::opencl(device),
+                                 config);
 }
 
 }  // namespace detail

@@ -179,14 +179,10 @@ void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
             check_writable_destination((std::filesystem::path(args.scene_report) / ("histograms_" + l.name + ".png")).string());
     }
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
-    std::unique_ptr<TermBackend> backend;
-    if (base.oracle) {
-        backend = make_oracle_backend(base.oracle_threads);
-    } else {
-        OpenClBackendConfig config;
-        config.build = base.build;
-        backend = make_opencl_backend(ocl::select_devices(base.device), config);
-    }
+    OpenClBackendConfig config;
+    config.build = base.build;
+    const std::unique_ptr<TermBackend> backend = make_term_backend(
+        base.oracle ? schedule::BackendSpec::oracle(base.oracle_threads) : schedule::BackendSpec::opencl(base.device), config);
     backend->scheduler().set_fault_injection(fault_injection_from_environment());
     scene::SceneBakeOptions options;
     options.fit = args.scene_layout == "fit";

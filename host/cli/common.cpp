@@ -121,14 +121,10 @@ ocl::BuildConfig SamplingOptions::build_config() const {
 }
 
 std::unique_ptr<TermBackend> SamplingOptions::make_backend() const {
-    std::unique_ptr<TermBackend> made;
-    if (backend == "oracle") {
-        made = make_oracle_backend();
-    } else {
-        OpenClBackendConfig config;
-        config.build = build_config();
-        made = make_opencl_backend(ocl::select_devices(device), config);
-    }
+    OpenClBackendConfig config;
+    config.build = build_config();
+    std::unique_ptr<TermBackend> made = make_term_backend(
+        backend == "oracle" ? schedule::BackendSpec::oracle() : schedule::BackendSpec::opencl(device), config);
     made->scheduler().set_fault_injection(fault_injection_from_environment());
     return made;
 }

@@ -50,8 +50,8 @@ std::uint64_t bake_host_memory(const BakeSpec& spec, std::size_t places) {
 }
 
 schedule::Backend bake_backend(const BakeSpec& spec) {
-    if (spec.oracle) return schedule::Backend::oracle(spec.oracle_threads);
-    return schedule::Backend::opencl(ocl::select_devices(spec.device));
+    return schedule::Backend::from(spec.oracle ? schedule::BackendSpec::oracle(spec.oracle_threads)
+                                               : schedule::BackendSpec::opencl(spec.device));
 }
 
 BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {

@@ -34,6 +34,11 @@ std::unique_ptr<TermBackend> make_opencl_backend(const std::vector<ocl::DeviceIn
     return std::make_unique<TermBackend>(schedule::Backend::opencl(devices), config);
 }
 
+std::unique_ptr<TermBackend> make_term_backend(const schedule::BackendSpec& where, const OpenClBackendConfig& config) {
+    // The oracle builds no kernel: its config stays the default (provenance records no build options).
+    return std::make_unique<TermBackend>(schedule::Backend::from(where), where.is_oracle() ? OpenClBackendConfig{} : config);
+}
+
 nlohmann::json exact_provenance(const SamplingPlan& plan) {
     const double tolerance = plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
     const exact::ArcRule rule = exact::arc_rule_for(tolerance);

@@ -42,6 +42,8 @@ std::unique_ptr<TermBackend> make_oracle_backend(unsigned threads = 0);
 // The OpenCL kernels on the given devices; work items are shared out among them.
 std::unique_ptr<TermBackend> make_opencl_backend(const std::vector<ocl::DeviceInfo>& devices,
                                                  const OpenClBackendConfig& config = {});
+// The term's routine where `where` says (its OpenCL build options from `config`).
+std::unique_ptr<TermBackend> make_term_backend(const schedule::BackendSpec& where, const OpenClBackendConfig& config = {});
 
 struct EvalStats {
     std::size_t sampled = 0;       // queries that were integrated

@@ -106,8 +106,8 @@ void validate(const DfgBakeSpec& spec) {
 }
 
 schedule::Backend dfg_backend(const DfgBakeSpec& spec) {
-    return spec.method != DfgMethod::sampled ? schedule::Backend::oracle(spec.oracle_threads)
-                                             : schedule::Backend::opencl(ocl::select_devices(spec.device));
+    return schedule::Backend::from(spec.method != DfgMethod::sampled ? schedule::BackendSpec::oracle(spec.oracle_threads)
+                                                                     : schedule::BackendSpec::opencl(spec.device));
 }
 
 dfg::DfgPoint dfg_texel_point(const DfgBakeSpec& spec, std::uint32_t x, std::uint32_t y) {
@@ -492,7 +492,7 @@ std::vector<dfg::DfgValue> run_host(const DfgBakeSpec& spec, const std::vector<d
     config.sheen = sheen;
     config.quadrature_order = quadrature_order;
     dfg::DfgIntegrand integrand(points, 1, spec.plan, config);
-    schedule::Scheduler scheduler(schedule::Backend::oracle(spec.oracle_threads));
+    schedule::Scheduler scheduler(schedule::Backend::from(schedule::BackendSpec::oracle(spec.oracle_threads)));
     scheduler.run(integrand);
     return integrand.take_values();
 }
@@ -533,7 +533,7 @@ DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result,
         compare_deterministic(v, mine, q20, texels, true, sheen, kDfgExactTolerance, bad);
         // And the sampled kernel, the method with nothing in common with either quadrature.
         dfg::DfgIntegrand kernel(points, 1, spec.plan, spec.routine);
-        schedule::Scheduler device(schedule::Backend::opencl(ocl::select_devices(spec.device)));
+        schedule::Scheduler device(schedule::Backend::from(schedule::BackendSpec::opencl(spec.device)));
         device.run(kernel);
         compare_sampled(v, kernel.values(), mine, texels, df, bad);
         v.reference = "the quadrature oracle (order 20) and the VNDF kernel";

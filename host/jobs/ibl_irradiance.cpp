@@ -108,8 +108,8 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
         }
         return v;
     });
-    schedule::Scheduler scheduler(spec.oracle ? schedule::Backend::oracle(spec.threads)
-                                              : schedule::Backend::opencl(ocl::select_devices(spec.device)));
+    schedule::Scheduler scheduler(schedule::Backend::from(spec.oracle ? schedule::BackendSpec::oracle(spec.threads)
+                                                                      : schedule::BackendSpec::opencl(spec.device)));
     scheduler.set_fault_injection(spec.fault);
     schedule::RunCallbacks cb;
     cb.progress = progress;

@@ -27,6 +27,10 @@ Backend Backend::oracle(unsigned threads) {
     return b;
 }
 
+Backend Backend::from(const BackendSpec& spec) {
+    return spec.is_oracle() ? oracle(spec.threads) : opencl(ocl::select_devices(spec.device));
+}
+
 Scheduler::Scheduler(Backend backend) : backend_(std::move(backend)) {
     if (backend_.kind == Backend::Kind::oracle) {
         oracle_threads_ = backend_.oracle_threads ? backend_.oracle_threads : std::max(1u, std::thread::hardware_concurrency());

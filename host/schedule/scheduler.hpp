@@ -27,6 +27,8 @@
 
 namespace ms::schedule {
 
+struct BackendSpec;
+
 struct Backend {
     enum class Kind { opencl, oracle };
     Kind kind = Kind::opencl;
@@ -35,6 +37,21 @@ struct Backend {
 
     static Backend opencl(std::vector<ocl::DeviceInfo> devices);
     static Backend oracle(unsigned threads = 0);
+    // The places a spec names: its OpenCL devices selected (std::invalid_argument when none matches),
+    // or the oracle's threads.
+    static Backend from(const BackendSpec& spec);
+};
+
+// Where a job runs, as a user names it (--backend, --device, --threads); every job and the library
+// resolve it with Backend::from, so a device name means the same everywhere.
+struct BackendSpec {
+    Backend::Kind kind = Backend::Kind::opencl;
+    std::string device = "default";  // opencl: default, all, an index or part of a name (ocl::select_devices)
+    unsigned threads = 0;            // oracle: host threads (0: all)
+
+    static BackendSpec oracle(unsigned threads = 0) { return {Backend::Kind::oracle, "default", threads}; }
+    static BackendSpec opencl(std::string device = "default") { return {Backend::Kind::opencl, std::move(device), 0}; }
+    bool is_oracle() const { return kind == Backend::Kind::oracle; }
 };
 
 struct WorkSelection {

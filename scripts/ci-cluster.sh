@@ -157,7 +157,8 @@ same_scene() {
   [ -x "$pixel_hash" ] || { say "no $pixel_hash (build the exr_pixel_hash target)"; return 1; }
   local f
   for f in "$1"/*.png; do cmp -s "$f" "$2/$(basename "$f")" || return 1; done
-  [ "$("$pixel_hash" "$1/scene.exr")" = "$("$pixel_hash" "$2/scene.exr")" ] || return 1
+  local ha hb
+  ha=$("$pixel_hash" "$1/scene.exr") && hb=$("$pixel_hash" "$2/scene.exr") && [ -n "$ha" ] && [ "$ha" = "$hb" ] || return 1
   python3 - "$1/report.json" "$2/report.json" <<'PY' || return 1
 import json, sys
 def run_free(path):

@@ -4,11 +4,12 @@
 #   scripts/ci-cluster.sh [BUILD_DIR]      (default: build; needs BUILD_DIR/microshadow)
 #
 #   1. MPI (Open MPI, when the program was built with it): `mpirun --oversubscribe -np 3` sweep, bake,
-#      repr bake, bake --scene and design against one process, byte for byte (a LUT: texels and metadata
-#      apart from the command line; a representation: its texture; a design: its Pareto tables);
+#      repr bake, bake --scene, scene and design against one process, byte for byte (a LUT: texels and
+#      metadata apart from the command line; a representation: its texture; a design: its Pareto tables;
+#      a scene: its images, scene.exr's layers and its report apart from the run's provenance and times);
 #      --mpi without mpirun and mpirun -np 1 refused with exit status 2.
 #   2. Slurm: munged, slurmctld and slurmd started on localhost under a temporary folder (a generated
-#      slurm.conf on ports of their own), a 4-task array of a sweep, of a bake and of a design, each
+#      slurm.conf on ports of their own), a 4-task array of a sweep, of a bake, of a scene and of a design, each
 #      followed by its merge job (--dependency=afterok), checked against one process; an array task
 #      killed mid-run (SIGKILL) and requeued with scontrol, which resumes from the chunk store; then
 #      everything is stopped.
@@ -111,11 +112,71 @@ same_texels() {
 }
 same_design() { cmp -s "$1/pareto.csv" "$2/pareto.csv" && cmp -s "$1/pareto.md" "$2/pareto.md"; }
 
+# A small scene (16 x 16 pixels: an AO gradient written here as a PNG, two lights) in tiles of 64 pixels:
+# 2 lights x 4 tiles = 8 work items.
+python3 - "$work/scene-ao.png" <<'PY'
+import struct, sys, zlib
+w = h = 16
+rows = b"".join(b"\0" + bytes(60 + (x * 11 + y * 7) % 190 for x in range(w)) for y in range(h))
+chunk = lambda t, d: struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d) & 0xffffffff)
+open(sys.argv[1], "wb").write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 0, 0, 0, 0)) +
+                              chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+PY
+cat > "$work/scene.toml" <<'EOF'
+[normal]
+value = [0, 0, 1]
+[visibility]
+file = "scene-ao.png"
+channel = "Y"
+[roughness]
+value = 0.4
+[view]
+direction = [0.5, 0, 0.866]
+[[light]]
+name = "sun"
+direction = [0.3, 0.5, 0.81]
+[[light]]
+name = "lamp"
+type = "point"
+position = [0.2, -0.3, 1.2]
+intensity = 2
+[comparators]
+analytic = ["naughty-dog", "pz-analytic"]
+seed_3d = false
+seed_2d = false
+[sampling]
+tolerance = 1e-4
+tile_pixels = 64
+EOF
+view_args=(scene "$work/scene.toml" --quiet)
+pixel_hash=$build/tests/exr_pixel_hash
+# Two scene folders hold the same run: every PNG byte for byte, scene.exr's layers bit for bit (its header
+# holds the report with the run's command line), report.json apart from its provenance and times, and
+# report.md's tables (its first paragraph gives the times).
+same_scene() {
+  [ -x "$pixel_hash" ] || { say "no $pixel_hash (build the exr_pixel_hash target)"; return 1; }
+  local f
+  for f in "$1"/*.png; do cmp -s "$f" "$2/$(basename "$f")" || return 1; done
+  local ha hb
+  ha=$("$pixel_hash" "$1/scene.exr") && hb=$("$pixel_hash" "$2/scene.exr") && [ -n "$ha" ] && [ "$ha" = "$hb" ] || return 1
+  python3 - "$1/report.json" "$2/report.json" <<'PY' || return 1
+import json, sys
+def run_free(path):
+    j = json.load(open(path))
+    for key in ("provenance", "seconds"): j.pop(key)
+    for light in j["lights"]: light.pop("seconds")
+    return j
+sys.exit(0 if run_free(sys.argv[1]) == run_free(sys.argv[2]) else 1)
+PY
+  cmp -s <(sed -n '/^| pixel x light/,$p' "$1/report.md") <(sed -n '/^| pixel x light/,$p' "$2/report.md")
+}
+
 "$bin" "${sweep_args[@]}" --out "$work/one.sweep" >/dev/null
 "$bin" "${bake_args[@]}" --out "$work/one.exr"
 "$bin" "${repr_args[@]}" --out "$work/one-repr.exr"
 "$bin" "${scene_args[@]}" --out "$work/one-scene.exr" --scene-report "$work/one-scene"
 "$bin" "${design_args[@]}" --cache "$work/one-cache" --out "$work/one-design"
+"$bin" "${view_args[@]}" --out "$work/one-view"
 
 # --- 1. MPI -------------------------------------------------------------------------------------------
 mpi_part() {
@@ -149,6 +210,10 @@ mpi_part() {
     >"$work/mpi-scene.log" 2>&1 || { fail "MPI: bake --scene on 3 ranks failed"; cat "$work/mpi-scene.log"; }
   same_texels "$work/one-scene.exr" "$work/mpi-scene.exr" && say "MPI: bake --scene on 3 ranks = one process" ||
     fail "MPI: the scene LUT baked on 3 ranks differs from one process"
+  "${mpirun[@]}" -np 3 "$bin" "${view_args[@]}" --out "$work/mpi-view" --mpi >"$work/mpi-view.log" 2>&1 ||
+    { fail "MPI: scene on 3 ranks failed"; cat "$work/mpi-view.log"; }
+  same_scene "$work/one-view" "$work/mpi-view" && say "MPI: scene on 3 ranks = one process" ||
+    fail "MPI: the scene on 3 ranks differs from one process"
   "${mpirun[@]}" -np 3 "$bin" "${design_args[@]}" --cache "$work/mpi-cache" --out "$work/mpi-design" --mpi \
     >"$work/mpi-design.log" 2>&1 || { fail "MPI: design on 3 ranks failed"; cat "$work/mpi-design.log"; }
   same_design "$work/one-design" "$work/mpi-design" && say "MPI: design on 3 ranks = one process" ||
@@ -270,7 +335,7 @@ EOF
   say "Slurm: $(slurmctld -V) up on $host (port $port)"
 
   # A 4-task array per job, each task one shard (from SLURM_ARRAY_TASK_ID/COUNT), then the dependent merge.
-  local sweep_array bake_array sweep_merge bake_merge design_array design_merge
+  local sweep_array bake_array sweep_merge bake_merge design_array design_merge view_array view_merge
   sweep_array=$(sbatch --parsable --array=0-3 -c1 -o "$s/jobs/sweep-%a.out" --wrap "$(printf '%q ' "$bin" "${sweep_args[@]}" --out "$work/slurm.sweep")")
   sweep_merge=$(sbatch --parsable --dependency=afterok:$sweep_array -c1 -o "$s/jobs/sweep-merge.out" \
     --wrap "$(printf '%q ' "$bin" merge --quiet --out "$work/slurm-merged.sweep" "$work/slurm.sweep")")
@@ -281,8 +346,12 @@ EOF
     --wrap "$(printf '%q ' "$bin" "${design_args[@]}" --cache "$work/slurm-cache")")
   design_merge=$(sbatch --parsable --dependency=afterok:$design_array -c1 -o "$s/jobs/design-merge.out" \
     --wrap "$(printf '%q ' "$bin" "${design_args[@]}" --cache "$work/slurm-cache" --out "$work/slurm-design" --merge)")
-  wait_for_queue || scancel "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge" "$design_array" "$design_merge"
-  for j in "$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge" "$design_array" "$design_merge"; do
+  view_array=$(sbatch --parsable --array=0-3 -c1 -o "$s/jobs/scene-%a.out" --wrap "$(printf '%q ' "$bin" "${view_args[@]}" --out "$work/slurm-view")")
+  view_merge=$(sbatch --parsable --dependency=afterok:$view_array -c1 -o "$s/jobs/scene-merge.out" \
+    --wrap "$(printf '%q ' "$bin" "${view_args[@]}" --out "$work/slurm-view" --merge)")
+  local jobs=("$sweep_array" "$bake_array" "$sweep_merge" "$bake_merge" "$design_array" "$design_merge" "$view_array" "$view_merge")
+  wait_for_queue || scancel "${jobs[@]}"
+  for j in "${jobs[@]}"; do
     local states
     states=$(scontrol -o show job "$j" | grep -o 'JobState=[A-Z_]*' | sort -u | tr '\n' ' ')
     [ "$states" = "JobState=COMPLETED " ] || { fail "Slurm: job $j ended $states"; cat "$s"/jobs/*.out; }
@@ -296,6 +365,9 @@ EOF
     say "Slurm: bake as a 4-task array + merge = one process" || fail "Slurm: the merged LUT differs from one process"
   same_design "$work/one-design" "$work/slurm-design" &&
     say "Slurm: design as a 4-task array + merge = one process" || fail "Slurm: the merged design differs from one process"
+  ls "$work/slurm-view/chunks"/manifest.shard-*-of-4.json >/dev/null 2>&1 || fail "Slurm: the scene's array tasks were not 4 shards"
+  same_scene "$work/one-view" "$work/slurm-view" &&
+    say "Slurm: scene as a 4-task array + merge = one process" || fail "Slurm: the merged scene differs from one process"
 }
 slurm_part
 

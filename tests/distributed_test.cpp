@@ -19,6 +19,7 @@
 #include "lut/exr_lut.hpp"
 #include "repr/representation.hpp"
 #include "repr/texture_repr.hpp"
+#include "jobs/scene.hpp"
 #include "scene/image_io.hpp"
 #include "schedule/distributed.hpp"
 #include "schedule/item_bytes.hpp"
@@ -450,6 +451,122 @@ TEST_F(Distributed, CliNewJobsRefuseBadSplitsExitTwoAndWriteNothing) {
     refused(repr_bake + " --shard 3/2", "--shard: expected I/N");
     ASSERT_EQ(cli("", repr_bake + " --shard 0/2").exit_code, 0);
     refused(repr_bake + " --merge", "shard 1/2 lacks 1 item(s)");
+}
+
+// `scene`: a 6 x 4 scene of three lights (directional, point, sphere), masked pixels and materials, in
+// tiles of 5 pixels: 3 lights x 5 tiles = 15 items.
+std::string small_scene_description(const std::string& dir) {
+    std::vector<float> ao(24), rough(24), mat(24), mask(24);
+    for (int i = 0; i < 24; ++i) {
+        ao[std::size_t(i)] = float(0.3 + 0.6 * (i % 5) / 4.0);
+        rough[std::size_t(i)] = float(0.2 + 0.7 * (i % 7) / 6.0);
+        mat[std::size_t(i)] = float(i % 3);
+        mask[std::size_t(i)] = i % 11 == 4 ? 0.f : 1.f;
+    }
+    scene::write_exr(dir + "/maps.exr", 6, 4, {{"ao", ao.data()}, {"rough", rough.data()}, {"mat", mat.data()}, {"m", mask.data()}});
+    std::ofstream(dir + "/s.toml")
+        << "[normal]\nvalue = [0, 0, 1]\n[visibility]\nfile = \"maps.exr\"\nchannel = \"ao\"\n[roughness]\nfile = \"maps.exr\"\n"
+           "channel = \"rough\"\n[material]\nfile = \"maps.exr\"\nchannel = \"mat\"\nnames = [\"a\", \"b\", \"c\"]\n[mask]\nfile = "
+           "\"maps.exr\"\nchannel = \"m\"\n[view]\ndirection = [0.6, 0, 0.8]\n"
+           "[[light]]\nname = \"sun\"\ndirection = [0, 0.6, 0.8]\n"
+           "[[light]]\nname = \"lamp\"\ntype = \"point\"\nposition = [0.3, -0.2, 1.5]\nintensity = 2\n"
+           "[[light]]\nname = \"ball\"\ntype = \"sphere\"\nposition = [-0.5, 0.4, 2]\nradius = 0.4\n"
+           "[comparators]\nanalytic = [\"pz-analytic\", \"naughty-dog\"]\nseed_3d = false\nseed_2d = false\n"
+           "[sampling]\nmethod = \"sampled\"\ntolerance = 0.02\narea_tolerance = 0.02\nmin_samples = 1024\nmax_samples = 16384\n"
+           "tile_pixels = 5\n";
+    return dir + "/s.toml";
+}
+
+std::string slurp_file(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+// Two scene output folders hold the same run: every file byte for byte, but for what records the run
+// (report.json's provenance and times, report.md's line of times, scene.exr's header holding the report):
+// scene.exr is compared layer by layer, bit for bit.
+void expect_same_scene(const std::string& a, const std::string& b) {
+    std::set<std::string> files_a, files_b;
+    for (const auto& e : fs::directory_iterator(a)) files_a.insert(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(b))
+        if (e.path().filename() != "chunks") files_b.insert(e.path().filename().string());
+    EXPECT_EQ(files_a, files_b);
+    for (const auto& f : files_a) {
+        const std::string x = slurp_file(a + "/" + f), y = slurp_file(b + "/" + f);
+        if (f == "report.json") {
+            nlohmann::json jx = nlohmann::json::parse(x), jy = nlohmann::json::parse(y);
+            for (auto* j : {&jx, &jy}) {
+                j->erase("provenance");
+                j->erase("seconds");
+                for (auto& l : (*j)["lights"]) l.erase("seconds");
+            }
+            EXPECT_EQ(jx.dump(), jy.dump());
+            EXPECT_GT(jx["work"]["sampled"].get<std::uint64_t>(), 0u);
+        } else if (f == "report.md") {
+            // The first paragraph holds the run's times; the tables after it are compared whole.
+            const auto tables = [](const std::string& s) { return s.substr(s.find("\n| pixel x light")); };
+            EXPECT_EQ(tables(x), tables(y));
+        } else if (f == "scene.exr") {
+            const std::vector<std::string> layers = scene::list_channels(a + "/" + f);
+            EXPECT_EQ(layers, scene::list_channels(b + "/" + f));
+            const auto pa = scene::read_channels(a + "/" + f, layers), pb = scene::read_channels(b + "/" + f, layers);
+            ASSERT_EQ(pa.size(), pb.size());
+            for (std::size_t k = 0; k < pa.size(); ++k) EXPECT_TRUE(same_bits(pa[k].data, pb[k].data)) << layers[k];
+        } else {
+            EXPECT_EQ(x, y) << f;
+        }
+    }
+}
+
+const char* kSceneArgs = " --backend oracle --no-seed-luts -q --out ";
+
+TEST_F(Distributed, CliSceneShardsMergeToOneProcess) {
+    const std::string toml = small_scene_description(dir_.string());
+    const std::string scene = "scene " + toml + kSceneArgs;
+    ASSERT_EQ(cli("", scene + path("whole")).exit_code, 0);
+    // Three shards of the 15 tiles; shard 1 is run twice (the second run finds its items and resumes).
+    for (const char* shard : {"0/3", "1/3", "1/3", "2/3"}) {
+        const RunResult r = cli("", scene + path("split") + " --shard " + shard);
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+        EXPECT_FALSE(fs::exists(path("split/report.json"))) << "a shard wrote the report";
+    }
+    EXPECT_EQ(std::distance(fs::directory_iterator(path("split/chunks/items")), fs::directory_iterator()), 15);
+    const RunResult m = cli("", scene + path("split") + " --merge");
+    ASSERT_EQ(m.exit_code, 0) << m.output;
+    expect_same_scene(path("whole"), path("split"));
+    // A store of this one process (--store, no shard) gives the same again, from its items alone on a rerun.
+    for (int run = 0; run < 2; ++run) ASSERT_EQ(cli("", scene + path("stored") + " --store " + path("store")).exit_code, 0);
+    expect_same_scene(path("whole"), path("stored"));
+    // Items computed after the ones found in the store (the first tile of the first light, a middle one)
+    // are assembled in item order all the same.
+    for (const char* item : {"item-0000000000.bin", "item-0000000007.bin"}) ASSERT_TRUE(fs::remove(path("store/items/") + item));
+    const RunResult resumed = cli("", scene + path("resumed") + " --store " + path("store"));
+    ASSERT_EQ(resumed.exit_code, 0) << resumed.output;
+    expect_same_scene(path("whole"), path("resumed"));
+}
+
+TEST_F(Distributed, CliSceneRefusesBadSplitsExitTwoAndWritesNothing) {
+    const std::string toml = small_scene_description(dir_.string());
+    const std::string scene = "scene " + toml + kSceneArgs + path("out");
+    auto refused = [&](const std::string& env, const std::string& args, const std::string& says) {
+        const RunResult r = cli(env, scene + " " + args);
+        EXPECT_EQ(r.exit_code, 2) << args << "\n" << r.output;
+        EXPECT_NE(r.output.find(says), std::string::npos) << r.output;
+        EXPECT_FALSE(fs::exists(path("out/report.json")));
+        EXPECT_FALSE(fs::exists(path("out/scene.exr")));
+    };
+    refused("", "--shard 3/3", "--shard: expected I/N");
+    refused("SLURM_ARRAY_TASK_ID=5 SLURM_ARRAY_TASK_COUNT=3", "", "evenly spaced");
+    refused("", "--merge", "no shard manifests");
+    EXPECT_FALSE(fs::exists(path("out"))) << "a refused merge created the output folder";
+    ASSERT_EQ(cli("", scene + " --shard 0/3").exit_code, 0);
+    ASSERT_EQ(cli("", scene + " --shard 2/3").exit_code, 0);
+    // 15 items, shard 1 of 3 holds ids 1, 4, 7, 10, 13.
+    refused("", "--merge", "shard 1/3 lacks 5 item(s) (the first is 1)");
+    refused("", "--shard 1/2", "splits this job into 3 shards, not 2");
+    refused("", "--shard 1/3 --tolerance 0.03", "spec hash");
+    refused("", "--merge --shard 1/3", "--merge assembles");
+    EXPECT_EQ(std::distance(fs::directory_iterator(path("out")), fs::directory_iterator()), 1) << "only the chunk store";
 }
 
 }  // namespace

@@ -83,6 +83,7 @@ set(microshadow_cli_tests
   "^SweepCli\\."
   "^SweepIntegrity\\.ASweepBegunOnOneDeviceResumesOnAllOfThem$")
 set(microshadow_slow_tests
+  "^Distributed\\.CliSceneShardsMergeToOneProcess$"
   "^AreaLightExactInner\\.AgreesWithTheSampledPathWithinBars$"
   "^AreaLightKernel\\.(AgreesWithTheOracleWithinStatisticalBars|WholeHemisphereLambertIsTheCosineWeightedMean)$"
   "^AreaLightLobe\\.HemisphereGgxLobeIntegralIsTheDirectionalAlbedo$"

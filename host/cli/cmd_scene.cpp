@@ -5,6 +5,7 @@
 #include <iostream>
 
 #include "cli/common.hpp"
+#include "cli/mpi_world.hpp"
 #include "cli/progress.hpp"
 #include "io/text.hpp"
 #include "jobs/scene.hpp"
@@ -20,9 +21,11 @@ struct SceneArgs {
     bool no_skip = false, no_seed_luts = false, quiet = false, fast_math = false, strict_domain = false;
     std::vector<std::string> luts;
     std::string backend = "opencl", device = "default";
+    DistributionArgs distribution;  // --shard --store --merge --mpi (docs/cluster.md)
 };
 
-void run_scene_command(const SceneArgs& args) {
+void run_scene_command(const SceneArgs& args, MpiWorld* world) {
+    const bool rank0 = !world || world->writer();
     // A destination that cannot be a folder is refused before any work (the outputs are written together
     // at the end, through one OutputSet).
     std::error_code ec;
@@ -63,13 +66,31 @@ void run_scene_command(const SceneArgs& args) {
     options.progress = [&](const std::string& p, std::size_t done, std::size_t total) {
         if (p != phase) {
             if (progress) progress->finish();
-            progress = std::make_unique<Progress>("scene: " + p, args.quiet);
+            progress = std::make_unique<Progress>("scene: " + p, args.quiet || !rank0);
             phase = p;
         }
         progress->update(done, total);
     };
+    // The tiles split as asked (docs/cluster.md): shards of a Slurm array, a resumable store, the merge
+    // of a store's shards, or the ranks of an MPI world. Checked before any work; nothing is written here.
+    // The store key digests every pixel: computed only when a store is kept.
+    const schedule::DistributionRequest request = distribution_request(args.distribution, world);
+    const bool keeps_items = request.shard.count > 1 || request.merge || !request.store.empty();
+    const schedule::Distribution distribution(
+        request, keeps_items ? scene::scene_store_key(inputs, options, *backend) : schedule::StoreKey{},
+        (std::filesystem::path(args.out) / "chunks").string(), [quiet = args.quiet](const std::string& w) {
+            if (!quiet) std::cerr << "\nscene: warning: " << w << "; computed again\n";
+        });
+    options.items = &distribution.plan();
     const scene::SceneResult result = scene::run_scene(inputs, *backend, options);
     if (progress) progress->finish();
+    if (!distribution.writer() || !result.complete) {
+        if (!world && !args.quiet)
+            std::cerr << "scene: " << distribution.shard_finished(result.loaded_items, result.computed_items,
+                                                                  "write " + args.out + " with the same command, --merge in place of --shard")
+                      << "\n";
+        return;
+    }
 
     nlohmann::json provenance = {{"program", "microshadow " MICROSHADOW_VERSION},
                                  {"command_line", command_line()},
@@ -135,7 +156,8 @@ void add_scene_command(CLI::App& app) {
     cmd->add_option("--device", args->device, "OpenCL device: default, all, an index from `devices`, or part of a name");
     cmd->add_flag("--fast-math", args->fast_math, "build the kernels with fast math");
     cmd->add_flag("-q,--quiet", args->quiet, "no progress or summary on stderr");
-    cmd->callback([args] { run_scene_command(*args); });
+    add_distribution_options(cmd, args->distribution, "tiles (a light's sampling.tile_pixels pixels)", "OUT/chunks");
+    cmd->callback([args] { with_distribution(args->distribution, [&](MpiWorld* world) { run_scene_command(*args, world); }); });
 }
 
 }  // namespace ms::cli

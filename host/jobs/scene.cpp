@@ -15,6 +15,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <set>
 #include <sstream>
@@ -31,6 +32,8 @@
 #include "lut/lookup.hpp"
 #include "scene/false_colour.hpp"
 #include "scene/image_io.hpp"
+#include "core/digest.hpp"
+#include "schedule/item_bytes.hpp"
 
 namespace ms::scene {
 
@@ -213,29 +216,73 @@ Query dedup_query(const DedupKey& k, AoWeighting weighting, double step) {
     return q;
 }
 
-SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const SceneRunOptions& options) {
-    const auto start = std::chrono::steady_clock::now();
-    const SceneDescription& d = inputs.description();
-    SceneResult result;
-    result.width = inputs.width();
-    result.height = inputs.height();
-    result.backend = backend.name();
-    const Method method = options.method_given ? options.method : d.sampling.method;
-    result.method = method;
+namespace {
+
+constexpr std::uint32_t kNoKey = 0xffffffffu, kExact = 0xfffffffeu;
+constexpr std::uint8_t kUnlit = 0xff;
+
+// Everything a tile's computation reads, set up once per process: every shard, MPI rank and merge of a
+// run sets up the same job from the same inputs and options.
+struct SceneJob {
+    SceneJob(const SceneInputs& in, TermBackend& b, const SceneRunOptions& o) : inputs(in), d(in.description()), backend(b), options(o) {}
+    const SceneInputs& inputs;
+    const SceneDescription& d;
+    TermBackend& backend;
+    const SceneRunOptions& options;
+    Method method = Method::exact;
+    double tol = 0, step = 0;  // the per-pixel tolerance E and the key grid's step q E (0: no deduplication)
+    AoWeighting w = AoWeighting::cosine;
+    std::size_t n = 0;         // pixels
+    std::size_t tile = 1, tiles_per_light = 0;
+    std::vector<Comparator> comparators;
+    std::map<int, std::size_t> material_group;  // material index -> its statistics group
+    std::size_t group_count = 0;
+    TermOptions term_options;
+
+    void progress(const std::string& phase, std::size_t done, std::size_t total) const {
+        if (options.progress) options.progress(phase, done, total);
+    }
+    // The factor of a light's error bound: Student t of the replicates, or 1 for the exact method's
+    // point term (its std_error is its estimated error itself); area lights' outer sampling always has it.
+    double bound_factor(const Light& light) const {
+        if (light.is_area()) return student_t_999(d.sampling.replicates);
+        return method == Method::exact ? 1.0 : student_t_999(d.sampling.replicates);
+    }
+};
+
+// The tiles of `pixels` pixels: sampling.tile_pixels at a time (0: the whole image at once).
+std::size_t tile_size(const SceneDescription& d, std::size_t pixels) {
+    return d.sampling.tile_pixels ? std::size_t(d.sampling.tile_pixels) : std::max<std::size_t>(pixels, 1);
+}
+
+// The method and tolerance the options and the description give.
+void resolve_method(SceneJob& job, SceneResult& result) {
+    const SceneRunOptions& options = job.options;
+    const SceneDescription& d = job.d;
+    job.method = options.method_given ? options.method : d.sampling.method;
+    result.method = job.method;
     result.tolerance = options.tolerance > 0 ? options.tolerance
                        : (d.sampling.tolerance_given || !options.method_given) ? d.sampling.tolerance
-                                                                              : default_scene_tolerance(method);
-    if (method == Method::exact) exact_term::validate_tolerance(result.tolerance);
-    const double tol = result.tolerance;
-    const double step = options.skip ? d.sampling.dedup_step * tol : 0;
-    const AoWeighting w = d.ao_weighting;
-    const std::size_t n = inputs.pixels();
-    auto progress = [&](const std::string& phase, std::size_t done, std::size_t total) {
-        if (options.progress) options.progress(phase, done, total);
-    };
+                                                                              : default_scene_tolerance(job.method);
+    if (job.method == Method::exact) exact_term::validate_tolerance(result.tolerance);
+    job.tol = result.tolerance;
+    job.step = options.skip ? d.sampling.dedup_step * job.tol : 0;
+    job.w = d.ao_weighting;
+    job.n = job.inputs.pixels();
+    job.tile = tile_size(d, job.n);
+    job.tiles_per_light = (job.n + job.tile - 1) / job.tile;
+    job.term_options.form = d.sampling.form;
+    job.term_options.ao_weighting = job.w;
+}
 
-    // --- comparators --------------------------------------------------------------------------------
-    std::vector<Comparator> comparators;
+// The comparators: part 1's analytic terms, the built-in exact ones of scenes with area lights, the
+// seed LUTs (baked here) and the comparator files. Their files are opened, and every output name known
+// and checked, before the seed LUTs are baked: a missing LUT or an unwritable destination is refused
+// before any work.
+void make_comparators(SceneJob& job, SceneResult& result) {
+    const SceneDescription& d = job.d;
+    const SceneRunOptions& options = job.options;
+    std::vector<Comparator>& comparators = job.comparators;
     for (const auto& name : d.comparators.analytic) {
         Comparator c;
         c.name = name;
@@ -246,8 +293,6 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         }
         comparators.push_back(c);
     }
-    // Comparator files are opened, and every output name known and checked, before the seed LUTs are
-    // baked: a missing LUT or an unwritable destination is refused before any work.
     std::vector<std::string> lut_files = d.comparators.luts;
     lut_files.insert(lut_files.end(), options.luts.begin(), options.luts.end());
     std::set<std::string> used;
@@ -285,8 +330,8 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
             if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_') ch = '_';
         file_comparators.push_back({take(name), true, {}, nullptr, file});
     }
+    const bool seed_3d = options.bake_seed_luts && d.comparators.seed_3d, seed_2d = options.bake_seed_luts && d.comparators.seed_2d;
     {
-        const bool seed_3d = options.bake_seed_luts && d.comparators.seed_3d, seed_2d = options.bake_seed_luts && d.comparators.seed_2d;
         std::vector<std::string> names;
         for (const auto& c : comparators) names.push_back(c.name);
         if (seed_3d) names.push_back(seed_3d_name);
@@ -294,7 +339,7 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         for (const auto& c : file_comparators) names.push_back(c.name);
         // Held to the end: the output layers (3 + 2 per comparator per light) and the mask, as floats.
         const std::uint64_t planes = std::uint64_t(d.lights.size()) * (3 + 2 * names.size()) + 1;
-        const std::uint64_t bytes = planes * std::uint64_t(n) * sizeof(float);
+        const std::uint64_t bytes = planes * std::uint64_t(job.n) * sizeof(float);
         if (options.memory_limit > 0 && bytes > options.memory_limit)
             throw SceneError(d.source + ": the output images need about " + fmt(double(bytes) / double(1ULL << 30)) + " GiB (" +
                              std::to_string(d.lights.size()) + " light(s) x (3 + 2 x " + std::to_string(names.size()) +
@@ -304,28 +349,32 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
         if (options.check_outputs) options.check_outputs(names);
     }
     const auto lut_start = std::chrono::steady_clock::now();
-    if (options.bake_seed_luts && d.comparators.seed_3d) {
-        progress("baking the seed 3D LUT", 0, 1);
-        comparators.push_back({seed_3d_name, true, {}, bake_seed(LutLayout::seed_3d, d, backend), nullptr});
+    if (seed_3d) {
+        job.progress("baking the seed 3D LUT", 0, 1);
+        comparators.push_back({seed_3d_name, true, {}, bake_seed(LutLayout::seed_3d, d, job.backend), nullptr});
     }
-    if (options.bake_seed_luts && d.comparators.seed_2d) {
-        progress("baking the seed 2D LUT", 0, 1);
-        comparators.push_back({seed_2d_name, true, {}, bake_seed(LutLayout::seed_2d, d, backend), nullptr});
+    if (seed_2d) {
+        job.progress("baking the seed 2D LUT", 0, 1);
+        comparators.push_back({seed_2d_name, true, {}, bake_seed(LutLayout::seed_2d, d, job.backend), nullptr});
     }
     for (auto& c : file_comparators) comparators.push_back(std::move(c));
     result.lut_seconds = seconds_since(lut_start);
     for (const auto& c : comparators) result.comparators.push_back(c.name);
+}
+
+// Every lit pixel-light's lookup counted against each comparator's domain before any sampling, so
+// --strict-domain refuses at no cost (inputs as comparator_value reads them).
+void tally_domains(const SceneJob& job, SceneResult& result) {
+    const std::vector<Comparator>& comparators = job.comparators;
     std::vector<std::optional<LookupDomain>> domains;
     for (const auto& c : comparators) domains.push_back(c.domain());
     result.domains = domains;
     result.outside_domain.assign(comparators.size(), DomainTally{});
     result.first_outside.assign(comparators.size(), std::string());
-    // Every lit pixel-light's lookup counted against each comparator's domain before any sampling, so
-    // --strict-domain refuses at no cost (inputs as comparator_value reads them).
     if (std::any_of(domains.begin(), domains.end(), [](const auto& x) { return x.has_value(); }))
-        for (const Light& light : d.lights)
-            for (std::size_t i = 0; i < n; ++i) {
-                const PixelSurface p = inputs.pixel(i);
+        for (const Light& light : job.d.lights)
+            for (std::size_t i = 0; i < job.n; ++i) {
+                const PixelSurface p = job.inputs.pixel(i);
                 const LightQuery q = light_query(p, light);
                 if (q.status != PixelStatus::shaded) continue;
                 const double l = std::max(0.0, std::clamp(q.n_dot_l, -1.0, 1.0)), v = std::clamp(q.n_dot_v, 0.0, 1.0);
@@ -339,415 +388,605 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                                                   domains[k]->first_outside(p.visibility, l, v, p.roughness);
                 }
             }
-    if (options.strict_domain)
+    if (job.options.strict_domain)
         for (std::size_t k = 0; k < comparators.size(); ++k)
             if (domains[k]) {
                 try {
-                    compare::refuse_outside_domain(d.source, comparators[k].name, *domains[k], result.outside_domain[k],
+                    compare::refuse_outside_domain(job.d.source, comparators[k].name, *domains[k], result.outside_domain[k],
                                                    result.first_outside[k]);
                 } catch (const std::invalid_argument& e) {
                     throw SceneError(e.what());
                 }
             }
+}
 
-    // --- mask and groups ------------------------------------------------------------------------------
-    result.mask.assign(n, 0.0f);
+// The mask layer and the statistics groups: "all", the roughness bands, the materials present.
+void mask_and_groups(SceneJob& job, SceneResult& result) {
+    result.mask.assign(job.n, 0.0f);
     std::set<int> materials;
-    for (std::size_t i = 0; i < n; ++i) {
-        const PixelSurface p = inputs.pixel(i);
+    for (std::size_t i = 0; i < job.n; ++i) {
+        const PixelSurface p = job.inputs.pixel(i);
         result.mask[i] = p.shaded ? 1.0f : 0.0f;
-        if (p.shaded && d.has_material) materials.insert(p.material);
+        if (p.shaded && job.d.has_material) materials.insert(p.material);
     }
     result.groups = {"all"};
     for (const char* b : kBandNames) result.groups.push_back(b);
-    std::map<int, std::size_t> material_group;
     for (int m : materials) {
-        material_group[m] = result.groups.size();
-        result.groups.push_back("material " + (m >= 0 && std::size_t(m) < d.material_names.size() ? d.material_names[std::size_t(m)]
-                                                                                                   : std::to_string(m)));
+        job.material_group[m] = result.groups.size();
+        result.groups.push_back("material " + (m >= 0 && std::size_t(m) < job.d.material_names.size()
+                                                   ? job.d.material_names[std::size_t(m)]
+                                                   : std::to_string(m)));
     }
+    job.group_count = result.groups.size();
+    if (std::any_of(job.d.lights.begin(), job.d.lights.end(), [](const Light& l) { return l.is_area(); }))
+        result.area_tolerance = job.d.sampling.area_tolerance;
+}
 
-    TermOptions term_options;
-    term_options.form = d.sampling.form;
-    term_options.ao_weighting = w;
-    constexpr std::uint32_t kNoKey = 0xffffffffu, kExact = 0xfffffffeu;
+// One work item's result: a tile of one light. The layers of its pixels, and for every pixel that
+// enters the comparison (accounted) its irradiance and comparator values in double, so the statistics
+// are accumulated from the same doubles, in the same order, wherever the tile was computed.
+struct TileResult {
+    SkipCounts counts;
+    double max_error_bound = 0, sampling_seconds = 0, seconds = 0;
+    std::vector<float> reference, std_error, weight;  // per pixel of the tile
+    std::vector<std::uint8_t> accounted;              // per pixel: 0 not compared, 1 compared (unlit), 2 compared (lit)
+    std::vector<double> irradiance;                   // per compared pixel
+    std::vector<double> values;                       // per compared pixel, one per comparator
+};
 
-    // Tiles: pixels are classified, keyed, sampled and written `tile` at a time, so the working memory
-    // (the key table, the distinct queries, their estimates and the integrand's tallies) is bounded by
-    // the tile, not the image. Held for the whole run: the input planes and the output layers (written
-    // at the end), and per pixel one byte of roughness band and four of material group (for the 99th
-    // percentiles, taken from the error layers at the end). Deduplication finds repeats within a tile.
-    const std::size_t tile = d.sampling.tile_pixels ? std::size_t(d.sampling.tile_pixels) : std::max<std::size_t>(n, 1);
-    constexpr std::uint8_t kUnlit = 0xff;
-    for (const Light& light : d.lights) {
-        const auto light_start = std::chrono::steady_clock::now();
-        LightImages li;
-        li.light = light.name;
-        li.reference.assign(n, 0.0f);
-        li.std_error.assign(n, 0.0f);
-        li.weight.assign(n, 0.0f);
-        li.approximation.assign(comparators.size(), std::vector<float>(n, 0.0f));
-        li.error.assign(comparators.size(), std::vector<float>(n, 0.0f));
-        SkipCounts& c = result.counts;
-        SamplingPlan plan;
-        plan.replicates = d.sampling.replicates;
-        plan.seed = d.sampling.seed;
-        // The exact method's std_error is its estimated error itself: the bound is that, not t times it.
-        const double t = method == Method::exact ? 1.0 : student_t_999(plan.replicates);
-        li.t = t;
-        const std::uint64_t first = round_up_samples(d.sampling.min_samples, plan.replicates);
-        std::vector<std::vector<ErrorStats>> stats(comparators.size(), std::vector<ErrorStats>(result.groups.size()));
-        std::vector<std::vector<double>> sum_sq(comparators.size(), std::vector<double>(result.groups.size())),
-            sum_sq_term(comparators.size(), std::vector<double>(result.groups.size()));
-        std::vector<std::uint8_t> pixel_band(n, kUnlit);
-        std::vector<std::uint32_t> pixel_material(d.has_material ? n : 0, 0);
+void add_counts(SkipCounts& to, const SkipCounts& c) {
+    to.pixel_lights += c.pixel_lights;
+    to.masked += c.masked;
+    to.view_below_horizon += c.view_below_horizon;
+    to.light_below_horizon += c.light_below_horizon;
+    to.zero_region += c.zero_region;
+    to.v_one += c.v_one;
+    to.duplicates += c.duplicates;
+    to.sampled += c.sampled;
+    to.samples_drawn += c.samples_drawn;
+    to.samples_final += c.samples_final;
+    for (const auto& [samples, queries] : c.final_pass_queries) to.final_pass_queries[samples] += queries;
+    to.tolerance_missed += c.tolerance_missed;
+}
 
-        // Pixel i's approximations (values, one per comparator) against its reference: the layers and the
-        // statistics (lit pixels only).
-        std::vector<double> values(comparators.size(), 0.0);
-        auto account = [&](std::size_t i, const PixelSurface& p, bool lit, double irradiance) {
-            std::size_t groups[3] = {0, std::size_t(1 + band_of(p.roughness)), 0};
-            std::size_t group_count = 2;
-            if (d.has_material) groups[group_count++] = material_group[p.material];
-            if (lit) {
-                pixel_band[i] = std::uint8_t(groups[1]);
-                if (d.has_material) pixel_material[i] = std::uint32_t(groups[2]);
-            }
-            for (std::size_t k = 0; k < comparators.size(); ++k) {
-                const double diff = values[k] - double(li.reference[i]);
-                li.approximation[k][i] = float(values[k]);
-                li.error[k][i] = float(diff * irradiance);
-                if (!lit) continue;
-                const double we = std::fabs(diff * irradiance);
-                for (std::size_t g = 0; g < group_count; ++g) {
-                    ErrorStats& s = stats[k][groups[g]];
-                    ++s.pixels;
-                    s.max = std::max(s.max, we);
-                    s.max_term = std::max(s.max_term, std::fabs(diff));
-                    sum_sq[k][groups[g]] += we * we;
-                    sum_sq_term[k][groups[g]] += diff * diff;
-                }
-            }
-        };
-        // Area lights: no key grid (a light adds its shape to every query); each lit pixel's T_area is
-        // computed to the area tolerance by passes that double the outer samples (area_tile below).
-        const double area_tolerance = d.sampling.area_tolerance;
-        if (light.is_area()) result.area_tolerance = area_tolerance;
-        area::AreaRoutineConfig area_config;
-        if (method == Method::exact) area_config.inner_term = area::exact_inner_term(w, tol);
-        if (light.is_area()) li.t = student_t_999(plan.replicates);
-        auto area_tile = [&](std::size_t tile_start, std::size_t tile_end) {
-            std::vector<std::size_t> pixels;
-            std::vector<area::AreaQuery> queries;
-            std::vector<AreaLightQuery> pixel_queries;
-            for (std::size_t i = tile_start; i < tile_end; ++i) {
-                ++c.pixel_lights;
-                AreaLightQuery a = area_light_query(inputs.pixel(i), light);
-                if (a.status == PixelStatus::shaded && !(area::max_height(area::normalised(a.query).light) > 0))
-                    a.status = PixelStatus::light_below_horizon;  // no direction of the light above the horizon: 0
-                if (a.status == PixelStatus::masked) ++c.masked;
-                else if (a.status == PixelStatus::view_below_horizon) ++c.view_below_horizon;
-                else if (a.status == PixelStatus::light_below_horizon) ++c.light_below_horizon;
-                else {
-                    pixels.push_back(i);
-                    queries.push_back(a.query);
-                    pixel_queries.push_back(a);
-                }
-            }
-            const auto sampling_start = std::chrono::steady_clock::now();
-            std::vector<area::AreaEstimate> estimates(queries.size());
-            std::vector<std::size_t> todo(queries.size());
-            for (std::size_t k = 0; k < todo.size(); ++k) todo[k] = k;
-            // The exact inner term costs ~10 us a direction: it starts at 128 directions a replicate and stops
-            // at 2^16 (docs/scenes.md); the joint kernel at min_samples and max_samples.
-            const bool exact_inner = bool(area_config.inner_term);
-            std::uint64_t samples = exact_inner ? std::uint64_t(plan.replicates) * 128 : first;
-            const std::uint64_t most = exact_inner ? std::min<std::uint64_t>(d.sampling.max_samples, 65536) : d.sampling.max_samples;
-            bool first_pass = true;
-            while (!todo.empty()) {
-                plan.samples = samples;
-                std::vector<area::AreaQuery> batch;
-                for (std::size_t k : todo) batch.push_back(queries[k]);
-                area::AreaEvalStats st;
-                const auto est = area::evaluate_area(backend, batch, term_options, plan, area_config, &st,
-                                                     [&](std::size_t done, std::size_t total) {
-                                                         if (first_pass && total)
-                                                             progress(light.name, tile_start + (tile_end - tile_start) * done / total, n);
-                                                     });
-                c.samples_drawn += std::uint64_t(st.sampled) * samples;
-                if (first_pass) {
-                    c.sampled += st.sampled;
-                    c.zero_region += st.zero_region;
-                    c.v_one += st.visibility_one;
-                    c.light_below_horizon += st.below_horizon;
-                }
-                std::vector<std::size_t> next;
-                for (std::size_t j = 0; j < todo.size(); ++j) {
-                    estimates[todo[j]] = est[j];
-                    const double bound = li.t * est[j].term.std_error + est[j].inner_error;
-                    if (!(bound > area_tolerance) || !est[j].sampled || samples * 2 > most) {
-                        if (est[j].sampled) c.samples_final += samples, ++c.final_pass_queries[samples];
-                        if (bound > area_tolerance) ++c.tolerance_missed;
-                        continue;
-                    }
-                    next.push_back(todo[j]);
-                }
-                todo = std::move(next);
-                samples *= 2;
-                first_pass = false;
-            }
-            result.sampling_seconds += seconds_since(sampling_start);
-            for (std::size_t k = 0; k < pixels.size(); ++k) {
-                const std::size_t i = pixels[k];
-                const area::AreaEstimate& e = estimates[k];
-                const PixelSurface p = inputs.pixel(i);
-                const AreaLightQuery& a = pixel_queries[k];
-                li.reference[i] = float(e.term.term);
-                // Stored so that t x std_error is the pixel's bound: the outer's replicate error and the inner bound.
-                li.std_error[i] = float(e.term.std_error + e.inner_error / li.t);
-                li.max_error_bound = std::max(li.max_error_bound, li.t * e.term.std_error + e.inner_error);
-                // The unshadowed contribution: radiance x Int_light f cos, the reference run's estimate of it (a
-                // pixel an exact rule answered was not sampled: a light-sampled estimate of its own).
-                const double irradiance = light.intensity * (e.sampled ? e.lobe_integral.term : lobe_integral_estimate(a.query));
-                li.weight[i] = float(irradiance);
-                const bool lit = true;  // some of the light is above the horizon
-                for (std::size_t j = 0; j < comparators.size(); ++j) {
-                    const Comparator& cmp = comparators[j];
-                    if (cmp.builtin == Comparator::Builtin::taps_exact) {
-                        values[j] = area_taps_term(a.query, w);
-                        continue;
-                    }
-                    try {
-                        values[j] = comparator_value(cmp, p, a.centre, w);  // the lookup at the light's centre
-                    } catch (const std::domain_error& ex) {
-                        throw SceneError("comparator " + cmp.name + " at pixel (" + std::to_string(i % result.width) + ", " +
-                                         std::to_string(i / result.width) + "): " + ex.what());
-                    }
-                }
-                account(i, p, lit, irradiance);
-            }
-        };
+// A tile's pixel as compared: its irradiance and the comparators' values (values: one per comparator).
+void record_pixel(TileResult& r, bool lit, double irradiance, const std::vector<double>& values, std::size_t at) {
+    r.accounted[at] = lit ? 2 : 1;
+    r.irradiance.push_back(irradiance);
+    r.values.insert(r.values.end(), values.begin(), values.end());
+}
 
-        for (std::size_t tile_start = 0; tile_start < n; tile_start += tile) {
-            const std::size_t tile_end = std::min(n, tile_start + tile);
-            if (light.is_area()) {
-                area_tile(tile_start, tile_end);
-                progress(light.name, tile_end, n);
-                continue;
-            }
-            std::vector<std::uint32_t> pixel_key(tile_end - tile_start, kNoKey);
-            std::unordered_map<DedupKey, std::uint32_t, KeyHash> keys;
-            std::vector<Query> queries;
+// Samples the point queries of a tile as passes (samples -> queries). A query whose bound B exceeds the
+// tolerance E after N samples is resampled with the smallest power-of-two multiple of N, at least 2 N,
+// above N (B / E)^(4/3): the samples the bound needs if the error falls as N^(-3/4) (scrambled nets on
+// this integrand fall faster than Monte Carlo's N^(-1/2)), up to max_samples. Measured on the example
+// scene: 3.25e9 samples, against 3.59e9 doubling each pass and 4.06e9 predicting at the Monte Carlo rate.
+using Passes = std::map<std::uint64_t, std::vector<std::uint32_t>>;
+struct PointSampling {
+    const SceneJob& job;
+    const Light& light;
+    const std::vector<Query>& queries;
+    std::vector<Estimate>& estimates;
+    std::vector<std::uint64_t>& final_samples;
+    SkipCounts& c;
+    SamplingPlan plan;
+    double t = 1;
+    std::size_t tile_start = 0, tile_end = 0;
 
-            // Classify every pixel of the tile (exact answers in double), key the rest.
-            for (std::size_t i = tile_start; i < tile_end; ++i) {
-                std::uint32_t& key = pixel_key[i - tile_start];
-                ++c.pixel_lights;
-                const PixelSurface p = inputs.pixel(i);
-                const LightQuery q = light_query(p, light);
-                li.weight[i] = float(q.irradiance);
-                if (q.status == PixelStatus::masked) {
-                    ++c.masked;
-                    continue;
-                }
-                if (q.status == PixelStatus::view_below_horizon) {
-                    ++c.view_below_horizon;
-                    continue;
-                }
-                if (options.skip) {
-                    if (q.status == PixelStatus::light_below_horizon) {
-                        ++c.light_below_horizon;
-                        key = kExact;
-                        continue;
-                    }
-                    if (in_zero_region(cone_cos_theta(p.visibility, w), q.n_dot_l)) {
-                        ++c.zero_region;
-                        key = kExact;
-                        continue;
-                    }
-                    if (p.visibility == 1) {
-                        ++c.v_one;
-                        li.reference[i] = 1;
-                        key = kExact;
-                        continue;
-                    }
-                }
-                if (step > 0) {
-                    const DedupKey k = dedup_key(q.query, w, step);
-                    const auto [it, inserted] = keys.emplace(k, std::uint32_t(queries.size()));
-                    if (inserted) queries.push_back(dedup_query(k, w, step));
-                    else ++c.duplicates;
-                    key = it->second;
-                } else {
-                    key = std::uint32_t(queries.size());
-                    queries.push_back(q.query);
-                }
-            }
-            keys = {};
-
-            // Sample each distinct query; a query whose bound B exceeds the tolerance E after N samples is
-            // resampled with the smallest power-of-two multiple of N, at least 2 N, above N (B / E)^(4/3): the
-            // samples the bound needs if the error falls as N^(-3/4) (scrambled nets on this integrand fall
-            // faster than Monte Carlo's N^(-1/2)), up to max_samples. Measured on the example scene: 3.25e9
-            // samples, against 3.59e9 doubling each pass and 4.06e9 predicting at the Monte Carlo rate.
-            // Neighbour prediction (sampling.predict_stride S > 1, default 8): the queries of a tile are in scan
-            // order, and neighbouring pixels need similar counts. Every S-th query (a leader) starts at
-            // min_samples as above; each other query starts at the smaller of the counts where the leaders
-            // before and after it stopped, so most skip the passes whose samples the next pass would
-            // discard (passes are not nested: a pass of N samples is a different net from one of 2N). A query's count is chosen from other queries' results,
-            // never from its own samples, and its stopping rule is unchanged.
-            const auto sampling_start = std::chrono::steady_clock::now();
-            std::vector<Estimate> estimates(queries.size());
-            std::vector<std::uint64_t> final_samples(queries.size(), 0);
-            using Passes = std::map<std::uint64_t, std::vector<std::uint32_t>>;  // samples -> queries
-            auto sample = [&](Passes initial) {
-                Passes pending;  // resampling passes
-                while (!initial.empty() || !pending.empty()) {
-                    const bool first_pass = !initial.empty();
-                    Passes& from = first_pass ? initial : pending;
-                    plan.samples = from.begin()->first;
-                    const std::vector<std::uint32_t> todo = std::move(from.begin()->second);
-                    from.erase(from.begin());
-                    std::vector<Query> batch;
-                    batch.reserve(todo.size());
-                    for (auto k : todo) batch.push_back(queries[k]);
-                    EvalStats eval_stats;
-                    const auto est = evaluate_each(backend, batch, std::vector<TermOptions>(batch.size(), term_options), plan, &eval_stats,
-                                                   [&](std::size_t done, std::size_t total) {
-                                                       // Progress in pixels: first passes move through the tile.
-                                                       if (first_pass && total)
-                                                           progress(light.name, tile_start + (tile_end - tile_start) * done / total, n);
-                                                   });
-                    c.samples_drawn += std::uint64_t(eval_stats.sampled) * plan.samples;
-                    if (first_pass) {
-                        // Without skipping, the integrand's own exact answers (zero region and a light below the
-                        // horizon: exact 0; v = 1) are what was not sampled.
-                        if (!options.skip) {
-                            c.zero_region += eval_stats.exact_zero;
-                            c.v_one += eval_stats.exact_one;
-                        }
-                        c.sampled += eval_stats.sampled;
-                    }
-                    for (std::size_t j = 0; j < todo.size(); ++j) {
-                        estimates[todo[j]] = est[j];
-                        const double bound = t * est[j].std_error;
-                        // A query that stops here (exact answers by the integrand count 0 samples).
-                        const bool sampled_here = est[j].std_error > 0 || !(est[j].term == 0 || est[j].term == 1);
-                        if (!(bound > tol)) {
-                            if (sampled_here) {
-                                c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
-                                final_samples[todo[j]] = plan.samples;
-                            }
-                            continue;
-                        }
-                        if (plan.samples * 2 > d.sampling.max_samples) {
-                            c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
-                            final_samples[todo[j]] = plan.samples;
-                            ++c.tolerance_missed;
-                            continue;
-                        }
-                        const double want = double(plan.samples) * std::pow(bound / tol, 4.0 / 3.0);
-                        std::uint64_t next = plan.samples * 2;
-                        while (double(next) < want && next * 2 <= d.sampling.max_samples) next *= 2;
-                        pending[next].push_back(todo[j]);
-                    }
-                }
-            };
-            if (method == Method::exact) {
-                // One pass: every distinct query to the tolerance by the exact evaluator.
-                SamplingPlan exact_plan;
-                exact_plan.method = Method::exact;
-                exact_plan.tolerance = tol;
-                EvalStats eval_stats;
-                estimates = evaluate_each(backend, queries, std::vector<TermOptions>(queries.size(), term_options), exact_plan,
-                                          &eval_stats, [&](std::size_t done, std::size_t total) {
-                                              if (total) progress(light.name, tile_start + (tile_end - tile_start) * done / total, n);
-                                          });
-                c.sampled += eval_stats.sampled;
-                if (!options.skip) {
+    void run(Passes initial) {
+        const double tol = job.tol;
+        const std::uint64_t max_samples = job.d.sampling.max_samples;
+        Passes pending;  // resampling passes
+        while (!initial.empty() || !pending.empty()) {
+            const bool first_pass = !initial.empty();
+            Passes& from = first_pass ? initial : pending;
+            plan.samples = from.begin()->first;
+            const std::vector<std::uint32_t> todo = std::move(from.begin()->second);
+            from.erase(from.begin());
+            std::vector<Query> batch;
+            batch.reserve(todo.size());
+            for (auto k : todo) batch.push_back(queries[k]);
+            EvalStats eval_stats;
+            const auto est = evaluate_each(job.backend, batch, std::vector<TermOptions>(batch.size(), job.term_options), plan, &eval_stats,
+                                           [&](std::size_t done, std::size_t total) {
+                                               // Progress in pixels: first passes move through the tile.
+                                               if (first_pass && total)
+                                                   job.progress(light.name, tile_start + (tile_end - tile_start) * done / total, job.n);
+                                           });
+            c.samples_drawn += std::uint64_t(eval_stats.sampled) * plan.samples;
+            if (first_pass) {
+                // Without skipping, the integrand's own exact answers (zero region and a light below the
+                // horizon: exact 0; v = 1) are what was not sampled.
+                if (!job.options.skip) {
                     c.zero_region += eval_stats.exact_zero;
                     c.v_one += eval_stats.exact_one;
                 }
-                for (const Estimate& e : estimates)
-                    if (e.std_error > tol) ++c.tolerance_missed;
+                c.sampled += eval_stats.sampled;
             }
-            const std::size_t stride = std::max<std::size_t>(1, d.sampling.predict_stride);
-            Passes leaders, followers;
-            if (method == Method::sampled) {
-            for (std::size_t k = 0; k < queries.size(); k += stride) leaders[first].push_back(std::uint32_t(k));
-            sample(std::move(leaders));
-            for (std::size_t k = 0; k < queries.size(); ++k)
-                if (k % stride) {
-                    // The smaller of the two leaders around it: overshooting costs a whole pass of extra
-                    // samples, undershooting one smaller discarded pass (measured: min of both 2.85e9 samples
-                    // on the example scene, the preceding leader alone 2.97e9, every query from min_samples 3.25e9).
-                    const std::size_t before = k - k % stride, after = before + stride;
-                    std::uint64_t predicted = final_samples[before];
-                    if (after < queries.size()) predicted = std::min(predicted, final_samples[after]);
-                    followers[std::max(first, predicted)].push_back(std::uint32_t(k));
-                }
-            sample(std::move(followers));
-            }
-            result.sampling_seconds += seconds_since(sampling_start);
-
-            // Per-pixel reference, comparators and weighted errors of the tile.
-            for (std::size_t i = tile_start; i < tile_end; ++i) {
-                const std::uint32_t key = pixel_key[i - tile_start];
-                if (key == kNoKey) continue;
-                if (key != kExact) {
-                    const Estimate& e = estimates[key];
-                    li.reference[i] = float(e.term);
-                    li.std_error[i] = float(e.std_error);
-                    li.max_error_bound = std::max(li.max_error_bound, li.t * e.std_error);
-                }
-                const PixelSurface p = inputs.pixel(i);
-                const LightQuery q = light_query(p, light);
-                const bool lit = q.status == PixelStatus::shaded;
-                for (std::size_t k = 0; k < comparators.size(); ++k) {
-                    try {
-                        values[k] = comparator_value(comparators[k], p, q, w);
-                    } catch (const std::domain_error& e) {
-                        // A LUT of bake --scene refuses lookups outside what it baked or was fitted to. A pixel the
-                        // light does not reach is no lookup a renderer makes (its weight is 0): 0 there.
-                        if (lit)
-                            throw SceneError("comparator " + comparators[k].name + " at pixel (" + std::to_string(i % result.width) +
-                                             ", " + std::to_string(i / result.width) + "): " + e.what());
-                        values[k] = 0;
+            for (std::size_t j = 0; j < todo.size(); ++j) {
+                estimates[todo[j]] = est[j];
+                const double bound = t * est[j].std_error;
+                // A query that stops here (exact answers by the integrand count 0 samples).
+                const bool sampled_here = est[j].std_error > 0 || !(est[j].term == 0 || est[j].term == 1);
+                if (!(bound > tol)) {
+                    if (sampled_here) {
+                        c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
+                        final_samples[todo[j]] = plan.samples;
                     }
+                    continue;
                 }
-                account(i, p, lit, q.irradiance);
+                if (plan.samples * 2 > max_samples) {
+                    c.samples_final += plan.samples, ++c.final_pass_queries[plan.samples];
+                    final_samples[todo[j]] = plan.samples;
+                    ++c.tolerance_missed;
+                    continue;
+                }
+                const double want = double(plan.samples) * std::pow(bound / tol, 4.0 / 3.0);
+                std::uint64_t next = plan.samples * 2;
+                while (double(next) < want && next * 2 <= max_samples) next *= 2;
+                pending[next].push_back(todo[j]);
             }
-            progress(light.name, tile_end, n);
         }
-        // RMS, and the 99th percentiles from the error layers (|float(x)| = float(|x|): the same values the
-        // statistics saw). Per comparator, the lit pixels' errors are bucketed by group (a counting sort:
-        // "all", the pixel's band, its material) into one scratch vector, and each group's bucket gives
-        // its percentile by nth_element: linear in pixels, whatever the number of groups.
-        const std::size_t group_count = result.groups.size();
+    }
+};
+
+// Classifies every pixel of a point light's tile (exact answers in double) and keys the rest on the
+// grid (dedup_key; a key repeats only within the tile): the distinct queries, and each pixel's key
+// (kNoKey: nothing to shade, kExact: answered here).
+std::vector<std::uint32_t> classify_point_tile(const SceneJob& job, const Light& light, std::size_t tile_start, std::size_t tile_end,
+                                               TileResult& r, std::vector<Query>& queries) {
+    SkipCounts& c = r.counts;
+    std::vector<std::uint32_t> pixel_key(tile_end - tile_start, kNoKey);
+    std::unordered_map<DedupKey, std::uint32_t, KeyHash> keys;
+    for (std::size_t i = tile_start; i < tile_end; ++i) {
+        std::uint32_t& key = pixel_key[i - tile_start];
+        ++c.pixel_lights;
+        const PixelSurface p = job.inputs.pixel(i);
+        const LightQuery q = light_query(p, light);
+        r.weight[i - tile_start] = float(q.irradiance);
+        if (q.status == PixelStatus::masked) {
+            ++c.masked;
+            continue;
+        }
+        if (q.status == PixelStatus::view_below_horizon) {
+            ++c.view_below_horizon;
+            continue;
+        }
+        if (job.options.skip) {
+            if (q.status == PixelStatus::light_below_horizon) {
+                ++c.light_below_horizon;
+                key = kExact;
+                continue;
+            }
+            if (in_zero_region(cone_cos_theta(p.visibility, job.w), q.n_dot_l)) {
+                ++c.zero_region;
+                key = kExact;
+                continue;
+            }
+            if (p.visibility == 1) {
+                ++c.v_one;
+                r.reference[i - tile_start] = 1;
+                key = kExact;
+                continue;
+            }
+        }
+        if (job.step > 0) {
+            const DedupKey k = dedup_key(q.query, job.w, job.step);
+            const auto [it, inserted] = keys.emplace(k, std::uint32_t(queries.size()));
+            if (inserted) queries.push_back(dedup_query(k, job.w, job.step));
+            else ++c.duplicates;
+            key = it->second;
+        } else {
+            key = std::uint32_t(queries.size());
+            queries.push_back(q.query);
+        }
+    }
+    return pixel_key;
+}
+
+// The distinct queries of a tile to the tolerance: by the exact evaluator in one pass, or sampled.
+// Neighbour prediction (sampling.predict_stride S > 1, default 8): the queries of a tile are in scan
+// order, and neighbouring pixels need similar counts. Every S-th query (a leader) starts at
+// min_samples; each other query starts at the smaller of the counts where the leaders before and after
+// it stopped, so most skip the passes whose samples the next pass would discard (passes are not nested:
+// a pass of N samples is a different net from one of 2N). A query's count is chosen from other queries'
+// results, never from its own samples, and its stopping rule is unchanged.
+std::vector<Estimate> estimate_point_queries(const SceneJob& job, const Light& light, std::size_t tile_start, std::size_t tile_end,
+                                             const std::vector<Query>& queries, double t, SkipCounts& c) {
+    std::vector<Estimate> estimates(queries.size());
+    if (job.method == Method::exact) {
+        SamplingPlan exact_plan;
+        exact_plan.method = Method::exact;
+        exact_plan.tolerance = job.tol;
+        EvalStats eval_stats;
+        estimates = evaluate_each(job.backend, queries, std::vector<TermOptions>(queries.size(), job.term_options), exact_plan,
+                                  &eval_stats, [&](std::size_t done, std::size_t total) {
+                                      if (total) job.progress(light.name, tile_start + (tile_end - tile_start) * done / total, job.n);
+                                  });
+        c.sampled += eval_stats.sampled;
+        if (!job.options.skip) {
+            c.zero_region += eval_stats.exact_zero;
+            c.v_one += eval_stats.exact_one;
+        }
+        for (const Estimate& e : estimates)
+            if (e.std_error > job.tol) ++c.tolerance_missed;
+        return estimates;
+    }
+    std::vector<std::uint64_t> final_samples(queries.size(), 0);
+    PointSampling sampling{job, light, queries, estimates, final_samples, c, SamplingPlan{}, t, tile_start, tile_end};
+    sampling.plan.replicates = job.d.sampling.replicates;
+    sampling.plan.seed = job.d.sampling.seed;
+    const std::uint64_t first = round_up_samples(job.d.sampling.min_samples, sampling.plan.replicates);
+    const std::size_t stride = std::max<std::size_t>(1, job.d.sampling.predict_stride);
+    Passes leaders, followers;
+    for (std::size_t k = 0; k < queries.size(); k += stride) leaders[first].push_back(std::uint32_t(k));
+    sampling.run(std::move(leaders));
+    for (std::size_t k = 0; k < queries.size(); ++k)
+        if (k % stride) {
+            // The smaller of the two leaders around it: overshooting costs a whole pass of extra samples,
+            // undershooting one smaller discarded pass (measured: min of both 2.85e9 samples on the example
+            // scene, the preceding leader alone 2.97e9, every query from min_samples 3.25e9).
+            const std::size_t before = k - k % stride, after = before + stride;
+            std::uint64_t predicted = final_samples[before];
+            if (after < queries.size()) predicted = std::min(predicted, final_samples[after]);
+            followers[std::max(first, predicted)].push_back(std::uint32_t(k));
+        }
+    sampling.run(std::move(followers));
+    return estimates;
+}
+
+// A tile of a directional or point light: classify and key, estimate the distinct queries, then each
+// pixel's reference and comparator values.
+void compute_point_tile(const SceneJob& job, const Light& light, std::size_t tile_start, std::size_t tile_end, TileResult& r) {
+    const double t = job.bound_factor(light);
+    std::vector<Query> queries;
+    const std::vector<std::uint32_t> pixel_key = classify_point_tile(job, light, tile_start, tile_end, r, queries);
+    const auto sampling_start = std::chrono::steady_clock::now();
+    const std::vector<Estimate> estimates = estimate_point_queries(job, light, tile_start, tile_end, queries, t, r.counts);
+    r.sampling_seconds += seconds_since(sampling_start);
+
+    std::vector<double> values(job.comparators.size(), 0.0);
+    const std::uint32_t width = job.inputs.width();
+    for (std::size_t i = tile_start; i < tile_end; ++i) {
+        const std::uint32_t key = pixel_key[i - tile_start];
+        if (key == kNoKey) continue;
+        if (key != kExact) {
+            const Estimate& e = estimates[key];
+            r.reference[i - tile_start] = float(e.term);
+            r.std_error[i - tile_start] = float(e.std_error);
+            r.max_error_bound = std::max(r.max_error_bound, t * e.std_error);
+        }
+        const PixelSurface p = job.inputs.pixel(i);
+        const LightQuery q = light_query(p, light);
+        const bool lit = q.status == PixelStatus::shaded;
+        for (std::size_t k = 0; k < job.comparators.size(); ++k) {
+            try {
+                values[k] = comparator_value(job.comparators[k], p, q, job.w);
+            } catch (const std::domain_error& e) {
+                // A LUT of bake --scene refuses lookups outside what it baked or was fitted to. A pixel the
+                // light does not reach is no lookup a renderer makes (its weight is 0): 0 there.
+                if (lit)
+                    throw SceneError("comparator " + job.comparators[k].name + " at pixel (" + std::to_string(i % width) + ", " +
+                                     std::to_string(i / width) + "): " + e.what());
+                values[k] = 0;
+            }
+        }
+        record_pixel(r, lit, q.irradiance, values, i - tile_start);
+    }
+}
+
+// A tile of an area light: no key grid (a light adds its shape to every query); each lit pixel's T_area
+// is computed to the area tolerance by passes that double the outer samples.
+void compute_area_tile(const SceneJob& job, const Light& light, std::size_t tile_start, std::size_t tile_end, TileResult& r) {
+    SkipCounts& c = r.counts;
+    const double area_tolerance = job.d.sampling.area_tolerance;
+    const double t = job.bound_factor(light);
+    area::AreaRoutineConfig area_config;
+    if (job.method == Method::exact) area_config.inner_term = area::exact_inner_term(job.w, job.tol);
+    SamplingPlan plan;
+    plan.replicates = job.d.sampling.replicates;
+    plan.seed = job.d.sampling.seed;
+    std::vector<std::size_t> pixels;
+    std::vector<area::AreaQuery> queries;
+    std::vector<AreaLightQuery> pixel_queries;
+    for (std::size_t i = tile_start; i < tile_end; ++i) {
+        ++c.pixel_lights;
+        AreaLightQuery a = area_light_query(job.inputs.pixel(i), light);
+        if (a.status == PixelStatus::shaded && !(area::max_height(area::normalised(a.query).light) > 0))
+            a.status = PixelStatus::light_below_horizon;  // no direction of the light above the horizon: 0
+        if (a.status == PixelStatus::masked) ++c.masked;
+        else if (a.status == PixelStatus::view_below_horizon) ++c.view_below_horizon;
+        else if (a.status == PixelStatus::light_below_horizon) ++c.light_below_horizon;
+        else {
+            pixels.push_back(i);
+            queries.push_back(a.query);
+            pixel_queries.push_back(a);
+        }
+    }
+    const auto sampling_start = std::chrono::steady_clock::now();
+    std::vector<area::AreaEstimate> estimates(queries.size());
+    std::vector<std::size_t> todo(queries.size());
+    for (std::size_t k = 0; k < todo.size(); ++k) todo[k] = k;
+    // The exact inner term costs ~10 us a direction: it starts at 128 directions a replicate and stops
+    // at 2^16 (docs/scenes.md); the joint kernel at min_samples and max_samples.
+    const bool exact_inner = bool(area_config.inner_term);
+    std::uint64_t samples = exact_inner ? std::uint64_t(plan.replicates) * 128 : round_up_samples(job.d.sampling.min_samples, plan.replicates);
+    const std::uint64_t most = exact_inner ? std::min<std::uint64_t>(job.d.sampling.max_samples, 65536) : job.d.sampling.max_samples;
+    bool first_pass = true;
+    while (!todo.empty()) {
+        plan.samples = samples;
+        std::vector<area::AreaQuery> batch;
+        for (std::size_t k : todo) batch.push_back(queries[k]);
+        area::AreaEvalStats st;
+        const auto est = area::evaluate_area(job.backend, batch, job.term_options, plan, area_config, &st,
+                                             [&](std::size_t done, std::size_t total) {
+                                                 if (first_pass && total)
+                                                     job.progress(light.name, tile_start + (tile_end - tile_start) * done / total, job.n);
+                                             });
+        c.samples_drawn += std::uint64_t(st.sampled) * samples;
+        if (first_pass) {
+            c.sampled += st.sampled;
+            c.zero_region += st.zero_region;
+            c.v_one += st.visibility_one;
+            c.light_below_horizon += st.below_horizon;
+        }
+        std::vector<std::size_t> next;
+        for (std::size_t j = 0; j < todo.size(); ++j) {
+            estimates[todo[j]] = est[j];
+            const double bound = t * est[j].term.std_error + est[j].inner_error;
+            if (!(bound > area_tolerance) || !est[j].sampled || samples * 2 > most) {
+                if (est[j].sampled) c.samples_final += samples, ++c.final_pass_queries[samples];
+                if (bound > area_tolerance) ++c.tolerance_missed;
+                continue;
+            }
+            next.push_back(todo[j]);
+        }
+        todo = std::move(next);
+        samples *= 2;
+        first_pass = false;
+    }
+    r.sampling_seconds += seconds_since(sampling_start);
+    std::vector<double> values(job.comparators.size(), 0.0);
+    const std::uint32_t width = job.inputs.width();
+    for (std::size_t k = 0; k < pixels.size(); ++k) {
+        const std::size_t i = pixels[k];
+        const area::AreaEstimate& e = estimates[k];
+        const PixelSurface p = job.inputs.pixel(i);
+        const AreaLightQuery& a = pixel_queries[k];
+        r.reference[i - tile_start] = float(e.term.term);
+        // Stored so that t x std_error is the pixel's bound: the outer's replicate error and the inner bound.
+        r.std_error[i - tile_start] = float(e.term.std_error + e.inner_error / t);
+        r.max_error_bound = std::max(r.max_error_bound, t * e.term.std_error + e.inner_error);
+        // The unshadowed contribution: radiance x Int_light f cos, the reference run's estimate of it (a
+        // pixel an exact rule answered was not sampled: a light-sampled estimate of its own).
+        const double irradiance = light.intensity * (e.sampled ? e.lobe_integral.term : lobe_integral_estimate(a.query));
+        r.weight[i - tile_start] = float(irradiance);
+        for (std::size_t j = 0; j < job.comparators.size(); ++j) {
+            const Comparator& cmp = job.comparators[j];
+            if (cmp.builtin == Comparator::Builtin::taps_exact) {
+                values[j] = area_taps_term(a.query, job.w);
+                continue;
+            }
+            try {
+                values[j] = comparator_value(cmp, p, a.centre, job.w);  // the lookup at the light's centre
+            } catch (const std::domain_error& ex) {
+                throw SceneError("comparator " + cmp.name + " at pixel (" + std::to_string(i % width) + ", " +
+                                 std::to_string(i / width) + "): " + ex.what());
+            }
+        }
+        record_pixel(r, true, irradiance, values, i - tile_start);  // some of the light is above the horizon: lit
+    }
+}
+
+// Work item `id`: light id / tiles, tile id % tiles.
+struct TileOf {
+    std::size_t light = 0, start = 0, end = 0;
+};
+TileOf tile_of(const SceneJob& job, std::uint64_t id) {
+    TileOf t;
+    t.light = std::size_t(id / job.tiles_per_light);
+    t.start = std::size_t(id % job.tiles_per_light) * job.tile;
+    t.end = std::min(job.n, t.start + job.tile);
+    return t;
+}
+
+TileResult compute_tile(const SceneJob& job, std::uint64_t id) {
+    const auto start = std::chrono::steady_clock::now();
+    const TileOf t = tile_of(job, id);
+    const Light& light = job.d.lights[t.light];
+    const std::size_t size = t.end - t.start;
+    TileResult r;
+    r.reference.assign(size, 0.0f);
+    r.std_error.assign(size, 0.0f);
+    r.weight.assign(size, 0.0f);
+    r.accounted.assign(size, 0);
+    if (light.is_area()) compute_area_tile(job, light, t.start, t.end, r);
+    else compute_point_tile(job, light, t.start, t.end, r);
+    job.progress(light.name, t.end, job.n);
+    r.seconds = seconds_since(start);
+    return r;
+}
+
+// The byte form of a tile (schedule/item_bytes.hpp: the numbers bit for bit).
+std::string encode_tile(const TileResult& r) {
+    schedule::ItemWriter w;
+    const SkipCounts& c = r.counts;
+    for (std::uint64_t v : {c.pixel_lights, c.masked, c.view_below_horizon, c.light_below_horizon, c.zero_region, c.v_one, c.duplicates,
+                            c.sampled, c.samples_drawn, c.samples_final, c.tolerance_missed})
+        w.put(v);
+    std::vector<std::uint64_t> passes;
+    for (const auto& [samples, queries] : c.final_pass_queries) passes.insert(passes.end(), {samples, queries});
+    w.put_vector(passes);
+    w.put(r.max_error_bound);
+    w.put(r.sampling_seconds);
+    w.put(r.seconds);
+    w.put_vector(r.reference);
+    w.put_vector(r.std_error);
+    w.put_vector(r.weight);
+    w.put_vector(r.accounted);
+    w.put_vector(r.irradiance);
+    w.put_vector(r.values);
+    return w.take();
+}
+
+// Reads item `id`'s bytes back; std::runtime_error naming the item when they are not a tile of this job.
+TileResult decode_tile(const SceneJob& job, std::uint64_t id, const std::string& payload) {
+    const TileOf t = tile_of(job, id);
+    const std::string what = "scene: item " + std::to_string(id) + " (light " + job.d.lights[t.light].name + ", pixels " +
+                             std::to_string(t.start) + "-" + std::to_string(t.end) + ")";
+    schedule::ItemReader in(payload, what);
+    TileResult r;
+    SkipCounts& c = r.counts;
+    for (std::uint64_t* v : {&c.pixel_lights, &c.masked, &c.view_below_horizon, &c.light_below_horizon, &c.zero_region, &c.v_one,
+                             &c.duplicates, &c.sampled, &c.samples_drawn, &c.samples_final, &c.tolerance_missed})
+        *v = in.get<std::uint64_t>();
+    const std::uint64_t pass_values = in.get<std::uint64_t>();
+    if (pass_values % 2 || pass_values > payload.size()) throw std::runtime_error(what + ": its final passes are not pairs");
+    for (std::uint64_t k = 0; k < pass_values / 2; ++k) {
+        const auto samples = in.get<std::uint64_t>();
+        c.final_pass_queries[samples] += in.get<std::uint64_t>();
+    }
+    r.max_error_bound = in.get<double>();
+    r.sampling_seconds = in.get<double>();
+    r.seconds = in.get<double>();
+    const std::size_t size = t.end - t.start;
+    r.reference = in.get_vector<float>(size);
+    r.std_error = in.get_vector<float>(size);
+    r.weight = in.get_vector<float>(size);
+    r.accounted = in.get_vector<std::uint8_t>(size);
+    std::size_t compared = 0;
+    for (std::uint8_t a : r.accounted) {
+        if (a > 2) throw std::runtime_error(what + ": a pixel's comparison flag is " + std::to_string(a));
+        compared += a != 0;
+    }
+    r.irradiance = in.get_vector<double>(compared);
+    r.values = in.get_vector<double>(std::uint64_t(compared) * job.comparators.size());
+    in.finish();
+    if (c.pixel_lights != size) throw std::runtime_error(what + ": counts " + std::to_string(c.pixel_lights) + " pixels, not " + std::to_string(size));
+    return r;
+}
+
+// The images and statistics, assembled from the tiles in item order (light by light, tile by tile):
+// the sums of squares take the pixels in scan order as one process does, so the report's doubles are
+// the same bits however the items were computed. Tiles that arrive early (an MPI rank, a resumed
+// store) wait for the ones before them.
+class SceneAssembly {
+public:
+    SceneAssembly(const SceneJob& job, SceneResult& result) : job_(job), result_(result) {}
+
+    void accept(std::uint64_t id, TileResult tile) {
+        if (id < next_ || !waiting_.emplace(id, std::move(tile)).second)
+            throw std::logic_error("scene: item " + std::to_string(id) + " was assembled twice");
+        for (auto it = waiting_.begin(); it != waiting_.end() && it->first == next_; it = waiting_.erase(it), ++next_) fold(next_, it->second);
+    }
+    // After the last item: the lights of an image without pixels (no items) get their empty images.
+    void finish() {
+        if (job_.tiles_per_light > 0) return;
+        for (std::size_t l = 0; l < job_.d.lights.size(); ++l) {
+            start_light(l);
+            finish_light();
+        }
+    }
+
+private:
+    void start_light(std::size_t l) {
+        const std::size_t n = job_.n, k = job_.comparators.size(), groups = job_.group_count;
+        light_ = LightImages{};
+        light_.light = job_.d.lights[l].name;
+        light_.reference.assign(n, 0.0f);
+        light_.std_error.assign(n, 0.0f);
+        light_.weight.assign(n, 0.0f);
+        light_.approximation.assign(k, std::vector<float>(n, 0.0f));
+        light_.error.assign(k, std::vector<float>(n, 0.0f));
+        light_.t = job_.bound_factor(job_.d.lights[l]);
+        stats_.assign(k, std::vector<ErrorStats>(groups));
+        sum_sq_.assign(k, std::vector<double>(groups));
+        sum_sq_term_.assign(k, std::vector<double>(groups));
+        pixel_band_.assign(n, kUnlit);
+        pixel_material_.assign(job_.d.has_material ? n : 0, 0);
+    }
+
+    // A tile's layers into the light's images and its compared pixels into the statistics (lit pixels only).
+    void fold(std::uint64_t id, const TileResult& r) {
+        const TileOf t = tile_of(job_, id);
+        if (t.start == 0) start_light(t.light);
+        add_counts(result_.counts, r.counts);
+        result_.sampling_seconds += r.sampling_seconds;
+        light_.seconds += r.seconds;
+        light_.max_error_bound = std::max(light_.max_error_bound, r.max_error_bound);
+        std::copy(r.reference.begin(), r.reference.end(), light_.reference.begin() + std::ptrdiff_t(t.start));
+        std::copy(r.std_error.begin(), r.std_error.end(), light_.std_error.begin() + std::ptrdiff_t(t.start));
+        std::copy(r.weight.begin(), r.weight.end(), light_.weight.begin() + std::ptrdiff_t(t.start));
+        const std::size_t comparators = job_.comparators.size();
+        std::size_t compared = 0;
+        for (std::size_t i = t.start; i < t.end; ++i) {
+            const std::uint8_t flag = r.accounted[i - t.start];
+            if (!flag) continue;
+            account(i, flag == 2, r.irradiance[compared], &r.values[compared * comparators]);
+            ++compared;
+        }
+        if (t.end == job_.n) finish_light();
+    }
+
+    // Pixel i's approximations (values, one per comparator) against its reference: the layers and the
+    // statistics (lit pixels only).
+    void account(std::size_t i, bool lit, double irradiance, const double* values) {
+        const PixelSurface p = job_.inputs.pixel(i);
+        std::size_t groups[3] = {0, std::size_t(1 + band_of(p.roughness)), 0};
+        std::size_t group_count = 2;
+        if (job_.d.has_material) groups[group_count++] = job_.material_group.at(p.material);
+        if (lit) {
+            pixel_band_[i] = std::uint8_t(groups[1]);
+            if (job_.d.has_material) pixel_material_[i] = std::uint32_t(groups[2]);
+        }
+        for (std::size_t k = 0; k < job_.comparators.size(); ++k) {
+            const double diff = values[k] - double(light_.reference[i]);
+            light_.approximation[k][i] = float(values[k]);
+            light_.error[k][i] = float(diff * irradiance);
+            if (!lit) continue;
+            const double we = std::fabs(diff * irradiance);
+            for (std::size_t g = 0; g < group_count; ++g) {
+                ErrorStats& s = stats_[k][groups[g]];
+                ++s.pixels;
+                s.max = std::max(s.max, we);
+                s.max_term = std::max(s.max_term, std::fabs(diff));
+                sum_sq_[k][groups[g]] += we * we;
+                sum_sq_term_[k][groups[g]] += diff * diff;
+            }
+        }
+    }
+
+    // RMS, and the 99th percentiles from the error layers (|float(x)| = float(|x|): the same values the
+    // statistics saw). Per comparator, the lit pixels' errors are bucketed by group (a counting sort:
+    // "all", the pixel's band, its material) into one scratch vector, and each group's bucket gives its
+    // percentile by nth_element: linear in pixels, whatever the number of groups.
+    void finish_light() {
+        const std::size_t n = job_.n, group_count = job_.group_count;
+        const bool has_material = job_.d.has_material;
         std::vector<std::size_t> bucket_start(group_count + 1, 0);
         for (std::size_t i = 0; i < n; ++i) {
-            if (pixel_band[i] == kUnlit) continue;
+            if (pixel_band_[i] == kUnlit) continue;
             ++bucket_start[1];  // "all"
-            ++bucket_start[std::size_t(pixel_band[i]) + 1];
-            if (d.has_material) ++bucket_start[std::size_t(pixel_material[i]) + 1];
+            ++bucket_start[std::size_t(pixel_band_[i]) + 1];
+            if (has_material) ++bucket_start[std::size_t(pixel_material_[i]) + 1];
         }
         for (std::size_t g = 0; g < group_count; ++g) bucket_start[g + 1] += bucket_start[g];
         std::vector<float> scratch(bucket_start[group_count]);
         std::vector<std::size_t> fill(group_count);
-        for (std::size_t k = 0; k < comparators.size(); ++k) {
+        for (std::size_t k = 0; k < job_.comparators.size(); ++k) {
             std::copy(bucket_start.begin(), bucket_start.end() - 1, fill.begin());
             for (std::size_t i = 0; i < n; ++i) {
-                if (pixel_band[i] == kUnlit) continue;
-                const float e = std::fabs(li.error[k][i]);
+                if (pixel_band_[i] == kUnlit) continue;
+                const float e = std::fabs(light_.error[k][i]);
                 scratch[fill[0]++] = e;
-                scratch[fill[pixel_band[i]]++] = e;
-                if (d.has_material) scratch[fill[pixel_material[i]]++] = e;
+                scratch[fill[pixel_band_[i]]++] = e;
+                if (has_material) scratch[fill[pixel_material_[i]]++] = e;
             }
             for (std::size_t g = 0; g < group_count; ++g) {
-                ErrorStats& s = stats[k][g];
+                ErrorStats& s = stats_[k][g];
                 if (!s.pixels) continue;
-                s.rms = std::sqrt(sum_sq[k][g] / double(s.pixels));
-                s.rms_term = std::sqrt(sum_sq_term[k][g] / double(s.pixels));
+                s.rms = std::sqrt(sum_sq_[k][g] / double(s.pixels));
+                s.rms_term = std::sqrt(sum_sq_term_[k][g] / double(s.pixels));
                 const auto first = scratch.begin() + std::ptrdiff_t(bucket_start[g]);
                 const std::size_t size = bucket_start[g + 1] - bucket_start[g];
                 const std::size_t at = std::min(size - 1, std::size_t(std::ceil(0.99 * double(size))) - 1);
@@ -755,10 +994,132 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
                 s.p99 = first[std::ptrdiff_t(at)];
             }
         }
-        li.stats = std::move(stats);
-        li.seconds = seconds_since(light_start);
-        result.lights.push_back(std::move(li));
+        light_.stats = std::move(stats_);
+        result_.lights.push_back(std::move(light_));
+        light_ = LightImages{};
+        pixel_band_ = {};
+        pixel_material_ = {};
     }
+
+    const SceneJob& job_;
+    SceneResult& result_;
+    std::map<std::uint64_t, TileResult> waiting_;
+    std::uint64_t next_ = 0;
+    // The light being assembled.
+    LightImages light_;
+    std::vector<std::vector<ErrorStats>> stats_;
+    std::vector<std::vector<double>> sum_sq_, sum_sq_term_;
+    std::vector<std::uint8_t> pixel_band_;      // per pixel: its roughness band's group (kUnlit: not lit)
+    std::vector<std::uint32_t> pixel_material_;  // per pixel: its material's group
+};
+
+// Whether this process assembles and writes the outputs: one process, the merge, or MPI rank 0.
+bool assembles(const schedule::ItemPlan* items) {
+    return !items || ((!items->transport || items->transport->coordinator()) && items->shard.count == 1);
+}
+
+// A digest of 64-bit words (FNV-1a's multiply on whole words: eight times fewer steps than bytes, for
+// the planes of a 4K image).
+struct WordDigest {
+    std::uint64_t h = kFnv1aOffset;
+    void add(std::uint64_t v) { h = (h ^ v) * 1099511628211ULL; }
+    void add(double v) {
+        std::uint64_t bits;
+        std::memcpy(&bits, &v, sizeof bits);
+        add(bits);
+    }
+};
+
+std::string file_bytes(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw SceneError(path + ": cannot read it (" + std::strerror(errno) + ")");
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+}  // namespace
+
+std::uint64_t scene_work_items(const SceneInputs& inputs) {
+    const std::size_t n = inputs.pixels(), tile = tile_size(inputs.description(), n);
+    return std::uint64_t(inputs.description().lights.size()) * ((n + tile - 1) / tile);
+}
+
+schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
+    const SceneDescription& d = inputs.description();
+    // The description as written (lights, sampling, comparators, where the images are), and what the
+    // images hold: every pixel's surface as the job reads it.
+    std::ostringstream key;
+    key.precision(17);
+    key << "description fnv1a " << hex16(fnv1a(file_bytes(d.source))) << "\n";
+    WordDigest pixels;
+    for (std::size_t i = 0; i < inputs.pixels(); ++i) {
+        const PixelSurface p = inputs.pixel(i);
+        pixels.add(std::uint64_t(p.shaded) | std::uint64_t(p.anisotropic) << 1 | std::uint64_t(std::uint32_t(p.material)) << 32);
+        for (const Vec3* v : {&p.normal, &p.tangent, &p.view, &p.position})
+            for (double x : {v->x, v->y, v->z}) pixels.add(x);
+        for (double x : {p.visibility, p.alpha_x, p.alpha_y, p.roughness}) pixels.add(x);
+    }
+    key << "size " << inputs.width() << " " << inputs.height() << " pixels " << hex16(pixels.h) << "\n";
+    key << "skip " << options.skip << " tolerance " << options.tolerance << " method " << options.method_given << " "
+        << to_string(options.method) << " seed_luts " << options.bake_seed_luts << "\n";
+    for (const auto& f : options.luts) key << "lut " << f << " fnv1a " << hex16(fnv1a(file_bytes(f))) << "\n";
+    for (const auto& f : d.comparators.luts) key << "description lut " << f << " fnv1a " << hex16(fnv1a(file_bytes(f))) << "\n";
+    const auto& build = backend.config().build;
+    key << "fast_math " << build.fast_math << " double " << build.double_precision << "\n";
+    for (const auto& [name, value] : build.defines) key << "define " << name << "=" << value << "\n";
+    key << "results " << backend.scheduler().results_label() << "\nversion " MICROSHADOW_VERSION "\n";
+    return {"scene", hex16(fnv1a(key.str())), scene_work_items(inputs)};
+}
+
+SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const SceneRunOptions& options) {
+    const auto start = std::chrono::steady_clock::now();
+    SceneJob job(inputs, backend, options);
+    SceneResult result;
+    result.width = inputs.width();
+    result.height = inputs.height();
+    result.backend = backend.name();
+    resolve_method(job, result);
+    make_comparators(job, result);
+    tally_domains(job, result);
+    mask_and_groups(job, result);
+
+    // Work items: tiles of one light, sampling.tile_pixels pixels each, so the working memory (the key
+    // table, the distinct queries, their estimates and the integrand's tallies) is bounded by the tile,
+    // not the image. Deduplication finds repeats within a tile. Held for the whole run: the input planes
+    // and the output layers; per light being assembled, one byte of roughness band and four of material
+    // group per pixel (for the 99th percentiles, taken from the error layers at the end of the light).
+    const bool writer = assembles(options.items);
+    SceneAssembly assembly(job, result);
+    schedule::ItemJob items;
+    items.name = "scene";
+    items.items = scene_work_items(inputs);
+    items.compute = [&](std::uint64_t id) { return encode_tile(compute_tile(job, id)); };
+    // A shard keeps its items in the store and assembles nothing; the writer assembles every item.
+    items.accept = [&](std::uint64_t id, const std::string& payload) {
+        if (writer) assembly.accept(id, decode_tile(job, id, payload));
+    };
+    // A stored item is trusted once it reads back whole as a tile of this job; else it is set aside.
+    items.check = [&](std::uint64_t id, const std::string& payload) -> std::string {
+        try {
+            decode_tile(job, id, payload);
+            return "";
+        } catch (const std::exception& e) {
+            return std::string("payload: ") + e.what();
+        }
+    };
+    const schedule::ItemPlan one_process;
+    const schedule::ItemPlan& plan = options.items ? *options.items : one_process;
+    schedule::RunCallbacks callbacks;
+    // Under MPI, rank 0 computes nothing: its progress is the items gathered.
+    if (plan.transport) callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { job.progress("tiles", done, total); };
+    const schedule::ItemRunReport report = schedule::run_item_job(items, plan, {backend.name()}, callbacks);
+    result.loaded_items = report.loaded;
+    result.computed_items = report.run.done;
+    result.complete = writer && report.complete;
+    if (!result.complete) {
+        result.lights.clear();
+        return result;
+    }
+    assembly.finish();
     result.seconds = seconds_since(start);
     return result;
 }

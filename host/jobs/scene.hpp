@@ -47,6 +47,7 @@
 #include "core/lookup_domain.hpp"
 #include "jobs/eval.hpp"
 #include "scene/inputs.hpp"
+#include "schedule/distributed.hpp"
 
 namespace ms::scene {
 
@@ -65,6 +66,10 @@ struct SceneRunOptions {
     // Refuse (SceneError, before any output) a comparator looked up outside its domain at a lit pixel.
     bool strict_domain = false;
     std::uint64_t memory_limit = 0;    // > 0: refuse (SceneError) when the output images would need more bytes
+    // How the work items (scene_work_items) are split, kept and resumed (schedule/distributed.hpp; null:
+    // all of them, here). A shard, or an MPI rank other than 0, computes its items into the store or
+    // sends them to rank 0 and returns with complete false; the merge computes nothing.
+    const schedule::ItemPlan* items = nullptr;
 };
 
 struct SkipCounts {
@@ -113,6 +118,10 @@ struct SceneResult {
     Method method = Method::exact;  // how the per-pixel reference was computed
     double seconds = 0, lut_seconds = 0, sampling_seconds = 0;
     std::string backend;
+    // False for a shard or a computing MPI rank (its items are in the store or with rank 0): the images
+    // and statistics are then empty and nothing is to be written.
+    bool complete = true;
+    std::uint64_t loaded_items = 0, computed_items = 0;  // this process's: found in the store, computed
 };
 
 // The error bound factor of the reference: Student t at 99.9 % (two-sided) with R - 1 = 7 degrees of freedom.
@@ -121,6 +130,16 @@ inline constexpr double kStudentT999R8 = 5.408;
 double student_t_999(std::uint32_t replicates);
 
 SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const SceneRunOptions& options);
+
+// The work items of a scene: one per light and tile of sampling.tile_pixels pixels, light by light
+// (item id = light x tiles + tile). An item's result depends on the inputs and options alone, and the
+// images and statistics are assembled from the items in id order, so a run split into shards or MPI
+// ranks writes the same bytes as one process.
+std::uint64_t scene_work_items(const SceneInputs& inputs);
+// The chunk store key of a scene run: everything that decides its items' bits (the description file,
+// every pixel's surface, the options that reach the reference and the comparators, the bytes of the
+// comparator files, the kind of device, the version), not the output folder or the command line.
+schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend);
 
 // The key of a query on the grid above, and the query at the key's grid point (tests use both).
 struct DedupKey {

@@ -48,6 +48,7 @@ TEST(CliHelp, HelpDescribesNestedCommands) {
     const auto repr_bake = cli("help repr bake");
     EXPECT_EQ(repr_bake.exit_code, 0) << repr_bake.output;
     EXPECT_NE(repr_bake.output.find("--azimuth-nodes"), std::string::npos) << repr_bake.output;
+    EXPECT_NE(repr_bake.output.find("Usage: microshadow repr bake [OPTIONS]"), std::string::npos) << repr_bake.output;
     const auto prefilter = cli("help ibl prefilter");
     EXPECT_EQ(prefilter.exit_code, 0) << prefilter.output;
     EXPECT_NE(prefilter.output.find("--faces"), std::string::npos) << prefilter.output;

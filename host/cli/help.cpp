@@ -52,7 +52,8 @@ void add_help_command(CLI::App& app) {
             path += (path.empty() ? "" : " ") + word;
             at = sub;
         }
-        std::cout << at->help();
+        // Named with its whole path ("Usage: microshadow repr bake"): at->help() would say "bake" alone.
+        std::cout << at->get_formatter()->make_help(at, "microshadow " + path, CLI::AppFormatMode::Normal);
     });
 }
 

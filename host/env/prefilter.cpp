@@ -219,49 +219,84 @@ PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n,
     return prefilter_value(sums, bright_texel_share(split, n, roughness));
 }
 
-std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness) {
-    std::array<double, 3> sum{};
-    if (split.texels.empty()) return sum;
+namespace {
+// The weight (n.l) D(h) dl of a bright texel's tent (bilinear footprint, +-1 texel around its centre) integrated
+// on m x m points of the face plane (extended past the edge: a texel on an edge is read from its own face).
+double tent_weight(const BrightTexel& t, std::uint32_t size, const Dir& n, double alpha, int m) {
+    const double step = 2.0 / size / (m / 2);  // face-plane width of one point
+    double w = 0;
+    for (int j = 0; j < m; ++j)
+        for (int i = 0; i < m; ++i) {
+            const double dx = (i + 0.5) / (m / 2) - 1, dy = (j + 0.5) / (m / 2) - 1;  // texel units from the centre
+            const double ps = 2 * (t.x + 0.5 + dx) / size - 1, pt = 2 * (t.y + 0.5 + dy) / size - 1;
+            const Dir d = cube_direction(t.face, ps, pt);
+            const double c = n.x * d.x + n.y * d.y + n.z * d.z;
+            if (c <= 0) continue;
+            const double q = 1 + ps * ps + pt * pt;
+            const double hx = n.x + d.x, hy = n.y + d.y, hz = n.z + d.z;
+            w += (1 - std::abs(dx)) * (1 - std::abs(dy)) * step * step / (q * std::sqrt(q)) * c *
+                 ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+        }
+    return w;
+}
+// (n.l) D(h) at direction l (0 below the horizon).
+double lobe_weight(const Dir& n, const Dir& l, double alpha) {
+    const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
+    if (nl <= 0) return 0;
+    const double hx = n.x + l.x, hy = n.y + l.y, hz = n.z + l.z;
+    return nl * ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+}
+}  // namespace
+
+BrightShare bright_texel_share_bounded(const BrightSplit& split, const Dir& n, double roughness) {
+    BrightShare out;
+    if (split.texels.empty()) return out;
     const double alpha = roughness * roughness;
     const std::uint32_t size = split.size;
-    // As the oracle: while the lobe is narrow against a texel, texels near n are integrated on 8 x 8 sub-directions.
+    // As the oracle: while the lobe is narrow against a texel, texels near n are integrated over their tents.
     const double texel_angle = 2.0 / size;
     const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
+    std::array<double, 3> rule_error{}, magnitude{};
     for (const BrightTexel& t : split.texels) {
         const Dir l = cube_direction(t.face, 2 * (t.x + 0.5) / size - 1, 2 * (t.y + 0.5) / size - 1);
         const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
-        double w = 0;
+        double w = 0, w_check = 0;
         if (nl > near_cos) {
             // Near a narrow lobe the source is read bilinearly (as the sampled part and the oracle read it): the
-            // texel's share is its bilinear tent, (1 - |dx|)(1 - |dy|) over +-1 texel around its centre, integrated
-            // on 16 x 16 points of the face plane (extended past the edge: a texel on an edge is read from its own face).
-            const int m = 16;
-            const double step = 2.0 / size / (m / 2);  // face-plane width of one point
-            for (int j = 0; j < m; ++j)
-                for (int i = 0; i < m; ++i) {
-                    const double dx = (i + 0.5) / (m / 2) - 1, dy = (j + 0.5) / (m / 2) - 1;  // texel units from the centre
-                    const double ps = 2 * (t.x + 0.5 + dx) / size - 1, pt = 2 * (t.y + 0.5 + dy) / size - 1;
-                    const Dir d = cube_direction(t.face, ps, pt);
-                    const double c = n.x * d.x + n.y * d.y + n.z * d.z;
-                    if (c <= 0) continue;
+            // texel's share is its bilinear tent on 16 x 16 points; the 8 x 8 rule beside it estimates the rule's error.
+            w = tent_weight(t, size, n, alpha, 16);
+            w_check = tent_weight(t, size, n, alpha, 8);
+        } else if (nl > -2 * texel_angle) {
+            // One point at the centre with the texel's exact solid angle (the oracle's rule for a wide lobe); the
+            // 2 x 2 midpoint rule over the texel estimates its error (the lobe's curvature across the texel).
+            w = lobe_weight(n, l, alpha) * cube_texel_solid_angle(t.x, t.y, size);
+            for (int j = 0; j < 2; ++j)
+                for (int i = 0; i < 2; ++i) {
+                    const double ps = 2 * (t.x + 0.25 + 0.5 * i) / size - 1, pt = 2 * (t.y + 0.25 + 0.5 * j) / size - 1;
                     const double q = 1 + ps * ps + pt * pt;
-                    const double hx = n.x + d.x, hy = n.y + d.y, hz = n.z + d.z;
-                    w += (1 - std::abs(dx)) * (1 - std::abs(dy)) * step * step / (q * std::sqrt(q)) * c *
-                         ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+                    w_check += lobe_weight(n, cube_direction(t.face, ps, pt), alpha) * (1.0 / (size * size)) / (q * std::sqrt(q));
                 }
-            for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
-            continue;
-        } else if (nl > 0) {
-            const double hx = n.x + l.x, hy = n.y + l.y, hz = n.z + l.z;
-            w = nl * ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
         }
-        if (w == 0) continue;
-        w *= cube_texel_solid_angle(t.x, t.y, size);
-        for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
+        if (w == 0 && w_check == 0) continue;
+        for (int c = 0; c < 3; ++c) {
+            out.share[c] += w * t.value[c];
+            rule_error[c] += std::abs(w - w_check) * t.value[c];
+            magnitude[c] += std::abs(w * t.value[c]);
+        }
     }
     const double z = ggx_prefilter_normalisation(alpha);
-    for (int c = 0; c < 3; ++c) sum[c] /= z;
-    return sum;
+    // Rounding: a double sum of k terms is within (k - 1) u sum |terms| (Higham's gamma), u = 2^-53; the terms
+    // themselves (a handful of double operations each) and the division by Z add a few u more.
+    const double u = std::ldexp(1.0, -53), k = double(split.texels.size());
+    for (int c = 0; c < 3; ++c) {
+        out.share[c] /= z;
+        out.bound[c] = (rule_error[c] + (k + 16) * u * magnitude[c]) / z;
+    }
+    return out;
+}
+
+std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness) {
+    return bright_texel_share_bounded(split, n, roughness).share;
 }
 
 std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness) {

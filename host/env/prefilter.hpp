@@ -92,6 +92,13 @@ BrightSplit split_bright_texels(const Cubemap& source, double threshold, std::si
 BrightSplit choose_bright_split(const Cubemap& source, double tolerance, std::size_t max_texels, double explicit_cost_ratio = 0.1);
 // The bright texels' share of P(n): sum_i L_i integral_{T_i} (n.l) D(h) dl / Z (the deterministic part above).
 std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness);
+// The same share with its error bound: it has no replicate variance, so its bar is the rule's error, estimated
+// per bright texel as the difference from the rule at half the spacing (centre against the 2 x 2 midpoint rule;
+// the tent's 16 x 16 against 8 x 8), plus the double summation's rounding bound (k + 16) u sum |terms|.
+struct BrightShare {
+    std::array<double, 3> share{}, bound{};
+};
+BrightShare bright_texel_share_bounded(const BrightSplit& split, const Dir& n, double roughness);
 // Z(alpha) = integral (n.l) D(h) dl over n.l > 0 with l = reflect(-n, h): 4 int_0^u* (2 (1 - u) / (1 + b u) - 1) du,
 // b = alpha^2 - 1, u* = 1 / (1 + alpha^2) (the GGX CDF in u = the sampling variable); 1 at alpha = 1.
 double ggx_prefilter_normalisation(double alpha);

@@ -264,9 +264,9 @@ struct PrefilterArgs {
     std::vector<std::string> faces;
     std::uint32_t size = 0, levels = 0, replicates = 16, verify = 0, irradiance_size = 32, dfg_size = 0;
     std::uint64_t samples = 256, seed = 0, max_samples = 1u << 16;
-    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0.2, tolerance = 0.01;
+    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0, tolerance = 0.02;
     std::string bright = "auto";
-    std::size_t bright_max = 1024;
+    std::size_t bright_max = 4096;
     std::uint32_t wide_samples_factor = 1;
     bool no_fis = false, quiet = false;
     unsigned threads = 0;

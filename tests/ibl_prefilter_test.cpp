@@ -69,6 +69,7 @@ TEST(IblPrefilter, ConstantEnvironmentStaysConstant) {
     // With the bright-texel split asked for (none is brighter than the mean) and 4x samples on the wide mips: still exact.
     spec.bright_threshold = 8;
     spec.wide_samples_factor = 4;
+    spec.bright_min_roughness = 0.2;
     const PrefilterResult w = prefilter_cubemap(src, spec);
     EXPECT_EQ(w.bright_texels, 0u);
     EXPECT_EQ(w.samples, 6ull * 16 * 16 * 256 + 6ull * (8 * 8 + 4 * 4) * 1024);  // mips 2, 3 have roughness >= 0.2

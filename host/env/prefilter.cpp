@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 
 #include "core/estimate.hpp"
@@ -177,6 +178,37 @@ BrightSplit split_off(const Cubemap& source, const TexelStats& stats, std::size_
     }
     split.bright_power_fraction = stats.power > 0 ? bright_power / stats.power : 0;
     split.rest_chain = mip_chain(rest);
+    // The bright texels alone, and every texel a bilinear read of one can reach: its 3 x 3 neighbourhood, a
+    // neighbour past the face's edge found through its direction (as sample_bilinear finds it).
+    split.bright_only = Cubemap(source.size);
+    std::set<std::array<std::uint32_t, 3>> support;
+    const std::uint32_t n = source.size;
+    for (const BrightTexel& b : split.texels) {
+        float* t = split.bright_only.texel(b.face, b.x, b.y);
+        for (int c = 0; c < 3; ++c) t[c] = b.value[c];
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+                const int x = int(b.x) + dx, y = int(b.y) + dy;
+                if (x >= 0 && y >= 0 && x < int(n) && y < int(n)) {
+                    support.insert({std::uint32_t(b.face), std::uint32_t(x), std::uint32_t(y)});
+                    continue;
+                }
+                const Dir e = cube_direction(b.face, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
+                int face;
+                double es, et;
+                cube_face_st(e, face, es, et);
+                const auto clampi = [&](double v) { return std::uint32_t(std::clamp(int(std::floor((v + 1) * 0.5 * n)), 0, int(n) - 1)); };
+                support.insert({std::uint32_t(face), clampi(es), clampi(et)});
+            }
+    }
+    for (const auto& s : support) {
+        SupportTexel t;
+        t.face = int(s[0]);
+        t.x = s[1];
+        t.y = s[2];
+        t.centre = cube_direction(t.face, 2 * (t.x + 0.5) / n - 1, 2 * (t.y + 0.5) / n - 1);
+        split.support.push_back(t);
+    }
     return split;
 }
 }  // namespace
@@ -236,92 +268,85 @@ PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n,
     return prefilter_value(sums, bright_texel_share(split, n, roughness));
 }
 
-namespace {
-// (n.l) D(h) at direction l (0 below the horizon). With h = (n + l) / |n + l|, (n.h)^2 = (1 + n.l) / 2, so the
-// weight is a function of n.l alone: no square root per texel.
-double lobe_weight(const Dir& n, const Dir& l, double a2) {
-    const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
-    if (nl <= 0) return 0;
-    const double d = (a2 - 1) * (1 + nl) * 0.5 + 1;
-    return nl * a2 / (kPi * d * d);
-}
-// The weight (n.l) D(h) dl of a bright texel's tent (bilinear footprint, +-1 texel around its centre) integrated
-// on m x m points of the face plane (extended past the edge: a texel on an edge is read from its own face).
-double tent_weight(const BrightTexel& t, std::uint32_t size, const Dir& n, double a2, int m) {
-    const double step = 2.0 / size / (m / 2);  // face-plane width of one point
-    double w = 0;
-    for (int j = 0; j < m; ++j)
-        for (int i = 0; i < m; ++i) {
-            const double dx = (i + 0.5) / (m / 2) - 1, dy = (j + 0.5) / (m / 2) - 1;  // texel units from the centre
-            const double ps = 2 * (t.x + 0.5 + dx) / size - 1, pt = 2 * (t.y + 0.5 + dy) / size - 1;
-            const Dir d = cube_direction(t.face, ps, pt);
-            const double q = 1 + ps * ps + pt * pt;
-            w += (1 - std::abs(dx)) * (1 - std::abs(dy)) * step * step / (q * std::sqrt(q)) * lobe_weight(n, d, a2);
-        }
-    return w;
-}
-}  // namespace
-
 BrightShare bright_texel_share_bounded(const BrightSplit& split, const Dir& n, double roughness) {
     BrightShare out;
     if (split.texels.empty()) return out;
-    const double alpha = roughness * roughness;
+    const double alpha = roughness * roughness, a2 = alpha * alpha;
     const std::uint32_t size = split.size;
-    // As the oracle: while the lobe is narrow against a texel, texels near n are integrated over their tents.
+    // The same two regimes as the oracle (so the split is exact against it: oracle(L) = oracle(L_rest) +
+    // oracle(L_bright)): while the lobe is narrow against a texel, texels whose centre is within
+    // 6 (alpha + texel) of n are integrated on m x m sub-directions with bilinear reads (of the bright texels
+    // alone, so the reads see them through their neighbours and across seams as the sampled part does); the
+    // others take one point at their centre with their exact solid angle, but for those the horizon may cut,
+    // subdivided as well.
     const double texel_angle = 2.0 / size;
     const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
+    int m = 8;
+    while (m < 64 && texel_angle / m > alpha / 8) m *= 2;
     std::array<double, 3> rule_error{}, magnitude{};
-    const double a2 = alpha * alpha;
-    // Pass 1: every texel by the centre rule, checked by the 2 x 2 rule (one point at the centre with the texel's
-    // exact solid angle is the oracle's rule for a wide lobe; the difference estimates the rule's error, the
-    // lobe's curvature across the texel).
-    const std::size_t k_texels = split.texels.size();
-    std::vector<double> w(k_texels), w_check(k_texels);
+    auto add = [&](double w, double w_check, const float* v) {
+        for (int c = 0; c < 3; ++c) {
+            out.share[c] += w * v[c];
+            rule_error[c] += std::abs(w - w_check) * v[c];
+            magnitude[c] += std::abs(w) * v[c];
+        }
+    };
+    // Far part: the bright texels outside the near cap, centre rule, checked by the 2 x 2 midpoint rule (the
+    // difference estimates the rule's error, the lobe's curvature across the texel). (n.l) D(h) with
+    // (n.h)^2 = (1 + n.l) / 2, branch-free so the loop vectorises; a2 / pi applied after.
     const BrightTexelGeometry& g = split.geometry;
-    // (n.l) D(h) with (n.h)^2 = (1 + n.l) / 2 (lobe_weight), branch-free so the loop vectorises; a2 / pi applied after.
     auto weight = [&](int p, std::size_t b) {
         const double nl = n.x * g.x[p][b] + n.y * g.y[p][b] + n.z * g.z[p][b];
         const double d = (a2 - 1) * (1 + nl) * 0.5 + 1;
         return std::max(nl, 0.0) * g.weight[p][b] / (d * d);
     };
-    for (std::size_t b = 0; b < k_texels; ++b) {
-        w[b] = weight(0, b);
-        w_check[b] = weight(1, b) + weight(2, b) + weight(3, b) + weight(4, b);
-    }
-    double total = 0;  // the share's luminance, to judge which texels need the finer rule
-    for (std::size_t b = 0; b < k_texels; ++b) {
-        w[b] *= a2 / kPi;
-        w_check[b] *= a2 / kPi;
-        const auto& v = split.texels[b].value;
-        total += w[b] * (double(v[0]) + v[1] + v[2]) / 3;
-    }
-    const double core_cos = std::cos(std::min(kPi / 2, 2 * texel_angle + 4 * alpha));
-    // Pass 2: near a narrow lobe, where the lobe curves across a texel and the check disagrees by more than 1e-4
-    // of the share, the source is read bilinearly (as the sampled part and the oracle read it there): the texel's
-    // share is its bilinear tent on 16 x 16 points, the 8 x 8 rule beside it estimating the error.
-    for (std::size_t b = 0; b < k_texels; ++b) {
-        const BrightTexel& t = split.texels[b];
+    for (std::size_t b = 0; b < split.texels.size(); ++b) {
         const double nl = n.x * g.x[0][b] + n.y * g.y[0][b] + n.z * g.z[0][b];
-        const double lum = (double(t.value[0]) + t.value[1] + t.value[2]) / 3;
-        // A tent reaching into the lobe's core is refined whatever the check says: the check's points stay inside
-        // the texel, the tent reaches one texel further (towards a lobe narrower than a texel beside it).
-        if (nl > near_cos && (nl > core_cos || std::abs(w[b] - w_check[b]) * lum > 1e-4 * total)) {
-            // A lobe narrower than a texel needs the finer rule: 32 x 32 points (1/16 texel apart), 16 x 16 checking.
-            const int points = 16;
-            w[b] = tent_weight(t, size, n, a2, points);
-            w_check[b] = tent_weight(t, size, n, a2, points / 2);
-        }
-        if (w[b] == 0 && w_check[b] == 0) continue;
-        for (int c = 0; c < 3; ++c) {
-            out.share[c] += w[b] * t.value[c];
-            rule_error[c] += std::abs(w[b] - w_check[b]) * t.value[c];
-            magnitude[c] += std::abs(w[b] * t.value[c]);
-        }
+        if (nl > near_cos || std::abs(nl) < texel_angle) continue;  // in the near part
+        const double w = weight(0, b) * a2 / kPi;
+        const double w_check = (weight(1, b) + weight(2, b) + weight(3, b) + weight(4, b)) * a2 / kPi;
+        if (w != 0 || w_check != 0) add(w, w_check, split.texels[b].value.data());
     }
+    // Near part: every texel a bilinear read of a bright texel can reach (the support), inside the near cap or
+    // within a texel angle of the horizon (which may cut it), on m x m sub-directions (checked by the m/2 x m/2 rule).
+    for (const SupportTexel& t : split.support) {
+            const double nl = n.x * t.centre.x + n.y * t.centre.y + n.z * t.centre.z;
+            if (nl <= near_cos && std::abs(nl) >= texel_angle) continue;
+            double acc[3] = {0, 0, 0}, check[3] = {0, 0, 0};
+            const double dw = cube_texel_solid_angle(t.x, t.y, size) / (double(m) * m);
+            for (int j = 0; j < m; ++j)
+                for (int i = 0; i < m; ++i) {
+                    const Dir d = cube_direction(t.face, 2 * (t.x + (i + 0.5) / m) / size - 1, 2 * (t.y + (j + 0.5) / m) / size - 1);
+                    const double c = n.x * d.x + n.y * d.y + n.z * d.z;
+                    if (c <= 0) continue;
+                    const double dd = (a2 - 1) * (1 + c) * 0.5 + 1;
+                    const double w = c * a2 / (kPi * dd * dd) * dw;
+                    const auto v = sample_bilinear(split.bright_only, d);
+                    for (int k = 0; k < 3; ++k) acc[k] += w * v[k];
+                }
+            // The coarser rule: the (m/2)^2 sub-directions of the same texel.
+            const int h = m / 2;
+            const double dwh = cube_texel_solid_angle(t.x, t.y, size) / (double(h) * h);
+            for (int j = 0; j < h; ++j)
+                for (int i = 0; i < h; ++i) {
+                    const Dir d = cube_direction(t.face, 2 * (t.x + (i + 0.5) / h) / size - 1, 2 * (t.y + (j + 0.5) / h) / size - 1);
+                    const double c = n.x * d.x + n.y * d.y + n.z * d.z;
+                    if (c <= 0) continue;
+                    const double dd = (a2 - 1) * (1 + c) * 0.5 + 1;
+                    const double w = c * a2 / (kPi * dd * dd) * dwh;
+                    const auto v = sample_bilinear(split.bright_only, d);
+                    for (int k = 0; k < 3; ++k) check[k] += w * v[k];
+                }
+            for (int k = 0; k < 3; ++k) {
+                out.share[k] += acc[k];
+                rule_error[k] += std::abs(acc[k] - check[k]);
+                magnitude[k] += std::abs(acc[k]);
+            }
+        }
     const double z = ggx_prefilter_normalisation(alpha);
     // Rounding: a double sum of k terms is within (k - 1) u sum |terms| (Higham's gamma), u = 2^-53; the terms
     // themselves (a handful of double operations each) and the division by Z add a few u more.
-    const double u = std::ldexp(1.0, -53), k = double(split.texels.size());
+    const double u = std::ldexp(1.0, -53), k = double(split.texels.size() + split.support.size() * m * m);
     for (int c = 0; c < 3; ++c) {
         out.share[c] /= z;
         out.bound[c] = (rule_error[c] + (k + 16) * u * magnitude[c]) / z;
@@ -333,7 +358,7 @@ std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n,
     return bright_texel_share_bounded(split, n, roughness).share;
 }
 
-std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness) {
+std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness, double* weight_sum) {
     const std::uint32_t size = src.size;
     std::array<double, 3> acc{};
     double wsum = 0;
@@ -356,7 +381,9 @@ std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double 
             for (std::uint32_t x = 0; x < size; ++x) {
                 const Dir l = cube_direction(face, 2 * (x + 0.5) / size - 1, 2 * (y + 0.5) / size - 1);
                 const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
-                if (nl > near_cos) {
+                // Texels the horizon may cut (centre within a texel angle of it) are subdivided too: a centre
+                // point would count such a texel wholly or not at all.
+                if (nl > near_cos || std::abs(nl) < texel_angle) {
                     const int m = subdivision;
                     const double dw = cube_texel_solid_angle(x, y, size) / (m * m);  // close enough within a texel
                     for (int j = 0; j < m; ++j)
@@ -382,6 +409,7 @@ std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double 
                 wsum += w;
             }
     for (auto& a : acc) a /= wsum;
+    if (weight_sum) *weight_sum = wsum;
     return acc;
 }
 

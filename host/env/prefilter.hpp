@@ -80,8 +80,15 @@ struct BrightTexel {
 struct BrightTexelGeometry {
     std::array<std::vector<double>, 5> x, y, z, weight;
 };
+struct SupportTexel {
+    int face = 0;
+    std::uint32_t x = 0, y = 0;
+    Dir centre;
+};
 struct BrightSplit {
     std::vector<Cubemap> rest_chain;  // mip chain of L_rest
+    Cubemap bright_only;               // L_bright: the bright texels, 0 elsewhere
+    std::vector<SupportTexel> support;  // the texels a bilinear read of a bright texel reaches
     std::vector<BrightTexel> texels;
     BrightTexelGeometry geometry;  // [point][i] of texels[i]
     std::uint32_t size = 0;           // the source's face size
@@ -100,8 +107,8 @@ BrightSplit choose_bright_split(const Cubemap& source, double tolerance, std::si
 // The bright texels' share of P(n): sum_i L_i integral_{T_i} (n.l) D(h) dl / Z (the deterministic part above).
 std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness);
 // The same share with its error bound: it has no replicate variance, so its bar is the rule's error, estimated
-// per bright texel as the difference from the rule at half the spacing (centre against the 2 x 2 midpoint rule;
-// the tent's 16 x 16 against 8 x 8), plus the double summation's rounding bound (k + 16) u sum |terms|.
+// as the difference from a coarser rule (centre against the 2 x 2 midpoint rule; near a narrow lobe, the oracle's
+// m x m bilinear sub-directions against (m/2) x (m/2)), plus the double summation's rounding bound (k + 16) u sum |terms|.
 struct BrightShare {
     std::array<double, 3> share{}, bound{};
 };
@@ -113,7 +120,9 @@ PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n,
                                          const PrefilterOptions& options);
 
 // The oracle (brute force over the full-resolution source).
-std::array<double, 3> prefilter_oracle(const Cubemap& source, const Dir& n, double roughness);
+// It normalises by its own rule's sum of (n.l) D dl, which misses the closed form Z by the rule's error (the
+// horizon cuts texels; ~0.3% at 16^2 faces, less as faces grow); `weight_sum`, when given, receives that sum.
+std::array<double, 3> prefilter_oracle(const Cubemap& source, const Dir& n, double roughness, double* weight_sum = nullptr);
 // The GGX NDF, written here in double for the prefilter (alpha = roughness^2).
 double ggx_d(double n_dot_h, double alpha);
 

@@ -275,14 +275,13 @@ BrightShare bright_texel_share_bounded(const BrightSplit& split, const Dir& n, d
     const std::uint32_t size = split.size;
     // The same two regimes as the oracle (so the split is exact against it: oracle(L) = oracle(L_rest) +
     // oracle(L_bright)): while the lobe is narrow against a texel, texels whose centre is within
-    // 6 (alpha + texel) of n are integrated on m x m sub-directions with bilinear reads (of the bright texels
+    // 3 (alpha + texel) of n are integrated on m x m sub-directions with bilinear reads (of the bright texels
     // alone, so the reads see them through their neighbours and across seams as the sampled part does); the
-    // others take one point at their centre with their exact solid angle, but for those the horizon may cut,
-    // subdivided as well.
+    // others take one point at their centre with their exact solid angle (a texel the horizon cuts is counted
+    // wholly or not at all: the 2 x 2 check's difference shows it in the bound).
     const double texel_angle = 2.0 / size;
-    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
-    int m = 8;
-    while (m < 64 && texel_angle / m > alpha / 8) m *= 2;
+    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 3 * (alpha + texel_angle))) : 2.0;
+    const int m = 8;
     std::array<double, 3> rule_error{}, magnitude{};
     auto add = [&](double w, double w_check, const float* v) {
         for (int c = 0; c < 3; ++c) {
@@ -302,16 +301,16 @@ BrightShare bright_texel_share_bounded(const BrightSplit& split, const Dir& n, d
     };
     for (std::size_t b = 0; b < split.texels.size(); ++b) {
         const double nl = n.x * g.x[0][b] + n.y * g.y[0][b] + n.z * g.z[0][b];
-        if (nl > near_cos || std::abs(nl) < texel_angle) continue;  // in the near part
+        if (nl > near_cos) continue;  // in the near part
         const double w = weight(0, b) * a2 / kPi;
         const double w_check = (weight(1, b) + weight(2, b) + weight(3, b) + weight(4, b)) * a2 / kPi;
         if (w != 0 || w_check != 0) add(w, w_check, split.texels[b].value.data());
     }
-    // Near part: every texel a bilinear read of a bright texel can reach (the support), inside the near cap or
-    // within a texel angle of the horizon (which may cut it), on m x m sub-directions (checked by the m/2 x m/2 rule).
+    // Near part: every texel a bilinear read of a bright texel can reach (the support), inside the near cap, on
+    // m x m sub-directions (checked by the m/2 x m/2 rule).
     for (const SupportTexel& t : split.support) {
             const double nl = n.x * t.centre.x + n.y * t.centre.y + n.z * t.centre.z;
-            if (nl <= near_cos && std::abs(nl) >= texel_angle) continue;
+            if (nl <= near_cos) continue;
             double acc[3] = {0, 0, 0}, check[3] = {0, 0, 0};
             const double dw = cube_texel_solid_angle(t.x, t.y, size) / (double(m) * m);
             for (int j = 0; j < m; ++j)
@@ -368,23 +367,17 @@ std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double 
     }
     const double alpha = roughness * roughness;
     // While the lobe is narrow against a texel (alpha < 8 texel angles), texels whose direction is within
-    // 6 (alpha + texel) of n are subdivided 8 x 8 (with bilinear reads) so D is resolved; wider lobes vary
+    // 3 (alpha + texel) of n are subdivided 8 x 8 (with bilinear reads) so D is resolved; wider lobes vary
     // by (texel / alpha)^2 / 24 < 1e-3 over a texel and take one value each.
     const double texel_angle = 2.0 / size;  // ~ the angular size of a texel at a face centre (radians)
-    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
-    // 8 x 8 sub-directions, or finer while the lobe is narrower than a texel: at most alpha / 8 apart (a midpoint
-    // rule with fewer points across the lobe's core misses its peak by ~0.5%, measured at alpha = 0.6 texel).
-    int subdivision = 8;
-    while (subdivision < 64 && texel_angle / subdivision > alpha / 8) subdivision *= 2;
+    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 3 * (alpha + texel_angle))) : 2.0;
     for (int face = 0; face < 6; ++face)
         for (std::uint32_t y = 0; y < size; ++y)
             for (std::uint32_t x = 0; x < size; ++x) {
                 const Dir l = cube_direction(face, 2 * (x + 0.5) / size - 1, 2 * (y + 0.5) / size - 1);
                 const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
-                // Texels the horizon may cut (centre within a texel angle of it) are subdivided too: a centre
-                // point would count such a texel wholly or not at all.
-                if (nl > near_cos || std::abs(nl) < texel_angle) {
-                    const int m = subdivision;
+                if (nl > near_cos) {
+                    const int m = 8;
                     const double dw = cube_texel_solid_angle(x, y, size) / (m * m);  // close enough within a texel
                     for (int j = 0; j < m; ++j)
                         for (int i = 0; i < m; ++i) {

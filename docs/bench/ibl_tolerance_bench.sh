@@ -14,9 +14,9 @@ echo "world,method,samples_or_tolerance,cpu_s,wall_s,rms_relative,max_relative,w
 run() {  # world method param args...
     local world=$1 method=$2 param=$3; shift 3
     rm -rf "$dir/o"
-    # A failing --verify writes nothing: the row then says so (the brute-force bars are honest, so it should not).
+    # --verify-report: brute force's bars are not honest (the rare sun), so its --verify would fail and write nothing.
     if "$ms" ibl prefilter "/usr/share/blender/datafiles/studiolights/world/$world.exr" --size 64 --out "$dir/o" --verify 48 \
-        --threads "$threads" -q --irradiance-size 4 "$@" 2> "$dir/err"; then
+        --threads "$threads" -q --irradiance-size 4 --verify-report "$@" 2> "$dir/err"; then
         python3 - "$dir/o/ibl.json" "$world" "$method" "$param" >> "$out" <<'PY'
 import json, sys
 m = json.load(open(sys.argv[1]))["specular"]; v = m["verify"]

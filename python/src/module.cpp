@@ -413,9 +413,7 @@ PYBIND11_MODULE(_microshadow, m) {
             o.out_dir = out_dir;
             if (method) o.method = parse_method(*method);
             o.tolerance = tolerance;
-            o.tolerance = tolerance;
             o.samples = samples;
-            o.max_samples = max_samples;
             o.replicates = replicates;
             o.seed = seed;
             if (sequence) o.sequence = parse_sequence(*sequence);
@@ -564,6 +562,8 @@ PYBIND11_MODULE(_microshadow, m) {
             o.size = size;
             o.levels = levels;
             o.mapping = mapping;
+            o.tolerance = tolerance;
+            o.max_samples = max_samples;
             o.samples = samples;
             o.replicates = replicates;
             o.seed = seed;

@@ -173,11 +173,7 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
         const std::uint32_t n = size >> m;
         const double rough = r.roughness[m];
         const bool wide = rough >= spec.bright_min_roughness;
-        // The split needs the lobe resolved against a source texel (alpha at least two texel angles, 2 / size
-        // each): the explicit sum integrates a bright texel's bilinear tent by a rule on the face plane, which a
-        // lobe narrower than that falls between (and so does the oracle's 8 x 8 subdivision). Below it the lobe
-        // is sampled whole: it sees a bright texel only near it.
-        const bool use_split = have_split && wide && rough * rough >= spec.bright_min_alpha_texels * (2.0 / size);
+        const bool use_split = have_split && wide;
         const std::vector<env::Cubemap>& sampled_chain = use_split ? split.rest_chain : chain;
         const std::size_t T = 6ull * n * n;
         std::vector<prefilter::Target> targets(T);

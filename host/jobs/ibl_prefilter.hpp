@@ -44,10 +44,9 @@ struct PrefilterSpec {
     // One explicit texel's cost against one sample (choose_bright_split): measured 0.25 on CPU threads (40 ns a
     // bright texel against 160 ns a filtered sample, forest.exr at 64 px; docs/ibl.md).
     double bright_cost_ratio = 0.25;
-    // ... on mips of at least this roughness: the wide lobes, where the bright texels' variance is (a sharp mip
-    // has many texels, each seeing the sun only nearby, and the explicit sum costs bright texels x its texels).
+    // ... on mips of at least this roughness (0: every mip, measured best at 64^2 faces; the explicit sum costs
+    // bright texels x the mip's texels, so large chains may keep it to the wide lobes, e.g. 0.2).
     double bright_min_roughness = 0;
-    double bright_min_alpha_texels = 0;  // ... and alpha at least this many source texel angles (2 / size)
     // The first round's samples per texel on those wide-lobe mips (roughness >= bright_min_roughness)
     // multiplied by this factor (a power of two): with a fixed sample count (tolerance 0) they hold 6% of an
     // 8-mip chain's texels and most of its variance.

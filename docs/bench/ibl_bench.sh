@@ -53,7 +53,7 @@ prefilter)
     echo "method,samples_per_texel,seconds,cpu_seconds,texels,rms_relative_error,max_relative_error,verified_texels" > "$csv"
     run() {  # method samples extra-args...
         local method=$1 samples=$2; shift 2
-        "$BIN" ibl prefilter "$env" --out "$tmp/p" --size 512 --samples "$samples" --verify 48 --quiet "$@"
+        "$BIN" ibl prefilter "$env" --out "$tmp/p" --size 512 --samples "$samples" --verify 48 --verify-report --tolerance 0 --bright off --replicates 4 --bright-min-roughness 0.2 --quiet "$@"
         local j="$tmp/p/ibl.json"
         echo "$method,$samples,$(json "$j" "m['specular']['seconds']"),$(json "$j" "m['specular']['cpu_seconds']"),$(json "$j" "sum(6*(512>>k)**2 for k in range(1,len(m['specular']['roughness'])))"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$csv"
     }
@@ -76,7 +76,7 @@ bright)
     echo "method,samples_per_texel,bright_texels,bright_power_fraction,cpu_seconds,seconds,rms_relative_error,rms_relative_std_error,max_relative_error,verified_texels" > "$csv"
     brun() {  # method samples extra-args...
         local method=$1 samples=$2; shift 2
-        "$BIN" ibl prefilter "$env" --out "$tmp/p" --size 512 --samples "$samples" --verify 48 --quiet "$@"
+        "$BIN" ibl prefilter "$env" --out "$tmp/p" --size 512 --samples "$samples" --verify 48 --verify-report --tolerance 0 --replicates 4 --bright-min-roughness 0.2 $([[ " $* " == *" --bright-threshold "* ]] || echo --bright off) --quiet "$@"
         local j="$tmp/p/ibl.json"
         echo "$method,$samples,$(json "$j" "m['specular'].get('bright_texels',{}).get('count',0)"),$(json "$j" "m['specular'].get('bright_texels',{}).get('power_fraction',0)"),$(json "$j" "m['specular']['cpu_seconds']"),$(json "$j" "m['specular']['seconds']"),$(json "$j" "m['specular']['verify']['rms_relative']"),$(json "$j" "m['specular']['verify']['rms_relative_std_error']"),$(json "$j" "m['specular']['verify']['max_relative']"),48" | tee -a "$csv"
     }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <set>
+#include <algorithm>
 #include <stdexcept>
 
 #include "api/facade.hpp"
@@ -136,6 +137,9 @@ PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& prog
     spec.plan.seed = o.seed;
     spec.options.filtered = o.filtered;
     spec.options.lod_bias = o.lod_bias;
+    spec.tolerance = o.tolerance;
+    spec.max_samples = std::max(o.max_samples, o.samples);
+    spec.bright_auto = o.bright_auto;
     spec.bright_threshold = o.bright_threshold;
     spec.bright_max_texels = o.bright_max;
     spec.bright_min_roughness = o.bright_min_roughness;
@@ -156,12 +160,11 @@ PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& prog
     });
     data->specular_metadata = ms::prefilter_metadata(spec, data->result);
     if (o.verify > 0) {
-        const ms::PrefilterVerification check = ms::verify_prefilter(source, data->result, spec, o.verify);
-        data->specular_metadata["verify"] = {{"texels", check.checked}, {"rms_relative", check.rms_relative},
-                                             {"max_relative", check.max_relative}, {"worst_z", check.worst_z},
-                                             {"worst", check.worst_texel}, {"rms_relative_std_error", check.rms_relative_std_error},
-                                             {"rms_relative_by_mip", check.rms_relative_by_mip},
-                                             {"rms_std_error_by_mip", check.rms_std_error_by_mip}};
+        const ms::PrefilterVerification check = ms::verify_prefilter(source, data->result, o.verify);
+        data->specular_metadata["verify"] = ms::verification_json(check);
+        if (!check.passed)
+            throw std::runtime_error("microshadow::prefilter: verification failed: worst z " + std::to_string(check.worst_z) +
+                                     " beyond the Bonferroni bound " + std::to_string(check.z_bound) + " (" + check.worst_z_texel + ")");
     }
     data->irradiance = ms::compute_irradiance(source, o.irradiance_size);
     data->irradiance_metadata = ms::irradiance_metadata(data->irradiance, spec.source, kCommandLine);

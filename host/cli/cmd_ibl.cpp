@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <iomanip>
 #include <iostream>
@@ -261,12 +262,13 @@ void run_sh(const ShArgs& a) {
 struct PrefilterArgs {
     std::string env, out, mapping = "cmgen", device, format = "exr", encoding = "float16";
     std::vector<std::string> faces;
-    std::uint32_t size = 0, levels = 0, replicates = 4, verify = 0, irradiance_size = 32, dfg_size = 0;
-    std::uint64_t samples = 256, seed = 0;
-    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0.2;
-    std::size_t bright_max = 1024;
+    std::uint32_t size = 0, levels = 0, replicates = 16, verify = 0, irradiance_size = 32, dfg_size = 0;
+    std::uint64_t samples = 256, seed = 0, max_samples = 1u << 16;
+    double lod_bias = 0.0, exposure = 1.0, bright_threshold = 0, bright_min_roughness = 0, tolerance = 0.02;
+    std::string bright = "auto";
+    std::size_t bright_max = 4096;
     std::uint32_t wide_samples_factor = 1;
-    bool no_fis = false, quiet = false;
+    bool no_fis = false, quiet = false, verify_report = false;
     unsigned threads = 0;
 };
 
@@ -282,7 +284,13 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.plan.seed = a.seed;
     spec.options.filtered = !a.no_fis;
     spec.options.lod_bias = a.lod_bias;
+    spec.tolerance = a.tolerance;
+    spec.max_samples = a.max_samples;
+    if (a.max_samples < a.samples)
+        throw std::invalid_argument("--max-samples " + std::to_string(a.max_samples) + " is below --samples " + std::to_string(a.samples));
     spec.bright_threshold = a.bright_threshold;
+    spec.bright_auto = a.bright == "auto";
+    if (a.bright == "off" && a.bright_threshold > 0) throw std::invalid_argument("--bright off and --bright-threshold together");
     spec.bright_max_texels = a.bright_max;
     spec.bright_min_roughness = a.bright_min_roughness;
     spec.wide_samples_factor = a.wide_samples_factor;
@@ -291,6 +299,13 @@ void run_prefilter(const PrefilterArgs& a) {
     spec.source = environment_name(a.env, a.faces);
     spec.command_line = command_line();
     spec.fault = fault_injection_from_environment();
+    // Test hook: a corrupted estimator (every value scaled by 1 + b, bars unchanged) that --verify must catch.
+    if (const char* bias = std::getenv("MICROSHADOW_TEST_PREFILTER_BIAS")) {
+        char* end = nullptr;
+        spec.test_bias = std::strtod(bias, &end);
+        if (end == bias || *end != '\0' || !std::isfinite(spec.test_bias))
+            throw std::invalid_argument(std::string("MICROSHADOW_TEST_PREFILTER_BIAS must be a number, not '") + bias + "'");
+    }
 
     env::Cubemap source = a.faces.empty() ? env::cubemap_from_image(env::read_environment_image(a.env), a.size)
                                           : env::read_cubemap_faces(a.faces);
@@ -331,12 +346,15 @@ void run_prefilter(const PrefilterArgs& a) {
     nlohmann::json meta = prefilter_metadata(spec, result);
     PrefilterVerification check;
     if (a.verify > 0) {
-        check = verify_prefilter(source, result, spec, a.verify);
-        meta["verify"] = {{"texels", check.checked}, {"rms_relative", check.rms_relative}, {"max_relative", check.max_relative},
-                          {"worst_z", check.worst_z}, {"worst", check.worst_texel},
-                          {"rms_relative_std_error", check.rms_relative_std_error},
-                          {"rms_relative_by_mip", check.rms_relative_by_mip},
-                          {"rms_std_error_by_mip", check.rms_std_error_by_mip}};
+        check = verify_prefilter(source, result, a.verify);
+        meta["verify"] = verification_json(check);
+        if (!check.passed && !a.verify_report) {
+            std::ostringstream s;
+            s << std::setprecision(3) << "verification failed: " << check.checked
+              << " texels against the brute-force oracle, worst z " << check.worst_z << " beyond the Bonferroni bound "
+              << check.z_bound << " (" << check.worst_z_texel << "); nothing was written";
+            throw std::runtime_error(s.str());
+        }
     }
     const IrradianceResult irr = compute_irradiance(source, a.irradiance_size);
     nlohmann::json irr_meta = irradiance_metadata(irr, spec.source, command_line());
@@ -366,13 +384,18 @@ void run_prefilter(const PrefilterArgs& a) {
     folder.keep();
     if (!a.quiet) {
         std::cerr << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << source.size << "^2 faces ("
-                  << to_string(spec.mapping) << " roughness), " << spec.plan.samples << " samples per texel, "
-                  << (spec.options.filtered ? "filtered" : "unfiltered") << " importance sampling, " << result.seconds << " s; "
-                  << "max relative std error " << result.max_relative_std_error << "\n";
+                  << to_string(spec.mapping) << " roughness), " << (spec.options.filtered ? "filtered" : "unfiltered")
+                  << " importance sampling, " << result.bright_texels << " bright texels summed explicitly ("
+                  << 100 * result.bright_power_fraction << "% of the power), " << double(result.samples) / double(std::max<std::uint64_t>(1, result.texels))
+                  << " samples per texel on average, " << result.seconds << " s (" << result.cpu_seconds << " CPU s); largest relative 95% bar "
+                  << result.max_relative_bar;
+        if (spec.tolerance > 0)
+            std::cerr << " (tolerance " << spec.tolerance << (result.unconverged ? ", " + std::to_string(result.unconverged) + " texels above it at --max-samples" : "") << ")";
+        std::cerr << "\n";
         std::cerr << "ibl sh: irradiance SH vs brute force: max relative difference " << irr.max_relative_sh_error << "\n";
         if (a.verify > 0)
             std::cerr << "verify: " << check.checked << " texels against the brute-force oracle: relative RMS " << check.rms_relative
-                      << ", max " << check.max_relative << " (" << check.worst_texel << ")\n";
+                      << ", max " << check.max_relative << ", worst z " << check.worst_z << " (Bonferroni bound " << check.z_bound << ")\n";
     }
 }
 
@@ -516,15 +539,27 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--mapping", p->mapping, "roughness per mip: cmgen (r = 1 - sqrt(1 - m / (levels - 1))) or linear")
         ->check(CLI::IsMember({"cmgen", "linear"}))
         ->capture_default_str();
-    pf->add_option("--samples", p->samples, "GGX samples per texel (all replicates)")->transform(decimal_range(16, 1u << 20))->capture_default_str();
+    pf->add_option("--tolerance", p->tolerance,
+                   "sample each texel until its relative 95% error bar (t over the replicates, + the explicit part's bound) is at most this; 0: a fixed --samples")
+        ->check(real_range(0, 1))
+        ->capture_default_str();
+    pf->add_option("--samples", p->samples, "GGX samples per texel (all replicates): the first round's with a tolerance, else every texel's")
+        ->transform(decimal_range(16, 1u << 20))
+        ->capture_default_str();
+    pf->add_option("--max-samples", p->max_samples, "with a tolerance, at most this many samples per texel")
+        ->transform(decimal_range(16, 1u << 24))
+        ->capture_default_str();
     pf->add_option("--replicates", p->replicates, "independent scrambles (error bars)")->transform(decimal_range(2, 64))->capture_default_str();
+    pf->add_option("--bright", p->bright, "bright texels summed explicitly: auto (chosen for the tolerance) or off")
+        ->check(CLI::IsMember({"auto", "off"}))
+        ->capture_default_str();
     pf->add_option("--seed", p->seed, "scramble seed")->transform(decimal_range(0, ~std::uint64_t(0)));
     pf->add_flag("--no-fis", p->no_fis, "read every sample from the full-resolution source (brute-force importance sampling)");
     pf->add_option("--lod-bias", p->lod_bias, "filtered importance sampling's LOD bias, -16 to 16 (beyond, every read clamps to an end of the chain)")
         ->check(real_range(-16, 16))
         ->capture_default_str();
     pf->add_option("--bright-threshold", p->bright_threshold,
-                   "sum texels brighter than this many times the mean radiance explicitly (the sun), sample the rest; 0: off")
+                   "sum texels brighter than this many times the mean radiance explicitly (the sun), sample the rest, instead of --bright auto's choice")
         ->check(real_range(0, 1e12));
     pf->add_option("--bright-min-roughness", p->bright_min_roughness, "the wide-lobe mips (bright texels, --wide-samples-factor): roughness at least this")
         ->check(real_range(0, 1))
@@ -537,8 +572,9 @@ void add_ibl_command(CLI::App& app) {
         ->capture_default_str();
     pf->add_option("--device", p->device, "run the kernel on OpenCL devices (default, all, N, name); without it, C++ on CPU threads");
     pf->add_option("--threads", p->threads, "CPU threads (0: all)")->transform(decimal_range(0, 1024));
-    pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle (recorded in ibl.json)")
+    pf->add_option("--verify", p->verify, "compare K random texels with the brute-force oracle; fail (exit 1, nothing written) when one is outside its bars (Bonferroni)")
         ->transform(decimal_range(0, 100000));
+    pf->add_flag("--verify-report", p->verify_report, "with --verify: record the comparison in ibl.json but never fail (benchmarks of estimators whose bars are not honest)");
     pf->add_option("--format", p->format, "specular chain: exr (DIR/specular_m<m>.exr crosses), ktx2 or dds (DIR/specular.<format>: one cubemap with every mip, RGBA, A = 1)")
         ->check(CLI::IsMember({"exr", "ktx2", "dds"}))
         ->capture_default_str();

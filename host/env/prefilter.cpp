@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <set>
 #include <stdexcept>
 
 #include "core/estimate.hpp"
@@ -144,6 +145,22 @@ TexelStats texel_stats(const Cubemap& source, double min_luminance, std::size_t 
     return s;
 }
 
+void add_bright_texel_geometry(BrightTexelGeometry& g, const BrightTexel& t, std::uint32_t size) {
+    const Dir c = cube_direction(t.face, 2 * (t.x + 0.5) / size - 1, 2 * (t.y + 0.5) / size - 1);
+    g.x[0].push_back(c.x), g.y[0].push_back(c.y), g.z[0].push_back(c.z);
+    g.weight[0].push_back(cube_texel_solid_angle(t.x, t.y, size));
+    for (int j = 0; j < 2; ++j)
+        for (int i = 0; i < 2; ++i) {
+            // A quarter's centre in the face plane; its solid angle (1/size)^2 / (1 + s^2 + t^2)^(3/2).
+            const double ps = 2 * (t.x + 0.25 + 0.5 * i) / size - 1, pt = 2 * (t.y + 0.25 + 0.5 * j) / size - 1;
+            const double q = 1 + ps * ps + pt * pt;
+            const Dir d = cube_direction(t.face, ps, pt);
+            const int p = 1 + 2 * j + i;
+            g.x[p].push_back(d.x), g.y[p].push_back(d.y), g.z[p].push_back(d.z);
+            g.weight[p].push_back(1.0 / (double(size) * size) / (q * std::sqrt(q)));
+        }
+}
+
 BrightSplit split_off(const Cubemap& source, const TexelStats& stats, std::size_t count, double threshold) {
     BrightSplit split;
     split.size = source.size;
@@ -154,12 +171,44 @@ BrightSplit split_off(const Cubemap& source, const TexelStats& stats, std::size_
     for (std::size_t i = 0; i < count && i < stats.brightest.size(); ++i) {
         const BrightTexel& b = stats.brightest[i].second;
         split.texels.push_back(b);
+        add_bright_texel_geometry(split.geometry, b, source.size);
         float* t = rest.texel(b.face, b.x, b.y);
         bright_power += luminance(t) * stats.omega[std::size_t(b.y) * source.size + b.x];
         t[0] = t[1] = t[2] = 0;
     }
     split.bright_power_fraction = stats.power > 0 ? bright_power / stats.power : 0;
     split.rest_chain = mip_chain(rest);
+    // The bright texels alone, and every texel a bilinear read of one can reach: its 3 x 3 neighbourhood, a
+    // neighbour past the face's edge found through its direction (as sample_bilinear finds it).
+    split.bright_only = Cubemap(source.size);
+    std::set<std::array<std::uint32_t, 3>> support;
+    const std::uint32_t n = source.size;
+    for (const BrightTexel& b : split.texels) {
+        float* t = split.bright_only.texel(b.face, b.x, b.y);
+        for (int c = 0; c < 3; ++c) t[c] = b.value[c];
+        for (int dy = -1; dy <= 1; ++dy)
+            for (int dx = -1; dx <= 1; ++dx) {
+                const int x = int(b.x) + dx, y = int(b.y) + dy;
+                if (x >= 0 && y >= 0 && x < int(n) && y < int(n)) {
+                    support.insert({std::uint32_t(b.face), std::uint32_t(x), std::uint32_t(y)});
+                    continue;
+                }
+                const Dir e = cube_direction(b.face, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
+                int face;
+                double es, et;
+                cube_face_st(e, face, es, et);
+                const auto clampi = [&](double v) { return std::uint32_t(std::clamp(int(std::floor((v + 1) * 0.5 * n)), 0, int(n) - 1)); };
+                support.insert({std::uint32_t(face), clampi(es), clampi(et)});
+            }
+    }
+    for (const auto& s : support) {
+        SupportTexel t;
+        t.face = int(s[0]);
+        t.x = s[1];
+        t.y = s[2];
+        t.centre = cube_direction(t.face, 2 * (t.x + 0.5) / n - 1, 2 * (t.y + 0.5) / n - 1);
+        split.support.push_back(t);
+    }
     return split;
 }
 }  // namespace
@@ -219,52 +268,96 @@ PrefilterValue prefilter_direction_split(const BrightSplit& split, const Dir& n,
     return prefilter_value(sums, bright_texel_share(split, n, roughness));
 }
 
-std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness) {
-    std::array<double, 3> sum{};
-    if (split.texels.empty()) return sum;
-    const double alpha = roughness * roughness;
+BrightShare bright_texel_share_bounded(const BrightSplit& split, const Dir& n, double roughness) {
+    BrightShare out;
+    if (split.texels.empty()) return out;
+    const double alpha = roughness * roughness, a2 = alpha * alpha;
     const std::uint32_t size = split.size;
-    // As the oracle: while the lobe is narrow against a texel, texels near n are integrated on 8 x 8 sub-directions.
+    // The same two regimes as the oracle (so the split is exact against it: oracle(L) = oracle(L_rest) +
+    // oracle(L_bright)): while the lobe is narrow against a texel, texels whose centre is within
+    // 3 (alpha + texel) of n are integrated on m x m sub-directions with bilinear reads (of the bright texels
+    // alone, so the reads see them through their neighbours and across seams as the sampled part does); the
+    // others take one point at their centre with their exact solid angle (a texel the horizon cuts is counted
+    // wholly or not at all: the 2 x 2 check's difference shows it in the bound).
     const double texel_angle = 2.0 / size;
-    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
-    for (const BrightTexel& t : split.texels) {
-        const Dir l = cube_direction(t.face, 2 * (t.x + 0.5) / size - 1, 2 * (t.y + 0.5) / size - 1);
-        const double nl = n.x * l.x + n.y * l.y + n.z * l.z;
-        double w = 0;
-        if (nl > near_cos) {
-            // Near a narrow lobe the source is read bilinearly (as the sampled part and the oracle read it): the
-            // texel's share is its bilinear tent, (1 - |dx|)(1 - |dy|) over +-1 texel around its centre, integrated
-            // on 16 x 16 points of the face plane (extended past the edge: a texel on an edge is read from its own face).
-            const int m = 16;
-            const double step = 2.0 / size / (m / 2);  // face-plane width of one point
+    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 3 * (alpha + texel_angle))) : 2.0;
+    const int m = 8;
+    std::array<double, 3> rule_error{}, magnitude{};
+    auto add = [&](double w, double w_check, const float* v) {
+        for (int c = 0; c < 3; ++c) {
+            out.share[c] += w * v[c];
+            rule_error[c] += std::abs(w - w_check) * v[c];
+            magnitude[c] += std::abs(w) * v[c];
+        }
+    };
+    // Far part: the bright texels outside the near cap, centre rule, checked by the 2 x 2 midpoint rule (the
+    // difference estimates the rule's error, the lobe's curvature across the texel). (n.l) D(h) with
+    // (n.h)^2 = (1 + n.l) / 2, branch-free so the loop vectorises; a2 / pi applied after.
+    const BrightTexelGeometry& g = split.geometry;
+    auto weight = [&](int p, std::size_t b) {
+        const double nl = n.x * g.x[p][b] + n.y * g.y[p][b] + n.z * g.z[p][b];
+        const double d = (a2 - 1) * (1 + nl) * 0.5 + 1;
+        return std::max(nl, 0.0) * g.weight[p][b] / (d * d);
+    };
+    for (std::size_t b = 0; b < split.texels.size(); ++b) {
+        const double nl = n.x * g.x[0][b] + n.y * g.y[0][b] + n.z * g.z[0][b];
+        if (nl > near_cos) continue;  // in the near part
+        const double w = weight(0, b) * a2 / kPi;
+        const double w_check = (weight(1, b) + weight(2, b) + weight(3, b) + weight(4, b)) * a2 / kPi;
+        if (w != 0 || w_check != 0) add(w, w_check, split.texels[b].value.data());
+    }
+    // Near part: every texel a bilinear read of a bright texel can reach (the support), inside the near cap, on
+    // m x m sub-directions (checked by the m/2 x m/2 rule).
+    for (const SupportTexel& t : split.support) {
+            const double nl = n.x * t.centre.x + n.y * t.centre.y + n.z * t.centre.z;
+            if (nl <= near_cos) continue;
+            double acc[3] = {0, 0, 0}, check[3] = {0, 0, 0};
+            const double dw = cube_texel_solid_angle(t.x, t.y, size) / (double(m) * m);
             for (int j = 0; j < m; ++j)
                 for (int i = 0; i < m; ++i) {
-                    const double dx = (i + 0.5) / (m / 2) - 1, dy = (j + 0.5) / (m / 2) - 1;  // texel units from the centre
-                    const double ps = 2 * (t.x + 0.5 + dx) / size - 1, pt = 2 * (t.y + 0.5 + dy) / size - 1;
-                    const Dir d = cube_direction(t.face, ps, pt);
+                    const Dir d = cube_direction(t.face, 2 * (t.x + (i + 0.5) / m) / size - 1, 2 * (t.y + (j + 0.5) / m) / size - 1);
                     const double c = n.x * d.x + n.y * d.y + n.z * d.z;
                     if (c <= 0) continue;
-                    const double q = 1 + ps * ps + pt * pt;
-                    const double hx = n.x + d.x, hy = n.y + d.y, hz = n.z + d.z;
-                    w += (1 - std::abs(dx)) * (1 - std::abs(dy)) * step * step / (q * std::sqrt(q)) * c *
-                         ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+                    const double dd = (a2 - 1) * (1 + c) * 0.5 + 1;
+                    const double w = c * a2 / (kPi * dd * dd) * dw;
+                    const auto v = sample_bilinear(split.bright_only, d);
+                    for (int k = 0; k < 3; ++k) acc[k] += w * v[k];
                 }
-            for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
-            continue;
-        } else if (nl > 0) {
-            const double hx = n.x + l.x, hy = n.y + l.y, hz = n.z + l.z;
-            w = nl * ggx_d((n.x * hx + n.y * hy + n.z * hz) / std::sqrt(hx * hx + hy * hy + hz * hz), alpha);
+            // The coarser rule: the (m/2)^2 sub-directions of the same texel.
+            const int h = m / 2;
+            const double dwh = cube_texel_solid_angle(t.x, t.y, size) / (double(h) * h);
+            for (int j = 0; j < h; ++j)
+                for (int i = 0; i < h; ++i) {
+                    const Dir d = cube_direction(t.face, 2 * (t.x + (i + 0.5) / h) / size - 1, 2 * (t.y + (j + 0.5) / h) / size - 1);
+                    const double c = n.x * d.x + n.y * d.y + n.z * d.z;
+                    if (c <= 0) continue;
+                    const double dd = (a2 - 1) * (1 + c) * 0.5 + 1;
+                    const double w = c * a2 / (kPi * dd * dd) * dwh;
+                    const auto v = sample_bilinear(split.bright_only, d);
+                    for (int k = 0; k < 3; ++k) check[k] += w * v[k];
+                }
+            for (int k = 0; k < 3; ++k) {
+                out.share[k] += acc[k];
+                rule_error[k] += std::abs(acc[k] - check[k]);
+                magnitude[k] += std::abs(acc[k]);
+            }
         }
-        if (w == 0) continue;
-        w *= cube_texel_solid_angle(t.x, t.y, size);
-        for (int c = 0; c < 3; ++c) sum[c] += w * t.value[c];
-    }
     const double z = ggx_prefilter_normalisation(alpha);
-    for (int c = 0; c < 3; ++c) sum[c] /= z;
-    return sum;
+    // Rounding: a double sum of k terms is within (k - 1) u sum |terms| (Higham's gamma), u = 2^-53; the terms
+    // themselves (a handful of double operations each) and the division by Z add a few u more.
+    const double u = std::ldexp(1.0, -53), k = double(split.texels.size() + split.support.size() * m * m);
+    for (int c = 0; c < 3; ++c) {
+        out.share[c] /= z;
+        out.bound[c] = (rule_error[c] + (k + 16) * u * magnitude[c]) / z;
+    }
+    return out;
 }
 
-std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness) {
+std::array<double, 3> bright_texel_share(const BrightSplit& split, const Dir& n, double roughness) {
+    return bright_texel_share_bounded(split, n, roughness).share;
+}
+
+std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double roughness, double* weight_sum) {
     const std::uint32_t size = src.size;
     std::array<double, 3> acc{};
     double wsum = 0;
@@ -274,10 +367,10 @@ std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double 
     }
     const double alpha = roughness * roughness;
     // While the lobe is narrow against a texel (alpha < 8 texel angles), texels whose direction is within
-    // 6 (alpha + texel) of n are subdivided 8 x 8 (with bilinear reads) so D is resolved; wider lobes vary
+    // 3 (alpha + texel) of n are subdivided 8 x 8 (with bilinear reads) so D is resolved; wider lobes vary
     // by (texel / alpha)^2 / 24 < 1e-3 over a texel and take one value each.
     const double texel_angle = 2.0 / size;  // ~ the angular size of a texel at a face centre (radians)
-    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 6 * (alpha + texel_angle))) : 2.0;
+    const double near_cos = alpha < 8 * texel_angle ? std::cos(std::min(kPi / 2, 3 * (alpha + texel_angle))) : 2.0;
     for (int face = 0; face < 6; ++face)
         for (std::uint32_t y = 0; y < size; ++y)
             for (std::uint32_t x = 0; x < size; ++x) {
@@ -309,6 +402,7 @@ std::array<double, 3> prefilter_oracle(const Cubemap& src, const Dir& n, double 
                 wsum += w;
             }
     for (auto& a : acc) a /= wsum;
+    if (weight_sum) *weight_sum = wsum;
     return acc;
 }
 

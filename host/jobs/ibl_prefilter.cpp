@@ -6,6 +6,9 @@
 #include <cmath>
 #include <cstdio>
 #include <exception>
+#include <functional>
+#include <limits>
+#include <map>
 #include <mutex>
 #include <random>
 #include <sstream>
@@ -15,6 +18,7 @@
 #include <time.h>
 
 #include "core/cancel.hpp"
+#include "core/estimate.hpp"
 #include "env/preview.hpp"
 #include "io/atomic_file.hpp"
 #include "jobs/ibl_env.hpp"
@@ -37,49 +41,68 @@ prefilter::SourceChain pack_chain(const std::vector<env::Cubemap>& chain) {
 }
 
 namespace {
-// The chain on OpenCL devices through the scheduler (one item per 256 output texels).
-void prefilter_on_devices(const std::vector<env::Cubemap>& chain, const PrefilterSpec& spec, const PointSet& points,
-                          PrefilterResult& r, const PrefilterCallbacks& cb, double& worst) {
-    const prefilter::SourceChain packed = pack_chain(chain);
-    std::vector<prefilter::Target> targets;
-    for (std::size_t m = 1; m < r.mips.size(); ++m) {
-        const std::uint32_t n = r.mips[m].size;
-        for (int f = 0; f < 6; ++f)
-            for (std::uint32_t y = 0; y < n; ++y)
-                for (std::uint32_t x = 0; x < n; ++x) {
-                    const env::Dir d = env::cube_direction(f, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
-                    targets.push_back({d.x, d.y, d.z, r.roughness[m]});
-                }
-    }
-    prefilter::RoutineConfig config;
-    config.filtered = spec.options.filtered;
-    config.lod_bias = spec.options.lod_bias;
-    prefilter::PrefilterIntegrand integrand(packed, targets, 256, points, config, [&](const prefilter::Target& t) {
-        const env::PrefilterValue v = env::prefilter_direction(chain, {t.x, t.y, t.z}, t.roughness, points, spec.options);
-        return prefilter::Value{v.value, v.std_error};
-    });
-    schedule::Scheduler scheduler(schedule::Backend::opencl(ocl::select_devices(spec.device)));
-    scheduler.set_fault_injection(spec.fault);
-    schedule::RunCallbacks rcb;
-    rcb.progress = cb.progress;
-    const schedule::RunReport report = scheduler.run(integrand, {}, rcb);
-    r.rerun_items = report.rerun;
-    r.failed_devices = report.failed_places;
-    std::size_t k = 0;
-    for (std::size_t m = 1; m < r.mips.size(); ++m) {
-        const std::uint32_t n = r.mips[m].size;
-        for (int f = 0; f < 6; ++f)
-            for (std::uint32_t y = 0; y < n; ++y)
-                for (std::uint32_t x = 0; x < n; ++x, ++k) {
-                    const auto& v = integrand.values()[k];
-                    float* t = r.mips[m].texel(f, x, y);
-                    for (int c = 0; c < 3; ++c) {
-                        t[c] = float(v.value[c]);
-                        if (v.value[c] > 0) worst = std::max(worst, v.std_error[c] / v.value[c]);
-                    }
-                }
-    }
+
+// Runs `body(i)` for i in [0, count) on `threads` threads (the explicit sums of one mip), rethrowing the first error.
+void parallel_for(std::size_t count, unsigned threads, const std::function<void(std::size_t)>& body) {
+    std::atomic<std::size_t> next{0};
+    std::mutex mutex;
+    std::exception_ptr error;
+    auto work = [&] {
+        try {
+            for (;;) {
+                const std::size_t start = next.fetch_add(64);
+                if (start >= count) break;
+                throw_if_cancelled();
+                for (std::size_t i = start; i < std::min(count, start + 64); ++i) body(i);
+            }
+        } catch (...) {
+            std::lock_guard<std::mutex> lock(mutex);
+            if (!error) error = std::current_exception();
+            next = count;
+        }
+    };
+    std::vector<std::thread> pool;
+    for (unsigned t = 1; t < threads; ++t) pool.emplace_back(work);
+    work();
+    for (auto& t : pool) t.join();
+    if (error) std::rethrow_exception(error);
 }
+
+double process_cpu_seconds() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+}
+
+// The environment's mean radiance (mean of RGB over the sphere, exact texel solid angles).
+double mean_radiance(const env::Cubemap& source) {
+    double power = 0;
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < source.size; ++y)
+            for (std::uint32_t x = 0; x < source.size; ++x) {
+                const float* v = source.texel(f, x, y);
+                power += (double(v[0]) + v[1] + v[2]) / 3 * env::cube_texel_solid_angle(x, y, source.size);
+            }
+    return power / (4 * 3.14159265358979323846);
+}
+
+// One sample round's independent scramble: the run's seed mixed with the round (and the round's size, so
+// groups of different sizes in one round differ too).
+std::uint64_t round_seed(std::uint64_t seed, std::uint32_t round, std::uint64_t samples) {
+    std::uint64_t x = seed ^ (0x9E3779B97F4A7C15ull * (std::uint64_t(round) + 1)) ^ (samples << 40);
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+    return x ^ (x >> 31);
+}
+
+// Smallest replicates x 2^k (k >= 4) >= n, but no more than the largest such count within `cap` (the smallest
+// admissible count when even that is above cap).
+std::uint64_t admissible_samples(double n, std::uint32_t replicates, std::uint64_t cap) {
+    std::uint64_t s = std::uint64_t(replicates) * 16;
+    while (double(s) < n && 2 * s <= cap) s *= 2;
+    return s;
+}
+
 }  // namespace
 
 std::uint32_t default_levels(std::uint32_t size) {
@@ -90,132 +113,194 @@ std::uint32_t default_levels(std::uint32_t size) {
 
 PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpec& spec, const PrefilterCallbacks& cb) {
     const auto start = std::chrono::steady_clock::now();
+    const double cpu_start = process_cpu_seconds();
     const std::uint32_t size = source.size;
     const std::uint32_t levels = spec.levels ? spec.levels : default_levels(size);
     if ((size >> (levels - 1)) == 0) throw std::invalid_argument("prefilter: too many levels for a face of " + std::to_string(size));
-    const std::vector<env::Cubemap> chain = env::mip_chain(source);
     if (spec.wide_samples_factor == 0 || (spec.wide_samples_factor & (spec.wide_samples_factor - 1)))
         throw std::invalid_argument("--wide-samples-factor must be a power of two (the point sets are nets of 2^m points)");
-    const PointSet points = make_point_set(spec.plan);
-    SamplingPlan wide_plan = spec.plan;
-    wide_plan.samples *= std::max(1u, spec.wide_samples_factor);
-    const PointSet wide_points = spec.wide_samples_factor > 1 ? make_point_set(wide_plan) : PointSet{};
+    if (!(spec.tolerance >= 0)) throw std::invalid_argument("--tolerance must be >= 0");
+    const std::uint32_t R = spec.plan.replicates;
+    if (R < 2) throw std::invalid_argument("prefilter: at least 2 replicates (error bars)");
+    const std::uint64_t first_samples = round_up_samples(spec.plan.samples, R);
+    const std::uint64_t max_samples = std::max(first_samples, round_up_samples(spec.max_samples, R));
+    const std::vector<env::Cubemap> chain = env::mip_chain(source);
+    const unsigned threads = spec.threads ? spec.threads : std::max(1u, std::thread::hardware_concurrency());
+
     PrefilterResult r;
+    r.replicates = R;
+    r.t_multiplier = student_t_quantile(0.95, int(R) - 1);
     r.mips.push_back(source);
     r.roughness.push_back(0);
-    struct Row {
-        std::uint32_t mip;
-        int face;
-        std::uint32_t y;
-    };
-    std::vector<Row> rows;
+    r.std_error.emplace_back();
+    r.explicit_bound.emplace_back();
+    r.mean_samples_by_mip.push_back(0);
+    std::uint64_t all_texels = 0;
     for (std::uint32_t m = 1; m < levels; ++m) {
         r.mips.emplace_back(size >> m);
+        r.std_error.emplace_back(size >> m);
+        r.explicit_bound.emplace_back(size >> m);
         r.roughness.push_back(env::mip_roughness(m, levels, spec.mapping));
-        for (int f = 0; f < 6; ++f)
-            for (std::uint32_t y = 0; y < (size >> m); ++y) rows.push_back({m, f, y});
+        all_texels += 6ull * (size >> m) * (size >> m);
     }
-    if (spec.wide_samples_factor > 1 && !spec.device.empty())
-        throw std::invalid_argument("--wide-samples-factor is implemented in the C++ estimator only (no --device)");
-    if (spec.bright_threshold > 0 && !spec.device.empty())
-        throw std::invalid_argument("--bright-threshold is implemented in the C++ estimator only (no --device)");
+
+    // The bright split: a given threshold, or chosen for the tolerance, or none.
     env::BrightSplit split;
-    if (spec.bright_threshold > 0) {
+    if (spec.bright_threshold > 0)
         split = env::split_bright_texels(source, spec.bright_threshold, spec.bright_max_texels);
-        r.bright_texels = split.texels.size();
-        r.bright_power_fraction = split.bright_power_fraction;
-    }
-    const bool use_split = spec.bright_threshold > 0;
-    if (!spec.device.empty()) {
-        double worst = 0;
-        prefilter_on_devices(chain, spec, points, r, cb, worst);
-        r.max_relative_std_error = worst;
-        for (std::uint32_t m = 1; m < levels; ++m) r.texels += 6ull * (size >> m) * (size >> m);
-        r.samples = r.texels * spec.plan.samples;
-        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        r.cpu_seconds = 0;  // the device's time is in seconds
-        return r;
-    }
-    std::atomic<std::size_t> next{0}, done{0};
-    std::mutex mutex;
-    std::exception_ptr error;
-    std::vector<double> worst(1, 0.0);
-    std::atomic<long long> cpu_ns{0};
-    auto work = [&] {
-        double local_worst = 0;
-        timespec t0{}, t1{};
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t0);
-        try {
-            for (;;) {
-                const std::size_t i = next++;
-                if (i >= rows.size()) break;
-                throw_if_cancelled();
-                const Row& row = rows[i];
-                env::Cubemap& out = r.mips[row.mip];
-                const std::uint32_t n = out.size;
-                for (std::uint32_t x = 0; x < n; ++x) {
-                    const env::Dir d = env::cube_direction(row.face, 2 * (x + 0.5) / n - 1, 2 * (row.y + 0.5) / n - 1);
-                    const bool wide = r.roughness[row.mip] >= spec.bright_min_roughness;
-                    const PointSet& pts = wide && spec.wide_samples_factor > 1 ? wide_points : points;
-                    const env::PrefilterValue v = use_split && wide ? env::prefilter_direction_split(split, d, r.roughness[row.mip], pts, spec.options)
-                                                                    : env::prefilter_direction(chain, d, r.roughness[row.mip], pts, spec.options);
-                    float* t = out.texel(row.face, x, row.y);
-                    for (int c = 0; c < 3; ++c) {
-                        t[c] = float(v.value[c]);
-                        if (v.value[c] > 0) local_worst = std::max(local_worst, v.std_error[c] / v.value[c]);
-                    }
-                }
-                ++done;
-            }
-        } catch (...) {
-            std::lock_guard<std::mutex> lock(mutex);
-            if (!error) error = std::current_exception();
-            next = rows.size();
-        }
-        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t1);
-        cpu_ns += (t1.tv_sec - t0.tv_sec) * 1000000000LL + (t1.tv_nsec - t0.tv_nsec);
-        std::lock_guard<std::mutex> lock(mutex);
-        worst[0] = std::max(worst[0], local_worst);
-    };
-    const unsigned threads = spec.threads ? spec.threads : std::max(1u, std::thread::hardware_concurrency());
-    std::vector<std::thread> pool;
-    for (unsigned t = 0; t < threads; ++t) pool.emplace_back(work);
-    while (true) {
-        {
-            std::lock_guard<std::mutex> lock(mutex);
-            if (done >= rows.size() || error) break;
-        }
-        if (cb.progress) cb.progress(done, rows.size());
-        std::this_thread::sleep_for(std::chrono::milliseconds(100));
-        if (next >= rows.size() && done >= rows.size()) break;
-    }
-    for (auto& t : pool) t.join();
-    if (error) std::rethrow_exception(error);
-    if (cb.progress) cb.progress(rows.size(), rows.size());
-    r.max_relative_std_error = worst[0];
+    else if (spec.bright_auto)
+        split = env::choose_bright_split(source, spec.tolerance > 0 ? spec.tolerance : 0.01, spec.bright_max_texels, spec.bright_cost_ratio);
+    r.bright_texels = split.texels.size();
+    r.bright_power_fraction = split.bright_power_fraction;
+    r.bright_threshold = split.threshold;
+    const bool have_split = !split.texels.empty();
+    // A texel's scale floor: the bars of a black texel are relative to a small share of the mean radiance.
+    const double scale_floor = 1e-4 * mean_radiance(source);
+
+    // One scheduler for every round (devices compile their program once): OpenCL devices, or the C++
+    // estimator on CPU threads as the scheduler's oracle backend.
+    schedule::Scheduler scheduler(spec.device.empty() ? schedule::Backend::oracle(threads)
+                                                      : schedule::Backend::opencl(ocl::select_devices(spec.device)));
+    scheduler.set_fault_injection(spec.fault);
+    const prefilter::SourceChain packed_full = pack_chain(chain);
+    const prefilter::SourceChain packed_rest = have_split ? pack_chain(split.rest_chain) : prefilter::SourceChain{};
+    prefilter::RoutineConfig config;
+    config.filtered = spec.options.filtered;
+    config.lod_bias = spec.options.lod_bias;
+
+    std::uint64_t converged_texels = 0;
     for (std::uint32_t m = 1; m < levels; ++m) {
-        const std::uint64_t texels = 6ull * (size >> m) * (size >> m);
-        r.texels += texels;
-        r.samples += texels * (r.roughness[m] >= spec.bright_min_roughness ? wide_plan.samples : spec.plan.samples);
+        const std::uint32_t n = size >> m;
+        const double rough = r.roughness[m];
+        const bool wide = rough >= spec.bright_min_roughness;
+        const bool use_split = have_split && wide;
+        const std::vector<env::Cubemap>& sampled_chain = use_split ? split.rest_chain : chain;
+        const std::size_t T = 6ull * n * n;
+        std::vector<prefilter::Target> targets(T);
+        for (int f = 0; f < 6; ++f)
+            for (std::uint32_t y = 0; y < n; ++y)
+                for (std::uint32_t x = 0; x < n; ++x) {
+                    const env::Dir d = env::cube_direction(f, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
+                    targets[(std::size_t(f) * n + y) * n + x] = {d.x, d.y, d.z, rough};
+                }
+        // The explicit part, once per texel (deterministic).
+        std::vector<env::BrightShare> share(T);
+        if (use_split)
+            parallel_for(T, threads, [&](std::size_t i) {
+                share[i] = env::bright_texel_share_bounded(split, {targets[i].x, targets[i].y, targets[i].z}, rough);
+            });
+        // Rounds: each active texel asks for its next batch of samples (a power-of-two net per replicate);
+        // texels asking the same count run together on one independently scrambled point set, and their
+        // per-replicate tallies add to the earlier rounds'.
+        std::vector<double> sums(T * 4 * R, 0.0);
+        std::vector<std::uint64_t> taken(T, 0), next(T, wide ? std::min(max_samples, first_samples * spec.wide_samples_factor) : first_samples);
+        std::vector<char> active(T, 1);
+        std::vector<double> num(R), den(R);
+        std::uint32_t round = 0;
+        for (;; ++round) {
+            std::map<std::uint64_t, std::vector<std::size_t>> groups;
+            for (std::size_t i = 0; i < T; ++i)
+                if (active[i]) groups[next[i]].push_back(i);
+            if (groups.empty()) break;
+            for (const auto& [samples, members] : groups) {
+                SamplingPlan plan = spec.plan;
+                plan.samples = samples;
+                plan.seed = round_seed(spec.plan.seed, round, samples);
+                const PointSet points = make_point_set(plan);
+                std::vector<prefilter::Target> group_targets;
+                group_targets.reserve(members.size());
+                for (std::size_t i : members) group_targets.push_back(targets[i]);
+                // Items of ~4 M samples: well under a second each, so a cancel or a device failure loses little.
+                const std::size_t per_item = std::size_t(std::clamp<std::uint64_t>((std::uint64_t(1) << 22) / samples, 1, 256));
+                prefilter::PrefilterIntegrand integrand(
+                    use_split ? packed_rest : packed_full, std::move(group_targets), per_item, points, config,
+                    [&](const prefilter::Target& t, const PointSet& pts, double* out) {
+                        env::PrefilterSums s(pts.replicates);
+                        env::prefilter_sums(sampled_chain, {t.x, t.y, t.z}, t.roughness, pts, spec.options, s);
+                        for (std::uint32_t q = 0; q < pts.replicates; ++q) {
+                            for (int c = 0; c < 3; ++c) out[4 * q + c] = s.num[3 * std::size_t(q) + c];
+                            out[4 * q + 3] = s.den[q];
+                        }
+                    });
+                const schedule::RunReport report = scheduler.run(integrand);
+                r.rerun_items += report.rerun;
+                for (const auto& failed : report.failed_places) r.failed_devices.push_back(failed);
+                const std::vector<double>& got = integrand.sums();
+                for (std::size_t g = 0; g < members.size(); ++g) {
+                    const std::size_t i = members[g];
+                    for (std::size_t q = 0; q < 4 * R; ++q) sums[i * 4 * R + q] += got[g * 4 * R + q];
+                    taken[i] += samples;
+                }
+            }
+            // Which texels are done, and how many samples the others need (the bar falls as 1 / sqrt(N)).
+            for (std::size_t i = 0; i < T; ++i) {
+                if (!active[i]) continue;
+                std::array<double, 3> value{}, se{};
+                for (int c = 0; c < 3; ++c) {
+                    for (std::uint32_t q = 0; q < R; ++q) {
+                        num[q] = sums[(i * R + q) * 4 + c];
+                        den[q] = sums[(i * R + q) * 4 + 3];
+                    }
+                    const Estimate e = reduce_replicates(num.data(), den.data(), R);
+                    value[c] = e.term + share[i].share[c];
+                    se[c] = e.std_error;
+                }
+                const double scale = std::max(scale_floor, (std::abs(value[0]) + std::abs(value[1]) + std::abs(value[2])) / 3);
+                double sampled_bar = 0, explicit_bar = 0;
+                for (int c = 0; c < 3; ++c) {
+                    sampled_bar = std::max(sampled_bar, r.t_multiplier * se[c] / scale);
+                    explicit_bar = std::max(explicit_bar, share[i].bound[c] / scale);
+                }
+                const double target = spec.tolerance - explicit_bar;  // what the sampled part may use
+                if (spec.tolerance == 0 || sampled_bar <= target) {
+                    active[i] = 0;
+                    ++converged_texels;
+                } else if (taken[i] >= max_samples || target <= 0) {
+                    active[i] = 0;  // out of samples, or the explicit part alone is above the tolerance
+                    ++r.unconverged;
+                    ++converged_texels;
+                } else {
+                    // N (bar / target)^2 in all, 10% over (the bar is itself an estimate), at most 4x this texel's
+                    // samples per round so a bar estimated from too few samples (a rare bright texel unseen) is
+                    // checked again before the texel takes its whole budget.
+                    const double want = double(taken[i]) * (sampled_bar / target) * (sampled_bar / target) * 1.1 - double(taken[i]);
+                    next[i] = admissible_samples(std::min(want, 4.0 * double(taken[i])), R,
+                                                 max_samples - taken[i]);
+                }
+                if (!active[i]) {
+                    const std::size_t f = i / (std::size_t(n) * n), y = (i / n) % n, x = i % n;
+                    float* out = r.mips[m].texel(int(f), std::uint32_t(x), std::uint32_t(y));
+                    float* out_se = r.std_error[m].texel(int(f), std::uint32_t(x), std::uint32_t(y));
+                    float* out_b = r.explicit_bound[m].texel(int(f), std::uint32_t(x), std::uint32_t(y));
+                    for (int c = 0; c < 3; ++c) {
+                        out[c] = float(value[c] * (1 + spec.test_bias));
+                        out_se[c] = float(se[c]);
+                        out_b[c] = float(share[i].bound[c]);
+                        if (value[c] > 0) r.max_relative_std_error = std::max(r.max_relative_std_error, se[c] / value[c]);
+                    }
+                    r.max_relative_bar = std::max(r.max_relative_bar, sampled_bar + explicit_bar);
+                }
+            }
+            if (cb.progress) cb.progress(converged_texels, all_texels);
+        }
+        r.rounds = std::max(r.rounds, round);
+        std::uint64_t mip_samples = 0;
+        for (std::uint64_t t : taken) mip_samples += t;
+        r.samples += mip_samples;
+        r.texels += T;
+        r.mean_samples_by_mip.push_back(double(mip_samples) / double(T));
     }
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    r.cpu_seconds = double(cpu_ns.load()) * 1e-9;
+    r.cpu_seconds = process_cpu_seconds() - cpu_start;
     return r;
 }
 
-PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, const PrefilterSpec& spec,
-                                       std::uint32_t k, std::uint64_t seed, const std::vector<env::Cubemap>* source_chain) {
+PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, std::uint32_t k, std::uint64_t seed) {
     PrefilterVerification v;
     if (result.mips.size() < 2 || k == 0) return v;
-    std::vector<env::Cubemap> own;
-    if (!source_chain) own = env::mip_chain(source);
-    const std::vector<env::Cubemap>& chain = source_chain ? *source_chain : own;
-    const PointSet points = make_point_set(spec.plan);
-    SamplingPlan wide_plan = spec.plan;
-    wide_plan.samples *= std::max(1u, spec.wide_samples_factor);
-    const PointSet wide_points = spec.wide_samples_factor > 1 ? make_point_set(wide_plan) : PointSet{};
-    env::BrightSplit split;
-    if (spec.bright_threshold > 0) split = env::split_bright_texels(source, spec.bright_threshold, spec.bright_max_texels);
+    // Bonferroni over the 3 K channel checks at family-wise level 0.01: two-sided t with R - 1 degrees of freedom.
+    const double alpha = 0.01;
+    v.z_bound = student_t_quantile(1 - alpha / (3.0 * k), int(std::max(2u, result.replicates)) - 1);
     std::mt19937_64 rng(seed);
     double ss = 0, ss_se = 0;
     std::size_t count = 0;
@@ -226,34 +311,46 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
         const int f = int(rng() % 6);
         const std::uint32_t x = std::uint32_t(rng() % n), y = std::uint32_t(rng() % n);
         const env::Dir d = env::cube_direction(f, 2 * (x + 0.5) / n - 1, 2 * (y + 0.5) / n - 1);
-        const auto ref = env::prefilter_oracle(source, d, result.roughness[m]);
+        double weight_sum = 0;
+        const auto ref = env::prefilter_oracle(source, d, result.roughness[m], &weight_sum);
+        // The oracle's value is its rule's weighted mean (normalised by the rule's own sum of weights), the
+        // estimate's explicit part is normalised by the exact Z: they may differ by the oracle's normalisation
+        // error |sum / Z - 1| of the value, an allowance of its own.
+        const double alpha = result.roughness[m] * result.roughness[m];
+        const double norm_error = std::abs(weight_sum / env::ggx_prefilter_normalisation(alpha) - 1);
         const float* got = result.mips[m].texel(f, x, y);
-        // Error bars of this texel: recompute it (the file stores values only).
-        const bool wide = result.roughness[m] >= spec.bright_min_roughness;
-        const PointSet& pts = wide && spec.wide_samples_factor > 1 ? wide_points : points;
-        const env::PrefilterValue again = spec.bright_threshold > 0 && wide ? env::prefilter_direction_split(split, d, result.roughness[m], pts, spec.options)
-                                                                            : env::prefilter_direction(chain, d, result.roughness[m], pts, spec.options);
+        const float* se = result.std_error[m].texel(f, x, y);
+        const float* bound = result.explicit_bound[m].texel(f, x, y);
         const double scale = std::max(1e-30, (std::abs(ref[0]) + std::abs(ref[1]) + std::abs(ref[2])) / 3);
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(double(got[c]) - ref[c]);
             const double rel = diff / scale;
             ss += rel * rel;
             ++count;
+            std::ostringstream where;
+            where << "mip " << m << " face " << f << " texel (" << x << ", " << y << ") channel " << c << ": " << got[c] << " vs oracle "
+                  << ref[c];
             if (rel > v.max_relative) {
                 v.max_relative = rel;
-                std::ostringstream s;
-                s << "mip " << m << " face " << f << " texel (" << x << ", " << y << ") channel " << c << ": " << got[c]
-                  << " vs oracle " << ref[c];
-                v.worst_texel = s.str();
+                v.worst_texel = where.str();
             }
-            if (again.std_error[c] > 0) v.worst_z = std::max(v.worst_z, diff / again.std_error[c]);
-            ss_se += (again.std_error[c] / scale) * (again.std_error[c] / scale);
+            // The float the file stores is within 2^-24 |value| of the estimate; twice that for the oracle's own rounding.
+            const double excess =
+                std::max(0.0, diff - double(bound[c]) - std::ldexp(std::abs(double(got[c])), -23) - norm_error * std::abs(ref[c]));
+            const double z = excess == 0 ? 0 : se[c] > 0 ? excess / double(se[c]) : std::numeric_limits<double>::infinity();
+            if (z > v.worst_z) {
+                v.worst_z = z;
+                where << " (se " << se[c] << ", bound " << bound[c] << ")";
+                v.worst_z_texel = where.str();
+            }
+            ss_se += (se[c] / scale) * (se[c] / scale);
             ss_mip[m] += rel * rel;
-            se_mip[m] += (again.std_error[c] / scale) * (again.std_error[c] / scale);
+            se_mip[m] += (se[c] / scale) * (se[c] / scale);
             n_mip[m] += 1;
         }
         ++v.checked;
     }
+    v.passed = v.worst_z <= v.z_bound;
     v.rms_relative = std::sqrt(ss / double(count));
     v.rms_relative_std_error = std::sqrt(ss_se / double(count));
     for (std::size_t m = 0; m < result.mips.size(); ++m) {
@@ -261,6 +358,22 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
         v.rms_std_error_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(se_mip[m] / n_mip[m]) : 0);
     }
     return v;
+}
+
+nlohmann::json verification_json(const PrefilterVerification& check) {
+    return {{"texels", check.checked},
+            {"reference", "the brute-force oracle (every source texel, exact solid angles)"},
+            {"rms_relative", check.rms_relative},
+            {"max_relative", check.max_relative},
+            {"worst_z", std::isfinite(check.worst_z) ? nlohmann::json(check.worst_z) : nlohmann::json("inf")},
+            {"z_bound", check.z_bound},
+            {"z_bound_meaning", "Bonferroni: two-sided Student-t (R - 1 degrees of freedom) at family-wise level 0.01 over 3 x texels channels"},
+            {"passed", check.passed},
+            {"worst", check.worst_texel},
+            {"worst_z_texel", check.worst_z_texel},
+            {"rms_relative_std_error", check.rms_relative_std_error},
+            {"rms_relative_by_mip", check.rms_relative_by_mip},
+            {"rms_std_error_by_mip", check.rms_std_error_by_mip}};
 }
 
 nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResult& result) {
@@ -274,13 +387,27 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["base_size"] = result.mips.empty() ? 0 : result.mips[0].size;
     m["estimator"] = spec.options.filtered ? "filtered importance sampling (Krivanek & Colbert 2008)" : "importance sampling of the full-resolution source";
     m["lod_bias"] = spec.options.lod_bias;
-    if (spec.bright_threshold > 0)
-        m["bright_texels"] = {{"threshold_times_mean_radiance", spec.bright_threshold}, {"max_texels", spec.bright_max_texels},
+    if (result.bright_texels > 0)
+        m["bright_texels"] = {{"chosen", spec.bright_threshold > 0 ? "by threshold" : "automatically (choose_bright_split for the tolerance)"},
+                              {"threshold_times_mean_radiance", result.bright_threshold}, {"max_texels", spec.bright_max_texels},
                               {"min_roughness", spec.bright_min_roughness},
                               {"count", result.bright_texels}, {"power_fraction", result.bright_power_fraction},
-                              {"method", "summed explicitly over their solid angles, removed from the sampled environment"}};
+                              {"method", "summed explicitly over their solid angles, removed from the sampled environment"},
+                              {"error_bound", "per texel: difference from the rule at half the spacing plus the double summation's rounding bound"}};
+    else
+        m["bright_texels"] = {{"count", 0}};
+    if (spec.test_bias != 0) m["test_bias"] = spec.test_bias;  // a corrupted estimator (test hook)
+    m["tolerance"] = spec.tolerance;  // 0: a fixed sample count
+    m["error_bar"] = "per texel and channel: t_{0.975, R-1} x replicate std error + the explicit part's bound, "
+                     "relative to max(mean of RGB, 1e-4 x the mean radiance)";
+    m["t_multiplier"] = result.t_multiplier;
+    m["max_relative_bar"] = result.max_relative_bar;
+    m["unconverged_texels"] = result.unconverged;
+    m["max_samples"] = spec.max_samples;
+    m["rounds"] = result.rounds;
+    m["mean_samples_by_mip"] = result.mean_samples_by_mip;
     m["sequence"] = to_string(spec.plan.sequence);
-    m["samples"] = spec.plan.samples;
+    m["samples"] = spec.plan.samples;  // the first round's (with a tolerance) or every texel's
     m["wide_samples_factor"] = spec.wide_samples_factor;  // on mips of roughness >= bright_min_roughness
     m["wide_min_roughness"] = spec.bright_min_roughness;
     m["samples_total"] = result.samples;
@@ -288,7 +415,7 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["seed"] = spec.plan.seed;
     m["max_relative_std_error"] = result.max_relative_std_error;
     m["seconds"] = result.seconds;
-    m["cpu_seconds"] = result.cpu_seconds;  // summed over the threads: stable on a shared machine
+    m["cpu_seconds"] = result.cpu_seconds;  // the process's CPU time: stable on a shared machine
     m["device"] = spec.device.empty() ? "CPU threads (C++ double)" : "opencl: " + spec.device + " (kernels/prefilter/prefilter.cl, float)";
     m["rerun_items"] = result.rerun_items;  // rerun on another device after one failed (failover)
     m["failed_devices"] = result.failed_devices;

@@ -25,36 +25,63 @@ class OutputSet;
 struct PrefilterSpec {
     std::uint32_t levels = 0;  // 0: down to 4 x 4 faces (log2(size) - 1 levels)
     env::RoughnessMapping mapping = env::RoughnessMapping::cmgen;
-    SamplingPlan plan{Sequence::sobol, 256, 4, 0};  // samples per texel, all replicates
+    // samples: per texel, all replicates: the first round's with a tolerance, else the only one.
+    SamplingPlan plan{Sequence::sobol, 256, 16, 0};
     env::PrefilterOptions options;
-    // Bright texels summed explicitly (env/prefilter.hpp, BrightSplit): luminance above bright_threshold times
-    // the mean radiance, at most bright_max_texels of them; 0: off. C++ estimator only.
+    // Sample rounds until every texel's relative error bar (below) is at most `tolerance`; 0: one round of
+    // plan.samples. A texel's bar on channel c is t_{0.975, R-1} se_c + b_c: the two-sided 95% Student-t
+    // interval of the sampled part over the R replicates plus the explicit part's bound b_c (bright texels);
+    // relative to max(mean of RGB, 1e-4 x the environment's mean radiance). No texel takes more than
+    // max_samples; those that would are counted (PrefilterResult::unconverged).
+    double tolerance = 0.02;
+    std::uint64_t max_samples = 1u << 16;
+    // Bright texels summed explicitly (env/prefilter.hpp, BrightSplit): bright_threshold > 0 takes the texels
+    // above that many times the mean radiance; else bright_auto chooses them (choose_bright_split, for
+    // `tolerance`, 0.01 when it is 0); at most bright_max_texels.
     double bright_threshold = 0;
-    std::size_t bright_max_texels = 1024;
-    // ... on mips of at least this roughness: the wide lobes, where the bright texels' variance is (a sharp mip
-    // has many texels, each seeing the sun only nearby, and the explicit sum costs bright texels x its texels).
-    double bright_min_roughness = 0.2;
-    // Samples per texel on those wide-lobe mips (roughness >= bright_min_roughness) multiplied by this factor: they
-    // hold 6% of an 8-mip chain's texels and most of its variance, so a factor of 4 costs ~20% more time. C++ only.
+    bool bright_auto = true;
+    std::size_t bright_max_texels = 4096;
+    // One explicit texel's cost against one sample (choose_bright_split): measured 0.25 on CPU threads (40 ns a
+    // bright texel against 160 ns a filtered sample, forest.exr at 64 px; docs/ibl.md).
+    double bright_cost_ratio = 0.25;
+    // ... on mips of at least this roughness (0: every mip, measured best at 64^2 faces; the explicit sum costs
+    // bright texels x the mip's texels, so large chains may keep it to the wide lobes, e.g. 0.2).
+    double bright_min_roughness = 0;
+    // The first round's samples per texel on those wide-lobe mips (roughness >= bright_min_roughness)
+    // multiplied by this factor (a power of two): with a fixed sample count (tolerance 0) they hold 6% of an
+    // 8-mip chain's texels and most of its variance.
     std::uint32_t wide_samples_factor = 1;
     unsigned threads = 0;  // 0: every hardware thread
-    std::string device;    // empty: the C++ estimator on CPU threads; else OpenCL devices (kernels/prefilter/prefilter.cl)
+    std::string device;    // empty: the C++ estimator on CPU threads (the scheduler's oracle backend); else OpenCL devices
     std::string source, command_line;  // provenance
     schedule::FaultInjection fault;    // test hook (OpenCL devices), set by the CLI from MICROSHADOW_FAIL_DEVICE
+    // Test hook, set by the CLI from MICROSHADOW_TEST_PREFILTER_BIAS: every value is multiplied by
+    // (1 + test_bias) and its bars are left alone, a corrupted estimator that --verify must catch.
+    double test_bias = 0;
 };
 
 struct PrefilterResult {
     std::vector<env::Cubemap> mips;  // mip 0 = the source (roughness 0)
     std::vector<double> roughness;
+    // Per texel and channel of mips >= 1: the sampled part's replicate standard error se_c and the explicit
+    // part's bound b_c (0 where no bright texel is summed); mip 0 empty.
+    std::vector<env::Cubemap> std_error, explicit_bound;
+    std::uint32_t replicates = 0;
+    double t_multiplier = 0;            // t_{0.975, R-1}: bar = t se + b
     double max_relative_std_error = 0;  // over texels with a non-zero value, the largest se / value
+    double max_relative_bar = 0;        // the largest relative bar (t se + b) / scale over every texel
+    std::uint64_t unconverged = 0;      // texels whose bar is above the tolerance after max_samples
+    std::uint32_t rounds = 0;           // sample rounds of the mip that took the most
+    std::vector<double> mean_samples_by_mip;  // [mip] samples per texel, 0 for mip 0
     double seconds = 0;
-    double cpu_seconds = 0;  // CPU time of the worker threads, summed
+    double cpu_seconds = 0;  // CPU time of the process over the run (every thread)
     std::uint64_t texels = 0, samples = 0;
     // Failover on OpenCL devices (schedule/scheduler.hpp): items rerun after a device failed, and the failures.
     std::uint64_t rerun_items = 0;
     std::vector<std::string> failed_devices;
-    std::size_t bright_texels = 0;       // summed explicitly (bright_threshold > 0)
+    std::size_t bright_texels = 0;       // summed explicitly
     double bright_power_fraction = 0;    // their share of the environment's power (mean of RGB)
+    double bright_threshold = 0;         // the chosen split's threshold, times the mean radiance
 };
 
 struct PrefilterCallbacks {
@@ -68,19 +95,27 @@ prefilter::SourceChain pack_chain(const std::vector<env::Cubemap>& chain);
 PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpec& spec, const PrefilterCallbacks& cb = {});
 
 // K random texels of mips >= 1 against the oracle: relative RMS and max error over texels and channels
-// (relative to the oracle's luminance-like mean of the three channels), and each texel's |z| with the
-// replicate std error (meaningful for filtered = false only: filtering trades bias for variance).
+// (relative to the oracle's mean of the three channels), and each channel's
+//     z = max(0, |value - oracle| - b - rounding) / se
+// with the run's own bars (PrefilterResult::std_error, explicit_bound; rounding: the float the file stores,
+// 2^-23 |value|). `passed` is false when some z exceeds the Bonferroni bound t_{1 - alpha / (2 M), R - 1} for
+// the M = 3 K channels checked at family-wise level alpha = 0.01 (or when se = 0 and the difference exceeds
+// b + rounding): a texel outside its bars. The bars hold for the estimate's variance only, so filtering's blur
+// (filtered importance sampling is biased, less as samples grow) counts as a disagreement.
 struct PrefilterVerification {
     std::uint32_t checked = 0;
     double rms_relative = 0, max_relative = 0, worst_z = 0;
+    double z_bound = 0;   // the Bonferroni bound
+    bool passed = true;
     // RMS of the replicate std errors relative to the same scale: the variance part of rms_relative (what is left,
     // sqrt(rms_relative^2 - rms_relative_std_error^2), is bias: filtering's blur, or a rare bright texel no replicate saw).
     double rms_relative_std_error = 0;
     std::vector<double> rms_relative_by_mip, rms_std_error_by_mip;  // [mip], 0 where no texel of it was drawn (mip 0 never)
-    std::string worst_texel;
+    std::string worst_texel, worst_z_texel;
 };
-PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, const PrefilterSpec& spec,
-                                       std::uint32_t k, std::uint64_t seed = 1, const std::vector<env::Cubemap>* source_chain = nullptr);
+PrefilterVerification verify_prefilter(const env::Cubemap& source, const PrefilterResult& result, std::uint32_t k,
+                                       std::uint64_t seed = 1);
+nlohmann::json verification_json(const PrefilterVerification& check);
 
 nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResult& result);
 

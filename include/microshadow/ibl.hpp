@@ -84,18 +84,22 @@ struct PrefilterOptions {
     std::uint32_t size = 0;          // base face size, a power of two (0: the source's)
     std::uint32_t levels = 0;        // mips (0: down to 4 x 4 faces)
     std::string mapping = "cmgen";   // roughness per mip: "cmgen" or "linear"
-    std::uint64_t samples = 256;     // GGX samples per texel (all replicates), rounded up to replicates x 2^k
-    std::uint32_t replicates = 4;
+    // Sample rounds until every texel's relative 95% error bar is at most this (docs/ibl.md); 0: `samples` per texel.
+    double tolerance = 0.02;
+    std::uint64_t samples = 256;     // GGX samples per texel (all replicates; the first round's with a tolerance), rounded up to replicates x 2^k
+    std::uint64_t max_samples = 1u << 16;  // with a tolerance, at most this many per texel
+    std::uint32_t replicates = 16;
     std::uint64_t seed = 0;
     bool filtered = true;            // false: every sample read from the full-resolution source
     double lod_bias = 0;
-    double bright_threshold = 0;     // > 0: sum texels brighter than this x the mean radiance explicitly
-    double bright_min_roughness = 0.2;
+    bool bright_auto = true;         // bright texels summed explicitly, chosen for the tolerance
+    double bright_threshold = 0;     // > 0: sum texels brighter than this x the mean radiance explicitly (instead of bright_auto)
+    double bright_min_roughness = 0;
     std::uint32_t wide_samples_factor = 1;
-    std::uint64_t bright_max = 1024;
+    std::uint64_t bright_max = 4096;
     std::string device;              // empty: C++ on CPU threads; else OpenCL devices
     unsigned threads = 0;            // CPU threads (0: all)
-    std::uint32_t verify = 0;        // > 0: compare this many random texels with the brute-force oracle
+    std::uint32_t verify = 0;        // > 0: compare this many random texels with the brute-force oracle; throws when one is outside its bars
     std::uint32_t irradiance_size = 32;  // the SH irradiance cubemap's face size
 };
 

@@ -1179,15 +1179,18 @@ def ibl_prefilter(
     size: int = 0,
     levels: int = 0,
     mapping: str = "cmgen",
+    tolerance: float = 0.02,
     samples: int = 256,
-    replicates: int = 4,
+    max_samples: int = 1 << 16,
+    replicates: int = 16,
     seed: int = 0,
     no_fis: bool = False,
     lod_bias: float = 0.0,
+    bright: str = "auto",
     bright_threshold: float = 0.0,
-    bright_min_roughness: float = 0.2,
+    bright_min_roughness: float = 0.0,
     wide_samples_factor: int = 1,
-    bright_max: int = 1024,
+    bright_max: int = 4096,
     device: Optional[str] = None,
     threads: int = 0,
     verify: int = 0,
@@ -1202,14 +1205,18 @@ def ibl_prefilter(
             face files +X -X +Y -Y +Z -Z.
         size: the base face size, a power of two (0: the source's). levels: mips (0: down to 4 x 4).
         mapping: roughness per mip, "cmgen" (r = 1 - sqrt(1 - m / (levels - 1))) or "linear".
-        samples: GGX samples per texel, 16 to 2^20 (all replicates); replicates: 2 to 64; seed.
+        tolerance: sample each texel until its relative 95% error bar (t over the replicates plus the
+            explicit part's bound) is at most this, 0 to 1 (0: a fixed `samples` per texel); docs/ibl.md.
+        samples: GGX samples per texel, 16 to 2^20 (all replicates; the first round's with a tolerance);
+            max_samples: with a tolerance, at most this many per texel; replicates: 2 to 64; seed.
         no_fis: read every sample from the full-resolution source (no filtered importance sampling).
         lod_bias: filtered importance sampling's LOD bias, -16 to 16.
-        bright_threshold: > 0 sums texels brighter than this x the mean radiance explicitly (at most
-            bright_max), on the mips of roughness >= bright_min_roughness, whose samples are multiplied by
-            wide_samples_factor.
+        bright: "auto" sums the bright texels explicitly, chosen for the tolerance (at most bright_max), or
+            "off"; bright_threshold: > 0 takes those brighter than this x the mean radiance instead; on the mips
+            of roughness >= bright_min_roughness, whose first samples are multiplied by wide_samples_factor.
         device: OpenCL devices for the kernel (None: C++ on CPU threads, `threads` of them, 0: all).
-        verify: > 0 compares that many random texels with the brute-force oracle (in the metadata).
+        verify: > 0 compares that many random texels with the brute-force oracle (in the metadata) and raises
+            when one is outside its bars.
         irradiance_size: the SH irradiance cubemap's face size.
         progress: True prints progress on stderr; a callable gets (texels done, texels).
     """
@@ -1220,6 +1227,10 @@ def ibl_prefilter(
         raise ValueError(f"size = {size!r}: a power of two (0: the source's)")
     _count("levels", levels, 0, 13)
     _count("samples", samples, 16, 1 << 20)
+    _count("max_samples", max_samples, 16, 1 << 24)
+    if max_samples < samples:
+        raise ValueError(f"max_samples = {max_samples!r}: at least samples ({samples!r})")
+    _choice("bright", bright, ("auto", "off"))
     _count("replicates", replicates, 2, 64)
     _count("seed", seed, 0, 2**64 - 1)
     _count("wide_samples_factor", wide_samples_factor, 1, 64)
@@ -1229,9 +1240,9 @@ def ibl_prefilter(
     _count("irradiance_size", irradiance_size, 1, 1024)
     if device is not None and not isinstance(device, str):
         raise ValueError(f"device = {device!r}: 'default', 'all', an index or part of a name, as a string")
-    native = _core.prefilter(image, files, int(size), int(levels), mapping, int(samples), int(replicates), int(seed),
-                             not no_fis, _real("lod_bias", lod_bias, -16, 16),
-                             _real("bright_threshold", bright_threshold, 0, 1e12),
+    native = _core.prefilter(image, files, int(size), int(levels), mapping, _real("tolerance", tolerance, 0, 1), int(samples),
+                             int(max_samples), int(replicates), int(seed), not no_fis, _real("lod_bias", lod_bias, -16, 16),
+                             bright == "auto", _real("bright_threshold", bright_threshold, 0, 1e12),
                              _real("bright_min_roughness", bright_min_roughness, 0, 1), int(wide_samples_factor),
                              int(bright_max), device or "", int(threads), int(verify), int(irradiance_size),
                              _progress("ibl prefilter", progress))

@@ -560,8 +560,9 @@ PYBIND11_MODULE(_microshadow, m) {
     m.def(
         "prefilter",
         [](const std::string& image, const std::vector<std::string>& faces, std::uint32_t size, std::uint32_t levels,
-           const std::string& mapping, std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed, bool filtered,
-           double lod_bias, double bright_threshold, double bright_min_roughness, std::uint32_t wide_samples_factor,
+           const std::string& mapping, double tolerance, std::uint64_t samples, std::uint64_t max_samples, std::uint32_t replicates,
+           std::uint64_t seed, bool filtered, double lod_bias, bool bright_auto, double bright_threshold, double bright_min_roughness,
+           std::uint32_t wide_samples_factor,
            std::uint64_t bright_max, const std::string& device, unsigned threads, std::uint32_t verify,
            std::uint32_t irradiance_size, const py::object& progress) {
             PrefilterOptions o;
@@ -569,11 +570,14 @@ PYBIND11_MODULE(_microshadow, m) {
             o.size = size;
             o.levels = levels;
             o.mapping = mapping;
+            o.tolerance = tolerance;
+            o.max_samples = max_samples;
             o.samples = samples;
             o.replicates = replicates;
             o.seed = seed;
             o.filtered = filtered;
             o.lod_bias = lod_bias;
+            o.bright_auto = bright_auto;
             o.bright_threshold = bright_threshold;
             o.bright_min_roughness = bright_min_roughness;
             o.wide_samples_factor = wide_samples_factor;
@@ -584,8 +588,8 @@ PYBIND11_MODULE(_microshadow, m) {
             o.irradiance_size = irradiance_size;
             return run_long(progress, [&](const Progress& p) { return prefilter(o, p); });
         },
-        "image"_a, "faces"_a, "size"_a, "levels"_a, "mapping"_a, "samples"_a, "replicates"_a, "seed"_a, "filtered"_a,
-        "lod_bias"_a, "bright_threshold"_a, "bright_min_roughness"_a, "wide_samples_factor"_a, "bright_max"_a, "device"_a,
+        "image"_a, "faces"_a, "size"_a, "levels"_a, "mapping"_a, "tolerance"_a, "samples"_a, "max_samples"_a, "replicates"_a, "seed"_a,
+        "filtered"_a, "lod_bias"_a, "bright_auto"_a, "bright_threshold"_a, "bright_min_roughness"_a, "wide_samples_factor"_a, "bright_max"_a, "device"_a,
         "threads"_a, "verify"_a, "irradiance_size"_a, "progress"_a);
 
     py::class_<IrradianceMap>(m, "IrradianceMap")

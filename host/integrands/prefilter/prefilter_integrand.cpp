@@ -4,17 +4,16 @@
 #include <stdexcept>
 
 #include "core/cancel.hpp"
-#include "core/estimate.hpp"
 
 namespace ms::prefilter {
 
 PrefilterIntegrand::PrefilterIntegrand(const SourceChain& chain, std::vector<Target> targets, std::size_t per_item,
-                                       const PointSet& points, RoutineConfig config, CpuEstimate cpu)
+                                       const PointSet& points, RoutineConfig config, CpuSums cpu)
     : chain_(chain), targets_(std::move(targets)), per_item_(std::max<std::size_t>(1, per_item)), points_(points),
       config_(std::move(config)), cpu_(std::move(cpu)) {
     for (const auto& t : targets_)
         if (!(t.roughness > 0)) throw std::invalid_argument("prefilter: roughness must be > 0 (roughness 0 is the source)");
-    values_.resize(targets_.size());
+    sums_.assign(targets_.size() * 4 * std::size_t(points_.replicates), 0.0);
 }
 
 class PrefilterDeviceWorker final : public schedule::Worker {
@@ -71,17 +70,8 @@ public:
             device_.queue().enqueueReadBuffer(obuf, CL_TRUE, 0, sums.size() * sizeof(float), sums.data());
             return 0;
         });
-        std::vector<double> num(R), den(R);
-        for (std::size_t i = 0; i < count; ++i) {
-            Value& v = owner_.values_[first + i];
-            for (std::uint32_t r = 0; r < R; ++r) den[r] = sums[(i * R + r) * 4 + 3];
-            for (int c = 0; c < 3; ++c) {
-                for (std::uint32_t r = 0; r < R; ++r) num[r] = sums[(i * R + r) * 4 + c];
-                const Estimate e = reduce_replicates(num.data(), den.data(), R);
-                v.value[c] = e.term;
-                v.std_error[c] = e.std_error;
-            }
-        }
+        // The item's slots are [first * 4 R, (first + count) * 4 R): the kernel's layout, widened to double.
+        std::copy(sums.begin(), sums.end(), owner_.sums_.begin() + std::ptrdiff_t(first * 4 * R));
     }
 
 private:
@@ -98,9 +88,10 @@ public:
     void run(std::uint64_t id) override {
         const std::size_t first = id * owner_.per_item_;
         const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
+        const std::size_t stride = 4 * std::size_t(owner_.points_.replicates);
         for (std::size_t i = 0; i < count; ++i) {
             throw_if_cancelled();
-            owner_.values_[first + i] = owner_.cpu_(owner_.targets_[first + i]);
+            owner_.cpu_(owner_.targets_[first + i], owner_.points_, owner_.sums_.data() + (first + i) * stride);
         }
     }
 

@@ -1,8 +1,10 @@
 // The GGX prefilter (split-sum, N = V = R) as an integrand: items are runs of output directions, each
-// with its roughness; the kernel routine is kernels/prefilter/prefilter.cl (per-replicate sums, reduced on
-// the host with ms::reduce_replicates). The integrand sees the source only as packed arrays, so it needs
-// no image types; its "oracle" worker is a callback the job supplies (host/env/prefilter.hpp's scalar
-// double estimator on the same points, or the brute-force oracle).
+// with its roughness; the kernel routine is kernels/prefilter/prefilter.cl. Each target's result is its
+// per-replicate tallies on the integrand's point set, sums()[(k R + r) 4 + c]: c < 3 the numerators
+// sum L_c (n.l), c = 3 the denominator sum (n.l), so a job can add rounds of samples on independent point
+// sets replicate by replicate and reduce them with ms::reduce_replicates when it likes. The integrand sees
+// the source only as packed arrays, so it needs no image types; its "oracle" worker is a callback the job
+// supplies (host/env/prefilter.hpp's scalar double estimator on the same points).
 #pragma once
 
 #include <array>
@@ -23,10 +25,6 @@ struct Target {
     double roughness = 0.5;      // perceptual, > 0 (alpha = roughness^2)
 };
 
-struct Value {
-    std::array<double, 3> value{}, std_error{};
-};
-
 struct SourceChain {
     std::vector<float> rgb;             // level-major, each level face-major, rows, RGB texels
     std::vector<std::uint32_t> offset;  // texel offset of each level
@@ -42,14 +40,16 @@ struct RoutineConfig {
 
 class PrefilterIntegrand final : public schedule::Integrand {
 public:
-    using CpuEstimate = std::function<Value(const Target&)>;  // thread-safe
+    // Adds one target's tallies on `points` into sums[4 R] (zeroed by the caller); thread-safe.
+    using CpuSums = std::function<void(const Target&, const PointSet& points, double* sums)>;
     PrefilterIntegrand(const SourceChain& chain, std::vector<Target> targets, std::size_t per_item, const PointSet& points,
-                       RoutineConfig config, CpuEstimate cpu);
+                       RoutineConfig config, CpuSums cpu);
     std::string name() const override { return "GGX prefiltering"; }
     std::uint64_t work_items() const override { return (targets_.size() + per_item_ - 1) / per_item_; }
     std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
     std::unique_ptr<schedule::Worker> oracle_worker() override;
-    const std::vector<Value>& values() const { return values_; }
+    std::uint32_t replicates() const { return points_.replicates; }
+    const std::vector<double>& sums() const { return sums_; }  // [(k R + r) 4 + c]
 
 private:
     friend class PrefilterDeviceWorker;
@@ -59,8 +59,8 @@ private:
     std::size_t per_item_;
     const PointSet& points_;
     RoutineConfig config_;
-    CpuEstimate cpu_;
-    std::vector<Value> values_;
+    CpuSums cpu_;
+    std::vector<double> sums_;
 };
 
 }  // namespace ms::prefilter

@@ -45,11 +45,11 @@ void run_eval(const EvalArgs& args) {
         n_dot_l[i] = in.n_dot_l;
         for (std::size_t k = 0; k < comparators.size(); ++k) {
             if (domains[k]) {
-                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
                 outside[k].add(inside);
                 if (!inside && first_outside[k].empty())
                     first_outside[k] = "query " + std::to_string(i + 1) + ": " +
-                                       domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                                       domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
             }
             try {
                 compared[k][i] = comparators[k](in);

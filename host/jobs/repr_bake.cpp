@@ -71,6 +71,11 @@ struct Config {
 // The configurations of one slab: dphi at cell centres, rho spread evenly over its allowed values.
 std::vector<Config> slab_configs(double alpha_v, double alpha_l, const AnisotropicBakeSpec& s) {
     std::vector<Config> out;
+    // A surface's ratio is at least that of its projected alphas, so a slab whose nodes are further
+    // apart than max_ratio holds no surface of the domain; the lookup still blends it in for surfaces
+    // near the ratio limit, so it is fitted to the least anisotropic surfaces that reach it (ratio up to
+    // twice its nodes' ratio) rather than left at 0.
+    const double max_ratio = std::max(s.max_ratio, 2 * std::max(alpha_v / alpha_l, alpha_l / alpha_v));
     for (std::uint32_t a = 0; a < s.azimuth_configs; ++a) {
         const double dphi = kPi * (a + 0.5) / s.azimuth_configs;
         // The allowed correlations at this dphi, found on a fine scan (the ratio grows without bound
@@ -80,13 +85,13 @@ std::vector<Config> slab_configs(double alpha_v, double alpha_l, const Anisotrop
         for (int k = 1; k < scan; ++k) {
             const double rho = -1 + 2.0 * k / scan;
             Surface sf;
-            if (surface_of(alpha_v, alpha_l, rho, dphi, s.max_ratio, sf)) lo = std::min(lo, rho), hi = std::max(hi, rho);
+            if (surface_of(alpha_v, alpha_l, rho, dphi, max_ratio, sf)) lo = std::min(lo, rho), hi = std::max(hi, rho);
         }
         if (lo > hi) continue;
         for (std::uint32_t b = 0; b < s.correlation_configs; ++b) {
             const double rho = s.correlation_configs == 1 ? 0.5 * (lo + hi) : lo + (hi - lo) * b / (s.correlation_configs - 1);
             Config c{dphi, rho, {}};
-            if (surface_of(alpha_v, alpha_l, rho, dphi, s.max_ratio, c.surface)) out.push_back(c);
+            if (surface_of(alpha_v, alpha_l, rho, dphi, max_ratio, c.surface)) out.push_back(c);
         }
     }
     return out;
@@ -207,6 +212,13 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
     return bake;
 }
 
+std::vector<AnisotropicSurface> anisotropic_surfaces(const AnisotropicBakeSpec& spec, double alpha_v, double alpha_l) {
+    std::vector<AnisotropicSurface> out;
+    for (const Config& c : slab_configs(alpha_v, alpha_l, spec))
+        out.push_back({c.dphi, c.rho, c.surface.alpha_x, c.surface.alpha_y, c.surface.axis_angle});
+    return out;
+}
+
 std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec, TermBackend& backend,
                                                  const std::function<void(std::size_t, std::size_t)>& progress,
                                                  const std::string& preset_name, std::optional<LookupDomain> domain) {
@@ -227,7 +239,7 @@ std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec
             total += c.size() * block;
         }
     if (total > (std::size_t(1) << 26)) throw std::invalid_argument("anisotropic bake: more than 2^26 texel x configuration queries");
-    double bound = 0, max_error = 0, fit_sum = 0, fit_weight = 0;
+    double bound = 0, max_error = 0, fit_sum = 0, fit_weight = 0, fit_max = 0;
     std::size_t done = 0;
     // One slab at a time (its queries, their exact values, the fit), so memory stays one slab's.
     for (std::uint32_t jv = 0; jv < R; ++jv)
@@ -277,6 +289,7 @@ std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec
                     const double sum = coef[0] + coef[1] * cd + coef[2] * (2 * cd * cd - 1) + coef[3] * c[i].rho;
                     const double e = std::clamp(sum, 0.0, 1.0) - values[i * block + texel].term;
                     fit_sum += w * e * e, fit_weight += w;
+                    fit_max = std::max(fit_max, std::abs(e));
                 }
                 const std::size_t x = std::size_t(jl) * g.visibility + iv, z = std::size_t(jv) * g.n_dot_v + ivv;
                 for (int a = 0; a < kTerms; ++a) rgba[((z * height + il) * width + x) * 4 + a] = float(coef[a]);
@@ -288,6 +301,7 @@ std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec
                            {"azimuth_configs", spec.azimuth_configs},   {"correlation_configs", spec.correlation_configs},
                            {"max_ratio", spec.max_ratio},               {"max_std_error", max_error},
                            {"fit_rms", fit_weight > 0 ? std::sqrt(fit_sum / fit_weight) : 0.0},
+                           {"fit_max", fit_max},
                            {"seconds", seconds},                        {"device", backend.name()},
                            {"command_line", spec.command_line},         {"version", MICROSHADOW_VERSION}};
     if (spec.plan.method == Method::exact) bake["exact"] = exact_provenance(spec.plan);

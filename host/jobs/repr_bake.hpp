@@ -35,6 +35,15 @@ std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec
                                                  const std::string& preset_name = "",
                                                  std::optional<LookupDomain> domain = std::nullopt);
 
+// The surfaces bake_anisotropic fits for a slab of projected alphas (alpha_v, alpha_l) = node^2: the
+// relative azimuth dphi and slope correlation rho, the surface's alphas along its principal axes and
+// the angle of its first axis from V's azimuth (its query: V at azimuth -axis_angle, L at
+// dphi - axis_angle in the surface's frame).
+struct AnisotropicSurface {
+    double dphi, rho, alpha_x, alpha_y, axis_angle;
+};
+std::vector<AnisotropicSurface> anisotropic_surfaces(const AnisotropicBakeSpec& spec, double alpha_v, double alpha_l);
+
 // Bakes a preset with the exact method (its default tolerance) on `backend` and builds it; the bake's
 // metadata records the preset's name and domain.
 std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,

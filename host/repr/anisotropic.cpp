@@ -154,8 +154,9 @@ public:
           << "    float y0 = (tl + 0.5) * " << L(1.0 / texture_.height) << ", y1 = (tl1 + 0.5) * " << L(1.0 / texture_.height) << ";\n"
           << "    float z0 = (jv * " << L(grid_.n_dot_v) << " + tz + 0.5) * " << L(1.0 / texture_.depth) << ";\n"
           << "    float z1 = z0 + " << L(double(grid_.n_dot_v) / texture_.depth) << ";\n"
-          << "    float low = MIX(dot(FETCH(VEC3(x0, y0, z0)), basis), dot(FETCH(VEC3(x1, y1, z0)), basis), fl);\n"
-          << "    float high = MIX(dot(FETCH(VEC3(x0, y0, z1)), basis), dot(FETCH(VEC3(x1, y1, z1)), basis), fl);\n"
+          << "    VEC3 c00 = VEC3(x0, y0, z0), c10 = VEC3(x1, y1, z0), c01 = VEC3(x0, y0, z1), c11 = VEC3(x1, y1, z1);\n"
+          << "    float low = MIX(dot(FETCH(c00), basis), dot(FETCH(c10), basis), fl);\n"
+          << "    float high = MIX(dot(FETCH(c01), basis), dot(FETCH(c11), basis), fl);\n"
           << "    return clamp(MIX(low, high, fv), 0.0, 1.0);\n}\n";
         return finish_shader(o.str(), language);
     }

@@ -169,7 +169,7 @@ void add_eval_command(CLI::App& app) {
                     "one of part 1's analytic terms (reference-step, naughty-dog, naughty-dog-ao-fresnel, activision, "
                     "activision-adjusted, pz-analytic), a baked LUT file (.exr, column named after the file stem) or "
                     "NAME=FILE; each reads visibility, NdotL = wo_z, NdotV = wi_z (normalised) and the "
-                    "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do");
+                    "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do; the anisotropic preset (or a file of it) reads alpha_x, alpha_y and the azimuths of wi and wo from the tangent");
     cmd->add_flag("--strict-domain", args->strict_domain,
                   "refuse (exit status 2, nothing written) when a query lies outside a --compare file's domain (the "
                   "roughness, visibility and NdotV ranges its metadata records); without it such queries are answered, "

@@ -18,7 +18,7 @@ start=$(date +%s)
 echo "anisotropic bake: $(( $(date +%s) - start )) s wall"
 [ -f "$out/full-range.exr" ] || "$ms" repr bake -q --preset full-range --out "$out/full-range.exr"
 [ -f "$out/lut3d.exr" ] || "$ms" bake -q --out "$out/lut3d.exr"
-python3 "$here/repr_queries.py" anisotropic "$out/queries-anisotropic.csv" "$count" 24
+python3 "$here/repr_queries.py" anisotropic "$out/queries-anisotropic.csv" "$count" 1
 "$ms" eval -q --backend oracle --in "$out/queries-anisotropic.csv" --out "$out/results-anisotropic.csv" \
     --compare "anisotropic=$out/anisotropic.exr" --compare "full-range=$out/full-range.exr" --compare "lut3d=$out/lut3d.exr"
 python3 - "$out" <<'PY'

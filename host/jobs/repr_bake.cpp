@@ -30,7 +30,7 @@ void validate(const AzimuthBakeSpec& s) {
 }
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kTerms = 4;  // a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 (rho - cos dphi) / sin dphi (repr/anisotropic.cpp)
+constexpr int kTerms = 4;  // a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho (repr/anisotropic.cpp)
 
 bool is_geometric(const std::vector<double>& r) {
     if (r.size() < 2) return true;
@@ -104,8 +104,7 @@ std::vector<std::array<double, kTerms>> fit_map(const std::vector<Config>& confi
     std::vector<std::array<double, kTerms>> basis(n);
     for (std::size_t i = 0; i < n; ++i) {
         const double c = std::cos(configs[i].dphi);
-        // d = (rho - cos dphi) / sin dphi (repr/anisotropic.cpp); dphi sits at cell centres, never near 0 or pi.
-        basis[i] = {1, c, 2 * c * c - 1, (configs[i].rho - c) / std::sqrt(std::max(1 - c * c, 1e-12))};
+        basis[i] = {1, c, 2 * c * c - 1, configs[i].rho};
         for (int a = 0; a < kTerms; ++a)
             for (int b = 0; b < kTerms; ++b) A[a][b] += basis[i][a] * basis[i][b];
     }
@@ -287,8 +286,7 @@ std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec
                 const double w = g.n_dot_l_at(iv, il, jl);
                 for (std::size_t i = 0; i < c.size(); ++i) {
                     const double cd = std::cos(c[i].dphi);
-                    const double dev = (c[i].rho - cd) / std::sqrt(std::max(1 - cd * cd, 1e-12));
-                    const double sum = coef[0] + coef[1] * cd + coef[2] * (2 * cd * cd - 1) + coef[3] * dev;
+                    const double sum = coef[0] + coef[1] * cd + coef[2] * (2 * cd * cd - 1) + coef[3] * c[i].rho;
                     const double e = std::clamp(sum, 0.0, 1.0) - values[i * block + texel].term;
                     fit_sum += w * e * e, fit_weight += w;
                     fit_max = std::max(fit_max, std::abs(e));

@@ -8,12 +8,13 @@
 // (alpha_x, alpha_y, phi_v, phi_l) one for one (Sigma = B^-T M B^-1, B = [u_v u_l], M the 2 x 2
 // covariance in that frame), so the term is exactly a function of
 //     (visibility, NdotL, NdotV, alpha_v, alpha_l, rho, dphi);
-// an isotropic surface is the slice alpha_v = alpha_l, rho = cos dphi. Measured on random queries up to
-// ratio 25 (docs/representations.md): no isotropic lookup at any single mapped roughness does better
-// than RMS 0.06, and dropping any one of the four costs 0.04-0.06, but at fixed (v, NdotL, NdotV,
-// alpha_v, alpha_l) the term is close to a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 d (least squares
-// over every (rho, dphi) with ratio <= 25: RMS 0.02), the isotropic series' first three terms plus one
-// in the correlation.
+// (checked: 300 random queries up to ratio 25 and the surfaces rebuilt from these four agree to 1e-8
+// with the exact method). An isotropic surface is the slice alpha_v = alpha_l, rho = cos dphi. Per texel
+// and pair of (alpha_v, alpha_l) nodes the term is fitted as a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho.
+// Measured (docs/representations.md, "Anisotropic surfaces"): this 4-term fit misses the term by RMS
+// 0.035 (max 0.47) at the bake's own surfaces and texels, and by RMS 0.10 on random queries up to
+// ratio 25, short of the 0.03 aimed at; a3 (rho - cos dphi) / sin dphi instead of a3 rho scored worse
+// (0.106). Its value is a layout, lookup and shader that are exact to the derivation, to build on.
 //
 // Layout. Roughness nodes r_k (geometric) stand for projected alphas r_k^2 on both roughness axes. A 3D
 // texture of width nv R (slot j_l of nv visibility texels for the light's node j_l, as the azimuth axis
@@ -45,17 +46,6 @@ namespace ms::repr {
 namespace {
 
 constexpr int kTerms = 4;
-constexpr double kDeviationFloor = 0.01;
-
-// d = (rho - cos dphi) / sin dphi: 0 on the isotropic slice, so a0 + a1 cos + a2 cos 2 is the isotropic
-// series there and a3 carries the anisotropy. The allowed rho at a given ratio span an interval
-// ~ sin(dphi) wide around cos(dphi), so d spreads alike at every dphi. Where sin(dphi) < 0.01 (within
-// 0.6 degrees of V's and L's azimuths lining up) rho - cos dphi = O(dphi^2) and d = O(dphi): 0 stands for it
-// (and avoids dividing the float rounding of rho - cos dphi by a vanishing sine in the shader).
-double correlation_deviation(double rho, double cos_dphi) {
-    const double s = std::sqrt(std::max(1 - cos_dphi * cos_dphi, 0.0));
-    return s > kDeviationFloor ? (rho - cos_dphi) / s : 0.0;
-}
 
 // The slab and weight of a value between geometric nodes (in log roughness), clamped to the ends.
 struct NodePosition {
@@ -84,14 +74,14 @@ public:
     std::string kind() const override { return "anisotropic-harmonics"; }
     std::string name() const override {
         std::ostringstream o;
-        o << "anisotropic harmonics a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 d: " << grid_.visibility << " visibility ("
+        o << "anisotropic harmonics a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho: " << grid_.visibility << " visibility ("
           << to_string(grid_.warps.visibility) << ") x " << grid_.n_dot_l << " NdotL (" << to_string(grid_.warps.n_dot_l) << ") x "
           << grid_.n_dot_v << " NdotV (" << to_string(grid_.warps.n_dot_v) << ") x " << grid_.roughness.size() << " view x "
           << grid_.roughness.size() << " light projected roughness:";
         for (double r : grid_.roughness) o << " " << r;
         return o.str();
     }
-    std::vector<std::string> channel_names() const override { return {"cos0phi", "cos1phi", "cos2phi", "rhodev"}; }
+    std::vector<std::string> channel_names() const override { return {"cos0phi", "cos1phi", "cos2phi", "rho"}; }
     std::array<double, 2> channel_range(std::size_t) const override { return {-bound_, bound_}; }
 
     double operator()(const approx::Inputs& in) const override {
@@ -105,7 +95,7 @@ public:
         const double av2 = ax * ax * cv * cv + ay * ay * sv * sv, al2 = ax * ax * cl * cl + ay * ay * sl * sl;
         const double rho = (ax * ax * cv * cl + ay * ay * sv * sl) / std::sqrt(av2 * al2);
         const double cd = cv * cl + sv * sl;
-        const double basis[kTerms] = {1, cd, 2 * cd * cd - 1, correlation_deviation(rho, cd)};
+        const double basis[kTerms] = {1, cd, 2 * cd * cd - 1, rho};
         const auto& r = grid_.roughness;
         const NodePosition v = geometric_position(r, std::sqrt(std::sqrt(av2))), l = geometric_position(r, std::sqrt(std::sqrt(al2)));
         const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(in.n_dot_v);
@@ -131,7 +121,7 @@ public:
         o << shader_common(source_name);
         o << "// Anisotropic entry point: V and L are unit vectors in the tangent frame (x = tangent, y = bitangent,\n"
           << "// z = normal), alpha_x and alpha_y the GGX roughness along x and y. RGBA = a0..a3 of\n"
-          << "// a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 d; x = light node j_l * " << grid_.visibility
+          << "// a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho; x = light node j_l * " << grid_.visibility
           << " + visibility texel, z = view node j_v * " << grid_.n_dot_v << " + NdotV texel; nodes at roughness";
         for (double x : r) o << " " << x;
         o << " (projected alpha = node^2).\n";
@@ -148,11 +138,7 @@ public:
           << "    float av2 = dot(a2, uv_d * uv_d), al2 = dot(a2, ul_d * ul_d);\n"
           << "    float rho = dot(a2, uv_d * ul_d) / sqrt(av2 * al2);\n"
           << "    float cd = dot(uv_d, ul_d);\n"
-          << "    // The correlation's deviation from an isotropic surface's, per unit sin(dphi) (0 within 0.6 degrees of\n"
-          << "    // dphi = 0 or 180, where it vanishes as dphi).\n"
-          << "    float sd = sqrt(max(1.0 - cd * cd, 0.0));\n"
-          << "    float dev = sd > " << L(kDeviationFloor) << " ? (rho - cd) / sd : 0.0;\n"
-          << "    VEC4 basis = VEC4(1.0, cd, 2.0 * cd * cd - 1.0, dev);\n"
+          << "    VEC4 basis = VEC4(1.0, cd, 2.0 * cd * cd - 1.0, rho);\n"
           << "    // Nodes r_k = " << L(r[0]) << " * " << L(q) << "^k: the position of sqrt(alpha) in log roughness.\n"
           << "    float kv = clamp(log(sqrt(sqrt(av2)) * " << L(1 / r[0]) << ") * " << L(1 / std::log(q)) << ", 0.0, "
           << L(double(r.size() - 1)) << ");\n"

@@ -149,7 +149,7 @@ public:
 
 // The anisotropic term (anisotropic.cpp derives it): "anisotropic-harmonics", per texel of (visibility,
 // NdotL, NdotV) and per pair of nodes of the projected roughness along V and along L, the least-squares
-// series a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 (rho - cos dphi) / sin(dphi) over surfaces of every slope correlation rho and
+// series a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho over surfaces of every slope correlation rho and
 // relative azimuth dphi with alpha ratio <= max_ratio. Its lookup reads approx::Inputs' alpha_x,
 // alpha_y and tangent-relative azimuths (an isotropic caller's roughness and relative azimuth when the
 // alphas are unset); its shader's entry point takes V and L in the tangent frame and alpha_x, alpha_y.

@@ -186,8 +186,9 @@ std::string anisotropic_hlsl_wrapper(const std::string& generated) {
 // The anisotropic preset's layout on a small grid with random coefficients in [-1, 1]: the shaders
 // take the renderer's tangent-frame V and L and alpha_x, alpha_y, and agree with the C++ lookup fed the
 // same query (approx::inputs_of). Tolerance 1e-4, wider than the isotropic kinds' 2e-5 for one measured
-// reason: float rounding of NdotL (6e-8) is divided by the edge warp's width, down to alpha^2 = 6e-6
-// times sin(theta_c) at the lowest node, and four series with coefficients up to 1 are blended; a wrong
+// reason: float rounding of NdotL (6e-8) is divided by the edge warp's width w = alpha max(sin theta_c,
+// alpha), at least 1e-4 at the lowest node (alpha = 0.01), and four series with coefficients up to 1 are
+// blended (6e-8 / 1e-4 x 5 texels / 4 asinh units ~ 1e-4 at worst); a wrong
 // slab, node weight, rho or azimuth errs by the coefficients' spread, ~0.5.
 TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
     if (!have_glslang()) GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";

@@ -31,6 +31,12 @@ struct Inputs {
     // (0: L on V's side, pi: opposite). Part 2's LUTs and part 1's terms ignore it; representations
     // that keep the azimuth read it. 0 when either direction is along the normal.
     double relative_azimuth = 0;
+    // The anisotropic surface in its tangent frame (x = tangent, y = bitangent): alpha_x, alpha_y and
+    // the azimuths of V's and L's projections measured from the tangent, in radians. inputs_of fills
+    // them from a query's directions; alpha_x = 0 (unset) means isotropic with alpha = roughness^2, V at
+    // azimuth 0 and L at relative_azimuth. Only representations of the anisotropic term read them.
+    double alpha_x = 0, alpha_y = 0;
+    double view_azimuth = 0, light_azimuth = 0;
 };
 
 // What an approximation costs a renderer per light: texture memory, filtered fetches and an ALU
@@ -66,7 +72,7 @@ double isotropic_roughness(double alpha_x, double alpha_y);
 
 // The inputs of a query: NdotV = wi_z and NdotL = wo_z of the normalised directions, roughness =
 // isotropic_roughness(alpha_x, alpha_y), relative_azimuth = the angle between the tangent-plane
-// projections of wi and wo.
+// projections of wi and wo; alpha_x, alpha_y and the tangent-relative azimuths of wi and wo.
 Inputs inputs_of(const Query& q, AoWeighting weighting);
 
 }  // namespace ms::approx

@@ -206,7 +206,7 @@ void add_design_command(CLI::App& app) {
                     "a point per core for ~5e-4), and references need accuracy")->required();
     cmd->add_option("--cache", args->cache, "folder of cached reference sets (resumable chunks while computing)")->capture_default_str();
     cmd->add_option("--lut", args->luts, "a baked LUT (.exr) as a candidate, FILE or NAME=FILE (repeatable)");
-    cmd->add_option("--repr", args->reprs, "a representation as a candidate: a file (`microshadow repr bake`) or a preset's name (realistic, full-range; baked "
+    cmd->add_option("--repr", args->reprs, "a representation as a candidate: a file (`microshadow repr bake`) or a preset's name (realistic, full-range, anisotropic; baked "
                     "here), FILE or NAME=FILE (repeatable)");
     cmd->add_option("--closed-form", args->closed_forms, "a fitted closed form (JSON written by design) as a candidate (repeatable)");
     cmd->add_option("--fit-reference", args->fit_reference,

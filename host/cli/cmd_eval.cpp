@@ -45,11 +45,11 @@ void run_eval(const EvalArgs& args) {
         n_dot_l[i] = in.n_dot_l;
         for (std::size_t k = 0; k < comparators.size(); ++k) {
             if (domains[k]) {
-                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
                 outside[k].add(inside);
                 if (!inside && first_outside[k].empty())
                     first_outside[k] = "query " + std::to_string(i + 1) + ": " +
-                                       domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                                       domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
             }
             try {
                 compared[k][i] = comparators[k](in);
@@ -169,7 +169,7 @@ void add_eval_command(CLI::App& app) {
                     "one of part 1's analytic terms (reference-step, naughty-dog, naughty-dog-ao-fresnel, activision, "
                     "activision-adjusted, pz-analytic), a baked LUT file (.exr, column named after the file stem) or "
                     "NAME=FILE; each reads visibility, NdotL = wo_z, NdotV = wi_z (normalised) and the "
-                    "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do");
+                    "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do; the anisotropic preset (or a file of it) reads alpha_x, alpha_y and the azimuths of wi and wo from the tangent");
     cmd->add_flag("--strict-domain", args->strict_domain,
                   "refuse (exit status 2, nothing written) when a query lies outside a --compare file's domain (the "
                   "roughness, visibility and NdotV ranges its metadata records); without it such queries are answered, "

@@ -94,7 +94,7 @@ Comparator Comparator::open_file(const std::string& name, const std::string& fil
 
 bool Comparator::in_domain(const approx::Inputs& in) const {
     const auto d = domain();
-    return !d || d->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+    return !d || d->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
 }
 
 nlohmann::json domain_report(const std::optional<LookupDomain>& domain, const DomainTally& tally) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 
 namespace ms::repr {
@@ -26,6 +27,128 @@ void validate(const AzimuthBakeSpec& s) {
     if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("representation bake: term and grid AO weightings differ");
     const std::uint64_t queries = std::uint64_t(g.visibility) * g.n_dot_l * g.n_dot_v * g.roughness.size() * s.azimuth_nodes;
     if (queries > (std::uint64_t(1) << 24)) throw std::invalid_argument("representation bake: more than 2^24 texels x nodes");
+}
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kTerms = 4;  // a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho (repr/anisotropic.cpp)
+
+bool is_geometric(const std::vector<double>& r) {
+    if (r.size() < 2) return true;
+    const double q = r[1] / r[0];
+    for (std::size_t k = 1; k < r.size(); ++k)
+        if (std::abs(r[k] / r[k - 1] - q) > 1e-6 * q) return false;
+    return true;
+}
+
+// A surface with projected roughnesses alpha_v, alpha_l along V at azimuth 0 and L at azimuth dphi, and
+// slope correlation rho along them: Sigma = B^-T M B^-1. Its roughness along its principal axes and the
+// angle of the first axis from V's azimuth; false when Sigma is not positive or the ratio exceeds max_ratio.
+struct Surface {
+    double alpha_x, alpha_y, axis_angle;
+};
+bool surface_of(double alpha_v, double alpha_l, double rho, double dphi, double max_ratio, Surface& out) {
+    const double b00 = 1, b10 = 0, b01 = std::cos(dphi), b11 = std::sin(dphi);  // columns u_v, u_l
+    const double det = b00 * b11 - b01 * b10;
+    if (!(std::abs(det) > 1e-9)) return false;
+    const double i00 = b11 / det, i01 = -b01 / det, i10 = -b10 / det, i11 = b00 / det;  // B^-1
+    const double m00 = alpha_v * alpha_v, m01 = rho * alpha_v * alpha_l, m11 = alpha_l * alpha_l;
+    // Sigma = (B^-1)^T M B^-1.
+    const double t00 = m00 * i00 + m01 * i10, t01 = m00 * i01 + m01 * i11, t10 = m01 * i00 + m11 * i10, t11 = m01 * i01 + m11 * i11;
+    const double s00 = i00 * t00 + i10 * t10, s01 = i00 * t01 + i10 * t11, s11 = i01 * t01 + i11 * t11;
+    const double half_trace = 0.5 * (s00 + s11), d = s00 * s11 - s01 * s01;
+    const double disc = std::sqrt(std::max(0.0, half_trace * half_trace - d));
+    const double l1 = half_trace + disc, l2 = half_trace - disc;
+    if (!(l2 > 0) || l1 / l2 > max_ratio * max_ratio * (1 + 1e-12)) return false;
+    out = {std::sqrt(l1), std::sqrt(l2), 0.5 * std::atan2(2 * s01, s00 - s11)};
+    return true;
+}
+
+struct Config {
+    double dphi, rho;
+    Surface surface;
+};
+
+// The configurations of one slab: dphi at cell centres, rho spread evenly over its allowed values.
+std::vector<Config> slab_configs(double alpha_v, double alpha_l, const AnisotropicBakeSpec& s) {
+    std::vector<Config> out;
+    // A surface's ratio is at least that of its projected alphas, so a slab whose nodes are further
+    // apart than max_ratio holds no surface of the domain; the lookup still blends it in for surfaces
+    // near the ratio limit, so it is fitted to the least anisotropic surfaces that reach it (ratio up to
+    // twice its nodes' ratio) rather than left at 0.
+    const double max_ratio = std::max(s.max_ratio, 2 * std::max(alpha_v / alpha_l, alpha_l / alpha_v));
+    for (std::uint32_t a = 0; a < s.azimuth_configs; ++a) {
+        const double dphi = kPi * (a + 0.5) / s.azimuth_configs;
+        // The allowed correlations at this dphi, found on a fine scan (the ratio grows without bound
+        // towards rho = +-1, so they form one interval around the isotropic cos(dphi) when alpha_v = alpha_l).
+        double lo = 2, hi = -2;
+        const int scan = 400;
+        for (int k = 1; k < scan; ++k) {
+            const double rho = -1 + 2.0 * k / scan;
+            Surface sf;
+            if (surface_of(alpha_v, alpha_l, rho, dphi, max_ratio, sf)) lo = std::min(lo, rho), hi = std::max(hi, rho);
+        }
+        if (lo > hi) continue;
+        for (std::uint32_t b = 0; b < s.correlation_configs; ++b) {
+            const double rho = s.correlation_configs == 1 ? 0.5 * (lo + hi) : lo + (hi - lo) * b / (s.correlation_configs - 1);
+            Config c{dphi, rho, {}};
+            if (surface_of(alpha_v, alpha_l, rho, dphi, max_ratio, c.surface)) out.push_back(c);
+        }
+    }
+    return out;
+}
+
+// The ridge least-squares map P (kTerms x n) from the configurations' values to the coefficients.
+std::vector<std::array<double, kTerms>> fit_map(const std::vector<Config>& configs) {
+    const std::size_t n = configs.size();
+    double A[kTerms][kTerms] = {};
+    std::vector<std::array<double, kTerms>> basis(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const double c = std::cos(configs[i].dphi);
+        basis[i] = {1, c, 2 * c * c - 1, configs[i].rho};
+        for (int a = 0; a < kTerms; ++a)
+            for (int b = 0; b < kTerms; ++b) A[a][b] += basis[i][a] * basis[i][b];
+    }
+    // The ridge: 1e-3 of the mean squared basis value on the higher terms keeps the fit defined on
+    // slabs whose configurations leave cos(dphi) and rho nearly collinear.
+    for (int a = 1; a < kTerms; ++a) A[a][a] += 1e-3 * double(std::max<std::size_t>(n, 1));
+    if (n == 0) A[0][0] = 1;
+    // Invert A (symmetric positive definite) by Gauss-Jordan.
+    double inv[kTerms][kTerms] = {};
+    for (int a = 0; a < kTerms; ++a) inv[a][a] = 1;
+    for (int col = 0; col < kTerms; ++col) {
+        const double p = A[col][col];
+        for (int k = 0; k < kTerms; ++k) A[col][k] /= p, inv[col][k] /= p;
+        for (int row = 0; row < kTerms; ++row) {
+            if (row == col) continue;
+            const double f = A[row][col];
+            for (int k = 0; k < kTerms; ++k) A[row][k] -= f * A[col][k], inv[row][k] -= f * inv[col][k];
+        }
+    }
+    std::vector<std::array<double, kTerms>> P(n);
+    for (std::size_t i = 0; i < n; ++i)
+        for (int a = 0; a < kTerms; ++a) {
+            double s = 0;
+            for (int b = 0; b < kTerms; ++b) s += inv[a][b] * basis[i][b];
+            P[i][a] = s;
+        }
+    return P;
+}
+
+void validate_anisotropic(const AnisotropicBakeSpec& s) {
+    const auto& g = s.grid;
+    for (auto n : {g.visibility, g.n_dot_l, g.n_dot_v})
+        if (n < 2 || n > 256) throw std::invalid_argument("anisotropic grid: every axis needs 2 to 256 texels");
+    if (g.roughness.size() < 2 || g.roughness.size() > 32) throw std::invalid_argument("anisotropic grid: 2 to 32 roughness nodes");
+    for (std::size_t i = 0; i < g.roughness.size(); ++i)
+        if (!(g.roughness[i] > 0 && g.roughness[i] <= 1) || (i && !(g.roughness[i] > g.roughness[i - 1])))
+            throw std::invalid_argument("anisotropic grid: roughness nodes must increase within (0, 1]");
+    if (!is_geometric(g.roughness)) throw std::invalid_argument("anisotropic grid: roughness nodes must be in geometric progression");
+    if (g.warps.n_dot_l != NdotLWarp::edge_roughness) throw std::invalid_argument("anisotropic grid: the NdotL warp is edge-roughness");
+    if (!(g.edge_width > 0 && g.edge_width <= 100)) throw std::invalid_argument("anisotropic grid: edge width must be in (0, 100]");
+    if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("anisotropic bake: term and grid AO weightings differ");
+    if (s.azimuth_configs < 2 || s.azimuth_configs > 64 || s.correlation_configs < 1 || s.correlation_configs > 64)
+        throw std::invalid_argument("anisotropic bake: 2 to 64 azimuth and 1 to 64 correlation configurations");
+    if (!(s.max_ratio >= 1 && s.max_ratio <= 1000)) throw std::invalid_argument("anisotropic bake: max ratio must be in [1, 1000]");
 }
 
 }  // namespace
@@ -89,8 +212,126 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
     return bake;
 }
 
+std::vector<AnisotropicSurface> anisotropic_surfaces(const AnisotropicBakeSpec& spec, double alpha_v, double alpha_l) {
+    std::vector<AnisotropicSurface> out;
+    for (const Config& c : slab_configs(alpha_v, alpha_l, spec))
+        out.push_back({c.dphi, c.rho, c.surface.alpha_x, c.surface.alpha_y, c.surface.axis_angle});
+    return out;
+}
+
+std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec, TermBackend& backend,
+                                                 const std::function<void(std::size_t, std::size_t)>& progress,
+                                                 const std::string& preset_name, std::optional<LookupDomain> domain) {
+    validate_anisotropic(spec);
+    const auto start = std::chrono::steady_clock::now();
+    const ReprGrid& g = spec.grid;
+    const std::uint32_t R = std::uint32_t(g.roughness.size());
+    const std::size_t block = std::size_t(g.visibility) * g.n_dot_l * g.n_dot_v;
+    const std::size_t width = std::size_t(g.visibility) * R, height = g.n_dot_l;
+    std::vector<float> rgba(width * height * g.n_dot_v * R * 4, 0.0f);
+    // Every slab's configurations and fit first (cheap), then one evaluation of all their queries.
+    std::vector<std::vector<Config>> configs(std::size_t(R) * R);
+    std::size_t total = 0;
+    for (std::uint32_t jv = 0; jv < R; ++jv)
+        for (std::uint32_t jl = 0; jl < R; ++jl) {
+            auto& c = configs[jv * R + jl];
+            c = slab_configs(g.roughness[jv] * g.roughness[jv], g.roughness[jl] * g.roughness[jl], spec);
+            total += c.size() * block;
+        }
+    if (total > (std::size_t(1) << 26)) throw std::invalid_argument("anisotropic bake: more than 2^26 texel x configuration queries");
+    double bound = 0, max_error = 0, fit_sum = 0, fit_weight = 0, fit_max = 0;
+    std::size_t done = 0;
+    // One slab at a time (its queries, their exact values, the fit), so memory stays one slab's.
+    for (std::uint32_t jv = 0; jv < R; ++jv)
+        for (std::uint32_t jl = 0; jl < R; ++jl) {
+            const auto& c = configs[jv * R + jl];
+            std::vector<Query> queries;
+            queries.reserve(c.size() * block);
+            for (const Config& cf : c)
+                for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv)
+                    for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
+                        for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
+                            // V at azimuth -axis_angle and L at dphi - axis_angle in the surface's own frame.
+                            const double nv = g.n_dot_v_at(ivv), nl = g.n_dot_l_at(iv, il, jl);
+                            const double sv = std::sqrt(std::max(0.0, 1 - nv * nv)), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
+                            const double pv = -cf.surface.axis_angle, pl = cf.dphi - cf.surface.axis_angle;
+                            Query q;
+                            q.visibility = g.visibility_at(iv);
+                            q.alpha_x = cf.surface.alpha_x, q.alpha_y = cf.surface.alpha_y;
+                            q.wi = {sv * std::cos(pv), sv * std::sin(pv), nv};
+                            q.wo = {sl * std::cos(pl), sl * std::sin(pl), nl};
+                            queries.push_back(q);
+                        }
+            const auto values = evaluate(backend, queries, spec.term, spec.plan, nullptr, [&](std::size_t d, std::size_t) {
+                if (progress) progress(done + d, total);
+            });
+            done += queries.size();
+            const auto P = fit_map(c);
+            // The coefficients' bound for values in [0, 1]: the largest row sum of |P|.
+            for (int a = 0; a < kTerms; ++a) {
+                double sum = 0;
+                for (const auto& p : P) sum += std::abs(p[a]);
+                bound = std::max(bound, sum);
+            }
+            for (std::size_t texel = 0; texel < block; ++texel) {
+                std::array<double, kTerms> coef{0, 0, 0, 0};
+                for (std::size_t i = 0; i < c.size(); ++i) {
+                    const Estimate& e = values[i * block + texel];
+                    max_error = std::max(max_error, e.std_error);
+                    for (int a = 0; a < kTerms; ++a) coef[a] += P[i][a] * e.term;
+                }
+                // The fit's residual over the configurations, N.L-weighted (what the series misses).
+                const std::uint32_t iv = std::uint32_t(texel % g.visibility), il = std::uint32_t(texel / g.visibility % g.n_dot_l),
+                                    ivv = std::uint32_t(texel / (std::size_t(g.visibility) * g.n_dot_l));
+                const double w = g.n_dot_l_at(iv, il, jl);
+                for (std::size_t i = 0; i < c.size(); ++i) {
+                    const double cd = std::cos(c[i].dphi);
+                    const double sum = coef[0] + coef[1] * cd + coef[2] * (2 * cd * cd - 1) + coef[3] * c[i].rho;
+                    const double e = std::clamp(sum, 0.0, 1.0) - values[i * block + texel].term;
+                    fit_sum += w * e * e, fit_weight += w;
+                    fit_max = std::max(fit_max, std::abs(e));
+                }
+                const std::size_t x = std::size_t(jl) * g.visibility + iv, z = std::size_t(jv) * g.n_dot_v + ivv;
+                for (int a = 0; a < kTerms; ++a) rgba[((z * height + il) * width + x) * 4 + a] = float(coef[a]);
+            }
+        }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    nlohmann::json bake = {{"method", to_string(spec.plan.method)},  {"form", to_string(spec.term.form)},
+                           {"ao_weighting", to_string(spec.term.ao_weighting)}, {"queries", total},
+                           {"azimuth_configs", spec.azimuth_configs},   {"correlation_configs", spec.correlation_configs},
+                           {"max_ratio", spec.max_ratio},               {"max_std_error", max_error},
+                           {"fit_rms", fit_weight > 0 ? std::sqrt(fit_sum / fit_weight) : 0.0},
+                           {"fit_max", fit_max},
+                           {"seconds", seconds},                        {"device", backend.name()},
+                           {"command_line", spec.command_line},         {"version", MICROSHADOW_VERSION}};
+    if (spec.plan.method == Method::exact) bake["exact"] = exact_provenance(spec.plan);
+    // The bound is widened by half precision's rounding (2^-11 relative) so a half file passes its own check.
+    nlohmann::json meta = {{"bake", bake}, {"coefficient_bound", bound * (1 + 1e-3) + 1e-6}, {"max_ratio", spec.max_ratio},
+                           {"version", MICROSHADOW_VERSION}, {"command_line", spec.command_line}};
+    if (!preset_name.empty()) meta["preset"] = preset_name;
+    // Without a domain given: the nodes' roughness per axis and the ratio fitted, any visibility and NdotV.
+    if (!domain) {
+        domain = grid_domain(g);
+        domain->max_alpha_ratio = spec.max_ratio;
+    }
+    meta["domain"] = domain->to_json(preset_name.empty() ? "the lookups this representation was made for; outside, its axes clamp"
+                                                         : "the preset's domain: its measured errors hold here; outside, its axes clamp");
+    return build_anisotropic_harmonics(g, std::move(rgba), std::move(meta));
+}
+
 std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
                                             const std::function<void(std::size_t, std::size_t)>& progress) {
+    if (p.kind == "anisotropic-harmonics") {
+        AnisotropicBakeSpec spec;
+        spec.grid = p.grid;
+        spec.azimuth_configs = p.azimuth_configs;
+        spec.correlation_configs = p.correlation_configs;
+        spec.max_ratio = p.max_ratio;
+        spec.plan.method = Method::exact;
+        spec.term.ao_weighting = p.grid.weighting;
+        spec.command_line = command_line;
+        return bake_anisotropic(spec, backend, progress, p.name, p.domain);
+    }
     AzimuthBakeSpec spec;
     spec.grid = p.grid;
     spec.azimuth_nodes = p.azimuth_nodes;

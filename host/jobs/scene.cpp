@@ -124,7 +124,19 @@ double comparator_value(const Comparator& c, const PixelSurface& p, const LightQ
         in.weighting = w;
         // Isotropic pixels carry the relative azimuth; an anisotropic pixel's is that of its tangent-frame
         // query's projections (the same angle, measured in the tangent frame).
-        in.relative_azimuth = p.anisotropic && q.status == PixelStatus::shaded ? approx::inputs_of(q.query, w).relative_azimuth : q.azimuth;
+        in.relative_azimuth = q.azimuth;
+        // An isotropic pixel: V at azimuth 0 and L at the relative azimuth (the frame's azimuth is free).
+        in.light_azimuth = q.azimuth;
+        in.alpha_x = p.alpha_x;
+        in.alpha_y = p.alpha_y;
+        if (p.anisotropic && q.status == PixelStatus::shaded) {
+            // The tangent-frame query gives the anisotropic lookup what it reads: alpha_x along the
+            // tangent, and V's and L's azimuths measured from it (not only their difference).
+            const approx::Inputs t = approx::inputs_of(q.query, w);
+            in.relative_azimuth = t.relative_azimuth;
+            in.view_azimuth = t.view_azimuth;
+            in.light_azimuth = t.light_azimuth;
+        }
         return (*c.file)(in);
     }
     if (c.is_lut) return (*c.lut)(p.visibility, std::max(0.0, n_dot_l), n_dot_v, p.roughness);
@@ -380,12 +392,12 @@ void tally_domains(const SceneJob& job, SceneResult& result) {
                 const double l = std::max(0.0, std::clamp(q.n_dot_l, -1.0, 1.0)), v = std::clamp(q.n_dot_v, 0.0, 1.0);
                 for (std::size_t k = 0; k < comparators.size(); ++k) {
                     if (!domains[k]) continue;
-                    const bool inside = domains[k]->contains(p.visibility, l, v, p.roughness);
+                    const bool inside = domains[k]->contains(p.visibility, l, v, p.roughness, p.alpha_x, p.alpha_y);
                     result.outside_domain[k].add(inside);
                     if (!inside && result.first_outside[k].empty())
                         result.first_outside[k] = "light " + light.name + ", pixel (" + std::to_string(i % result.width) + ", " +
                                                   std::to_string(i / result.width) + "): " +
-                                                  domains[k]->first_outside(p.visibility, l, v, p.roughness);
+                                                  domains[k]->first_outside(p.visibility, l, v, p.roughness, p.alpha_x, p.alpha_y);
                 }
             }
     if (job.options.strict_domain)

@@ -24,7 +24,7 @@ std::vector<double> geometric(double lo, double hi, int n) {
 
 }  // namespace
 
-std::vector<std::string> preset_names() { return {"realistic", "full-range"}; }
+std::vector<std::string> preset_names() { return {"realistic", "full-range", "anisotropic"}; }
 
 bool is_preset(const std::string& name) {
     for (const auto& n : preset_names())
@@ -70,6 +70,25 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
         p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
         p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;
+        return p;
+    }
+    if (name == "anisotropic") {
+        // Anisotropic GGX up to alpha ratio 25 within 1 MiB and 4 fetches (docs/representations.md): per
+        // pair of projected-roughness nodes along V and L, the series in cos(dphi) and the slopes'
+        // correlation, on the full-range preset's warps.
+        p.summary = "anisotropic, roughness 0.05-1 per axis, ratio <= 25, visibility 0.02-1, NdotV 0.02-1: anisotropic harmonics "
+                    "16 v (sqrt-top) x 16 NdotL (edge-roughness) x 8 NdotV (sqrt) x 8 x 8 projected roughness (geometric), 1 MiB, 4 fetches";
+        p.kind = "anisotropic-harmonics";
+        p.grid.visibility = 16, p.grid.n_dot_l = 16, p.grid.n_dot_v = 8;
+        p.grid.roughness = geometric(0.05, 1.0, 8);
+        p.grid.warps.visibility = VisibilityWarp::sqrt_top;
+        p.grid.warps.n_dot_l = NdotLWarp::edge_roughness;
+        p.grid.edge_width = 1.0;
+        p.grid.warps.n_dot_v = NdotVWarp::sqrt;
+        p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
+        p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
+        p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;
+        p.domain.max_alpha_ratio = p.max_ratio;
         return p;
     }
     std::string list;

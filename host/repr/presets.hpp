@@ -3,6 +3,8 @@
 // their memory, fetches, ALU and errors on random queries of that domain).
 //   realistic:  roughness 0.3-0.9, visibility 0.5-1, NdotV 0.2-1 (content whose roughness stays there)
 //   full-range: roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1 (the whole isotropic domain)
+//   anisotropic: alpha_x, alpha_y 0.0025-1 (roughness 0.05-1 per axis) with ratio <= 25, any
+//               tangent-relative azimuths, visibility 0.02-1, NdotV 0.02-1 (anisotropic GGX)
 #pragma once
 
 #include <functional>
@@ -18,9 +20,12 @@ namespace ms::repr {
 struct Preset {
     std::string name;
     std::string summary;  // one line for help and metadata
-    std::string kind;     // "azimuth-harmonics" or "azimuth-axis"
+    std::string kind;     // "azimuth-harmonics", "azimuth-axis" or "anisotropic-harmonics"
     ReprGrid grid;
     std::uint32_t azimuth_nodes = 9;
+    // anisotropic-harmonics: the surfaces fitted per slab (AnisotropicBakeSpec).
+    std::uint32_t azimuth_configs = 8, correlation_configs = 4;
+    double max_ratio = 25;
     LookupDomain domain;
 };
 

@@ -213,11 +213,13 @@ std::vector<std::string> metadata_channels(const nlohmann::json& tex) {
 std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, Texture3D t,
                                                     const std::vector<std::string>& channels) {
     const ReprGrid grid = grid_from_json(meta.at("grid"));
-    const std::uint32_t azimuth_nodes = count_field(meta, "azimuth_nodes", 256);
     const std::string kind = meta.value("representation", std::string());
+    // The anisotropic kind fits surfaces, not azimuth nodes (its file records 0).
+    const std::uint32_t azimuth_nodes = kind == "anisotropic-harmonics" ? 0 : count_field(meta, "azimuth_nodes", 256);
     std::unique_ptr<Representation> r;
     if (kind == "azimuth-axis") r = make_azimuth_axis(grid, azimuth_nodes, std::move(t), meta);
     else if (kind == "azimuth-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
+    else if (kind == "anisotropic-harmonics") r = make_anisotropic_harmonics(grid, std::move(t), meta);
     else throw std::runtime_error("unknown representation '" + kind + "'");
     static_cast<const TextureRepresentation&>(*r).check_contents(channels);
     return r;

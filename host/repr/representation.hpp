@@ -119,7 +119,7 @@ struct AzimuthBakeSpec {
 class Representation : public approx::Approximation {
 public:
     ~Representation() override = default;
-    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics"
+    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics"
     std::string name() const override = 0;  // kind and layout in words
     approx::Cost cost() const override = 0;
     // The renderer's lookup (the generated shader's arithmetic, in double).
@@ -146,6 +146,29 @@ public:
     virtual void write_dds(const std::string& path, bool half) const = 0;
     virtual const ReprGrid& grid() const = 0;
 };
+
+// The anisotropic term (anisotropic.cpp derives it): "anisotropic-harmonics", per texel of (visibility,
+// NdotL, NdotV) and per pair of nodes of the projected roughness along V and along L, the least-squares
+// series a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho over surfaces of every slope correlation rho and
+// relative azimuth dphi with alpha ratio <= max_ratio. Its lookup reads approx::Inputs' alpha_x,
+// alpha_y and tangent-relative azimuths (an isotropic caller's roughness and relative azimuth when the
+// alphas are unset); its shader's entry point takes V and L in the tangent frame and alpha_x, alpha_y.
+// The grid: geometric roughness nodes (both axes; projected alpha = node^2), the edge-roughness NdotL
+// warp. The bake is jobs/repr_bake.hpp's bake_anisotropic.
+struct AnisotropicBakeSpec {
+    ReprGrid grid;
+    std::uint32_t azimuth_configs = 8;      // dphi at the centres of this many cells of (0, pi)
+    std::uint32_t correlation_configs = 4;  // rho at this many points of its allowed interval
+    double max_ratio = 25;                  // alpha_x / alpha_y (either way) of the surfaces fitted
+    SamplingPlan plan;
+    TermOptions term;                       // term.ao_weighting must equal grid.weighting
+    std::string command_line;
+};
+// From coefficients already computed (RGBA, x fastest; a bake's texture, or a test's): width
+// visibility x nodes, height NdotL, depth NdotV x nodes. metadata's "coefficient_bound" is the channel
+// range (the largest |value|, at least 1, when absent).
+std::unique_ptr<Representation> build_anisotropic_harmonics(const ReprGrid& grid, std::vector<float> rgba,
+                                                            nlohmann::json metadata = nlohmann::json::object());
 
 // Builders from a bake (the bake's roughness nodes: azimuth-axis takes 1 to 4, harmonics 1 or more).
 std::unique_ptr<Representation> build_azimuth_axis(const AzimuthBake& bake);

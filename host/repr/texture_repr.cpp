@@ -283,6 +283,7 @@ std::string TextureRepresentation::finish_shader(const std::string& body, Shader
     };
     replace_all("ENTRY(", glsl ? "float ms_micro_shadowing(sampler3D ms_tex, "
                                : "float ms_micro_shadowing(Texture3D<float4> ms_tex, SamplerState linear_clamp, ");
+    replace_all("VEC2", glsl ? "vec2" : "float2");
     replace_all("VEC3", glsl ? "vec3" : "float3");
     replace_all("VEC4", glsl ? "vec4" : "float4");
     replace_all("MIX(", glsl ? "mix(" : "lerp(");

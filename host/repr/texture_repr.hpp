@@ -88,6 +88,7 @@ using lutshader::count_alu;
 
 std::unique_ptr<Representation> make_azimuth_axis(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                                   nlohmann::json metadata);
+std::unique_ptr<Representation> make_anisotropic_harmonics(ReprGrid grid, Texture3D texture, nlohmann::json metadata);
 std::unique_ptr<Representation> make_azimuth_harmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                                        nlohmann::json metadata);
 

@@ -1398,7 +1398,7 @@ def design(
         fit_reference: fit the closed form to this spec (other points than `reference`) at each of
             fit_orders (1 to 4): candidates "closed-form-<order>".
         luts, reprs, closed_forms: more candidates, each FILE or NAME=FILE: baked LUTs, representations
-            (files, or a preset's name: realistic, full-range) and fitted closed forms (JSON).
+            (files, or a preset's name: realistic, full-range, anisotropic) and fitted closed forms (JSON).
         max_bytes, max_fetches, max_alu: the budget (None: unlimited); choose: this candidate instead of
             the best inside it.
         analytic: False leaves part 1's terms out (``--no-analytic``). strict_domain: refuse a candidate

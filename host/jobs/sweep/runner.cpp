@@ -243,11 +243,11 @@ public:
             const approx::Inputs in = inputs(p);
             for (std::size_t k = 0; k < files_.size(); ++k) {
                 if (!domains[k]) continue;
-                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                const bool inside = domains[k]->contains(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
                 tallies_[k].add(inside);
                 if (!inside && first_outside_[k].empty())
                     first_outside_[k] = "point " + std::to_string(p.index) + ": " +
-                                        domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness);
+                                        domains[k]->first_outside(in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.alpha_x, in.alpha_y);
             }
         }
     }
@@ -274,6 +274,12 @@ public:
         // A direction along the normal has no azimuth: 0, as eval --compare reads it from the query's
         // directions (approx::inputs_of), so a representation column equals eval's at such points.
         if (p.n_dot_v >= 1 || p.n_dot_l >= 1) in.relative_azimuth = 0;
+        // The surface and the tangent-relative azimuths, as the point's query has them (to_query): what
+        // a representation of the anisotropic term reads.
+        in.alpha_x = p.alpha_x;
+        in.alpha_y = p.alpha_y;
+        in.view_azimuth = p.n_dot_v >= 1 ? 0.0 : p.phi_i * (3.14159265358979323846 / 180.0);
+        in.light_azimuth = p.n_dot_l >= 1 ? 0.0 : p.phi_o * (3.14159265358979323846 / 180.0);
         return in;
     }
 

@@ -934,7 +934,9 @@ private:
         for (std::size_t i = t.start; i < t.end; ++i) {
             const std::uint8_t flag = r.accounted[i - t.start];
             if (!flag) continue;
-            account(i, flag == 2, r.irradiance[compared], &r.values[compared * comparators]);
+            // data() + offset: with no comparator the values are empty, and &values[0] would bind a
+            // reference to nothing (UBSan).
+            account(i, flag == 2, r.irradiance[compared], r.values.data() + compared * comparators);
             ++compared;
         }
         if (t.end == job_.n) finish_light();

@@ -34,14 +34,10 @@ void run_scene_command(const SceneArgs& args, MpiWorld* world) {
     scene::check_output_folder(args.out);
     const scene::SceneDescription description = scene::load_scene(args.scene);
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
-    std::unique_ptr<TermBackend> backend;
-    if (args.backend == "oracle") {
-        backend = make_oracle_backend();
-    } else {
-        OpenClBackendConfig config;
-        config.build.fast_math = args.fast_math;
-        backend = make_opencl_backend(ocl::select_devices(args.device), config);
-    }
+    OpenClBackendConfig config;
+    config.build.fast_math = args.fast_math;
+    const std::unique_ptr<TermBackend> backend = make_term_backend(
+        args.backend == "oracle" ? schedule::BackendSpec::oracle() : schedule::BackendSpec::opencl(args.device), config);
     backend->scheduler().set_fault_injection(fault_injection_from_environment());
 
     scene::SceneRunOptions options;

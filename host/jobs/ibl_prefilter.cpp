@@ -159,8 +159,8 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
 
     // One scheduler for every round (devices compile their program once): OpenCL devices, or the C++
     // estimator on CPU threads as the scheduler's oracle backend.
-    schedule::Scheduler scheduler(spec.device.empty() ? schedule::Backend::oracle(threads)
-                                                      : schedule::Backend::opencl(ocl::select_devices(spec.device)));
+    schedule::Scheduler scheduler(schedule::Backend::from(spec.device.empty() ? schedule::BackendSpec::oracle(threads)
+                                                                              : schedule::BackendSpec::opencl(spec.device)));
     scheduler.set_fault_injection(spec.fault);
     const prefilter::SourceChain packed_full = pack_chain(chain);
     const prefilter::SourceChain packed_rest = have_split ? pack_chain(split.rest_chain) : prefilter::SourceChain{};

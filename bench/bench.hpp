@@ -1,6 +1,6 @@
 // The benchmarks of microshadow: a cached reference data set, throughput against C++
 // baselines, run time against error, the LUT bake against a naive per-texel bake, and kernel build time.
-// bench/main.cpp runs them from the command line; tests/bench_smoke_test.cpp runs each at a tiny size.
+// bench/main.cpp runs them from the command line; tests/bench/bench_smoke_test.cpp runs each at a tiny size.
 #pragma once
 
 #include <cstdint>

@@ -15,7 +15,7 @@ packages=(
 )
 
 # OpenImageIO with DX10 DDS support (3.x; Debian 12 ships 2.4, which reads no DX10 DDS) for the LUT
-# format tests, from PyPI into its own virtual environment (tests/lut_formats_test.cpp looks there).
+# format tests, from PyPI into its own virtual environment (tests/lut/lut_formats_test.cpp looks there).
 oiio_venv=/opt/microshadow-py
 oiio_version=3.2.2.0
 install_oiio_python() {

@@ -4,7 +4,7 @@
 // Why the term integrand (one query per texel and node) and not K fixed-azimuth LUT bakes: the LUT slice
 // integrand bins a whole (roughness, NdotV) slice per VNDF pass, but only on rows of constant NdotL;
 // the shadow-edge warp puts every visibility column on its own NdotL values, which no row holds. The
-// linear grid agrees with the fixed-azimuth LUT bake at the same nodes (tests/repr_test.cpp), and
+// linear grid agrees with the fixed-azimuth LUT bake at the same nodes (tests/repr/repr_test.cpp), and
 // docs/representations.md gives the measured cost of both.
 #pragma once
 

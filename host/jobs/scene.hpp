@@ -20,7 +20,7 @@
 // about C / alpha (C of order 1: the slope of a step smoothed over a width alpha). Moving an angle by
 // at most s / 2 = q E alpha / 2 then changes the term by about C q E / 2 = E / 16 for C = 1: much less
 // than the tolerance. The term's dependence on log alpha is of order 1, hence the step q E there. A test
-// (tests/scene_test.cpp) checks that images with and without deduplication, on the same points, agree
+// (tests/scene/scene_test.cpp) checks that images with and without deduplication, on the same points, agree
 // within E / 4 on a varied scene (roughness 0.1 - 1); measured: max E / 8.5, RMS E / 40 (q = 0.25 gave
 // max E / 3.9, so C is about 1.6 to 2: hence the default 0.125).
 //

@@ -2,7 +2,7 @@
 // comparators a renderer could ship: each has its bake (an AzimuthBake: the term per texel at K azimuth
 // nodes), its C++ lookup (the renderer's sampling, written out), its file (OpenEXR atlas with the
 // metadata in the "microshadow" header attribute, "kind": "representation"), its generated GLSL/HLSL
-// (matching the C++ lookup; tests/repr_shader_test.cpp runs it on lavapipe) and its cost model.
+// (matching the C++ lookup; tests/gpu/repr_shader_test.cpp runs it on lavapipe) and its cost model.
 // docs/representations.md derives each one and gives its measured error.
 //
 // Kinds:

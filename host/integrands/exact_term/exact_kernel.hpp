@@ -5,7 +5,7 @@
 // Precision. With BuildConfig::double_precision (devices with cl_khr_fp64) the kernel runs in double
 // and agrees with the C++ evaluator within their error estimates. Without it the kernel runs in float,
 // and float rounding, not the quadrature, limits it whatever the tolerance asked: measured worst cases
-// (tests/exact_kernel_test.cpp, PoCL) 1.6e-5 absolute on stress queries, 1.2e-6 on azimuth means, and
+// (tests/integrands/exact_kernel_test.cpp, PoCL) 1.6e-5 absolute on stress queries, 1.2e-6 on azimuth means, and
 // 2.2e-3 on azimuth means of very narrow cones (v = 1e-6) lit from within 1e-6 of the normal, where
 // float's 1 - NdotL^2 keeps only a few digits of sin^2 of the light angle (there the float estimate
 // is not a bound either). Parameters travel as float pairs (~48 bits).

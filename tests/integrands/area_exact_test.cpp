@@ -2,7 +2,7 @@
 // over the light with the deterministic evaluator's T(wo) at every direction, against the sampled
 // paths within bars and against known answers.
 //
-// Bars: as tests/area_light_test.cpp, t(1 - (1 - 0.999) / N, R - 1) * sqrt(se_a^2 + se_b^2), plus the
+// Bars: as tests/integrands/area_light_test.cpp, t(1 - (1 - 0.999) / N, R - 1) * sqrt(se_a^2 + se_b^2), plus the
 // exact path's inner_error (a deterministic bound on what the inner values' own errors contribute).
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 //
 // Error bars: every comparison of two estimates uses t(1 - (1 - 0.999) / N, R - 1) * sqrt(se_a^2 + se_b^2)
 // (Student t with R - 1 degrees of freedom, Bonferroni over the N comparisons of a test), as
-// tests/oracle_test.cpp does; a quadrature in the reference adds its own error estimate.
+// tests/oracle/oracle_test.cpp does; a quadrature in the reference adds its own error estimate.
 #include <gtest/gtest.h>
 
 #include <cmath>

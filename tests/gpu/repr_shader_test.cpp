@@ -1,5 +1,5 @@
 // The GLSL and HLSL each representation generates compile with glslangValidator and, run as
-// compute shaders on lavapipe (tests/vulkan_compute.hpp) over the representation's texture uploaded as
+// compute shaders on lavapipe (tests/support/vulkan_compute.hpp) over the representation's texture uploaded as
 // RGBA32F, agree with its C++ lookup (ms::repr::Representation::operator()). The texture is a synthetic
 // bake (random texel values): the test is of the layout and arithmetic, not of the term. Tolerance
 // 2e-5: float32 arithmetic of values of order 1 (a few ulps of 6e-8 each over ~30 operations) and

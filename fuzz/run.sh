@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang, ASan + UBSan) and runs each for a bounded time.
-#   fuzz/run.sh [SECONDS_PER_TARGET]      (default 25; env BUILD_DIR, default build-fuzz; JOBS, default 2;
+#   fuzz/run.sh [SECONDS_PER_TARGET]      (default 25; env BUILD_DIR, default build-fuzz; JOBS, default 2:
+#                                          the build's jobs and how many targets fuzz at once, each a
+#                                          single-threaded libFuzzer process on a core of its own;
 #                                          FUZZ_SEED: libFuzzer's -seed, default random)
 # CI sets FUZZ_SEED so a run explores the same inputs on every machine: a red CI is then a finding that
 # reproduces, not a lucky draw; exploration with fresh seeds is a developer's longer run.
@@ -41,17 +43,33 @@ export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=0}
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 seed_option=()
 [[ -n "${FUZZ_SEED:-}" ]] && seed_option=(-seed="$FUZZ_SEED")
-status=0
-for target in fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv fuzz_environment; do
-  corpus="$BUILD_DIR/fuzz-corpus/$target"
-  artifacts="$BUILD_DIR/fuzz-artifacts/$target/"
+targets=(fuzz_csv fuzz_spec fuzz_cli fuzz_text fuzz_sweep_files fuzz_lut_file fuzz_repr_file fuzz_scene fuzz_area_csv fuzz_environment)
+fuzz_one() {  # runs one target for its time; its exit status goes to $BUILD_DIR/fuzz-<target>.status
+  local target=$1 corpus="$BUILD_DIR/fuzz-corpus/$1" artifacts="$BUILD_DIR/fuzz-artifacts/$1/"
   mkdir -p "$corpus" "$artifacts"
-  log="$BUILD_DIR/fuzz-$target.log"
   # -rss_limit_mb: "allocates without bound" is a finding; -timeout: one input may not take > 10 s.
+  local rc=0
   # shellcheck disable=SC2046
-  if "$BUILD_DIR/fuzz/$target" "$corpus" $(seed_dirs "$target") \
-       -max_total_time="$SECONDS_PER_TARGET" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
-       -dict=fuzz/"${target#fuzz_}".dict -artifact_prefix="$artifacts" -print_final_stats=1 "${seed_option[@]}" >"$log" 2>&1; then
+  "$BUILD_DIR/fuzz/$target" "$corpus" $(seed_dirs "$target") \
+    -max_total_time="$SECONDS_PER_TARGET" -timeout=10 -rss_limit_mb=2048 -max_len=4096 \
+    -dict=fuzz/"${target#fuzz_}".dict -artifact_prefix="$artifacts" -print_final_stats=1 "${seed_option[@]}" \
+    >"$BUILD_DIR/fuzz-$target.log" 2>&1 || rc=$?
+  echo "$rc" >"$BUILD_DIR/fuzz-$target.status"
+}
+# JOBS targets at a time (every target still runs its full SECONDS_PER_TARGET), reported in order.
+running=0
+for target in "${targets[@]}"; do
+  rm -f "$BUILD_DIR/fuzz-$target.status"
+  fuzz_one "$target" &
+  running=$((running + 1))
+  if (( running >= JOBS )); then wait -n || true; running=$((running - 1)); fi
+done
+wait
+status=0
+for target in "${targets[@]}"; do
+  log="$BUILD_DIR/fuzz-$target.log"
+  artifacts="$BUILD_DIR/fuzz-artifacts/$target/"
+  if [[ "$(cat "$BUILD_DIR/fuzz-$target.status" 2>/dev/null)" == 0 ]]; then
     result=ok
   else
     result=FAILED

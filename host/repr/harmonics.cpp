@@ -47,6 +47,10 @@ public:
 
     double operator()(const approx::Inputs& in) const override {
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
+        // Full visibility: the cone is the whole hemisphere and the term is exactly 1 above the horizon.
+        // Just below v = 1 a light under the cone's edge sqrt(1 - v) is still shadowed, so no texel
+        // holds both sides of that limit.
+        if (in.visibility >= 1) return 1;
         const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(in.n_dot_v);
         const double c = std::cos(in.relative_azimuth);
         const double basis[kHarmonics] = {1, c, 2 * c * c - 1, (4 * c * c - 3) * c};
@@ -79,6 +83,7 @@ public:
         o << ".\n";
         o << "ENTRY(float visibility, float n_dot_l, float n_dot_v, float roughness, float cos_phi)\n{\n"
           << "    if (ms_zero_region(visibility, n_dot_l)) return 0.0;  // early-out: no fetch\n"
+          << "    if (visibility >= 1.0) return 1.0;  // the cone is the hemisphere: lit wherever above the horizon\n"
           << shader_coordinates()
           << "    float c = clamp(cos_phi, -1.0, 1.0);\n"
           << "    // cos(2 phi) and cos(3 phi) from cos(phi) (Chebyshev polynomials): no trigonometry.\n"

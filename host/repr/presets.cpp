@@ -67,6 +67,11 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // and 4, and sqrt(NdotV) halves the grazing views' error for a little more at high roughness.
         p.grid.edge_width = 1.0;
         p.grid.warps.n_dot_v = NdotVWarp::sqrt;
+        // NdotL and NdotV texels from end to end of the domain: at cell centres the last NdotL texel of
+        // a slab sits as low as NdotL 0.8 and everything above repeats it (the largest errors found by
+        // search were there and at NdotV = 1, 0.12-0.13); the NdotV axis starts at the domain's 0.02.
+        p.grid.placement = TexelPlacement::ends;
+        p.grid.n_dot_v_start = 0.02;
         p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
         p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
         p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;

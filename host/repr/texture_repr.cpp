@@ -90,11 +90,9 @@ double TextureRepresentation::visibility_texel(double v) const {
     return std::clamp(grid_.visibility_u(v) * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
 }
 double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir) const {
-    return std::clamp(grid_.n_dot_l_u(v, l, ir) * grid_.n_dot_l - 0.5, 0.0, double(grid_.n_dot_l - 1));
+    return grid_.texel_of(grid_.n_dot_l_u(v, l, ir), grid_.n_dot_l);
 }
-double TextureRepresentation::n_dot_v_texel(double nv) const {
-    return std::clamp(grid_.n_dot_v_u(nv) * grid_.n_dot_v - 0.5, 0.0, double(grid_.n_dot_v - 1));
-}
+double TextureRepresentation::n_dot_v_texel(double nv) const { return grid_.texel_of(grid_.n_dot_v_u(nv), grid_.n_dot_v); }
 
 void TextureRepresentation::check_contents(const std::vector<std::string>& file_channels) const {
     const std::vector<std::string> expected = channel_names();
@@ -239,9 +237,15 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
           << "float ms_edge_texel(float n_dot_l, float c, float l0, float w)\n{\n"
           << "    float g0 = ms_asinh((l0 - c) / w);\n"
           << "    float u = (ms_asinh((n_dot_l - c) / w) - g0) / (ms_asinh((1.0 - c) / w) - g0);\n"
-          << "    return clamp(u * " << shader_literal(grid_.n_dot_l) << " - 0.5, 0.0, " << shader_literal(grid_.n_dot_l - 1) << ");\n}\n\n";
+          << "    return " << axis_texel("u", grid_.n_dot_l) << ";\n}\n\n";
     }
     return o.str();
+}
+
+std::string TextureRepresentation::axis_texel(const std::string& u, std::uint32_t n) const {
+    const auto L = shader_literal;
+    if (grid_.placement == TexelPlacement::ends) return "clamp(" + u + " * " + L(n - 1.0) + ", 0.0, " + L(n - 1.0) + ")";
+    return "clamp(" + u + " * " + L(n) + " - 0.5, 0.0, " + L(n - 1.0) + ")";
 }
 
 std::string TextureRepresentation::shader_coordinates() const {
@@ -267,11 +271,16 @@ std::string TextureRepresentation::shader_coordinates() const {
         else o << "    float c_t = 1.0 - visibility;\n    float l0 = max(2.0 * c_t * c_t - 1.0, 0.0);\n";
         o << "    float ul = (n_dot_l - l0) / (1.0 - l0);\n";
     }
-    if (grid_.warps.n_dot_l != NdotLWarp::edge_roughness)
-        o << "    float tl = clamp(ul * " << L(grid_.n_dot_l) << " - 0.5, 0.0, " << L(grid_.n_dot_l - 1) << ");\n";
-    if (grid_.warps.n_dot_v == NdotVWarp::sqrt) o << "    float uz = sqrt(max(n_dot_v, 0.0));\n";
-    else o << "    float uz = n_dot_v;\n";
-    o << "    float tz = clamp(uz * " << L(grid_.n_dot_v) << " - 0.5, 0.0, " << L(grid_.n_dot_v - 1) << ");\n";
+    if (grid_.warps.n_dot_l != NdotLWarp::edge_roughness) o << "    float tl = " << axis_texel("ul", grid_.n_dot_l) << ";\n";
+    const std::string warped_v = grid_.warps.n_dot_v == NdotVWarp::sqrt ? "sqrt(max(n_dot_v, 0.0))" : "n_dot_v";
+    if (grid_.placement == TexelPlacement::ends) {
+        // From the first texel's NdotV (w0 = its warped value) to 1: u = (w - w0) / (1 - w0).
+        const double w0 = grid_.warps.n_dot_v == NdotVWarp::sqrt ? std::sqrt(grid_.n_dot_v_start) : grid_.n_dot_v_start;
+        o << "    float uz = (" << warped_v << " - " << L(w0) << ") * " << L(1 / (1 - w0)) << ";\n";
+    } else {
+        o << "    float uz = " << warped_v << ";\n";
+    }
+    o << "    float tz = " << axis_texel("uz", grid_.n_dot_v) << ";\n";
     return o.str();
 }
 

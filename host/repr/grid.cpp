@@ -147,3 +147,27 @@ double ReprGrid::n_dot_v_u(double nv) const {
 }
 
 }  // namespace ms::repr
+
+namespace ms::repr {
+
+double ReprGrid::azimuth_tau(double nv, double l) const {
+    const double d = std::max(nv, 0.0) + std::max(l, 0.0);
+    return std::max(azimuth_warp * d * d / 2, 1e-6);
+}
+
+double ReprGrid::azimuth_coordinate(double cos_phi, double nv, double l) const {
+    const double x = std::clamp(cos_phi, -1.0, 1.0);
+    if (!(azimuth_warp > 0)) return x;
+    const double tau = azimuth_tau(nv, l);
+    return 2 * std::asinh((1 + x) / tau) / std::asinh(2 / tau) - 1;
+}
+
+double ReprGrid::azimuth_node(std::uint32_t k, std::uint32_t nodes, double nv, double l) const {
+    const double t = nodes <= 1 ? 0.0 : M_PI * double(k) / double(nodes - 1);
+    if (!(azimuth_warp > 0)) return t;
+    // y = cos t, inverted: 1 + cos phi = tau sinh((y + 1) / 2 asinh(2 / tau)).
+    const double tau = azimuth_tau(nv, l);
+    return std::acos(std::clamp(tau * std::sinh((std::cos(t) + 1) / 2 * std::asinh(2 / tau)) - 1, -1.0, 1.0));
+}
+
+}  // namespace ms::repr

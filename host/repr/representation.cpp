@@ -40,7 +40,8 @@ nlohmann::json grid_to_json(const ReprGrid& g) {
             {"n_dot_v_warp", to_string(g.warps.n_dot_v)}, {"n_dot_l_warp", to_string(g.warps.n_dot_l)},
             {"visibility_warp", to_string(g.warps.visibility)},
             {"ao_weighting", to_string(g.weighting)}, {"n_dot_l_edge_width", g.edge_width},
-            {"texel_placement", to_string(g.placement)}, {"n_dot_v_start", g.n_dot_v_start}};
+            {"texel_placement", to_string(g.placement)}, {"n_dot_v_start", g.n_dot_v_start},
+            {"azimuth_warp", g.azimuth_warp}};
 }
 
 namespace {
@@ -87,6 +88,13 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
             if (!s.is_number() || !(s.get<double>() >= 0 && s.get<double>() < 1))
                 throw std::invalid_argument("n_dot_v_start must be a number in [0, 1)");
             g.n_dot_v_start = s.get<double>();
+        }
+        // Absent in files written before the far-side warp: their series is in cos phi.
+        if (j.contains("azimuth_warp")) {
+            const auto& a = j.at("azimuth_warp");
+            if (!a.is_number() || !(a.get<double>() >= 0 && a.get<double>() <= 1000))
+                throw std::invalid_argument("azimuth_warp must be a number in [0, 1000]");
+            g.azimuth_warp = a.get<double>();
         }
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("metadata grid: ") + e.what());

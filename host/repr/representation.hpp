@@ -85,6 +85,19 @@ struct ReprGrid {
     // u = (w(NdotV) - w(start)) / (1 - w(start)) for its warp w, so no texel lies below the domain.
     TexelPlacement placement = TexelPlacement::centres;
     double n_dot_v_start = 0;
+    // The azimuth-harmonics' far-side warp kappa (0: none, the series in cos phi). With kappa > 0 the
+    // series is in y = 2 asinh((1 + cos phi) / tau) / asinh(2 / tau) - 1, tau = kappa (NdotV + NdotL)^2 / 2
+    // (at least 1e-6): with the light near the horizon on the far side of a grazing view the term falls
+    // to 0 within an azimuth of ~ NdotV + NdotL of phi = pi (where the great circles normal to V and to
+    // L nearly meet), a width 1 + cos phi ~ tau that a cubic in cos phi cannot follow; y spends its
+    // range there, logarithmically beyond, and is cos phi itself as tau grows large.
+    double azimuth_warp = 0;
+    // tau of a query or texel, and the series' coordinate y of cos phi under it (cos phi when unwarped).
+    double azimuth_tau(double n_dot_v, double n_dot_l) const;
+    double azimuth_coordinate(double cos_phi, double n_dot_v, double n_dot_l) const;
+    // Node k of K of a texel at (NdotV, NdotL): the azimuth where y = cos(pi k / (K - 1)) (Chebyshev-Lobatto
+    // in y; pi k / (K - 1) itself when unwarped), radians.
+    double azimuth_node(std::uint32_t k, std::uint32_t nodes, double n_dot_v, double n_dot_l) const;
 
     // Parameters of texel (iv, il, ivv) (NdotL depends on visibility under the shadow-edge warps, and
     // on the roughness node ir under edge_roughness).

@@ -229,10 +229,11 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
     else
         o << "    // Uniform AO: the term is 0 for NdotL <= 2 (1 - v)^2 - 1 (and below the horizon).\n"
           << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l <= 2.0 * cos_t * cos_t - 1.0;\n}\n\n";
-    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
+    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness || grid_.azimuth_warp > 0)
         o << "// asinh(x) written out, odd so that it keeps its precision for x << 0 (HLSL has no asinh).\n"
-          << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n"
-          << "// The NdotL texel of one roughness slab: the distance to the shadow edge c in units of the slab's\n"
+          << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n";
+    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
+        o << "// The NdotL texel of one roughness slab: the distance to the shadow edge c in units of the slab's\n"
           << "// width w, through asinh, from g(l0) (the zero region's edge) to g(1); clamped to [0, n - 1].\n"
           << "float ms_edge_texel(float n_dot_l, float c, float l0, float w)\n{\n"
           << "    float g0 = ms_asinh((l0 - c) / w);\n"

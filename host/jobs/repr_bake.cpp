@@ -26,6 +26,8 @@ void validate(const AzimuthBakeSpec& s) {
         throw std::invalid_argument("representation grid: the edge-roughness warp's width factor must be in (0, 100]");
     if (!(g.azimuth_warp >= 0 && g.azimuth_warp <= 1000))
         throw std::invalid_argument("representation grid: the far-side azimuth warp must be in [0, 1000]");
+    if (!(g.visibility_start >= 0 && g.visibility_start < 0.5))
+        throw std::invalid_argument("representation grid: visibility_start must be in [0, 0.5)");
     if (!(g.n_dot_v_start >= 0 && g.n_dot_v_start < 1)) throw std::invalid_argument("representation grid: n_dot_v_start must be in [0, 1)");
     if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("representation bake: term and grid AO weightings differ");
     const std::uint64_t queries = std::uint64_t(g.visibility) * g.n_dot_l * g.n_dot_v * g.roughness.size() * s.azimuth_nodes;

@@ -93,8 +93,22 @@ struct EdgeWarp {
 }  // namespace
 
 double ReprGrid::visibility_at(std::uint32_t iv) const {
-    const double u = centre(iv, visibility);
+    double u = centre(iv, visibility);
+    if (visibility_start > 0 && visibility > 1) {
+        // From the start's warped coordinate to the last cell centre, evenly.
+        const double u0 = visibility_u(visibility_start), u1 = centre(visibility - 1, visibility);
+        u = u0 + (u1 - u0) * iv / (visibility - 1);
+    }
     return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top_inverse(u) : u;
+}
+
+double ReprGrid::visibility_texel_of(double v) const {
+    const double u = visibility_u(v), last = visibility - 1.0;
+    if (visibility_start > 0 && visibility > 1) {
+        const double u0 = visibility_u(visibility_start), u1 = centre(visibility - 1, visibility);
+        return std::clamp((u - u0) * (last / (u1 - u0)), 0.0, last);
+    }
+    return std::clamp(u * visibility - 0.5, 0.0, last);
 }
 
 double ReprGrid::visibility_u(double v) const { return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top(v) : v; }

@@ -76,6 +76,9 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // the term falls to 0 within a few degrees of phi = 180, which the series in cos phi missed by up
         // to 0.46 (at the exact term's own nodes); in the warped coordinate by 0.03.
         p.grid.azimuth_warp = 2;
+        // The first visibility texel at the domain's 0.02 (its first cell centre was 0.031: the search
+        // found 0.13 at v = 0.02, clamped to it).
+        p.grid.visibility_start = 0.02;
         p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
         p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
         p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;

@@ -41,7 +41,7 @@ nlohmann::json grid_to_json(const ReprGrid& g) {
             {"visibility_warp", to_string(g.warps.visibility)},
             {"ao_weighting", to_string(g.weighting)}, {"n_dot_l_edge_width", g.edge_width},
             {"texel_placement", to_string(g.placement)}, {"n_dot_v_start", g.n_dot_v_start},
-            {"azimuth_warp", g.azimuth_warp}};
+            {"azimuth_warp", g.azimuth_warp}, {"visibility_start", g.visibility_start}};
 }
 
 namespace {
@@ -88,6 +88,13 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
             if (!s.is_number() || !(s.get<double>() >= 0 && s.get<double>() < 1))
                 throw std::invalid_argument("n_dot_v_start must be a number in [0, 1)");
             g.n_dot_v_start = s.get<double>();
+        }
+        // Absent in files written before the visibility start: their first texel is the first cell centre.
+        if (j.contains("visibility_start")) {
+            const auto& a = j.at("visibility_start");
+            if (!a.is_number() || !(a.get<double>() >= 0 && a.get<double>() < 0.5))
+                throw std::invalid_argument("visibility_start must be a number in [0, 0.5)");
+            g.visibility_start = a.get<double>();
         }
         // Absent in files written before the far-side warp: their series is in cos phi.
         if (j.contains("azimuth_warp")) {

@@ -92,6 +92,10 @@ struct ReprGrid {
     // L nearly meet), a width 1 + cos phi ~ tau that a cubic in cos phi cannot follow; y spends its
     // range there, logarithmically beyond, and is cos phi itself as tau grows large.
     double azimuth_warp = 0;
+    // The visibility of the first visibility texel (0: the first cell centre). With a start the texels
+    // run evenly in the warped coordinate from it to the last cell centre, so the domain's lowest
+    // visibility, where the term changes fastest with v, is not clamped to a texel above it.
+    double visibility_start = 0;
     // tau of a query or texel, and the series' coordinate y of cos phi under it (cos phi when unwarped).
     double azimuth_tau(double n_dot_v, double n_dot_l) const;
     double azimuth_coordinate(double cos_phi, double n_dot_v, double n_dot_l) const;
@@ -112,6 +116,8 @@ struct ReprGrid {
     // The continuous texel coordinate of a warped NdotL or NdotV coordinate u on an n-texel axis,
     // clamped to [0, n - 1] (the placement's inverse: u n - 0.5 at centres, u (n - 1) at the ends).
     double texel_of(double u, std::uint32_t n) const;
+    // The continuous visibility texel coordinate of a visibility, clamped to [0, n - 1].
+    double visibility_texel_of(double visibility) const;
 };
 
 // The domain of a grid: its roughness nodes' range, the given visibility and NdotV ranges, any NdotL

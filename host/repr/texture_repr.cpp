@@ -86,9 +86,7 @@ bool TextureRepresentation::zero_region(double v, double l) const {
     return l <= 2 * c * c - 1;
 }
 
-double TextureRepresentation::visibility_texel(double v) const {
-    return std::clamp(grid_.visibility_u(v) * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
-}
+double TextureRepresentation::visibility_texel(double v) const { return grid_.visibility_texel_of(v); }
 double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir) const {
     return grid_.texel_of(grid_.n_dot_l_u(v, l, ir), grid_.n_dot_l);
 }
@@ -255,7 +253,14 @@ std::string TextureRepresentation::shader_coordinates() const {
     o << "    // Texel coordinates within a block, clamped to [0, n - 1] as host/repr/texture_repr.cpp does.\n";
     if (grid_.warps.visibility == VisibilityWarp::sqrt_top) o << "    float uv = 1.0 - sqrt(max(1.0 - visibility, 0.0));\n";
     else o << "    float uv = visibility;\n";
-    o << "    float tv = clamp(uv * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
+    if (grid_.visibility_start > 0 && grid_.visibility > 1) {
+        // Texels from the start's coordinate u0 to the last cell centre u1, evenly.
+        const double u0 = grid_.visibility_u(grid_.visibility_start), u1 = (grid_.visibility - 0.5) / grid_.visibility;
+        o << "    float tv = clamp((uv - " << L(u0) << ") * " << L((grid_.visibility - 1) / (u1 - u0)) << ", 0.0, "
+          << L(grid_.visibility - 1) << ");\n";
+    } else {
+        o << "    float tv = clamp(uv * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
+    }
     if (grid_.warps.n_dot_l == NdotLWarp::linear) {
         o << "    float ul = n_dot_l;\n";
     } else if (grid_.warps.n_dot_l == NdotLWarp::sqrt_top) {

@@ -8,6 +8,9 @@
 // truncated to m <= 3 (exact when the term has no higher harmonics; the residual at the nodes is
 // recorded as "node_residual_max"). The lookup evaluates a0 + a1 c + a2 (2c^2 - 1) + a3 (4c^3 - 3c)
 // with c = cos phi (no trigonometry in the shader) and clamps the result to [0, 1].
+// Under the far-side warp (ReprGrid::azimuth_warp) c is replaced by the warped coordinate y(cos phi)
+// and each texel's node k sits where y = cos(pi k / N): the same sums are then the Chebyshev
+// coefficients of the interpolant in y, and the lookup evaluates them at the query's own y.
 //
 // Layout: a 3D texture of width nv (visibility), height nl (NdotL), depth nvv * R: roughness node j
 // occupies depth slices [j nvv, (j + 1) nvv); RGBA = (a0, a1, a2, a3). The NdotV coordinate is clamped

@@ -54,8 +54,8 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // The whole isotropic domain at 512 KiB and 2 fetches: the NdotL axis of each roughness slab
         // follows the shadow edge in units of its alpha (edge-roughness), so low roughness, a near-step,
         // gets the texels a linear axis spends where the term is flat (docs/representations.md).
-        p.summary = "roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1: azimuth harmonics 32 v (sqrt-top) x 16 NdotL (edge-roughness, "
-                    "width 1 alpha) x 8 NdotV (sqrt) x 16 roughness (geometric), 512 KiB, 2 fetches";
+        p.summary = "roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1: azimuth harmonics (far-side warp) 32 v (sqrt-top) x 16 NdotL "
+                    "(edge-roughness, width 1 alpha) x 8 NdotV (sqrt) x 16 roughness (geometric), 512 KiB, 2 fetches";
         p.kind = "azimuth-harmonics";
         p.grid.visibility = 32, p.grid.n_dot_l = 16, p.grid.n_dot_v = 8;
         // Geometric nodes: alpha = r^2 changes by the same factor (1.49) from slab to slab, so adjacent

@@ -401,6 +401,38 @@ TEST_F(ReprCliTest, BakeWritesFileAndShadersAndEvalComparesIt) {
     EXPECT_NE(r.output.find("q.csv"), std::string::npos);
 }
 
+// Files baked before the texel placement, visibility start and far-side warp existed have none of
+// their fields: they open as cell centres in cos phi (what they were baked as); a bad value is refused
+// naming the field.
+TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRefused) {
+    const repr::ReprGrid preset = repr::preset("full-range").grid;
+    nlohmann::json j = repr::grid_to_json(preset);
+    const repr::ReprGrid back = repr::grid_from_json(j);
+    EXPECT_EQ(back.placement, repr::TexelPlacement::ends);
+    EXPECT_EQ(back.azimuth_warp, preset.azimuth_warp);
+    EXPECT_EQ(back.visibility_start, preset.visibility_start);
+    EXPECT_EQ(back.n_dot_v_start, preset.n_dot_v_start);
+    for (const char* key : {"texel_placement", "n_dot_v_start", "azimuth_warp", "visibility_start"}) j.erase(key);
+    const repr::ReprGrid old = repr::grid_from_json(j);
+    EXPECT_EQ(old.placement, repr::TexelPlacement::centres);
+    EXPECT_EQ(old.azimuth_warp, 0);
+    EXPECT_EQ(old.visibility_start, 0);
+    EXPECT_EQ(old.n_dot_v_u(0.25), 0.5);                        // sqrt(NdotV), no start
+    EXPECT_EQ(old.azimuth_coordinate(-0.3, 0.1, 0.2), -0.3);    // the series in cos phi
+    EXPECT_DOUBLE_EQ(old.n_dot_v_at(0), 0.5 / 8 * (0.5 / 8));  // the first cell centre
+    for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{
+             {"texel_placement", "middle"}, {"azimuth_warp", -1}, {"visibility_start", 0.7}, {"n_dot_v_start", "x"}}) {
+        nlohmann::json b = repr::grid_to_json(preset);
+        b[key] = bad;
+        try {
+            repr::grid_from_json(b);
+            ADD_FAILURE() << key << " accepted";
+        } catch (const std::runtime_error& e) {
+            EXPECT_NE(std::string(e.what()).find(key == "texel_placement" ? "texel placement" : key), std::string::npos) << e.what();
+        }
+    }
+}
+
 // The full-range preset's max error, searched: Nelder-Mead maximising |lookup - exact term| from the
 // worst of 2000 random points and from uniform starts (design::search_max_error, as a fitted closed
 // form's max is found), over the preset's domain (any azimuth) up to visibility 0.998. The bound is the

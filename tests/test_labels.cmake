@@ -87,6 +87,7 @@ set(microshadow_cli_tests
   "^SceneReliability\\.(Sigterm|FailingDeviceOfTwo|OutputProblems|FittedSceneLut|LutsNamedAAndAError)"
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
+  "^ReprPresetMax\\."
   "^Distributed\\.CliSceneShardsMergeToOneProcess$"
   "^ExactTerm\\.AgreesWithTheScalarOracleOnAnisotropicAndUniformQueries$"
   "^ExactKernel\\.(FloatKernelReachesItsMeasuredAccuracy|DoubleKernelAgreesWithTheEvaluatorOnAzimuthMeans)$"

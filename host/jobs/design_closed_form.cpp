@@ -135,6 +135,12 @@ std::array<double, 5> to_unit(const SearchRegion& g, const ReferencePoint& p) {
 
 SearchedMax search_max_error(const fit::ClosedForm& form, const SearchRegion& region, const std::vector<ReferencePoint>& seeds,
                              std::size_t starts, std::uint64_t seed) {
+    return search_max_error([&form](double v, double l, double nv, double r, double phi) { return form(v, l, nv, r, phi); },
+                            form.weighting, region, seeds, starts, seed);
+}
+
+SearchedMax search_max_error(const LookupFunction& form, AoWeighting weighting, const SearchRegion& region,
+                             const std::vector<ReferencePoint>& seeds, std::size_t starts, std::uint64_t seed) {
     SearchedMax best;
     auto error_at = [&](const RegionPoint& p, double* term) {
         ++best.evaluations;
@@ -142,7 +148,7 @@ SearchedMax search_max_error(const fit::ClosedForm& form, const SearchRegion& re
         // approached instead (1e-6: below any closed form's resolution).
         const double nv = std::max(p.nv, 1e-6), l = p.l;
         const double t = l <= 0 ? 0.0
-                                : exact::exact_term_at_azimuth(p.v, p.r * p.r, nv, l, p.phi, form.weighting, 1e-9).term;
+                                : exact::exact_term_at_azimuth(p.v, p.r * p.r, nv, l, p.phi, weighting, 1e-9).term;
         if (term) *term = t;
         return std::fabs(form(p.v, l, nv, p.r, p.phi) - t);
     };
@@ -156,7 +162,7 @@ SearchedMax search_max_error(const fit::ClosedForm& form, const SearchRegion& re
                                             (s.n_dot_l <= 0 ? 0.0
                                                             : exact::exact_term_at_azimuth(s.visibility, s.roughness * s.roughness,
                                                                                            std::max(s.n_dot_v, 1e-6), s.n_dot_l,
-                                                                                           s.relative_azimuth, form.weighting, 1e-7)
+                                                                                           s.relative_azimuth, weighting, 1e-7)
                                                                   .term)),
                                   i);
         }

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,11 @@ struct SearchedMax {
 // max, but one that follows the error between training points, where a max over them cannot look.
 SearchedMax search_max_error(const fit::ClosedForm& form, const SearchRegion& region, const std::vector<ReferencePoint>& seeds,
                              std::size_t starts = 256, std::uint64_t seed = 1);
+// The same search for any lookup of (visibility, NdotL, NdotV, roughness, relative azimuth), judged
+// against the exact term of `weighting` (a representation's lookup, say).
+using LookupFunction = std::function<double(double visibility, double n_dot_l, double n_dot_v, double roughness, double azimuth)>;
+SearchedMax search_max_error(const LookupFunction& lookup, AoWeighting weighting, const SearchRegion& region,
+                             const std::vector<ReferencePoint>& seeds, std::size_t starts = 256, std::uint64_t seed = 1);
 
 // The candidate "closed-form-K": 0 bytes, 0 fetches, ALU counted from its GLSL; bake() writes the
 // coefficients JSON and the GLSL and HLSL. `file` (when read from one) goes into the provenance.

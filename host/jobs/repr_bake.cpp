@@ -24,6 +24,11 @@ void validate(const AzimuthBakeSpec& s) {
     if (s.azimuth_nodes < 2 || s.azimuth_nodes > 64) throw std::invalid_argument("representation bake: 2 to 64 azimuth nodes");
     if (g.warps.n_dot_l == NdotLWarp::edge_roughness && !(g.edge_width > 0 && g.edge_width <= 100))
         throw std::invalid_argument("representation grid: the edge-roughness warp's width factor must be in (0, 100]");
+    if (!(g.azimuth_warp >= 0 && g.azimuth_warp <= 1000))
+        throw std::invalid_argument("representation grid: the far-side azimuth warp must be in [0, 1000]");
+    if (!(g.visibility_start >= 0 && g.visibility_start < 0.5))
+        throw std::invalid_argument("representation grid: visibility_start must be in [0, 0.5)");
+    if (!(g.n_dot_v_start >= 0 && g.n_dot_v_start < 1)) throw std::invalid_argument("representation grid: n_dot_v_start must be in [0, 1)");
     if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("representation bake: term and grid AO weightings differ");
     const std::uint64_t queries = std::uint64_t(g.visibility) * g.n_dot_l * g.n_dot_v * g.roughness.size() * s.azimuth_nodes;
     if (queries > (std::uint64_t(1) << 24)) throw std::invalid_argument("representation bake: more than 2^24 texels x nodes");
@@ -144,6 +149,7 @@ void validate_anisotropic(const AnisotropicBakeSpec& s) {
             throw std::invalid_argument("anisotropic grid: roughness nodes must increase within (0, 1]");
     if (!is_geometric(g.roughness)) throw std::invalid_argument("anisotropic grid: roughness nodes must be in geometric progression");
     if (g.warps.n_dot_l != NdotLWarp::edge_roughness) throw std::invalid_argument("anisotropic grid: the NdotL warp is edge-roughness");
+    if (g.azimuth_warp != 0) throw std::invalid_argument("anisotropic grid: the far-side azimuth warp is for azimuth-harmonics");
     if (!(g.edge_width > 0 && g.edge_width <= 100)) throw std::invalid_argument("anisotropic grid: edge width must be in (0, 100]");
     if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("anisotropic bake: term and grid AO weightings differ");
     if (s.azimuth_configs < 2 || s.azimuth_configs > 64 || s.correlation_configs < 1 || s.correlation_configs > 64)
@@ -166,13 +172,14 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
     std::vector<Query> queries(n);
     for (std::uint32_t r = 0; r < g.roughness.size(); ++r)
         for (std::uint32_t k = 0; k < spec.azimuth_nodes; ++k) {
-            const double phi = bake.azimuth_at(k);
             for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv) {
                 const double nv = g.n_dot_v_at(ivv);
                 for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
                     for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
-                        // The texel's query as eval takes it: V in the xz plane, L at azimuth phi from it.
+                        // The texel's query as eval takes it: V in the xz plane, L at azimuth phi from it
+                        // (node k of this texel: the far-side warp places them by its NdotV and NdotL).
                         const double nl = g.n_dot_l_at(iv, il, r), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
+                        const double phi = g.azimuth_node(k, spec.azimuth_nodes, nv, nl);
                         Query& q = queries[bake.index(r, k, iv, il, ivv)];
                         q.visibility = g.visibility_at(iv);
                         q.alpha_x = q.alpha_y = g.roughness[r] * g.roughness[r];

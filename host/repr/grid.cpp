@@ -15,6 +15,13 @@ std::string to_string(NdotLWarp w) {
                                             : "linear";
 }
 std::string to_string(VisibilityWarp w) { return w == VisibilityWarp::sqrt_top ? "sqrt-top" : "linear"; }
+std::string to_string(TexelPlacement p) { return p == TexelPlacement::ends ? "ends" : "centres"; }
+
+TexelPlacement parse_texel_placement(const std::string& s) {
+    if (s == "centres") return TexelPlacement::centres;
+    if (s == "ends") return TexelPlacement::ends;
+    throw std::invalid_argument("texel placement must be centres or ends, not '" + s + "'");
+}
 
 VisibilityWarp parse_visibility_warp(const std::string& s) {
     if (s == "linear") return VisibilityWarp::linear;
@@ -40,6 +47,15 @@ namespace {
 
 // Texel centre i of n over [0, 1].
 double centre(std::uint32_t i, std::uint32_t n) { return (i + 0.5) / n; }
+// Texel i of n at the placement's warped coordinate: a cell centre, or i / (n - 1) from end to end.
+double placed(std::uint32_t i, std::uint32_t n, TexelPlacement p) {
+    return p == TexelPlacement::ends && n > 1 ? double(i) / (n - 1) : centre(i, n);
+}
+// The NdotV warp w(NdotV) before the placement's start is taken off.
+double n_dot_v_warped(double nv, NdotVWarp w) { return w == NdotVWarp::sqrt ? std::sqrt(std::max(nv, 0.0)) : nv; }
+// The smallest NdotL above the zero region's edge l0 a texel on it is baked at: the term's limit from
+// above (at NdotL = 0 the horizon makes the term 0 by rule, while just above it need not be).
+constexpr double kAboveEdge = 1e-6;
 
 // The sqrt-top warp u = 1 - sqrt(1 - x) and its inverse x = 1 - (1 - u)^2.
 double sqrt_top(double x) { return 1 - std::sqrt(std::max(1 - x, 0.0)); }
@@ -77,25 +93,54 @@ struct EdgeWarp {
 }  // namespace
 
 double ReprGrid::visibility_at(std::uint32_t iv) const {
-    const double u = centre(iv, visibility);
+    double u = centre(iv, visibility);
+    if (visibility_start > 0 && visibility > 1) {
+        // From the start's warped coordinate to the last cell centre, evenly.
+        const double u0 = visibility_u(visibility_start), u1 = centre(visibility - 1, visibility);
+        u = u0 + (u1 - u0) * iv / (visibility - 1);
+    }
     return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top_inverse(u) : u;
+}
+
+double ReprGrid::visibility_texel_of(double v) const {
+    const double u = visibility_u(v), last = visibility - 1.0;
+    if (visibility_start > 0 && visibility > 1) {
+        const double u0 = visibility_u(visibility_start), u1 = centre(visibility - 1, visibility);
+        return std::clamp((u - u0) * (last / (u1 - u0)), 0.0, last);
+    }
+    return std::clamp(u * visibility - 0.5, 0.0, last);
 }
 
 double ReprGrid::visibility_u(double v) const { return warps.visibility == VisibilityWarp::sqrt_top ? sqrt_top(v) : v; }
 
 double ReprGrid::n_dot_l_at(std::uint32_t iv, std::uint32_t il, std::uint32_t ir) const {
-    const double u = centre(il, n_dot_l);
-    if (warps.n_dot_l == NdotLWarp::linear) return u;
-    if (warps.n_dot_l == NdotLWarp::sqrt_top) return sqrt_top_inverse(u);
-    if (warps.n_dot_l == NdotLWarp::edge_roughness)
-        return std::clamp(EdgeWarp(visibility_at(iv), roughness.at(ir), edge_width, weighting).at(u), 0.0, 1.0);
-    const double l0 = shadow_edge(visibility_at(iv), weighting);
-    return l0 + u * (1 - l0);
+    const double u = placed(il, n_dot_l, placement);
+    // The first texel of an axis placed from end to end sits on the zero region's edge (or the horizon).
+    const double floor = placement == TexelPlacement::ends ? shadow_edge(visibility_at(iv), weighting) + kAboveEdge : 0.0;
+    double l;
+    if (warps.n_dot_l == NdotLWarp::linear) l = u;
+    else if (warps.n_dot_l == NdotLWarp::sqrt_top) l = sqrt_top_inverse(u);
+    else if (warps.n_dot_l == NdotLWarp::edge_roughness) l = EdgeWarp(visibility_at(iv), roughness.at(ir), edge_width, weighting).at(u);
+    else {
+        const double l0 = shadow_edge(visibility_at(iv), weighting);
+        l = l0 + u * (1 - l0);
+    }
+    return std::clamp(l, std::min(floor, 1.0), 1.0);
 }
 
 double ReprGrid::n_dot_v_at(std::uint32_t ivv) const {
-    const double u = centre(ivv, n_dot_v);
+    const double u = placed(ivv, n_dot_v, placement);
+    if (placement == TexelPlacement::ends) {
+        // u = (w(NdotV) - w(start)) / (1 - w(start)), inverted.
+        const double w0 = n_dot_v_warped(n_dot_v_start, warps.n_dot_v), w = w0 + u * (1 - w0);
+        return warps.n_dot_v == NdotVWarp::sqrt ? w * w : w;
+    }
     return warps.n_dot_v == NdotVWarp::sqrt ? u * u : u;
+}
+
+double ReprGrid::texel_of(double u, std::uint32_t n) const {
+    const double t = placement == TexelPlacement::ends ? u * (n - 1.0) : u * n - 0.5;
+    return std::clamp(t, 0.0, double(n - 1));
 }
 
 double ReprGrid::n_dot_l_u(double v, double l, std::uint32_t ir) const {
@@ -109,7 +154,34 @@ double ReprGrid::n_dot_l_u(double v, double l, std::uint32_t ir) const {
 }
 
 double ReprGrid::n_dot_v_u(double nv) const {
-    return warps.n_dot_v == NdotVWarp::sqrt ? std::sqrt(std::max(nv, 0.0)) : nv;
+    const double w = n_dot_v_warped(nv, warps.n_dot_v);
+    if (placement != TexelPlacement::ends) return w;
+    const double w0 = n_dot_v_warped(n_dot_v_start, warps.n_dot_v);
+    return (w - w0) / (1 - w0);
+}
+
+}  // namespace ms::repr
+
+namespace ms::repr {
+
+double ReprGrid::azimuth_tau(double nv, double l) const {
+    const double d = std::max(nv, 0.0) + std::max(l, 0.0);
+    return std::max(azimuth_warp * d * d / 2, 1e-6);
+}
+
+double ReprGrid::azimuth_coordinate(double cos_phi, double nv, double l) const {
+    const double x = std::clamp(cos_phi, -1.0, 1.0);
+    if (!(azimuth_warp > 0)) return x;
+    const double tau = azimuth_tau(nv, l);
+    return 2 * std::asinh((1 + x) / tau) / std::asinh(2 / tau) - 1;
+}
+
+double ReprGrid::azimuth_node(std::uint32_t k, std::uint32_t nodes, double nv, double l) const {
+    const double t = nodes <= 1 ? 0.0 : M_PI * double(k) / double(nodes - 1);
+    if (!(azimuth_warp > 0)) return t;
+    // y = cos t, inverted: 1 + cos phi = tau sinh((y + 1) / 2 asinh(2 / tau)).
+    const double tau = azimuth_tau(nv, l);
+    return std::acos(std::clamp(tau * std::sinh((std::cos(t) + 1) / 2 * std::asinh(2 / tau)) - 1, -1.0, 1.0));
 }
 
 }  // namespace ms::repr

@@ -8,6 +8,9 @@
 // truncated to m <= 3 (exact when the term has no higher harmonics; the residual at the nodes is
 // recorded as "node_residual_max"). The lookup evaluates a0 + a1 c + a2 (2c^2 - 1) + a3 (4c^3 - 3c)
 // with c = cos phi (no trigonometry in the shader) and clamps the result to [0, 1].
+// Under the far-side warp (ReprGrid::azimuth_warp) c is replaced by the warped coordinate y(cos phi)
+// and each texel's node k sits where y = cos(pi k / N): the same sums are then the Chebyshev
+// coefficients of the interpolant in y, and the lookup evaluates them at the query's own y.
 //
 // Layout: a 3D texture of width nv (visibility), height nl (NdotL), depth nvv * R: roughness node j
 // occupies depth slices [j nvv, (j + 1) nvv); RGBA = (a0, a1, a2, a3). The NdotV coordinate is clamped
@@ -47,8 +50,12 @@ public:
 
     double operator()(const approx::Inputs& in) const override {
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
+        // Full visibility: the cone is the whole hemisphere and the term is exactly 1 above the horizon.
+        // Just below v = 1 a light under the cone's edge sqrt(1 - v) is still shadowed, so no texel
+        // holds both sides of that limit.
+        if (in.visibility >= 1) return 1;
         const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(in.n_dot_v);
-        const double c = std::cos(in.relative_azimuth);
+        const double c = grid_.azimuth_coordinate(std::cos(in.relative_azimuth), in.n_dot_v, in.n_dot_l);
         const double basis[kHarmonics] = {1, c, 2 * c * c - 1, (4 * c * c - 3) * c};
         // The NdotL texel of a slab: its own under the edge-roughness warp, else one for all.
         auto series = [&](std::uint32_t slab) {
@@ -68,6 +75,17 @@ public:
         return std::clamp(a + (b - a) * f, 0.0, 1.0);
     }
 
+    // The far-side warp written out (ReprGrid::azimuth_coordinate): c becomes the series coordinate y.
+    std::string azimuth_warp_text() const {
+        if (!(grid_.azimuth_warp > 0)) return "";
+        const auto L = shader_literal;
+        return "    // The series is in y = 2 asinh((1 + c) / tau) / asinh(2 / tau) - 1, tau = kappa (NdotV + NdotL)^2 / 2:\n"
+               "    // its range spent near the far side, where a light at the horizon falls into shadow.\n"
+               "    float d_w = max(n_dot_v, 0.0) + max(n_dot_l, 0.0);\n"
+               "    float tau = max(" + L(grid_.azimuth_warp / 2) + " * d_w * d_w, " + L(1e-6) + ");\n"
+               "    c = 2.0 * ms_asinh((1.0 + c) / tau) / ms_asinh(2.0 / tau) - 1.0;\n";
+    }
+
     std::string shader(ShaderLanguage language, const std::string& source_name) const override {
         const auto L = shader_literal;
         const auto& r = grid_.roughness;
@@ -79,8 +97,9 @@ public:
         o << ".\n";
         o << "ENTRY(float visibility, float n_dot_l, float n_dot_v, float roughness, float cos_phi)\n{\n"
           << "    if (ms_zero_region(visibility, n_dot_l)) return 0.0;  // early-out: no fetch\n"
+          << "    if (visibility >= 1.0) return 1.0;  // the cone is the hemisphere: lit wherever above the horizon\n"
           << shader_coordinates()
-          << "    float c = clamp(cos_phi, -1.0, 1.0);\n"
+          << "    float c = clamp(cos_phi, -1.0, 1.0);\n" << azimuth_warp_text()
           << "    // cos(2 phi) and cos(3 phi) from cos(phi) (Chebyshev polynomials): no trigonometry.\n"
           << "    VEC4 basis = VEC4(1.0, c, 2.0 * c * c - 1.0, (4.0 * c * c - 3.0) * c);\n";
         const bool edge = grid_.warps.n_dot_l == NdotLWarp::edge_roughness;
@@ -169,13 +188,14 @@ std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake)
                     double a[kHarmonics] = {0, 0, 0, 0};
                     for (std::uint32_t k = 0; k <= N; ++k) {
                         const double w = (k == 0 || k == N) ? 0.5 : 1.0, f = bake.value[bake.index(r, k, iv, il, ivv)];
-                        for (int m = 0; m < kHarmonics; ++m) a[m] += w * f * std::cos(m * bake.azimuth_at(k));
+                        // cos(m pi k / N) = T_m(y_k) at the node's series coordinate y_k = cos(pi k / N).
+                        for (int m = 0; m < kHarmonics; ++m) a[m] += w * f * std::cos(m * M_PI * k / N);
                     }
                     for (int m = 0; m < kHarmonics; ++m) a[m] *= (m == 0 ? 1.0 : 2.0) / N;
                     // The truncation residual at the nodes (what the series misses of the bake there).
                     for (std::uint32_t k = 0; k <= N; ++k) {
                         double s = 0;
-                        for (int m = 0; m < kHarmonics; ++m) s += a[m] * std::cos(m * bake.azimuth_at(k));
+                        for (int m = 0; m < kHarmonics; ++m) s += a[m] * std::cos(m * M_PI * k / N);
                         residual = std::max(residual, std::abs(std::clamp(s, 0.0, 1.0) - bake.value[bake.index(r, k, iv, il, ivv)]));
                     }
                     const std::size_t z = std::size_t(r) * g.n_dot_v + ivv;

@@ -54,8 +54,8 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // The whole isotropic domain at 512 KiB and 2 fetches: the NdotL axis of each roughness slab
         // follows the shadow edge in units of its alpha (edge-roughness), so low roughness, a near-step,
         // gets the texels a linear axis spends where the term is flat (docs/representations.md).
-        p.summary = "roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1: azimuth harmonics 32 v (sqrt-top) x 16 NdotL (edge-roughness, "
-                    "width 1 alpha) x 8 NdotV (sqrt) x 16 roughness (geometric), 512 KiB, 2 fetches";
+        p.summary = "roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1: azimuth harmonics (far-side warp) 32 v (sqrt-top) x 16 NdotL "
+                    "(edge-roughness, width 1 alpha) x 8 NdotV (sqrt) x 16 roughness (geometric), 512 KiB, 2 fetches";
         p.kind = "azimuth-harmonics";
         p.grid.visibility = 32, p.grid.n_dot_l = 16, p.grid.n_dot_v = 8;
         // Geometric nodes: alpha = r^2 changes by the same factor (1.49) from slab to slab, so adjacent
@@ -67,6 +67,18 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // and 4, and sqrt(NdotV) halves the grazing views' error for a little more at high roughness.
         p.grid.edge_width = 1.0;
         p.grid.warps.n_dot_v = NdotVWarp::sqrt;
+        // NdotL and NdotV texels from end to end of the domain: at cell centres the last NdotL texel of
+        // a slab sits as low as NdotL 0.8 and everything above repeats it (the largest errors found by
+        // search were there and at NdotV = 1, 0.12-0.13); the NdotV axis starts at the domain's 0.02.
+        p.grid.placement = TexelPlacement::ends;
+        p.grid.n_dot_v_start = 0.02;
+        // The far-side azimuth warp, kappa = 2: with the light near the horizon opposite a grazing view
+        // the term falls to 0 within a few degrees of phi = 180, which the series in cos phi missed by up
+        // to 0.46 (at the exact term's own nodes); in the warped coordinate by 0.03.
+        p.grid.azimuth_warp = 2;
+        // The first visibility texel at the domain's 0.02 (its first cell centre was 0.031: the search
+        // found 0.13 at v = 0.02, clamped to it).
+        p.grid.visibility_start = 0.02;
         p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
         p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
         p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;

@@ -39,7 +39,9 @@ nlohmann::json grid_to_json(const ReprGrid& g) {
             {"n_dot_v", g.n_dot_v},                {"roughness", g.roughness},
             {"n_dot_v_warp", to_string(g.warps.n_dot_v)}, {"n_dot_l_warp", to_string(g.warps.n_dot_l)},
             {"visibility_warp", to_string(g.warps.visibility)},
-            {"ao_weighting", to_string(g.weighting)}, {"n_dot_l_edge_width", g.edge_width}};
+            {"ao_weighting", to_string(g.weighting)}, {"n_dot_l_edge_width", g.edge_width},
+            {"texel_placement", to_string(g.placement)}, {"n_dot_v_start", g.n_dot_v_start},
+            {"azimuth_warp", g.azimuth_warp}, {"visibility_start", g.visibility_start}};
 }
 
 namespace {
@@ -78,6 +80,28 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
             if (!j.at("n_dot_l_edge_width").is_number() || !(j.at("n_dot_l_edge_width").get<double>() > 0 && j.at("n_dot_l_edge_width").get<double>() <= 100))
                 throw std::invalid_argument("n_dot_l_edge_width must be a number in (0, 100]");
             g.edge_width = j.at("n_dot_l_edge_width").get<double>();
+        }
+        // Absent in files written before the placement existed: those put their texels at cell centres.
+        g.placement = parse_texel_placement(j.value("texel_placement", std::string("centres")));
+        if (j.contains("n_dot_v_start")) {
+            const auto& s = j.at("n_dot_v_start");
+            if (!s.is_number() || !(s.get<double>() >= 0 && s.get<double>() < 1))
+                throw std::invalid_argument("n_dot_v_start must be a number in [0, 1)");
+            g.n_dot_v_start = s.get<double>();
+        }
+        // Absent in files written before the visibility start: their first texel is the first cell centre.
+        if (j.contains("visibility_start")) {
+            const auto& a = j.at("visibility_start");
+            if (!a.is_number() || !(a.get<double>() >= 0 && a.get<double>() < 0.5))
+                throw std::invalid_argument("visibility_start must be a number in [0, 0.5)");
+            g.visibility_start = a.get<double>();
+        }
+        // Absent in files written before the far-side warp: their series is in cos phi.
+        if (j.contains("azimuth_warp")) {
+            const auto& a = j.at("azimuth_warp");
+            if (!a.is_number() || !(a.get<double>() >= 0 && a.get<double>() <= 1000))
+                throw std::invalid_argument("azimuth_warp must be a number in [0, 1000]");
+            g.azimuth_warp = a.get<double>();
         }
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("metadata grid: ") + e.what());

@@ -51,6 +51,13 @@ enum class ShaderLanguage { glsl, hlsl };
 enum class NdotVWarp { linear, sqrt };
 enum class NdotLWarp { linear, shadow_edge, sqrt_top, edge_roughness };
 enum class VisibilityWarp { linear, sqrt_top };
+// Where the NdotL and NdotV texels sit on their warped axes: at cell centres u = (i + 0.5) / n (the
+// lookup clamps to the first and last centres, so the axis's last half texel at either end repeats
+// them), or at the ends u = i / (n - 1): the first and last texels lie on the axis's ends (NdotL: the
+// zero region's edge and NdotL = 1; NdotV: n_dot_v_start and 1), so no lookup inside the domain reads
+// past a texel. The visibility axis keeps its centres (the term is 1 at v = 1, which the lookup answers
+// by rule, and the edge-roughness NdotL coordinate follows the query's own visibility).
+enum class TexelPlacement { centres, ends };
 struct Warps {
     NdotVWarp n_dot_v = NdotVWarp::linear;
     NdotLWarp n_dot_l = NdotLWarp::linear;
@@ -59,6 +66,8 @@ struct Warps {
 std::string to_string(NdotVWarp);
 std::string to_string(NdotLWarp);
 std::string to_string(VisibilityWarp);
+std::string to_string(TexelPlacement);
+TexelPlacement parse_texel_placement(const std::string&);  // "centres" | "ends"; std::invalid_argument
 NdotVWarp parse_n_dot_v_warp(const std::string&);  // "linear" | "sqrt"; std::invalid_argument
 NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top" | "edge-roughness"; std::invalid_argument
 VisibilityWarp parse_visibility_warp(const std::string&);  // "linear" | "sqrt-top"; std::invalid_argument
@@ -72,6 +81,27 @@ struct ReprGrid {
     AoWeighting weighting = AoWeighting::cosine;
     // The edge_roughness warp's width factor k (w = k alpha max(sin theta_c, alpha)).
     double edge_width = 2.0;
+    // NdotL and NdotV texel placement, and with `ends` the NdotV of the first texel: the NdotV axis
+    // u = (w(NdotV) - w(start)) / (1 - w(start)) for its warp w, so no texel lies below the domain.
+    TexelPlacement placement = TexelPlacement::centres;
+    double n_dot_v_start = 0;
+    // The azimuth-harmonics' far-side warp kappa (0: none, the series in cos phi). With kappa > 0 the
+    // series is in y = 2 asinh((1 + cos phi) / tau) / asinh(2 / tau) - 1, tau = kappa (NdotV + NdotL)^2 / 2
+    // (at least 1e-6): with the light near the horizon on the far side of a grazing view the term falls
+    // to 0 within an azimuth of ~ NdotV + NdotL of phi = pi (where the great circles normal to V and to
+    // L nearly meet), a width 1 + cos phi ~ tau that a cubic in cos phi cannot follow; y spends its
+    // range there, logarithmically beyond, and is cos phi itself as tau grows large.
+    double azimuth_warp = 0;
+    // The visibility of the first visibility texel (0: the first cell centre). With a start the texels
+    // run evenly in the warped coordinate from it to the last cell centre, so the domain's lowest
+    // visibility, where the term changes fastest with v, is not clamped to a texel above it.
+    double visibility_start = 0;
+    // tau of a query or texel, and the series' coordinate y of cos phi under it (cos phi when unwarped).
+    double azimuth_tau(double n_dot_v, double n_dot_l) const;
+    double azimuth_coordinate(double cos_phi, double n_dot_v, double n_dot_l) const;
+    // Node k of K of a texel at (NdotV, NdotL): the azimuth where y = cos(pi k / (K - 1)) (Chebyshev-Lobatto
+    // in y; pi k / (K - 1) itself when unwarped), radians.
+    double azimuth_node(std::uint32_t k, std::uint32_t nodes, double n_dot_v, double n_dot_l) const;
 
     // Parameters of texel (iv, il, ivv) (NdotL depends on visibility under the shadow-edge warps, and
     // on the roughness node ir under edge_roughness).
@@ -83,6 +113,11 @@ struct ReprGrid {
     double n_dot_l_u(double visibility, double n_dot_l, std::uint32_t ir = 0) const;
     double n_dot_v_u(double n_dot_v) const;
     double visibility_u(double visibility) const;
+    // The continuous texel coordinate of a warped NdotL or NdotV coordinate u on an n-texel axis,
+    // clamped to [0, n - 1] (the placement's inverse: u n - 0.5 at centres, u (n - 1) at the ends).
+    double texel_of(double u, std::uint32_t n) const;
+    // The continuous visibility texel coordinate of a visibility, clamped to [0, n - 1].
+    double visibility_texel_of(double visibility) const;
 };
 
 // The domain of a grid: its roughness nodes' range, the given visibility and NdotV ranges, any NdotL

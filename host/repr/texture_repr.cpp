@@ -86,15 +86,11 @@ bool TextureRepresentation::zero_region(double v, double l) const {
     return l <= 2 * c * c - 1;
 }
 
-double TextureRepresentation::visibility_texel(double v) const {
-    return std::clamp(grid_.visibility_u(v) * grid_.visibility - 0.5, 0.0, double(grid_.visibility - 1));
-}
+double TextureRepresentation::visibility_texel(double v) const { return grid_.visibility_texel_of(v); }
 double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir) const {
-    return std::clamp(grid_.n_dot_l_u(v, l, ir) * grid_.n_dot_l - 0.5, 0.0, double(grid_.n_dot_l - 1));
+    return grid_.texel_of(grid_.n_dot_l_u(v, l, ir), grid_.n_dot_l);
 }
-double TextureRepresentation::n_dot_v_texel(double nv) const {
-    return std::clamp(grid_.n_dot_v_u(nv) * grid_.n_dot_v - 0.5, 0.0, double(grid_.n_dot_v - 1));
-}
+double TextureRepresentation::n_dot_v_texel(double nv) const { return grid_.texel_of(grid_.n_dot_v_u(nv), grid_.n_dot_v); }
 
 void TextureRepresentation::check_contents(const std::vector<std::string>& file_channels) const {
     const std::vector<std::string> expected = channel_names();
@@ -231,17 +227,24 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
     else
         o << "    // Uniform AO: the term is 0 for NdotL <= 2 (1 - v)^2 - 1 (and below the horizon).\n"
           << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l <= 2.0 * cos_t * cos_t - 1.0;\n}\n\n";
-    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
+    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness || grid_.azimuth_warp > 0)
         o << "// asinh(x) written out, odd so that it keeps its precision for x << 0 (HLSL has no asinh).\n"
-          << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n"
-          << "// The NdotL texel of one roughness slab: the distance to the shadow edge c in units of the slab's\n"
+          << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n";
+    if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
+        o << "// The NdotL texel of one roughness slab: the distance to the shadow edge c in units of the slab's\n"
           << "// width w, through asinh, from g(l0) (the zero region's edge) to g(1); clamped to [0, n - 1].\n"
           << "float ms_edge_texel(float n_dot_l, float c, float l0, float w)\n{\n"
           << "    float g0 = ms_asinh((l0 - c) / w);\n"
           << "    float u = (ms_asinh((n_dot_l - c) / w) - g0) / (ms_asinh((1.0 - c) / w) - g0);\n"
-          << "    return clamp(u * " << shader_literal(grid_.n_dot_l) << " - 0.5, 0.0, " << shader_literal(grid_.n_dot_l - 1) << ");\n}\n\n";
+          << "    return " << axis_texel("u", grid_.n_dot_l) << ";\n}\n\n";
     }
     return o.str();
+}
+
+std::string TextureRepresentation::axis_texel(const std::string& u, std::uint32_t n) const {
+    const auto L = shader_literal;
+    if (grid_.placement == TexelPlacement::ends) return "clamp(" + u + " * " + L(n - 1.0) + ", 0.0, " + L(n - 1.0) + ")";
+    return "clamp(" + u + " * " + L(n) + " - 0.5, 0.0, " + L(n - 1.0) + ")";
 }
 
 std::string TextureRepresentation::shader_coordinates() const {
@@ -250,7 +253,14 @@ std::string TextureRepresentation::shader_coordinates() const {
     o << "    // Texel coordinates within a block, clamped to [0, n - 1] as host/repr/texture_repr.cpp does.\n";
     if (grid_.warps.visibility == VisibilityWarp::sqrt_top) o << "    float uv = 1.0 - sqrt(max(1.0 - visibility, 0.0));\n";
     else o << "    float uv = visibility;\n";
-    o << "    float tv = clamp(uv * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
+    if (grid_.visibility_start > 0 && grid_.visibility > 1) {
+        // Texels from the start's coordinate u0 to the last cell centre u1, evenly.
+        const double u0 = grid_.visibility_u(grid_.visibility_start), u1 = (grid_.visibility - 0.5) / grid_.visibility;
+        o << "    float tv = clamp((uv - " << L(u0) << ") * " << L((grid_.visibility - 1) / (u1 - u0)) << ", 0.0, "
+          << L(grid_.visibility - 1) << ");\n";
+    } else {
+        o << "    float tv = clamp(uv * " << L(grid_.visibility) << " - 0.5, 0.0, " << L(grid_.visibility - 1) << ");\n";
+    }
     if (grid_.warps.n_dot_l == NdotLWarp::linear) {
         o << "    float ul = n_dot_l;\n";
     } else if (grid_.warps.n_dot_l == NdotLWarp::sqrt_top) {
@@ -267,11 +277,16 @@ std::string TextureRepresentation::shader_coordinates() const {
         else o << "    float c_t = 1.0 - visibility;\n    float l0 = max(2.0 * c_t * c_t - 1.0, 0.0);\n";
         o << "    float ul = (n_dot_l - l0) / (1.0 - l0);\n";
     }
-    if (grid_.warps.n_dot_l != NdotLWarp::edge_roughness)
-        o << "    float tl = clamp(ul * " << L(grid_.n_dot_l) << " - 0.5, 0.0, " << L(grid_.n_dot_l - 1) << ");\n";
-    if (grid_.warps.n_dot_v == NdotVWarp::sqrt) o << "    float uz = sqrt(max(n_dot_v, 0.0));\n";
-    else o << "    float uz = n_dot_v;\n";
-    o << "    float tz = clamp(uz * " << L(grid_.n_dot_v) << " - 0.5, 0.0, " << L(grid_.n_dot_v - 1) << ");\n";
+    if (grid_.warps.n_dot_l != NdotLWarp::edge_roughness) o << "    float tl = " << axis_texel("ul", grid_.n_dot_l) << ";\n";
+    const std::string warped_v = grid_.warps.n_dot_v == NdotVWarp::sqrt ? "sqrt(max(n_dot_v, 0.0))" : "n_dot_v";
+    if (grid_.placement == TexelPlacement::ends) {
+        // From the first texel's NdotV (w0 = its warped value) to 1: u = (w - w0) / (1 - w0).
+        const double w0 = grid_.warps.n_dot_v == NdotVWarp::sqrt ? std::sqrt(grid_.n_dot_v_start) : grid_.n_dot_v_start;
+        o << "    float uz = (" << warped_v << " - " << L(w0) << ") * " << L(1 / (1 - w0)) << ";\n";
+    } else {
+        o << "    float uz = " << warped_v << ";\n";
+    }
+    o << "    float tz = " << axis_texel("uz", grid_.n_dot_v) << ";\n";
     return o.str();
 }
 

@@ -67,6 +67,9 @@ protected:
     // (statements that set tv, tl, tz), written in GLSL with VEC3/VEC4/MIX/FETCH placeholders.
     std::string shader_common(const std::string& source_name) const;
     std::string shader_coordinates() const;
+    // The GLSL expression of an NdotL or NdotV texel coordinate from the warped coordinate `u` on an
+    // n-texel axis (ReprGrid::texel_of written out).
+    std::string axis_texel(const std::string& u, std::uint32_t n) const;
     // Replaces the placeholders for the language and adds the entry point's signature.
     std::string finish_shader(const std::string& body, ShaderLanguage language) const;
 

@@ -25,6 +25,7 @@
 #include "cli_runner.hpp"
 #include "core/query.hpp"
 #include "jobs/compare.hpp"
+#include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "vulkan_compute.hpp"
 
@@ -114,7 +115,10 @@ std::vector<Case> cases() {
             {"axis_linear", "azimuth-axis", linear, 5},       {"axis_warped", "azimuth-axis", warped, 4},
             {"axis_uniform", "azimuth-axis", uniform, 3},     {"harm_linear", "azimuth-harmonics", linear, 9},
             {"harm_warped", "azimuth-harmonics", warped, 7},  {"axis_top", "azimuth-axis", top, 6},
-            {"harm_top", "azimuth-harmonics", top, 7},  {"harm_uniform", "azimuth-harmonics", uniform, 8}};
+            {"harm_top", "azimuth-harmonics", top, 7},  {"harm_uniform", "azimuth-harmonics", uniform, 8},
+            // The full-range preset's grid: NdotL and NdotV texels from end to end, the visibility start and
+            // the far-side azimuth warp.
+            {"harm_full_range", "azimuth-harmonics", repr::preset("full-range").grid, 9}};
 }
 
 TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {

@@ -1,4 +1,5 @@
-// microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR.
+// microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR, KTX2, DDS, a C header or a PNG
+// atlas, and bake --scene. The runs are jobs (jobs/bake_run.hpp): this file turns flags into their specs and prints.
 #include <iostream>
 #include <memory>
 

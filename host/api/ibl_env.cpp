@@ -16,6 +16,7 @@
 #include "jobs/ibl_env.hpp"
 #include "jobs/ibl_irradiance.hpp"
 #include "jobs/ibl_prefilter.hpp"
+#include "jobs/ibl_run.hpp"
 #include "microshadow/ibl.hpp"
 #include "sampling/point_set.hpp"
 
@@ -37,13 +38,8 @@ void check_source(const EnvironmentSource& e, const char* where) {
                                     " files; six (+X -X +Y -Y +Z -Z)");
 }
 
-// The command's name of the source in provenance (cli/cmd_ibl.cpp: environment_name).
-std::string source_name(const EnvironmentSource& e) {
-    if (!e.image.empty()) return e.image;
-    std::string s = "faces";
-    for (const auto& f : e.faces) s += " " + f;
-    return s;
-}
+// The command's name of the source in provenance.
+std::string source_name(const EnvironmentSource& e) { return ms::environment_name({e.image, e.faces}); }
 
 CubeImage to_cube(const ms::env::Cubemap& c) {
     CubeImage out;
@@ -89,12 +85,6 @@ private:
     std::vector<fs::path> made_;
     bool kept_ = false;
 };
-
-std::set<std::string> names_in(const ms::OutputSet& outputs, std::size_t count) {
-    std::set<std::string> names;
-    for (std::size_t i = 0; i < count; ++i) names.insert(fs::path(outputs.target(i).named).filename().string());
-    return names;
-}
 
 // The environment as `ibl prefilter` reads it: resampled to `size` (0: the source's), a power of two.
 ms::env::Cubemap prefilter_source(const EnvironmentSource& e, std::uint32_t size) {
@@ -210,7 +200,7 @@ void PrefilteredEnvironment::save(const std::string& dir, const std::string& for
     outputs.stream(sh_json) << data_->irradiance_metadata.dump(2) << "\n";
     outputs.stream(ibl_json) << nlohmann::json{{"specular", data_->specular_metadata}, {"irradiance", data_->irradiance_metadata}}.dump(2)
                              << "\n";
-    ms::commit_outputs(outputs, ms::stale_prefilter_files(dir, names_in(outputs, ibl_json + 1)));
+    ms::commit_outputs(outputs, ms::stale_prefilter_files(dir, ms::names_in(outputs, ibl_json + 1)));
     folder.keep();
 }
 
@@ -273,7 +263,7 @@ void IrradianceMap::save(const std::string& dir, const std::string& format, cons
     ms::OutputSet outputs;
     const ms::IrradianceFiles files = ms::add_irradiance_files(outputs, dir, format, encoding);
     ms::write_irradiance_files(outputs, files, data_->result, data_->metadata, exposure);
-    ms::commit_outputs(outputs, ms::stale_irradiance_files(dir, names_in(outputs, files.preview + 1)));
+    ms::commit_outputs(outputs, ms::stale_irradiance_files(dir, ms::names_in(outputs, files.preview + 1)));
     folder.keep();
 }
 

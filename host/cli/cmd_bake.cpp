@@ -1,24 +1,14 @@
-// microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR.
-#include <filesystem>
-#include <iomanip>
-#include <optional>
+// microshadow bake: part 2's 3D/2D micro-shadowing LUTs (or a custom layout) to OpenEXR, KTX2, DDS, a C header or a PNG
+// atlas, and bake --scene. The runs are jobs (jobs/bake_run.hpp): this file turns flags into their specs and prints.
 #include <iostream>
-#include <sstream>
+#include <memory>
 
-#include "jobs/bake.hpp"
-#include "jobs/scene.hpp"
-#include "jobs/scene_bake.hpp"  // bake --scene
-#include "jobs/verify.hpp"
 #include "cli/bake_outputs.hpp"  // file formats, preview checks, shaders
 #include "cli/common.hpp"
 #include "cli/mpi_world.hpp"
-#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "cli/progress.hpp"
-#include "io/atomic_file.hpp"
-#include "io/text.hpp"
-#include "lut/exr_lut.hpp"
-#include "lut/preview.hpp"
-#include "scene/description.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
+#include "jobs/bake_run.hpp"
 
 namespace ms::cli {
 
@@ -142,182 +132,79 @@ BakeSpec make_spec(const BakeArgs& a) {
     return s;
 }
 
-// "azimuth nodes per row: 5 (7267 rows), 9 (5425 rows)" (adaptive bakes choose per row), or
-// "1 azimuth node" for a fixed angle.
-std::string azimuth_summary(const BakeResult& result) {
-    if (result.azimuth_cells) return std::to_string(result.azimuth_cells) + " azimuth cells (stratified)";
-    if (result.azimuth_rows_by_intervals.empty()) return std::to_string(result.azimuth_nodes) + " azimuth node(s)";
-    std::string s = "azimuth nodes per row:";
-    const char* sep = " ";
-    for (const auto& [intervals, rows] : result.azimuth_rows_by_intervals) {
-        s += sep + std::to_string(intervals == 0 ? 1 : intervals + 1) + " (" + std::to_string(rows) + " rows)";
-        sep = ", ";
-    }
-    return s;
-}
-
-// --- bake --scene (the scene's domain decides the bake; jobs/scene_bake.hpp) ---
+// --- bake --scene (the scene's domain decides the bake; jobs/bake_run.hpp) ---
 void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
-    const bool rank0 = !world || world->writer();
     for (const char* o : {"--preview", "--verify", "--verify-method", "--half", "--format", "--encoding", "--shader-glsl", "--shader-hlsl", "--ao-weighting", "--form"})
         if (args.cmd->get_option(o)->count() > 0) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
     if (args.out.size() < 4 || args.out.substr(args.out.size() - 4) != ".exr")
         throw std::invalid_argument("--scene writes an OpenEXR LUT (its coverage record is in the metadata): --out must end in .exr");
     if (args.scene_report.empty()) throw std::invalid_argument("--scene needs --scene-report DIR (histograms and the report)");
-    BakeSpec base = make_spec(args);
-    const scene::SceneDescription description = scene::load_scene(args.scene);
-    // The scene's AO weighting decides the cone, and its form the term: the LUT must be baked with them.
-    base.term.ao_weighting = description.ao_weighting;
-    base.term.form = description.sampling.form;
-    if (rank0) check_writable_destination(args.out);
-    // The report folder and its files, before any work (a bad one used to be found after the bakes).
-    if (rank0) scene::check_output_folder(args.scene_report);
-    if (std::error_code ec; rank0 && std::filesystem::is_directory(args.scene_report, ec)) {
-        for (const char* f : {"histograms.json", "histograms.csv", "report.json", "report.md"})
-            check_writable_destination((std::filesystem::path(args.scene_report) / f).string());
-        for (const auto& l : description.lights)
-            check_writable_destination((std::filesystem::path(args.scene_report) / ("histograms_" + l.name + ".png")).string());
-    }
-    const scene::SceneInputs inputs = scene::SceneInputs::load(description);
-    OpenClBackendConfig config;
-    config.build = base.build;
-    const std::unique_ptr<TermBackend> backend = make_term_backend(
-        base.oracle ? schedule::BackendSpec::oracle(base.oracle_threads) : schedule::BackendSpec::opencl(base.device), config);
-    backend->scheduler().set_fault_injection(fault_injection_from_environment());
-    scene::SceneBakeOptions options;
-    options.fit = args.scene_layout == "fit";
-    options.compare = !args.no_scene_compare;
-    options.serve_error = args.scene_error;
+    SceneBakeJobSpec job;
+    job.base = make_spec(args);
+    job.scene = args.scene, job.out = args.out, job.report = args.scene_report;
+    job.options.fit = args.scene_layout == "fit";
+    job.options.compare = !args.no_scene_compare;
+    job.options.serve_error = args.scene_error;
+    job.distribution = distribution_request(args.distribution, world);
+    job.writer = !world || world->writer();
+    job.fault = fault_injection_from_environment();
+    job.command_line = command_line();
+    const bool quiet = args.sampling.quiet;
+    // One progress line per phase (the scene bake, the full bake, the default LUT, the reference).
     std::unique_ptr<Progress> progress;
     std::string phase;
-    options.progress = [&](const std::string& p, std::size_t done, std::size_t total) {
+    SceneBakeJobCallbacks callbacks;
+    callbacks.progress = [&](const std::string& p, std::size_t done, std::size_t total) {
         if (p != phase) {
             if (progress) progress->finish();
-            progress = std::make_unique<Progress>("bake --scene: " + p, args.sampling.quiet || !rank0);
+            progress = std::make_unique<Progress>("bake --scene: " + p, quiet || !job.writer);
             phase = p;
         }
         progress->update(done, total);
     };
-    const std::vector<scene::LightDomain> domain = scene::scene_domain(inputs);
-    // The scene bake's slices split as asked (docs/cluster.md): the plan is the one run_scene_bake makes.
-    const schedule::Distribution distribution(
-        distribution_request(args.distribution, world),
-        scene::scene_bake_store_key(scene::plan_scene_bake(domain, base, options.fit), backend->scheduler()), args.out + ".chunks",
-        [quiet = args.sampling.quiet](const std::string& w) {
-            if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "; computed again\n";
-        });
-    options.items = &distribution.plan();
-    const scene::SceneBakeResult result = scene::run_scene_bake(inputs, domain, base, *backend, options);
+    callbacks.warn = [quiet](const std::string& w) {
+        if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "; computed again\n";
+    };
+    const SceneBakeJobResult r = run_scene_bake_job(job, callbacks);
     if (progress) progress->finish();
-    if (!distribution.writer() || !result.bake.complete) {
-        if (!world && !args.sampling.quiet)
-            std::cerr << "bake --scene: " << distribution.shard_finished(
-                             result.bake.loaded_slices, result.bake.computed_slices,
-                             "write " + args.out + " and the report with the same command, --merge in place of --shard")
-                      << "\n";
-        return;
-    }
-    const nlohmann::json provenance = {{"program", "microshadow " MICROSHADOW_VERSION},
-                                       {"command_line", command_line()},
-                                       {"scene", json_safe(args.scene)}};
-    scene::write_scene_bake_outputs(result, domain, args.out, args.scene_report, provenance);
-    if (!args.sampling.quiet) {
-        const auto& p = result.plan;
-        std::cerr << std::setprecision(3) << "bake --scene: baked " << p.baked_texels << " of " << p.texels << " texels ("
-                  << p.baked_rows << " of " << p.rows << " rows, " << p.baked_slices << " of " << p.slices << " slices, "
-                  << p.channels_touched.size() << " of " << p.spec.roughness.size() << " channels) in " << result.bake.seconds << " s";
-        if (result.full_seconds > 0)
-            std::cerr << "; full bake of the same layout " << result.full_seconds << " s (ratio " << result.bake.seconds / result.full_seconds << ")";
-        std::cerr << "\n";
-        if (result.bake.rerun_chunks)
-            for (const auto& f : result.bake.failed_devices) std::cerr << "bake --scene: device failed, its chunks were rerun: " << f << "\n";
-        for (const auto& e : result.errors)
-            std::cerr << "bake --scene: " << e.light << ": weighted error on " << e.scene_lut.lookups << " sampled lookups: scene LUT max "
-                      << e.scene_lut.max << " RMS " << e.scene_lut.rms << ", default LUT max " << e.default_lut.max << " RMS "
-                      << e.default_lut.rms << " (reference bound " << e.reference_bound << ")\n";
-        if (!result.errors.empty())
-            std::cerr << "bake --scene: the default LUT " << (result.default_serves ? "serves" : "does not serve") << " this scene within "
-                      << result.serve_error << "\n";
-        std::cerr << "bake --scene: wrote " << args.out << " and " << args.scene_report << "/report.md\n";
-    }
+    if (!quiet && r.written) std::cerr << scene_bake_job_summary(job, r);
+    if (!quiet && !r.written && !world) std::cerr << r.shard_note;
 }
 
-void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world);
+void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
+    // The output format by extension or --format, the preview and shader paths: checked before the bake.
+    const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
+    BakeJobSpec job;
+    job.bake = spec;
+    job.out = args.out, job.preview = args.preview;
+    job.verify = args.verify;
+    job.verify_method = parse_method(args.verify_method);
+    job.distribution = distribution_request(args.distribution, world);
+    job.writer = !world || world->writer();
+    job.fault = fault_injection_from_environment();
+    const bool quiet = args.sampling.quiet;
+    Progress progress("bake", quiet || !job.writer);
+    BakeJobCallbacks callbacks;
+    callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
+    callbacks.warn = [quiet](const std::string& w) {
+        if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
+    };
+    const BakeJobResult r = [&] {
+        struct Finish {
+            Progress& p;
+            ~Finish() { p.finish(); }
+        } finish{progress};
+        return run_bake_job(job, [&](const LutFile& lut) { write_bake_outputs(args.outputs, output, args.out, lut); }, callbacks);
+    }();
+    if (!quiet && r.written) std::cerr << bake_job_summary(job, r);
+    if (!quiet && !r.written && !world) std::cerr << r.shard_note;
+}
 
 void run_bake(const BakeArgs& args) {
     if (!args.scene.empty()) return with_distribution(args.distribution, [&](MpiWorld* world) { run_scene_bake_command(args, world); });
     const BakeSpec spec = make_spec(args);
     // The MPI world first: every rank reads the same command line, and only rank 0 touches the outputs.
     with_distribution(args.distribution, [&](MpiWorld* world) { run_bake_job(args, spec, world); });
-}
-
-void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
-    const bool rank0 = !world || world->writer();
-    // --- output format by extension or --format; preview and shader paths (before the bake) ---
-    const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
-    // Fail on a bad destination before the (long) bake, not after it.
-    if (rank0) {
-        check_writable_destination(args.out);
-        if (!args.preview.empty()) check_writable_destination(args.preview);
-    }
-
-    Progress progress("bake", args.sampling.quiet || !rank0);
-    BakeCallbacks callbacks;
-    callbacks.progress = [&](std::size_t done, std::size_t total) { progress.update(done, total); };
-    schedule::Scheduler scheduler(bake_backend(spec));
-    // How the slices are split: a shard of a Slurm array (or --shard), a resumable store, the merge of a
-    // store's shards, or the ranks of an MPI world. Checked before any work; nothing is written here.
-    const schedule::Distribution distribution(distribution_request(args.distribution, world), bake_store_key(spec, scheduler),
-                                              args.out + ".chunks", [quiet = args.sampling.quiet](const std::string& w) {
-                                                  if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
-                                              });
-    // Refuse what cannot fit before computing (a 4096^3 bake used to end in bad_alloc).
-    if (const std::uint64_t need = bake_host_memory(spec, scheduler.places()), memory = physical_memory();
-        memory > 0 && need > memory / 2)
-        throw std::invalid_argument("this bake needs about " + gib(need) + " of memory (the atlas and each place's tallies), "
-                                    "more than the limit of " + gib(memory / 2) + " (half the " + gib(memory) +
-                                    " of physical memory); use fewer texels, channels or samples");
-    scheduler.set_fault_injection(fault_injection_from_environment());
-    const BakeResult result = bake_lut(spec, scheduler, callbacks, distribution.plan());
-    progress.finish();
-    if (!distribution.writer() || !result.complete) {
-        if (!world && !args.sampling.quiet)
-            std::cerr << "bake: shard " << distribution.shard().index << "/" << distribution.shard().count << " finished in "
-                      << distribution.store()->dir() << " (" << result.loaded_slices << " of its slices found there, "
-                      << result.computed_slices << " computed); when every shard has, write "
-                      << args.out << " with the same command, --merge in place of --shard\n";
-        return;
-    }
-
-    BakeVerification check;
-    if (args.verify > 0) check = verify_bake(spec, result, args.verify, 0, 0, parse_method(args.verify_method));
-
-    nlohmann::json meta = bake_metadata(spec, result);
-    if (args.verify > 0) meta["verify"] = verification_record(check);
-    throw_if_failed(check);
-    // Preview first, LUT last: each is atomic, and the LUT appearing means the whole job finished.
-    if (!args.preview.empty())
-        write_lut_preview(args.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels,
-                                         result.value.data(), {spec.visibility, spec.n_dot_l, spec.n_dot_v}, spec.roughness});
-    // --- the LUT in the chosen format (and the shaders), from one LutFile ---
-    write_bake_outputs(args.outputs, output, args.out, bake_lut_file(spec, result, meta));
-
-    if (!args.sampling.quiet) {
-        std::cerr << std::setprecision(3) << "bake: " << spec.visibility.count << " x " << spec.n_dot_l.count << " x "
-                  << spec.n_dot_v.count << " x " << result.channels << " (" << result.texels << " texels; skipped "
-                  << result.skipped_zero << " exact 0 in the zero region, " << result.skipped_one << " exact 1 at v = 1), "
-                  << result.slices << " slices, " << azimuth_summary(result) << ", "
-                  << result.samples_per_batch << " samples per batch, " << result.batches << " batches; max std error "
-                  << result.max_std_error;
-        if (spec.tolerance > 0) std::cerr << (result.tolerance_met ? " (tolerance met)" : " (TOLERANCE NOT MET: raise --max-batches)");
-        std::cerr << "; " << result.seconds << " s on " << meta["device"].get<std::string>() << "\n";
-        if (result.rerun_chunks)
-            for (const auto& f : result.failed_devices) std::cerr << "bake: device failed, its chunks were rerun: " << f << "\n";
-        if (args.verify > 0)
-            std::cerr << "verify: " << check.checked << " texels against the "
-                      << (check.reference == Method::exact ? "exact method" : "sampled oracle") << ", worst z " << check.worst_z
-                      << " (limit " << check.threshold << "), worst |diff| " << check.worst_abs_diff << "\n";
-    }
 }
 
 }  // namespace

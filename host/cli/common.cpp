@@ -33,13 +33,6 @@ std::string format_g(double v) {
 
 }  // namespace
 
-std::string gib(std::uint64_t bytes) {
-    char buf[32];
-    const double g = double(bytes) / double(1ull << 30);
-    std::snprintf(buf, sizeof buf, g >= 100 ? "%.0f GiB" : "%.3g GiB", g);
-    return buf;
-}
-
 void set_command_line(int argc, char** argv) {
     // Each argument as a bash word (shell_quote): the record is valid UTF-8 whatever bytes the
     // arguments hold (file names on Linux are bytes), so JSON provenance never fails to dump it.
@@ -48,11 +41,6 @@ void set_command_line(int argc, char** argv) {
 }
 
 std::string command_line() { return g_command_line; }
-
-std::uint64_t physical_memory() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-    return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) : 0;
-}
 
 void check_sampling_size(const SamplingPlan& p) {
     const std::uint64_t per_replicate = p.samples / p.replicates;
@@ -192,18 +180,15 @@ void add_sampling_options(CLI::App* app, SamplingOptions& o, const std::string& 
                   "kernel)");
     const std::uint64_t memory = physical_memory();
     const std::string memory_note = memory ? " here: " + gib(memory / 2) : "";
-    app->add_option("--samples", o.samples,
-                    "VNDF samples per query: 16 to replicates x 2^28 (2^31 with 8 replicates), rounded up to "
-                    "replicates x 2^k; the point set takes 8 bytes a sample, at most half the physical memory" +
-                        memory_note)
-        ->transform(decimal_range(16, kMaxPerReplicate * kMaxReplicates))
-        ->capture_default_str();
-    app->add_option("--seed", o.seed, "seed of the point-set randomisation (decimal, 0 .. 2^64 - 1)")
-        ->transform(decimal_range(0, std::numeric_limits<std::uint64_t>::max()))
-        ->capture_default_str();
-    app->add_option("--replicates", o.replicates, "independent randomisations, for the error estimate (2 to 1024)")
-        ->transform(decimal_range(2, kMaxReplicates))
-        ->capture_default_str();
+    PlanOptionLimits limits;
+    limits.max_samples = kMaxPerReplicate * kMaxReplicates;
+    limits.max_replicates = kMaxReplicates;
+    limits.samples_help =
+        "VNDF samples per query: 16 to replicates x 2^28 (2^31 with 8 replicates), rounded up to replicates x 2^k; the point "
+        "set takes 8 bytes a sample, at most half the physical memory" + memory_note;
+    limits.replicates_help = "independent randomisations, for the error estimate (2 to 1024)";
+    limits.seed_help = "seed of the point-set randomisation (decimal, 0 .. 2^64 - 1)";
+    add_plan_options(app, o.samples, o.replicates, o.seed, limits);
     app->add_option("--sequence", o.sequence, "sample points")->check(CLI::IsMember({"sobol", "random"}))->capture_default_str();
     app->add_option("--form", o.form, "Smith form of G2/G1")
         ->check(CLI::IsMember({"height-correlated", "uncorrelated"}))
@@ -211,16 +196,48 @@ void add_sampling_options(CLI::App* app, SamplingOptions& o, const std::string& 
     app->add_option("--ao-weighting", o.ao_weighting, "how the AO map was baked: cos_t = sqrt(1-v) or 1-v")
         ->check(CLI::IsMember({"cosine", "uniform"}))
         ->capture_default_str();
-    app->add_option("--backend", o.backend, "opencl kernels or the scalar double oracle")
-        ->check(CLI::IsMember({"opencl", "oracle"}))
-        ->capture_default_str();
-    app->add_option("--device", o.device, "OpenCL device: default, all, an index (see 'devices') or a name")
-        ->capture_default_str();
-    app->add_flag("--fast-math", o.fast_math, "build kernels with -cl-fast-relaxed-math (recorded in outputs)");
-    app->add_flag("--double-kernels", o.double_kernels,
-                  "run the kernels in double precision (devices with cl_khr_fp64; separates rounding from algorithm)");
-    app->add_flag("--quiet,-q", o.quiet, "no progress or summary on stderr");
+    add_backend_option(app, o.backend, "opencl kernels or the scalar double oracle");
+    add_device_option(app, o.device);
+    add_kernel_build_flags(app, o.fast_math, o.double_kernels);
+    add_quiet_flag(app, o.quiet);
 }
+
+void add_plan_options(CLI::App* app, std::uint64_t& samples, std::uint32_t& replicates, std::uint64_t& seed,
+                      const PlanOptionLimits& limits) {
+    app->add_option("--samples", samples, limits.samples_help)->transform(decimal_range(16, limits.max_samples))->capture_default_str();
+    app->add_option("--seed", seed, limits.seed_help)
+        ->transform(decimal_range(0, std::numeric_limits<std::uint64_t>::max()))
+        ->capture_default_str();
+    app->add_option("--replicates", replicates, limits.replicates_help)
+        ->transform(decimal_range(2, limits.max_replicates))
+        ->capture_default_str();
+}
+
+void add_backend_option(CLI::App* app, std::string& backend, const std::string& help) {
+    CLI::Option* o = app->add_option("--backend", backend, help)->check(CLI::IsMember({"opencl", "oracle"}));
+    if (!backend.empty()) o->capture_default_str();
+}
+
+void add_device_option(CLI::App* app, std::string& device, const std::string& help) {
+    CLI::Option* o = app->add_option("--device", device, help);
+    if (!device.empty()) o->capture_default_str();
+}
+
+void add_kernel_build_flags(CLI::App* app, bool& fast_math, bool& double_kernels) {
+    app->add_flag("--fast-math", fast_math, "build kernels with -cl-fast-relaxed-math (recorded in outputs)");
+    app->add_flag("--double-kernels", double_kernels,
+                  "run the kernels in double precision (devices with cl_khr_fp64; separates rounding from algorithm)");
+}
+
+void add_threads_option(CLI::App* app, unsigned& threads, const std::string& help) {
+    app->add_option("--threads", threads, help)->transform(decimal_range(0, 1024));
+}
+
+void add_verify_option(CLI::App* app, std::uint32_t& k, const std::string& help) {
+    app->add_option("--verify", k, help)->transform(decimal_range(0, 100000));
+}
+
+void add_quiet_flag(CLI::App* app, bool& quiet, const std::string& help) { app->add_flag("-q,--quiet", quiet, help); }
 
 schedule::Shard resolve_shard(const std::string& given_text) {
     if (!given_text.empty()) return schedule::parse_shard(given_text, "--shard");

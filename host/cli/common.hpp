@@ -6,6 +6,7 @@
 #include <memory>
 #include <string>
 
+#include "core/memory.hpp"
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
 #include "schedule/distributed.hpp"
@@ -45,10 +46,9 @@ struct SamplingOptions {
 // floats; the OpenCL backend holds a second copy, in host memory on PoCL's CPU device) at most half
 // the physical memory. Throws std::invalid_argument with the figure and the limit.
 void check_sampling_size(const SamplingPlan& plan);
-// Physical memory in bytes (sysconf), 0 when unknown.
-std::uint64_t physical_memory();
-// "1.5 GiB", for memory figures in messages.
-std::string gib(std::uint64_t bytes);
+// physical_memory() and gib(), for the memory checks (core/memory.hpp).
+using ms::gib;
+using ms::physical_memory;
 
 // Integer options in decimal only: CLI11 reads "010" as octal 8 and "0x10" as hex; this transform
 // accepts digits only (leading zeros are decimal), rejects a sign and values outside [min, max]
@@ -66,6 +66,34 @@ void add_tolerance_option(CLI::App* app, SamplingOptions& o);
 // --sequence given on `app`'s command line: they are unused, and a recipe written for the sampled
 // method should say --method sampled.
 void note_unused_sampling_options(CLI::App* app, const SamplingOptions& o);
+
+// Option groups: each flag defined once, here, and added by every command that takes it. A command
+// passes its own defaults (the variables' initial values), ranges and the sentence of help that says
+// what the flag means for it.
+//
+// --samples --replicates --seed of a point-set plan.
+struct PlanOptionLimits {
+    std::uint64_t max_samples = std::uint64_t(1) << 28;  // --samples: 16 to this
+    std::uint32_t max_replicates = 64;                   // --replicates: 2 to this
+    std::string samples_help = "samples per query (all replicates)";
+    std::string replicates_help = "independent scrambles (error bars)";
+    std::string seed_help = "scramble seed";
+};
+void add_plan_options(CLI::App* app, std::uint64_t& samples, std::uint32_t& replicates, std::uint64_t& seed,
+                      const PlanOptionLimits& limits);
+// --backend opencl|oracle (`help` says what each means for the command; its default shown when not empty).
+void add_backend_option(CLI::App* app, std::string& backend, const std::string& help);
+// --device: the OpenCL devices (`what`: the command's sentence; the default shown when not empty).
+void add_device_option(CLI::App* app, std::string& device,
+                       const std::string& help = "OpenCL device: default, all, an index (see 'devices') or a name");
+// --fast-math and --double-kernels: how the command's kernels are built (recorded in outputs).
+void add_kernel_build_flags(CLI::App* app, bool& fast_math, bool& double_kernels);
+// --threads: host threads (0: all), `help` naming which.
+void add_threads_option(CLI::App* app, unsigned& threads, const std::string& help);
+// --verify K (0 to 100000 texels re-checked), `help` saying against what and what a failure does.
+void add_verify_option(CLI::App* app, std::uint32_t& k, const std::string& help);
+// -q / --quiet.
+void add_quiet_flag(CLI::App* app, bool& quiet, const std::string& help = "no progress or summary on stderr");
 
 // MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
 // its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.

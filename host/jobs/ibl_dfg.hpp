@@ -20,13 +20,14 @@
 #include "core/types.hpp"
 #include "grid/axis.hpp"
 #include "integrands/dfg/dfg_integrand.hpp"
+#include "integrands/lut_slice/lut_slice_spec.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms {
 
 class OutputSet;
 
-constexpr double kMinNdotV = 1e-4;
+// kMinNdotV, the grazing clamp of NdotV, is the one every LUT bake shares (integrands/lut_slice/lut_slice_spec.hpp).
 
 // How the texels are computed: `exact` (exact/dfg_exact.hpp: Gauss-Legendre to ~1e-12, host threads),
 // `sampled` (the VNDF kernel with replicate error bars) or `quadrature` (the independent quadrature that

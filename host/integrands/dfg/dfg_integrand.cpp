@@ -20,9 +20,8 @@ void validate(const DfgPoint& p) {
 
 DfgIntegrand::DfgIntegrand(std::vector<DfgPoint> points, std::size_t points_per_item, const SamplingPlan& plan,
                            DfgRoutineConfig config)
-    : points_(std::move(points)), per_item_(std::max<std::size_t>(1, points_per_item)), plan_(plan), config_(std::move(config)) {
-    for (const auto& p : points_) validate(p);
-    values_.resize(points_.size());
+    : BatchedIntegrand(std::move(points), points_per_item), plan_(plan), config_(std::move(config)) {
+    for (const auto& p : targets()) validate(p);
 }
 
 const PointSet& DfgIntegrand::point_set() {
@@ -31,9 +30,10 @@ const PointSet& DfgIntegrand::point_set() {
     return *point_set_;
 }
 
-class DeviceWorker final : public schedule::Worker {
+// The VNDF kernel on one device: the point set uploaded once, then one kernel call per batch of points.
+class DfgKernelRoutine final : public DfgIntegrand::DeviceRoutine {
 public:
-    DeviceWorker(DfgIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
+    DfgKernelRoutine(DfgIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
         ocl::require_build_support(device_.info(), owner_.config_.build);
         const PointSet& pts = owner_.point_set();
         const ocl::PointBuffers b = ocl::upload_points(device_, pts.u1, pts.u2);
@@ -41,17 +41,15 @@ public:
         u2_ = b.u2;
     }
 
-    void run(std::uint64_t id) override {
-        throw_if_cancelled();
+    void run(const DfgIntegrand::Batch& batch) override {
         const PointSet& pts = owner_.point_set();
-        const std::size_t first = id * owner_.per_item_;
-        const std::size_t count = std::min(owner_.per_item_, owner_.points_.size() - first);
+        const std::size_t count = batch.count;
         const std::uint32_t R = pts.replicates, n = pts.points_per_replicate;
         const std::uint32_t per_chunk = std::min<std::uint32_t>(n, owner_.config_.max_points_per_work_item);
         const std::uint32_t chunks = n / per_chunk;  // both powers of two
         std::vector<cl_float4> packed(count);
         for (std::size_t i = 0; i < count; ++i) {
-            const DfgPoint& p = owner_.points_[first + i];
+            const DfgPoint& p = batch.targets[i];
             packed[i] = {{float(p.alpha), float(p.n_dot_v), float(std::sqrt(std::max(0.0, 1 - p.n_dot_v * p.n_dot_v))), 0.0f}};
         }
         const std::size_t items = count * R * chunks;
@@ -89,7 +87,7 @@ public:
                 }
                 a[r] = sa, b[r] = sb, e[r] = sa + sb;
             }
-            DfgValue& v = owner_.values_[first + t];
+            DfgValue& v = batch.slots[t];
             v.scale = reduce_replicates(a.data(), count_r.data(), R);
             v.bias = reduce_replicates(b.data(), count_r.data(), R);
             v.albedo = reduce_replicates(e.data(), count_r.data(), R);
@@ -102,40 +100,25 @@ private:
     cl::Buffer u1_, u2_;
 };
 
-class OracleWorker final : public schedule::Worker {
-public:
-    explicit OracleWorker(DfgIntegrand& owner) : owner_(owner) {}
-    void run(std::uint64_t id) override {
-        const std::size_t first = id * owner_.per_item_;
-        const std::size_t count = std::min(owner_.per_item_, owner_.points_.size() - first);
-        for (std::size_t t = 0; t < count; ++t) {
-            throw_if_cancelled();
-            const DfgPoint& p = owner_.points_[first + t];
-            DfgValue& v = owner_.values_[first + t];
-            const DfgRoutineConfig& config = owner_.config_;
-            if (config.host_rule == DfgHostRule::exact) {
-                const exact::DfgExact e = exact::dfg_exact(p.n_dot_v, p.alpha, config.sheen, config.exact_order);
-                v.scale = {e.scale, e.scale_error};
-                v.bias = {e.bias, e.bias_error};
-                v.albedo = {e.scale + e.bias, e.scale_error + e.bias_error};
-                if (config.sheen) v.sheen = {e.sheen, e.sheen_error};
-                continue;
-            }
-            const DfgQuadrature q = dfg_quadrature(p.n_dot_v, p.alpha, config.quadrature_order, config.sheen);
-            v.scale = {q.scale, q.scale_error};
-            v.bias = {q.bias, q.bias_error};
-            v.albedo = {q.scale + q.bias, q.scale_error + q.bias_error};
-            if (config.sheen) v.sheen = {q.sheen, q.sheen_error};
-        }
-    }
-
-private:
-    DfgIntegrand& owner_;
-};
-
-std::unique_ptr<schedule::Worker> DfgIntegrand::device_worker(ocl::Device& device) {
-    return std::make_unique<DeviceWorker>(*this, device);
+std::unique_ptr<DfgIntegrand::DeviceRoutine> DfgIntegrand::make_device_routine(ocl::Device& device) {
+    return std::make_unique<DfgKernelRoutine>(*this, device);
 }
-std::unique_ptr<schedule::Worker> DfgIntegrand::oracle_worker() { return std::make_unique<OracleWorker>(*this); }
+
+void DfgIntegrand::oracle(const DfgPoint& p, DfgValue* slot) {
+    DfgValue& v = *slot;
+    if (config_.host_rule == DfgHostRule::exact) {
+        const exact::DfgExact e = exact::dfg_exact(p.n_dot_v, p.alpha, config_.sheen, config_.exact_order);
+        v.scale = {e.scale, e.scale_error};
+        v.bias = {e.bias, e.bias_error};
+        v.albedo = {e.scale + e.bias, e.scale_error + e.bias_error};
+        if (config_.sheen) v.sheen = {e.sheen, e.sheen_error};
+        return;
+    }
+    const DfgQuadrature q = dfg_quadrature(p.n_dot_v, p.alpha, config_.quadrature_order, config_.sheen);
+    v.scale = {q.scale, q.scale_error};
+    v.bias = {q.bias, q.bias_error};
+    v.albedo = {q.scale + q.bias, q.scale_error + q.bias_error};
+    if (config_.sheen) v.sheen = {q.sheen, q.sheen_error};
+}
 
 }  // namespace ms::dfg

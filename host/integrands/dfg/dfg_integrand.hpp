@@ -13,7 +13,7 @@
 #include "core/types.hpp"
 #include "device/runtime.hpp"
 #include "sampling/point_set.hpp"
-#include "schedule/integrand.hpp"
+#include "schedule/batched_integrand.hpp"
 
 namespace ms::dfg {
 
@@ -44,31 +44,26 @@ struct DfgRoutineConfig {
     bool sheen = false;    // host rules: also the cloth channel (the kernel computes GGX only)
 };
 
-class DfgIntegrand final : public schedule::Integrand {
+class DfgIntegrand final : public schedule::BatchedIntegrand<DfgPoint, DfgValue> {
 public:
     // points_per_item: how many points one work item holds (a LUT row).
     DfgIntegrand(std::vector<DfgPoint> points, std::size_t points_per_item, const SamplingPlan& plan,
                  DfgRoutineConfig config = {});
     std::string name() const override { return "the split-sum DFG integrals"; }
-    std::uint64_t work_items() const override { return (points_.size() + per_item_ - 1) / per_item_; }
-    std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
-    std::unique_ptr<schedule::Worker> oracle_worker() override;
 
-    const std::vector<DfgPoint>& points() const { return points_; }
-    const std::vector<DfgValue>& values() const { return values_; }
-    std::vector<DfgValue> take_values() { return std::move(values_); }
+    const std::vector<DfgPoint>& points() const { return targets(); }
+    const std::vector<DfgValue>& values() const { return slots(); }
+    std::vector<DfgValue> take_values() { return take_slots(); }
     const SamplingPlan& plan() const { return plan_; }
-    std::size_t points_per_item() const { return per_item_; }
+    std::size_t points_per_item() const { return per_item(); }
 
 private:
-    friend class DeviceWorker;
-    friend class OracleWorker;
+    friend class DfgKernelRoutine;
+    std::unique_ptr<DeviceRoutine> make_device_routine(ocl::Device& device) override;
+    void oracle(const DfgPoint& p, DfgValue* v) override;
     const PointSet& point_set();
-    std::vector<DfgPoint> points_;
-    std::size_t per_item_;
     SamplingPlan plan_;
     DfgRoutineConfig config_;
-    std::vector<DfgValue> values_;
     std::shared_ptr<const PointSet> point_set_;
     std::mutex mutex_;
 };

@@ -9,18 +9,17 @@ namespace ms::irradiance {
 
 IrradianceIntegrand::IrradianceIntegrand(const Source& source, std::vector<Target> targets, std::size_t per_item, RoutineConfig config,
                                          CpuEstimate oracle)
-    : source_(source), targets_(std::move(targets)), per_item_(std::max<std::size_t>(1, per_item)), config_(std::move(config)),
-      oracle_(std::move(oracle)) {
+    : BatchedIntegrand(std::move(targets), per_item), source_(source), config_(std::move(config)), oracle_(std::move(oracle)) {
     const std::size_t texels = 6ull * source_.size * source_.size;
     if (source_.size == 0 || source_.vector.size() != 4 * texels || source_.radiance.size() != 4 * texels ||
         source_.spread.size() != 4 * texels)
         throw std::invalid_argument("irradiance: the packed source does not hold 6 x size^2 texels of four floats per array");
-    values_.resize(targets_.size());
 }
 
-class IrradianceDeviceWorker final : public schedule::Worker {
+// The kernel on one device: the reduced source uploaded once, then one call per batch of directions.
+class IrradianceKernelRoutine final : public IrradianceIntegrand::DeviceRoutine {
 public:
-    IrradianceDeviceWorker(IrradianceIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
+    IrradianceKernelRoutine(IrradianceIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
         ocl::require_build_support(device_.info(), owner_.config_.build);
         const Source& s = owner_.source_;
         auto upload = [&](const std::vector<float>& v) {
@@ -33,13 +32,11 @@ public:
             return 0;
         });
     }
-    void run(std::uint64_t id) override {
-        throw_if_cancelled();
-        const std::size_t first = id * owner_.per_item_;
-        const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
+    void run(const IrradianceIntegrand::Batch& batch) override {
+        const std::size_t count = batch.count;
         std::vector<cl_float4> packed(count);
         for (std::size_t i = 0; i < count; ++i) {
-            const Target& t = owner_.targets_[first + i];
+            const Target& t = batch.targets[i];
             packed[i] = {{float(t.x), float(t.y), float(t.z), 0.0f}};
         }
         std::vector<float> sums(count * 12);
@@ -62,7 +59,7 @@ public:
         });
         const double u = 1.0 / double(1 << 24);  // float's unit roundoff
         for (std::size_t i = 0; i < count; ++i) {
-            Value& v = owner_.values_[first + i];
+            Value& v = batch.slots[i];
             const float* o = &sums[i * 12];
             for (int c = 0; c < 3; ++c) {
                 v.irradiance[c] = o[c];
@@ -78,27 +75,12 @@ private:
     cl::Buffer vector_, radiance_, spread_;
 };
 
-class IrradianceCpuWorker final : public schedule::Worker {
-public:
-    explicit IrradianceCpuWorker(IrradianceIntegrand& owner) : owner_(owner) {
-        if (!owner_.oracle_) throw std::invalid_argument("irradiance: no oracle given for the oracle backend");
-    }
-    void run(std::uint64_t id) override {
-        const std::size_t first = id * owner_.per_item_;
-        const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
-        for (std::size_t i = 0; i < count; ++i) {
-            throw_if_cancelled();
-            owner_.values_[first + i] = owner_.oracle_(owner_.targets_[first + i]);
-        }
-    }
-
-private:
-    IrradianceIntegrand& owner_;
-};
-
-std::unique_ptr<schedule::Worker> IrradianceIntegrand::device_worker(ocl::Device& device) {
-    return std::make_unique<IrradianceDeviceWorker>(*this, device);
+void IrradianceIntegrand::check_oracle() const {
+    if (!oracle_) throw std::invalid_argument("irradiance: no oracle given for the oracle backend");
 }
-std::unique_ptr<schedule::Worker> IrradianceIntegrand::oracle_worker() { return std::make_unique<IrradianceCpuWorker>(*this); }
+
+std::unique_ptr<IrradianceIntegrand::DeviceRoutine> IrradianceIntegrand::make_device_routine(ocl::Device& device) {
+    return std::make_unique<IrradianceKernelRoutine>(*this, device);
+}
 
 }  // namespace ms::irradiance

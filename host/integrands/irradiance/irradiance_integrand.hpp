@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "device/runtime.hpp"
-#include "schedule/integrand.hpp"
+#include "schedule/batched_integrand.hpp"
 
 namespace ms::irradiance {
 
@@ -48,25 +48,21 @@ struct RoutineConfig {
 // IblIrradianceKernel measures it).
 constexpr double kRoundingUnits = 32;
 
-class IrradianceIntegrand final : public schedule::Integrand {
+class IrradianceIntegrand final : public schedule::BatchedIntegrand<Target, Value> {
 public:
     using CpuEstimate = std::function<Value(const Target&)>;  // thread-safe
     IrradianceIntegrand(const Source& source, std::vector<Target> targets, std::size_t per_item, RoutineConfig config, CpuEstimate oracle);
     std::string name() const override { return "irradiance convolution"; }
-    std::uint64_t work_items() const override { return (targets_.size() + per_item_ - 1) / per_item_; }
-    std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
-    std::unique_ptr<schedule::Worker> oracle_worker() override;
-    const std::vector<Value>& values() const { return values_; }
+    const std::vector<Value>& values() const { return slots(); }
 
 private:
-    friend class IrradianceDeviceWorker;
-    friend class IrradianceCpuWorker;
+    friend class IrradianceKernelRoutine;
+    std::unique_ptr<DeviceRoutine> make_device_routine(ocl::Device& device) override;
+    void oracle(const Target& target, Value* value) override { *value = oracle_(target); }
+    void check_oracle() const override;
     const Source& source_;
-    std::vector<Target> targets_;
-    std::size_t per_item_;
     RoutineConfig config_;
     CpuEstimate oracle_;
-    std::vector<Value> values_;
 };
 
 }  // namespace ms::irradiance

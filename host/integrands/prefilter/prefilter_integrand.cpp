@@ -9,16 +9,16 @@ namespace ms::prefilter {
 
 PrefilterIntegrand::PrefilterIntegrand(const SourceChain& chain, std::vector<Target> targets, std::size_t per_item,
                                        const PointSet& points, RoutineConfig config, CpuSums cpu)
-    : chain_(chain), targets_(std::move(targets)), per_item_(std::max<std::size_t>(1, per_item)), points_(points),
+    : BatchedIntegrand(std::move(targets), per_item, 4 * std::size_t(points.replicates)), chain_(chain), points_(points),
       config_(std::move(config)), cpu_(std::move(cpu)) {
-    for (const auto& t : targets_)
+    for (const auto& t : this->targets())
         if (!(t.roughness > 0)) throw std::invalid_argument("prefilter: roughness must be > 0 (roughness 0 is the source)");
-    sums_.assign(targets_.size() * 4 * std::size_t(points_.replicates), 0.0);
 }
 
-class PrefilterDeviceWorker final : public schedule::Worker {
+// The kernel on one device: the source chain and the points uploaded once, then one call per batch.
+class PrefilterKernelRoutine final : public PrefilterIntegrand::DeviceRoutine {
 public:
-    PrefilterDeviceWorker(PrefilterIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
+    PrefilterKernelRoutine(PrefilterIntegrand& owner, ocl::Device& device) : owner_(owner), device_(device) {
         ocl::require_build_support(device_.info(), owner_.config_.build);
         const SourceChain& c = owner_.chain_;
         const PointSet& p = owner_.points_;
@@ -33,14 +33,12 @@ public:
         u1_ = b.u1;
         u2_ = b.u2;
     }
-    void run(std::uint64_t id) override {
-        throw_if_cancelled();
-        const std::size_t first = id * owner_.per_item_;
-        const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
+    void run(const PrefilterIntegrand::Batch& batch) override {
+        const std::size_t count = batch.count;
         const std::uint32_t R = owner_.points_.replicates;
         std::vector<cl_float4> packed(count);
         for (std::size_t i = 0; i < count; ++i) {
-            const Target& t = owner_.targets_[first + i];
+            const Target& t = batch.targets[i];
             packed[i] = {{float(t.x), float(t.y), float(t.z), float(t.roughness)}};
         }
         const std::size_t items = count * R;
@@ -70,8 +68,8 @@ public:
             device_.queue().enqueueReadBuffer(obuf, CL_TRUE, 0, sums.size() * sizeof(float), sums.data());
             return 0;
         });
-        // The item's slots are [first * 4 R, (first + count) * 4 R): the kernel's layout, widened to double.
-        std::copy(sums.begin(), sums.end(), owner_.sums_.begin() + std::ptrdiff_t(first * 4 * R));
+        // The batch's slots hold the kernel's layout, [(k R + r) 4 + c], widened to double.
+        std::copy(sums.begin(), sums.end(), batch.slots);
     }
 
 private:
@@ -80,28 +78,12 @@ private:
     cl::Buffer chain_, offset_, u1_, u2_;
 };
 
-class PrefilterCpuWorker final : public schedule::Worker {
-public:
-    explicit PrefilterCpuWorker(PrefilterIntegrand& owner) : owner_(owner) {
-        if (!owner_.cpu_) throw std::invalid_argument("prefilter: no CPU estimator given for the oracle backend");
-    }
-    void run(std::uint64_t id) override {
-        const std::size_t first = id * owner_.per_item_;
-        const std::size_t count = std::min(owner_.per_item_, owner_.targets_.size() - first);
-        const std::size_t stride = 4 * std::size_t(owner_.points_.replicates);
-        for (std::size_t i = 0; i < count; ++i) {
-            throw_if_cancelled();
-            owner_.cpu_(owner_.targets_[first + i], owner_.points_, owner_.sums_.data() + (first + i) * stride);
-        }
-    }
-
-private:
-    PrefilterIntegrand& owner_;
-};
-
-std::unique_ptr<schedule::Worker> PrefilterIntegrand::device_worker(ocl::Device& device) {
-    return std::make_unique<PrefilterDeviceWorker>(*this, device);
+void PrefilterIntegrand::check_oracle() const {
+    if (!cpu_) throw std::invalid_argument("prefilter: no CPU estimator given for the oracle backend");
 }
-std::unique_ptr<schedule::Worker> PrefilterIntegrand::oracle_worker() { return std::make_unique<PrefilterCpuWorker>(*this); }
+
+std::unique_ptr<PrefilterIntegrand::DeviceRoutine> PrefilterIntegrand::make_device_routine(ocl::Device& device) {
+    return std::make_unique<PrefilterKernelRoutine>(*this, device);
+}
 
 }  // namespace ms::prefilter

@@ -16,7 +16,7 @@
 #include "core/types.hpp"
 #include "device/runtime.hpp"
 #include "sampling/point_set.hpp"
-#include "schedule/integrand.hpp"
+#include "schedule/batched_integrand.hpp"
 
 namespace ms::prefilter {
 
@@ -38,29 +38,26 @@ struct RoutineConfig {
     double lod_bias = 0.0;
 };
 
-class PrefilterIntegrand final : public schedule::Integrand {
+// Slots: per target, its 4 R tallies (double).
+class PrefilterIntegrand final : public schedule::BatchedIntegrand<Target, double> {
 public:
     // Adds one target's tallies on `points` into sums[4 R] (zeroed by the caller); thread-safe.
     using CpuSums = std::function<void(const Target&, const PointSet& points, double* sums)>;
     PrefilterIntegrand(const SourceChain& chain, std::vector<Target> targets, std::size_t per_item, const PointSet& points,
                        RoutineConfig config, CpuSums cpu);
     std::string name() const override { return "GGX prefiltering"; }
-    std::uint64_t work_items() const override { return (targets_.size() + per_item_ - 1) / per_item_; }
-    std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override;
-    std::unique_ptr<schedule::Worker> oracle_worker() override;
     std::uint32_t replicates() const { return points_.replicates; }
-    const std::vector<double>& sums() const { return sums_; }  // [(k R + r) 4 + c]
+    const std::vector<double>& sums() const { return slots(); }  // [(k R + r) 4 + c]
 
 private:
-    friend class PrefilterDeviceWorker;
-    friend class PrefilterCpuWorker;
+    friend class PrefilterKernelRoutine;
+    std::unique_ptr<DeviceRoutine> make_device_routine(ocl::Device& device) override;
+    void oracle(const Target& target, double* sums) override { cpu_(target, points_, sums); }
+    void check_oracle() const override;
     const SourceChain& chain_;
-    std::vector<Target> targets_;
-    std::size_t per_item_;
     const PointSet& points_;
     RoutineConfig config_;
     CpuSums cpu_;
-    std::vector<double> sums_;
 };
 
 }  // namespace ms::prefilter

@@ -8,6 +8,7 @@
 
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
+#include "core/error_stats.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "io/text.hpp"
@@ -81,7 +82,8 @@ void run_eval(const EvalArgs& args) {
     out << "term,std_error";
     for (const auto& c : comparators) out << "," << c.name() << "," << c.name() << "_error";
     out << "\n";
-    std::vector<compare::ErrorSummary> errors(comparators.size());
+    // Per comparator: max |e|, RMS and the N.L-weighted RMS, w = max(N.L, 0).
+    std::vector<ErrorStats> errors(comparators.size());
     double max_error = 0;
     for (std::size_t i = 0; i < queries.size(); ++i) {
         const Query& q = queries[i];
@@ -90,7 +92,7 @@ void run_eval(const EvalArgs& args) {
         out << format_number(results[i].term) << "," << format_number(results[i].std_error);
         for (std::size_t k = 0; k < comparators.size(); ++k) {
             const double e = compared[k][i] - results[i].term;
-            errors[k].add(e, n_dot_l[i]);
+            errors[k].add(e, std::max(n_dot_l[i], 0.0));
             out << "," << format_number(compared[k][i]) << "," << format_number(e);
         }
         out << "\n";
@@ -124,7 +126,7 @@ void run_eval(const EvalArgs& args) {
         nlohmann::json list = nlohmann::json::array();
         for (std::size_t k = 0; k < comparators.size(); ++k) {
             nlohmann::json c = comparators[k].provenance();
-            c["max_abs_error"] = errors[k].max_abs;
+            c["max_abs_error"] = errors[k].max_abs();
             c["rms_error"] = errors[k].rms();
             c["n_dot_l_weighted_rms_error"] = errors[k].weighted_rms();
             c.update(compare::domain_report(domains[k], outside[k]));
@@ -146,7 +148,7 @@ void run_eval(const EvalArgs& args) {
     if (!args.sampling.quiet)
         for (std::size_t k = 0; k < comparators.size(); ++k)
             std::cerr << "eval: " << comparators[k].name() << " - term: max |error| " << std::setprecision(4)
-                      << errors[k].max_abs << ", RMS " << errors[k].rms() << ", N.L-weighted RMS "
+                      << errors[k].max_abs() << ", RMS " << errors[k].rms() << ", N.L-weighted RMS "
                       << errors[k].weighted_rms() << "\n";
     // Said even with --quiet: the figures above mean little for a file used outside its domain.
     for (std::size_t k = 0; k < comparators.size(); ++k)

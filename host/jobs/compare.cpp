@@ -135,16 +135,4 @@ std::vector<Comparator> parse_comparators(const std::vector<std::string>& argume
     return out;
 }
 
-void ErrorSummary::add(double e, double n_dot_l) {
-    ++count;
-    max_abs = std::max(max_abs, std::abs(e));
-    sum_sq += e * e;
-    const double w = std::max(n_dot_l, 0.0);
-    weighted_sq += w * e * e;
-    weight += w;
-}
-
-double ErrorSummary::rms() const { return count ? std::sqrt(sum_sq / double(count)) : 0; }
-double ErrorSummary::weighted_rms() const { return weight > 0 ? std::sqrt(weighted_sq / weight) : 0; }
-
 }  // namespace ms::compare

@@ -72,14 +72,4 @@ nlohmann::json domain_report(const std::optional<LookupDomain>& domain, const Do
 void refuse_outside_domain(const std::string& where, const std::string& name, const LookupDomain& domain,
                            const DomainTally& tally, const std::string& first_outside);
 
-// Error statistics of one comparator against the term: max |e|, RMS and the NdotL-weighted RMS
-// sqrt(sum w e^2 / sum w) with w = max(NdotL, 0) (0 when every weight is 0).
-struct ErrorSummary {
-    std::size_t count = 0;
-    double max_abs = 0, sum_sq = 0, weighted_sq = 0, weight = 0;
-    void add(double error, double n_dot_l);
-    double rms() const;
-    double weighted_rms() const;
-};
-
 }  // namespace ms::compare

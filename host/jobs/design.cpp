@@ -54,34 +54,21 @@ approx::Inputs inputs_of(const ReferencePoint& p, AoWeighting weighting) {
     return in;
 }
 
+Metrics metrics_of(const ErrorStats& stats) {
+    Metrics m;
+    m.points = std::size_t(stats.count());
+    m.max_abs = stats.max_abs();
+    m.weighted_rms = stats.weighted_rms();
+    m.weighted_p99 = stats.weighted_quantile(0.99);
+    return m;
+}
+
 Metrics error_metrics(const std::vector<double>& errors, const std::vector<double>& weights) {
     if (errors.size() != weights.size()) throw std::invalid_argument("error_metrics: one weight per error");
-    Metrics m;
-    std::vector<std::pair<double, double>> by_size;  // (|e|, w) of the points that count
-    double sum_w = 0, sum_we2 = 0;
-    for (std::size_t i = 0; i < errors.size(); ++i) {
-        if (!(weights[i] > 0)) continue;
-        const double a = std::fabs(errors[i]);
-        ++m.points;
-        sum_w += weights[i];
-        sum_we2 += weights[i] * errors[i] * errors[i];
-        m.max_abs = std::max(m.max_abs, a);
-        by_size.emplace_back(a, weights[i]);
-    }
-    if (m.points == 0) return m;
-    m.weighted_rms = std::sqrt(sum_we2 / sum_w);
-    // The weighted 99th percentile: the smallest |e| whose cumulative weight reaches 99 % of the total.
-    std::sort(by_size.begin(), by_size.end());
-    double cumulative = 0;
-    m.weighted_p99 = by_size.back().first;
-    for (const auto& [a, w] : by_size) {
-        cumulative += w;
-        if (cumulative >= 0.99 * sum_w) {
-            m.weighted_p99 = a;
-            break;
-        }
-    }
-    return m;
+    ErrorStats stats(ErrorStats::Keep::values);
+    for (std::size_t i = 0; i < errors.size(); ++i)
+        if (weights[i] > 0) stats.add(errors[i], weights[i]);
+    return metrics_of(stats);
 }
 
 namespace {
@@ -141,16 +128,18 @@ std::vector<Metrics> evaluate_candidate_by_roughness(const Candidate& c, const R
                                                      const std::vector<double>& edges) {
     std::vector<double> errors, weights;
     errors_of(c, set, errors, weights);
-    std::vector<Metrics> out;
-    for (std::size_t k = 0; k + 1 < edges.size(); ++k) {
-        std::vector<double> e, w;
-        const bool last = k + 2 == edges.size();
-        for (std::size_t i = 0; i < errors.size(); ++i) {
-            const double r = set.points[i].roughness;
-            if (r >= edges[k] && (r < edges[k + 1] || (last && r == edges[k + 1]))) e.push_back(errors[i]), w.push_back(weights[i]);
+    const std::size_t bands = edges.size() < 2 ? 0 : edges.size() - 1;
+    GroupedErrorStats by_band(1, bands, ErrorStats::Keep::values);
+    for (std::size_t i = 0; i < errors.size(); ++i) {
+        if (!(weights[i] > 0)) continue;
+        const double r = set.points[i].roughness;
+        for (std::size_t k = 0; k < bands; ++k) {
+            const bool last = k + 1 == bands;
+            if (r >= edges[k] && (r < edges[k + 1] || (last && r == edges[k + 1]))) by_band.at(0, k).add(errors[i], weights[i]);
         }
-        out.push_back(error_metrics(e, w));
     }
+    std::vector<Metrics> out;
+    for (std::size_t k = 0; k < bands; ++k) out.push_back(metrics_of(by_band.at(0, k)));
     return out;
 }
 

@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error_stats.hpp"
 #include "core/lookup_domain.hpp"
 #include "io/atomic_file.hpp"
 #include "approx/analytic.hpp"
@@ -44,10 +45,15 @@ struct Candidate {
     std::function<void(OutputSet& outputs, const std::string& prefix)> bake;
 };
 
+// What design ranks a candidate by, over the points of positive weight w = weight x max(N.L, 0) (points
+// of weight 0 do not count at all): their number, sqrt(sum w e^2 / sum w), the weighted 99th percentile
+// of |e| (the error below which 99 % of the weight lies) and max |e| (core/error_stats.hpp).
 struct Metrics {
     std::size_t points = 0;
     double weighted_rms = 0, weighted_p99 = 0, max_abs = 0;
 };
+// The metrics of statistics that kept their values (ErrorStats::Keep::values).
+Metrics metrics_of(const ErrorStats& stats);
 
 // The comparator inputs of a reference point (roughness as stored, the set's AO weighting).
 approx::Inputs inputs_of(const ReferencePoint& p, AoWeighting weighting);
@@ -71,7 +77,7 @@ DomainCount count_outside_domain(const Candidate& c, const ReferenceSet& set);
 // The `count` points of non-zero weight where |candidate - term| is largest, largest first: (index, error).
 std::vector<std::pair<std::size_t, double>> worst_points(const Candidate& c, const ReferenceSet& set, std::size_t count);
 
-// Weighted metrics of errors e_i with weights w_i >= 0 (exposed for the tests).
+// Weighted metrics of errors e_i with weights w_i >= 0, those of weight 0 left out (exposed for the tests).
 Metrics error_metrics(const std::vector<double>& errors, const std::vector<double>& weights);
 
 // Indices of the candidates no other candidate dominates: another with weighted RMS, bytes, fetches

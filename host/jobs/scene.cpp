@@ -911,9 +911,8 @@ private:
         light_.approximation.assign(k, std::vector<float>(n, 0.0f));
         light_.error.assign(k, std::vector<float>(n, 0.0f));
         light_.t = job_.bound_factor(job_.d.lights[l]);
-        stats_.assign(k, std::vector<ErrorStats>(groups));
-        sum_sq_.assign(k, std::vector<double>(groups));
-        sum_sq_term_.assign(k, std::vector<double>(groups));
+        weighted_ = GroupedErrorStats(k, groups);
+        term_ = GroupedErrorStats(k, groups);
         pixel_band_.assign(n, kUnlit);
         pixel_material_.assign(job_.d.has_material ? n : 0, 0);
     }
@@ -958,22 +957,16 @@ private:
             light_.approximation[k][i] = float(values[k]);
             light_.error[k][i] = float(diff * irradiance);
             if (!lit) continue;
-            const double we = std::fabs(diff * irradiance);
-            for (std::size_t g = 0; g < group_count; ++g) {
-                ErrorStats& s = stats_[k][groups[g]];
-                ++s.pixels;
-                s.max = std::max(s.max, we);
-                s.max_term = std::max(s.max_term, std::fabs(diff));
-                sum_sq_[k][groups[g]] += we * we;
-                sum_sq_term_[k][groups[g]] += diff * diff;
-            }
+            weighted_.add(k, groups, group_count, std::fabs(diff * irradiance));
+            term_.add(k, groups, group_count, diff);
         }
     }
 
-    // RMS, and the 99th percentiles from the error layers (|float(x)| = float(|x|): the same values the
-    // statistics saw). Per comparator, the lit pixels' errors are bucketed by group (a counting sort:
-    // "all", the pixel's band, its material) into one scratch vector, and each group's bucket gives its
-    // percentile by nth_element: linear in pixels, whatever the number of groups.
+    // The light's statistics, their nearest-rank 99th percentiles from the error layers (|float(x)| =
+    // float(|x|): the same values the statistics saw, in floats, so the accumulators keep no values).
+    // Per comparator, the lit pixels' errors are bucketed by group (a counting sort: "all", the pixel's
+    // band, its material) into one scratch vector, and each group's bucket gives its percentile by
+    // nth_element: linear in pixels, whatever the number of groups.
     void finish_light() {
         const std::size_t n = job_.n, group_count = job_.group_count;
         const bool has_material = job_.d.has_material;
@@ -987,6 +980,7 @@ private:
         for (std::size_t g = 0; g < group_count; ++g) bucket_start[g + 1] += bucket_start[g];
         std::vector<float> scratch(bucket_start[group_count]);
         std::vector<std::size_t> fill(group_count);
+        light_.stats.assign(job_.comparators.size(), std::vector<PixelErrors>(group_count));
         for (std::size_t k = 0; k < job_.comparators.size(); ++k) {
             std::copy(bucket_start.begin(), bucket_start.end() - 1, fill.begin());
             for (std::size_t i = 0; i < n; ++i) {
@@ -997,18 +991,12 @@ private:
                 if (has_material) scratch[fill[pixel_material_[i]]++] = e;
             }
             for (std::size_t g = 0; g < group_count; ++g) {
-                ErrorStats& s = stats_[k][g];
-                if (!s.pixels) continue;
-                s.rms = std::sqrt(sum_sq_[k][g] / double(s.pixels));
-                s.rms_term = std::sqrt(sum_sq_term_[k][g] / double(s.pixels));
+                if (!weighted_.at(k, g).count()) continue;
                 const auto first = scratch.begin() + std::ptrdiff_t(bucket_start[g]);
-                const std::size_t size = bucket_start[g + 1] - bucket_start[g];
-                const std::size_t at = std::min(size - 1, std::size_t(std::ceil(0.99 * double(size))) - 1);
-                std::nth_element(first, first + std::ptrdiff_t(at), first + std::ptrdiff_t(size));
-                s.p99 = first[std::ptrdiff_t(at)];
+                const float p99 = nearest_rank(first, scratch.begin() + std::ptrdiff_t(bucket_start[g + 1]), 0.99);
+                light_.stats[k][g] = PixelErrors::of(weighted_.at(k, g), term_.at(k, g), p99);
             }
         }
-        light_.stats = std::move(stats_);
         result_.lights.push_back(std::move(light_));
         light_ = LightImages{};
         pixel_band_ = {};
@@ -1021,8 +1009,8 @@ private:
     std::uint64_t next_ = 0;
     // The light being assembled.
     LightImages light_;
-    std::vector<std::vector<ErrorStats>> stats_;
-    std::vector<std::vector<double>> sum_sq_, sum_sq_term_;
+    // Per comparator and group: the weighted errors |diff| x N.L x intensity, and the unweighted diff.
+    GroupedErrorStats weighted_, term_;
     std::vector<std::uint8_t> pixel_band_;      // per pixel: its roughness band's group (kUnlit: not lit)
     std::vector<std::uint32_t> pixel_material_;  // per pixel: its material's group
 };
@@ -1180,7 +1168,7 @@ json scene_report(const SceneResult& r) {
         lj["seconds"] = l.seconds;
         for (std::size_t k = 0; k < r.comparators.size(); ++k)
             for (std::size_t g = 0; g < r.groups.size(); ++g) {
-                const ErrorStats& s = l.stats[k][g];
+                const PixelErrors& s = l.stats[k][g];
                 lj["errors"][r.comparators[k]][r.groups[g]] = {{"pixels", s.pixels}, {"max", s.max}, {"rms", s.rms},
                                                                {"p99", s.p99}, {"max_term", s.max_term}, {"rms_term", s.rms_term}};
             }
@@ -1226,7 +1214,7 @@ std::string markdown(const SceneResult& r) {
         for (std::size_t g = 1; g < r.groups.size(); ++g) m << "---|";
         m << "\n";
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
-            const ErrorStats& s = l.stats[k][0];
+            const PixelErrors& s = l.stats[k][0];
             m << "| " << r.comparators[k] << " | " << fmt(s.max) << " | " << fmt(s.rms) << " | " << fmt(s.p99) << " | "
               << fmt(s.max_term) << " | " << fmt(s.rms_term) << " |";
             for (std::size_t g = 1; g < r.groups.size(); ++g)
@@ -1398,7 +1386,7 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
                                         {"LIGHT " + upper(l.light) + ": (APPROXIMATION - REFERENCE) X N.L X INTENSITY, ONE SCALE"}, 160));
         }
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
-            const ErrorStats& s = l.stats[k][0];
+            const PixelErrors& s = l.stats[k][0];
             const std::size_t png = out.add(path(l.light + "_" + r.comparators[k] + ".png"), true);
             write_png_rgb(out.temp_path(png),
                           render_panels(r.width, r.height,

@@ -79,26 +79,6 @@ Axis fitted_axis(const Axis& base, double lo, double hi) {
     return a;
 }
 
-LutErrorStats error_stats(std::vector<double>& weighted, const std::vector<double>& term) {
-    LutErrorStats s;
-    s.lookups = weighted.size();
-    if (weighted.empty()) return s;
-    double ss = 0, ss_term = 0;
-    for (std::size_t i = 0; i < weighted.size(); ++i) {
-        s.max = std::max(s.max, weighted[i]);
-        ss += weighted[i] * weighted[i];
-        s.max_term = std::max(s.max_term, term[i]);
-        ss_term += term[i] * term[i];
-    }
-    s.rms = std::sqrt(ss / double(weighted.size()));
-    s.rms_term = std::sqrt(ss_term / double(weighted.size()));
-    // The 99th percentile: the nearest-rank value.
-    const std::size_t rank = std::min(weighted.size() - 1, std::size_t(std::ceil(0.99 * double(weighted.size()))) - 1);
-    std::nth_element(weighted.begin(), weighted.begin() + std::ptrdiff_t(rank), weighted.end());
-    s.p99 = weighted[rank];
-    return s;
-}
-
 json stats_json(const LutErrorStats& s) {
     return {{"lookups", s.lookups}, {"weighted_max", s.max}, {"weighted_rms", s.rms}, {"weighted_p99", s.p99},
             {"max", s.max_term}, {"rms", s.rms_term}};
@@ -392,20 +372,21 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
         });
         SceneBakeResult::LightErrors e;
         e.light = ld.light;
-        std::vector<double> ws, ts, wd, td;
+        // The weighted errors keep their values for the 99th percentile.
+        ErrorStats ws(ErrorStats::Keep::values), ts, wd(ErrorStats::Keep::values), td;
         for (std::size_t k = 0; k < chosen.size(); ++k) {
             const SceneLookup& l = *chosen[k];
             const double ref = est[k].term;
             e.reference_bound = std::max(e.reference_bound, t * est[k].std_error);
             const double a = scene_lut(l.visibility, l.n_dot_l, l.n_dot_v, l.roughness) - ref;
             const double b = default_lut(l.visibility, l.n_dot_l, l.n_dot_v, l.roughness) - ref;
-            ts.push_back(std::fabs(a));
-            ws.push_back(std::fabs(a) * l.weight);
-            td.push_back(std::fabs(b));
-            wd.push_back(std::fabs(b) * l.weight);
+            ts.add(a);
+            ws.add(std::fabs(a) * l.weight);
+            td.add(b);
+            wd.add(std::fabs(b) * l.weight);
         }
-        e.scene_lut = error_stats(ws, ts);
-        e.default_lut = error_stats(wd, td);
+        e.scene_lut = LutErrorStats::of(ws, ts);
+        e.default_lut = LutErrorStats::of(wd, td);
         if (options.azimuth_floor_samples) {
             // The term of each isotropic sampled lookup at the trapezoid nodes of the azimuth (wi = (sin_v,
             // 0, cos_v) in the pixel's frame, inputs.hpp; wo turned about the normal), and its mean.
@@ -428,7 +409,7 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
             const auto node_est = evaluate(backend, nodes, term, floor_plan, nullptr, [&](std::size_t done, std::size_t total) {
                 if (options.progress) options.progress("azimuth mean (" + ld.light + ")", done, total);
             });
-            std::vector<double> wf, tf;
+            ErrorStats wf(ErrorStats::Keep::values), tf;
             for (std::size_t m = 0; m < which.size(); ++m) {
                 // Every node uses the same points, so their errors are correlated: the mean's standard error
                 // is bounded by the weighted sum of theirs (the triangle inequality), not the root of squares.
@@ -442,10 +423,10 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
                 e.azimuth_floor_bound = std::max(e.azimuth_floor_bound, t * std_error);
                 const SceneLookup& l = *chosen[which[m]];
                 const double d = std::fabs(mean - est[which[m]].term);
-                tf.push_back(d);
-                wf.push_back(d * l.weight);
+                tf.add(d);
+                wf.add(d * l.weight);
             }
-            e.azimuth_floor = error_stats(wf, tf);
+            e.azimuth_floor = LutErrorStats::of(wf, tf);
         }
         if (e.default_lut.max + e.reference_bound > options.serve_error) r.default_serves = false;
         r.errors.push_back(e);

@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error_stats.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/eval.hpp"
 #include "scene/inputs.hpp"
@@ -92,10 +93,17 @@ nlohmann::json coverage_record(const SceneBakePlan& plan);
 // the "domain" record.
 nlohmann::json scene_lut_metadata(const SceneBakePlan& plan, const BakeResult& bake);
 
+// What the scene bake reports of a LUT's error at the sampled lookups (core/error_stats.hpp): the
+// statistics of the weighted error |LUT - reference| x N.L x intensity, its 99th percentile nearest-rank,
+// and those of |LUT - reference|, unweighted.
 struct LutErrorStats {
     std::uint64_t lookups = 0;
     double max = 0, rms = 0, p99 = 0;       // |LUT - reference| x N.L x intensity
     double max_term = 0, rms_term = 0;      // unweighted
+    // From the statistics of the weighted errors (their values kept) and of the unweighted ones.
+    static LutErrorStats of(const ErrorStats& weighted, const ErrorStats& term) {
+        return {weighted.count(), weighted.max_abs(), weighted.rms(), weighted.nearest_rank(0.99), term.max_abs(), term.rms()};
+    }
 };
 
 struct SceneBakeOptions {

@@ -235,8 +235,12 @@ TEST(SweepRun, ComparatorColumnsAreTheAnalyticTerms) {
     std::ifstream csv(dir / "sweep.csv");
     const Summary s = summarise(csv, "sweep.csv");
     ASSERT_EQ(s.comparators.size(), 6u);
-    EXPECT_EQ(s.overall[0].count, r.points);
-    EXPECT_EQ(s.per_roughness.size(), 2u);
+    EXPECT_EQ(s.errors.at(0, 0).count(), r.points);
+    ASSERT_EQ(s.roughness_groups.size(), 2u);
+    EXPECT_EQ(s.errors.groups(), 3u);  // all points, then each roughness
+    std::uint64_t in_groups = 0;
+    for (const auto& [roughness, group] : s.roughness_groups) in_groups += s.errors.at(0, group).count();
+    EXPECT_EQ(in_groups, r.points);
 }
 
 TEST(SweepRun, ResumeAfterInterruptionSkipsFinishedChunksAndMatchesACleanRun) {

@@ -747,16 +747,6 @@ void merge_shards(const std::vector<std::string>& shard_dirs, const std::string&
     assemble(out_dir, header, chunks, [&](std::uint64_t c) { return files.at(std::uint32_t(c % count))->path(c); }, check, prov);
 }
 
-void ErrorStats::add(double e) {
-    ++count;
-    max_abs = std::max(max_abs, std::abs(e));
-    sum_abs += std::abs(e);
-    sum_sq += e * e;
-    sum += e;
-}
-
-double ErrorStats::rms() const { return count ? std::sqrt(sum_sq / count) : 0; }
-
 Summary summarise(std::istream& csv, const std::string& name) {
     std::string line;
     if (!std::getline(csv, line)) throw std::runtime_error(name + ": empty sweep CSV");
@@ -769,7 +759,7 @@ Summary summarise(std::istream& csv, const std::string& name) {
     const std::size_t term = column("term"), se = column("std_error"), rough = column("roughness");
     Summary s;
     s.comparators.assign(header.begin() + se + 1, header.end());
-    s.overall.resize(s.comparators.size());
+    s.errors = GroupedErrorStats(s.comparators.size(), 1);
     std::size_t line_no = 1;
     while (std::getline(csv, line)) {
         ++line_no;
@@ -780,13 +770,11 @@ Summary summarise(std::istream& csv, const std::string& name) {
                                      " fields, the header has " + std::to_string(header.size()));
         const double t = std::stod(f[term]);
         s.max_std_error = std::max(s.max_std_error, std::stod(f[se]));
-        auto& group = s.per_roughness[std::stod(f[rough])];
-        group.resize(s.comparators.size());
-        for (std::size_t k = 0; k < s.comparators.size(); ++k) {
-            const double e = std::stod(f[se + 1 + k]) - t;
-            s.overall[k].add(e);
-            group[k].add(e);
-        }
+        const double roughness = std::stod(f[rough]);
+        auto group = s.roughness_groups.find(roughness);
+        if (group == s.roughness_groups.end()) group = s.roughness_groups.emplace(roughness, s.errors.add_group()).first;
+        const std::size_t groups[2] = {0, group->second};
+        for (std::size_t k = 0; k < s.comparators.size(); ++k) s.errors.add(k, groups, 2, std::stod(f[se + 1 + k]) - t);
         ++s.points;
     }
     return s;
@@ -808,11 +796,11 @@ std::string summary_markdown(const Summary& s) {
       << "|---|---|---|---|---|---|---|\n";
     for (std::size_t k = 0; k < s.comparators.size(); ++k) {
         auto row = [&](const std::string& r, const ErrorStats& e) {
-            o << "| " << s.comparators[k] << " | " << r << " | " << e.count << " | " << fmt(e.max_abs) << " | "
+            o << "| " << s.comparators[k] << " | " << r << " | " << e.count() << " | " << fmt(e.max_abs()) << " | "
               << fmt(e.mean_abs()) << " | " << fmt(e.rms()) << " | " << fmt(e.bias()) << " |\n";
         };
-        row("all", s.overall[k]);
-        for (const auto& [r, g] : s.per_roughness) row(fmt(r), g[k]);
+        row("all", s.errors.at(k, 0));
+        for (const auto& [r, g] : s.roughness_groups) row(fmt(r), s.errors.at(k, g));
     }
     return o.str();
 }
@@ -822,11 +810,11 @@ std::string summary_csv(const Summary& s) {
     o << "comparator,roughness,points,max_abs_error,mean_abs_error,rms_error,bias\n";
     for (std::size_t k = 0; k < s.comparators.size(); ++k) {
         auto row = [&](const std::string& r, const ErrorStats& e) {
-            o << s.comparators[k] << "," << r << "," << e.count << "," << format_number(e.max_abs) << ","
+            o << s.comparators[k] << "," << r << "," << e.count() << "," << format_number(e.max_abs()) << ","
               << format_number(e.mean_abs()) << "," << format_number(e.rms()) << "," << format_number(e.bias()) << "\n";
         };
-        row("all", s.overall[k]);
-        for (const auto& [r, g] : s.per_roughness) row(format_number(r), g[k]);
+        row("all", s.errors.at(k, 0));
+        for (const auto& [r, g] : s.roughness_groups) row(format_number(r), s.errors.at(k, g));
     }
     return o.str();
 }

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "core/error_stats.hpp"
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
 #include "jobs/sweep/spec.hpp"
@@ -85,20 +86,12 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config);
 void merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir,
                   const std::string& command_line);
 
-// Error statistics of one comparator against the generic term (comparator - term).
-struct ErrorStats {
-    std::uint64_t count = 0;
-    double max_abs = 0, sum_abs = 0, sum_sq = 0, sum = 0;
-    void add(double error);
-    double mean_abs() const { return count ? sum_abs / count : 0; }
-    double rms() const;
-    double bias() const { return count ? sum / count : 0; }
-};
-
+// Each comparator's error against the generic term (comparator - term), unweighted: count, max |e|,
+// mean |e|, RMS and bias (core/error_stats.hpp), over all points and per roughness.
 struct Summary {
     std::vector<std::string> comparators;
-    std::vector<ErrorStats> overall;                             // per comparator
-    std::map<double, std::vector<ErrorStats>> per_roughness;     // roughness -> per comparator
+    GroupedErrorStats errors;                        // [comparator][group]: group 0 all points, then each roughness
+    std::map<double, std::size_t> roughness_groups;  // roughness -> its group, ascending
     double max_std_error = 0;
     std::uint64_t points = 0;
 };

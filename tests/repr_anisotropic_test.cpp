@@ -1,4 +1,4 @@
-// The anisotropic representation ("anisotropic-harmonics", the anisotropic preset's kind) on a tiny
+// The anisotropic representation "anisotropic-harmonics" on a tiny
 // grid baked with the exact method: at its texel centres and roughness nodes its C++ lookup, fed the
 // tangent-frame query a renderer has (alpha_x, alpha_y, V and L), agrees with the exact term within the
 // bake's own recorded fit residual; an isotropic query gives the isotropic caller's answer whatever the

@@ -269,7 +269,7 @@ TEST(ReprAnisotropicMappedTest, TheMappingMeetsItsMeasuredAccuracyAgainstTheExac
         aniso.push_back(q);
         const auto e = repr::isotropic_equivalent(ax, ay, pv, pl, nv, nl);
         ms::Query m;
-        m.visibility = v, m.alpha_x = m.alpha_y = e.roughness * e.roughness * e.roughness * e.roughness;
+        m.visibility = v, m.alpha_x = m.alpha_y = e.roughness * e.roughness;
         m.wi = direction(e.n_dot_v, 0), m.wo = direction(e.n_dot_l, std::acos(e.cos_phi));
         iso.push_back(m);
         m.alpha_x = m.alpha_y = std::sqrt(ax * ay);

@@ -85,21 +85,14 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         return p;
     }
     if (name == "anisotropic") {
-        // Anisotropic GGX up to alpha ratio 25 within 1 MiB and 4 fetches (docs/representations.md): per
-        // pair of projected-roughness nodes along V and L, the series in cos(dphi) and the slopes'
-        // correlation, on the full-range preset's warps.
-        p.summary = "anisotropic, roughness 0.05-1 per axis, ratio <= 25, visibility 0.02-1, NdotV 0.02-1: anisotropic harmonics "
-                    "16 v (sqrt-top) x 16 NdotL (edge-roughness) x 8 NdotV (sqrt) x 8 x 8 projected roughness (geometric), 1 MiB, 4 fetches";
-        p.kind = "anisotropic-harmonics";
-        p.grid.visibility = 16, p.grid.n_dot_l = 16, p.grid.n_dot_v = 8;
-        p.grid.roughness = geometric(0.05, 1.0, 8);
-        p.grid.warps.visibility = VisibilityWarp::sqrt_top;
-        p.grid.warps.n_dot_l = NdotLWarp::edge_roughness;
-        p.grid.edge_width = 1.0;
-        p.grid.warps.n_dot_v = NdotVWarp::sqrt;
-        p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
-        p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
-        p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;
+        // Anisotropic GGX up to alpha ratio 25 (docs/representations.md, "Anisotropic surfaces"): the
+        // full-range texture, looked up at the surface's isotropic equivalent (host/repr/harmonics.cpp),
+        // which is exact on isotropic surfaces; 512 KiB and 2 fetches, inside the 1 MiB and 4 fetches allowed.
+        p = preset("full-range", weighting);
+        p.name = name;
+        p.summary = "anisotropic, roughness 0.05-1 per axis, ratio <= 25, visibility 0.02-1, NdotV 0.02-1: the full-range azimuth "
+                    "harmonics (32 v x 16 NdotL x 8 NdotV x 16 roughness) at the surface's isotropic equivalent, 512 KiB, 2 fetches";
+        p.kind = "anisotropic-mapped-harmonics";
         p.domain.max_alpha_ratio = p.max_ratio;
         return p;
     }

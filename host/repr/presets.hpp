@@ -20,10 +20,11 @@ namespace ms::repr {
 struct Preset {
     std::string name;
     std::string summary;  // one line for help and metadata
-    std::string kind;     // "azimuth-harmonics", "azimuth-axis" or "anisotropic-harmonics"
+    std::string kind;     // "azimuth-harmonics", "azimuth-axis", "anisotropic-harmonics" or "anisotropic-mapped-harmonics"
     ReprGrid grid;
     std::uint32_t azimuth_nodes = 9;
-    // anisotropic-harmonics: the surfaces fitted per slab (AnisotropicBakeSpec).
+    // anisotropic-harmonics: the surfaces fitted per slab (AnisotropicBakeSpec); max_ratio also bounds
+    // the anisotropic preset's domain (alpha_ratio).
     std::uint32_t azimuth_configs = 8, correlation_configs = 4;
     double max_ratio = 25;
     LookupDomain domain;

@@ -244,6 +244,7 @@ std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, 
     if (kind == "azimuth-axis") r = make_azimuth_axis(grid, azimuth_nodes, std::move(t), meta);
     else if (kind == "azimuth-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
     else if (kind == "anisotropic-harmonics") r = make_anisotropic_harmonics(grid, std::move(t), meta);
+    else if (kind == "anisotropic-mapped-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta, true);
     else throw std::runtime_error("unknown representation '" + kind + "'");
     static_cast<const TextureRepresentation&>(*r).check_contents(channels);
     return r;
@@ -373,6 +374,7 @@ std::vector<std::string> representation_kinds() { return {"azimuth-axis", "azimu
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake) {
     if (kind == "azimuth-axis") return build_azimuth_axis(bake);
     if (kind == "azimuth-harmonics") return build_azimuth_harmonics(bake);
+    if (kind == "anisotropic-mapped-harmonics") return build_azimuth_harmonics(bake, true);
     throw std::invalid_argument("unknown representation '" + kind + "' (valid: azimuth-axis, azimuth-harmonics)");
 }
 

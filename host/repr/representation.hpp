@@ -154,7 +154,7 @@ struct AzimuthBakeSpec {
 class Representation : public approx::Approximation {
 public:
     ~Representation() override = default;
-    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics"
+    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics" | "anisotropic-mapped-harmonics"
     std::string name() const override = 0;  // kind and layout in words
     approx::Cost cost() const override = 0;
     // The renderer's lookup (the generated shader's arithmetic, in double).
@@ -207,7 +207,19 @@ std::unique_ptr<Representation> build_anisotropic_harmonics(const ReprGrid& grid
 
 // Builders from a bake (the bake's roughness nodes: azimuth-axis takes 1 to 4, harmonics 1 or more).
 std::unique_ptr<Representation> build_azimuth_axis(const AzimuthBake& bake);
-std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake);
+// anisotropic_mapped: "anisotropic-mapped-harmonics", the anisotropic preset's kind: the same texture,
+// looked up at an anisotropic surface's isotropic equivalent (harmonics.cpp derives it); its lookup reads
+// approx::Inputs' alpha_x, alpha_y and tangent-relative azimuths, its shader's entry point takes V and L in
+// the tangent frame and alpha_x, alpha_y (as anisotropic-harmonics').
+std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake, bool anisotropic_mapped = false);
+// The isotropic equivalent an anisotropic-mapped-harmonics lookup reads its texture at, for a surface
+// alpha_x, alpha_y with V and L at azimuths view_azimuth, light_azimuth from the tangent (radians):
+// roughness, cos of the relative azimuth, NdotV and NdotL, each the query's own on an isotropic surface.
+struct IsotropicEquivalent {
+    double roughness, cos_phi, n_dot_v, n_dot_l;
+};
+IsotropicEquivalent isotropic_equivalent(double alpha_x, double alpha_y, double view_azimuth, double light_azimuth, double n_dot_v,
+                                         double n_dot_l);
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
 std::vector<std::string> representation_kinds();
 

@@ -92,7 +92,9 @@ using lutshader::count_alu;
 std::unique_ptr<Representation> make_azimuth_axis(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                                   nlohmann::json metadata);
 std::unique_ptr<Representation> make_anisotropic_harmonics(ReprGrid grid, Texture3D texture, nlohmann::json metadata);
+// anisotropic_mapped: the "anisotropic-mapped-harmonics" kind (harmonics.cpp), the same texture looked up
+// at an anisotropic surface's isotropic equivalent.
 std::unique_ptr<Representation> make_azimuth_harmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
-                                                       nlohmann::json metadata);
+                                                       nlohmann::json metadata, bool anisotropic_mapped = false);
 
 }  // namespace ms::repr

@@ -226,11 +226,9 @@ void add_design_command(CLI::App& app) {
                   "and NdotV ranges) leaves out reference points; without it they are counted (\"outside domain\" in pareto.md/.csv, "
                   "design.json) and warned of");
     cmd->add_flag("--no-analytic", args->no_analytic, "leave part 1's terms out of the candidates");
-    cmd->add_option("--backend", args->sampling.backend, "where a missing reference is computed: opencl or oracle")
-        ->check(CLI::IsMember({"opencl", "oracle"}))->capture_default_str();
-    cmd->add_option("--device", args->sampling.device, "OpenCL device(s): default, all, an index from `devices`, or part of a name")
-        ->capture_default_str();
-    cmd->add_flag("-q,--quiet", args->sampling.quiet, "no progress or summary on stderr");
+    add_backend_option(cmd, args->sampling.backend, "where a missing reference is computed: opencl or oracle");
+    add_device_option(cmd, args->sampling.device);
+    add_quiet_flag(cmd, args->sampling.quiet);
     add_distribution_options(cmd, args->distribution, "reference chunks", "");
     cmd->callback([args] {
         if (args->plot && args->out.empty()) throw std::invalid_argument("--plot needs --out");

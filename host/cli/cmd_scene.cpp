@@ -148,10 +148,10 @@ void add_scene_command(CLI::App& app) {
                   "refuse (exit status 2, nothing written) when a lit pixel's lookup lies outside a comparator's domain (the "
                   "roughness, visibility and NdotV ranges its metadata records); without it they are counted in report.md/.json");
     cmd->add_flag("--no-seed-luts", args->no_seed_luts, "do not bake the seed's 3D and 2D LUTs as comparators");
-    cmd->add_option("--backend", args->backend, "opencl (default) or oracle")->check(CLI::IsMember({"opencl", "oracle"}));
-    cmd->add_option("--device", args->device, "OpenCL device: default, all, an index from `devices`, or part of a name");
-    cmd->add_flag("--fast-math", args->fast_math, "build the kernels with fast math");
-    cmd->add_flag("-q,--quiet", args->quiet, "no progress or summary on stderr");
+    add_backend_option(cmd, args->backend, "opencl kernels or the scalar double oracle");
+    add_device_option(cmd, args->device);
+    add_fast_math_flag(cmd, args->fast_math);
+    add_quiet_flag(cmd, args->quiet);
     add_distribution_options(cmd, args->distribution, "tiles (a light's sampling.tile_pixels pixels)", "OUT/chunks");
     cmd->callback([args] { with_distribution(args->distribution, [&](MpiWorld* world) { run_scene_command(*args, world); }); });
 }

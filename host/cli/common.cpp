@@ -223,8 +223,12 @@ void add_device_option(CLI::App* app, std::string& device, const std::string& he
     if (!device.empty()) o->capture_default_str();
 }
 
-void add_kernel_build_flags(CLI::App* app, bool& fast_math, bool& double_kernels) {
+void add_fast_math_flag(CLI::App* app, bool& fast_math) {
     app->add_flag("--fast-math", fast_math, "build kernels with -cl-fast-relaxed-math (recorded in outputs)");
+}
+
+void add_kernel_build_flags(CLI::App* app, bool& fast_math, bool& double_kernels) {
+    add_fast_math_flag(app, fast_math);
     app->add_flag("--double-kernels", double_kernels,
                   "run the kernels in double precision (devices with cl_khr_fp64; separates rounding from algorithm)");
 }

@@ -88,6 +88,8 @@ void add_device_option(CLI::App* app, std::string& device,
                        const std::string& help = "OpenCL device: default, all, an index (see 'devices') or a name");
 // --fast-math and --double-kernels: how the command's kernels are built (recorded in outputs).
 void add_kernel_build_flags(CLI::App* app, bool& fast_math, bool& double_kernels);
+// --fast-math alone, for commands whose kernels run in float only.
+void add_fast_math_flag(CLI::App* app, bool& fast_math);
 // --threads: host threads (0: all), `help` naming which.
 void add_threads_option(CLI::App* app, unsigned& threads, const std::string& help);
 // --verify K (0 to 100000 texels re-checked), `help` saying against what and what a failure does.

@@ -31,7 +31,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
                 const double top = ms::area::max_height(q.light);
                 if (!std::isfinite(top) || top > 1 + 1e-12) ms::fuzz::finding("max_height not finite or above 1");
                 const double omega = ms::area::solid_angle(q.light);
-                if (!(omega > 0) || !(omega < 2 * ms::area::kPi + 1e-9)) ms::fuzz::finding("solid angle outside (0, 2 pi)");
+                if (!(omega > 0) || !(omega < 2 * ms::kPi + 1e-9)) ms::fuzz::finding("solid angle outside (0, 2 pi)");
                 (void)ms::area::classify(q, ms::AoWeighting::cosine);
                 if (!finite(ms::area::centre_direction(q.light)) || !finite(ms::area::representative_direction(q)))
                     ms::fuzz::finding("centre or representative direction not finite");

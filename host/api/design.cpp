@@ -13,7 +13,7 @@ namespace {
 
 namespace design = ms::design;
 
-const char* const kCommandLine = "microshadow::design (library " MICROSHADOW_VERSION ")";
+const char* const kDesignCommandLine = "microshadow::design (library " MICROSHADOW_VERSION ")";
 
 DesignMetrics to_public(const design::Metrics& m) { return {m.points, m.weighted_rms, m.weighted_p99, m.max_abs}; }
 
@@ -34,7 +34,7 @@ DesignTable design(const DesignOptions& o, const Progress& progress) {
     spec.analytic = o.analytic;
     spec.strict_domain = o.strict_domain;
     spec.backend_label = o.backend == Backend::oracle ? "oracle" : "opencl";
-    spec.command_line = kCommandLine;
+    spec.command_line = kDesignCommandLine;
     spec.names = design::OptionNames::library();
     // Every input checked before any work.
     design::Study study(std::move(spec));
@@ -43,7 +43,7 @@ DesignTable design(const DesignOptions& o, const Progress& progress) {
     const auto reference_set = [&](const design::ReferenceDefinition& def, const auto& report) {
         design::CacheConfig config;
         config.dir = o.cache;
-        config.command_line = kCommandLine;
+        config.command_line = kDesignCommandLine;
         // The backend (device start-up) only when something has to be computed.
         config.backend = owned.get();
         config.open_backend = [&]() {

@@ -26,7 +26,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const char* const kCommandLine = "microshadow::ibl (library " MICROSHADOW_VERSION ")";
+const char* const kIblCommandLine = "microshadow::ibl (library " MICROSHADOW_VERSION ")";
 const char* const kShCrossCaption =
     "irradiance E / pi from order-2 SH, horizontal cross: +Y top; -X, +Z, +X, -Z middle; -Y bottom";
 
@@ -137,7 +137,7 @@ PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& prog
     spec.threads = o.threads;
     spec.device = o.device;
     spec.source = source_name(o.environment);
-    spec.command_line = kCommandLine;
+    spec.command_line = kIblCommandLine;
     const ms::env::Cubemap source = prefilter_source(o.environment, o.size);
     if (spec.levels && (source.size >> (spec.levels - 1)) == 0)
         throw std::invalid_argument("microshadow::prefilter: levels " + std::to_string(spec.levels) + " is too many for faces of " +
@@ -157,7 +157,7 @@ PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& prog
                                      " beyond the Bonferroni bound " + std::to_string(check.z_bound) + " (" + check.worst_z_texel + ")");
     }
     data->irradiance = ms::compute_irradiance(source, o.irradiance_size);
-    data->irradiance_metadata = ms::irradiance_metadata(data->irradiance, spec.source, kCommandLine);
+    data->irradiance_metadata = ms::irradiance_metadata(data->irradiance, spec.source, kIblCommandLine);
     return PrefilteredEnvironment(std::move(data));
 }
 
@@ -224,7 +224,7 @@ IrradianceMap irradiance(const IrradianceOptions& o, const Progress& progress) {
     spec.device = o.device;
     spec.threads = o.threads;
     spec.source = source_name(o.environment);
-    spec.command_line = kCommandLine;
+    spec.command_line = kIblCommandLine;
     // As the command: an equirectangular image is resampled to a cubemap, crosses and faces kept.
     bool resampled = false;
     const ms::env::Cubemap source = [&] {
@@ -291,7 +291,7 @@ ShIrradiance spherical_harmonics(const EnvironmentSource& e, std::uint32_t face_
                                                        : ms::compute_irradiance(ms::env::cubemap_from_image(image), face_size);
     }
     data->source = source_name(e);
-    data->metadata = ms::irradiance_metadata(data->result, data->source, kCommandLine);
+    data->metadata = ms::irradiance_metadata(data->result, data->source, kIblCommandLine);
     return ShIrradiance(std::move(data));
 }
 
@@ -320,7 +320,7 @@ void ShIrradiance::save(const std::string& json_path, const std::string& irradia
         ms::env::write_png_file(outputs.temp_path(preview), ms::env::cross_preview_canvas(data_->result.irradiance_cross, 1.0, kShCrossCaption));
     if (shader != kNone)
         outputs.stream(shader) << ms::sh_shader_source(data_->result.sh, shader_path, symbol,
-                                                       "   source: " + data_->source + "\n   command: " + kCommandLine +
+                                                       "   source: " + data_->source + "\n   command: " + kIblCommandLine +
                                                            "\n   version: " + MICROSHADOW_VERSION);
     ms::commit_outputs(outputs);
 }

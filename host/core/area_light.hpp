@@ -67,7 +67,6 @@ std::string to_string(LightShape);
 Lobe parse_lobe(const std::string&);              // "lambert" | "ggx"; std::invalid_argument otherwise
 LightShape parse_light_shape(const std::string&);  // "sphere" | "rect"
 
-constexpr double kPi = 3.14159265358979323846;
 inline double degrees(double radians) { return radians * (180.0 / kPi); }
 inline double radians(double degrees) { return degrees * (kPi / 180.0); }
 

@@ -6,6 +6,8 @@
 
 namespace ms {
 
+inline constexpr double kPi = 3.14159265358979323846;
+
 // How the AO bake that produced the visibility weighted its rays (part 1): it decides the cone.
 enum class AoWeighting { cosine, uniform };
 // Smith form of the weight G2(wi,wo,wm) / G1(wi,wm) (part 2).

@@ -11,7 +11,6 @@
 namespace ms::env {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 struct Frame {
     Dir t, b, n;

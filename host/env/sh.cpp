@@ -6,11 +6,9 @@
 #include <algorithm>
 #include <vector>
 
-namespace ms::env {
+#include "core/types.hpp"
 
-namespace {
-constexpr double kPi = 3.14159265358979323846;
-}
+namespace ms::env {
 
 const std::array<double, 3> kClampedCosine = {kPi, 2 * kPi / 3, kPi / 4};
 

@@ -3,10 +3,11 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/types.hpp"
+
 namespace ms::env {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 Dir normalised(double x, double y, double z) {
     const double n = std::sqrt(x * x + y * y + z * z);
     return {x / n, y / n, z / n};

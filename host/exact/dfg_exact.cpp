@@ -5,13 +5,13 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/types.hpp"
 #include "exact/gauss_legendre.hpp"
 
 namespace ms::exact {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // Panels shrink by this ratio towards a graded end: with it a panel's nearest singularity is at least
 // 2/3 of its half-width away, so a 16-point rule gains ~32 bits per panel (Bernstein ellipse rho ~ 3).
 constexpr double kGrading = 0.25;

@@ -23,8 +23,6 @@ namespace ms::exact {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 Vec3 unit(const Vec3& a) {
     // Scaled first so that components near the limits of double (1e-300, 1e300) normalise without
@@ -161,7 +159,6 @@ AzimuthRule azimuth_rule_for(double tolerance) {
     if (tolerance >= 1e-8) return {8, 6};
     return {12, 8};
 }
-
 
 ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance) {
     const Vec3 wi = unit(q.wi), wo = unit(q.wo);

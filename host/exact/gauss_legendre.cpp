@@ -4,11 +4,12 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/types.hpp"
+
 namespace ms::exact {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxNodes = 64;
 
 GaussRule build(int n) {

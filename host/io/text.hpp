@@ -26,4 +26,9 @@ std::string shell_quote(std::string_view arg);
 // Levenshtein distance (single-character edits between two words), for "did you mean" suggestions.
 std::size_t edit_distance(const std::string& a, const std::string& b);
 
+// v in printf's %g with `digits` significant digits (3 for messages and labels, 9 to round-trip a float).
+std::string format_g(double v, int digits = 3);
+// s with its ASCII letters in upper case (labels, C identifiers).
+std::string to_upper(std::string s);
+
 }  // namespace ms

@@ -19,14 +19,6 @@ const std::vector<std::string> kRectColumns = {"visibility", "alpha_x", "alpha_y
                                                "p0_x", "p0_y", "p0_z", "p1_x", "p1_y", "p1_z",
                                                "p2_x", "p2_y", "p2_z", "p3_x", "p3_y", "p3_z"};
 
-namespace {
-Vec3 unit(const Vec3& v) {
-    const double l = std::hypot(v.x, v.y, v.z);
-    return {v.x / l, v.y / l, v.z / l};
-}
-Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-}  // namespace
-
 std::vector<AreaQuery> read_area_csv(const std::string& path, LightShape shape, Lobe lobe,
                                      std::vector<std::vector<double>>* raw) {
     const NumericCsv table = read_numeric_csv(path, shape == LightShape::sphere ? kSphereColumns : kRectColumns);
@@ -95,7 +87,6 @@ InnerTerm exact_inner_term(AoWeighting weighting, double tolerance) {
 }
 
 namespace {
-double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 double angle_between(const Vec3& a, const Vec3& b) {
     const Vec3 c = cross(a, b);
     return std::atan2(std::hypot(c.x, c.y, c.z), dot(a, b));

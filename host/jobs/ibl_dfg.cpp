@@ -12,8 +12,10 @@
 
 #include "core/estimate.hpp"
 #include "env/image.hpp"
+#include "env/preview.hpp"
 #include "io/atomic_file.hpp"
 #include "io/png_file.hpp"
+#include "io/text.hpp"
 #include "lut/formats/texture.hpp"
 
 namespace ms {
@@ -291,11 +293,6 @@ std::vector<float> channel_data(const DfgBakeResult& result) {
     return data;
 }
 
-std::string upper(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::toupper(c)); });
-    return s;
-}
-
 // The metadata as a C comment ("*/" inside it broken up).
 void write_c_comment(std::ostream& out, const nlohmann::json& metadata) {
     std::string meta = metadata.dump(2);
@@ -338,7 +335,7 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
         // `symbol`, with SYMBOL_WIDTH / _HEIGHT / _CHANNELS.
         std::ostream& out = outputs.stream(files.lut);
         write_c_comment(out, metadata);
-        const std::string macro = upper(symbol);
+        const std::string macro = to_upper(symbol);
         out << "#pragma once\n\n";
         out << "/* channels: " << channels_string(result.channels) << (half ? " (IEEE binary16 bits)" : "") << " */\n";
         out << "#define " << macro << "_WIDTH " << result.width << "  /* NdotV */\n";
@@ -546,12 +543,6 @@ DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result,
     for (std::uint8_t b : bad) v.failed += b;
     return v;
 }
-
-}  // namespace ms
-
-#include "env/preview.hpp"
-
-namespace ms {
 
 namespace {
 env::Canvas dfg_preview_canvas(const DfgBakeResult& result, const DfgBakeSpec& spec) {

@@ -12,13 +12,10 @@
 #include <stdexcept>
 
 #include "core/cancel.hpp"
+#include "core/types.hpp"
 #include "io/atomic_file.hpp"
 
 namespace ms {
-
-namespace {
-constexpr double kPi = 3.14159265358979323846;
-}
 
 void cross_face_origin(int face, std::uint32_t n, std::uint32_t& x, std::uint32_t& y) {
     switch (face) {

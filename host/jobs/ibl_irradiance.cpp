@@ -7,6 +7,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/types.hpp"
 #include "env/preview.hpp"
 #include "env/sh.hpp"
 #include "integrands/irradiance/irradiance_integrand.hpp"
@@ -18,7 +19,6 @@
 namespace ms {
 
 namespace {
-constexpr double kPi = 3.14159265358979323846;
 
 struct V3 {
     double x, y, z;

@@ -38,7 +38,6 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // Bumped when the cache format or the point generator changes: old caches are then simply not found.
 constexpr int kCacheFormat = 2;
 const std::vector<std::string> kPointColumns = {"visibility", "n_dot_l", "n_dot_v", "roughness",

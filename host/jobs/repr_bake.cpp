@@ -34,7 +34,6 @@ void validate(const AzimuthBakeSpec& s) {
     if (queries > (std::uint64_t(1) << 24)) throw std::invalid_argument("representation bake: more than 2^24 texels x nodes");
 }
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kTerms = 4;  // a0 + a1 cos(dphi) + a2 cos(2 dphi) + a3 rho (repr/anisotropic.cpp)
 
 bool is_geometric(const std::vector<double>& r) {

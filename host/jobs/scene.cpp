@@ -42,8 +42,6 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 struct KeyHash {
     std::size_t operator()(const DedupKey& k) const {
         std::uint64_t h = 1469598103934665603ULL;
@@ -57,17 +55,6 @@ struct KeyHash {
 
 double seconds_since(std::chrono::steady_clock::time_point t) {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
-}
-
-std::string fmt(double v, int digits = 3) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.*g", digits, v);
-    return buf;
-}
-
-std::string upper(std::string s) {
-    std::transform(s.begin(), s.end(), s.begin(), [](unsigned char c) { return char(std::toupper(c)); });
-    return s;
 }
 
 // One approximation of the term per pixel.
@@ -353,10 +340,10 @@ void make_comparators(SceneJob& job, SceneResult& result) {
         const std::uint64_t planes = std::uint64_t(d.lights.size()) * (3 + 2 * names.size()) + 1;
         const std::uint64_t bytes = planes * std::uint64_t(job.n) * sizeof(float);
         if (options.memory_limit > 0 && bytes > options.memory_limit)
-            throw SceneError(d.source + ": the output images need about " + fmt(double(bytes) / double(1ULL << 30)) + " GiB (" +
+            throw SceneError(d.source + ": the output images need about " + format_g(double(bytes) / double(1ULL << 30)) + " GiB (" +
                              std::to_string(d.lights.size()) + " light(s) x (3 + 2 x " + std::to_string(names.size()) +
                              " comparators) planes of " + std::to_string(result.width) + " x " + std::to_string(result.height) +
-                             " floats), more than the limit of " + fmt(double(options.memory_limit) / double(1ULL << 30)) +
+                             " floats), more than the limit of " + format_g(double(options.memory_limit) / double(1ULL << 30)) +
                              " GiB: use fewer lights or comparators, or a smaller image");
         if (options.check_outputs) options.check_outputs(names);
     }
@@ -1183,16 +1170,16 @@ std::string markdown(const SceneResult& r) {
     std::ostringstream m;
     const SkipCounts& c = r.counts;
     m << "# microshadow scene report\n\n";
-    m << r.width << " x " << r.height << " pixels, " << r.lights.size() << " light(s), tolerance " << fmt(r.tolerance)
-      << " (99.9 % bound per pixel), " << fmt(r.seconds) << " s on " << r.backend << " (LUT bakes " << fmt(r.lut_seconds)
-      << " s, sampling " << fmt(r.sampling_seconds) << " s; sampling every unmasked pixel-light would take about "
-      << fmt(c.sampled ? r.sampling_seconds * double(c.pixel_lights - c.masked - c.view_below_horizon) / double(c.sampled) : 0)
+    m << r.width << " x " << r.height << " pixels, " << r.lights.size() << " light(s), tolerance " << format_g(r.tolerance)
+      << " (99.9 % bound per pixel), " << format_g(r.seconds) << " s on " << r.backend << " (LUT bakes " << format_g(r.lut_seconds)
+      << " s, sampling " << format_g(r.sampling_seconds) << " s; sampling every unmasked pixel-light would take about "
+      << format_g(c.sampled ? r.sampling_seconds * double(c.pixel_lights - c.masked - c.view_below_horizon) / double(c.sampled) : 0)
       << " s at the same time per query).\n\n";
     m << "| pixel x light | masked | view below horizon | light below horizon | zero region | v = 1 | duplicates | sampled | skipped |\n"
       << "|---|---|---|---|---|---|---|---|---|\n"
       << "| " << c.pixel_lights << " | " << c.masked << " | " << c.view_below_horizon << " | " << c.light_below_horizon << " | "
       << c.zero_region << " | " << c.v_one << " | " << c.duplicates << " | " << c.sampled << " | "
-      << fmt(100 * c.skipped_fraction()) << " % |\n\n";
+      << format_g(100 * c.skipped_fraction()) << " % |\n\n";
     bool any_domain = false;
     for (const auto& dm : r.domains) any_domain = any_domain || dm.has_value();
     if (any_domain) {
@@ -1205,7 +1192,7 @@ std::string markdown(const SceneResult& r) {
         m << "\n";
     }
     for (const auto& l : r.lights) {
-        m << "## light `" << l.light << "`\n\nReference: max error bound " << fmt(l.max_error_bound)
+        m << "## light `" << l.light << "`\n\nReference: max error bound " << format_g(l.max_error_bound)
           << ". Errors weighted as shading sees them (|approximation - reference| x max(N.L, 0) x intensity), over lit pixels;"
           << " `max term` is the unweighted max.\n\n";
         m << "| comparator | max | RMS | p99 | max term | RMS term |";
@@ -1215,10 +1202,10 @@ std::string markdown(const SceneResult& r) {
         m << "\n";
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
             const PixelErrors& s = l.stats[k][0];
-            m << "| " << r.comparators[k] << " | " << fmt(s.max) << " | " << fmt(s.rms) << " | " << fmt(s.p99) << " | "
-              << fmt(s.max_term) << " | " << fmt(s.rms_term) << " |";
+            m << "| " << r.comparators[k] << " | " << format_g(s.max) << " | " << format_g(s.rms) << " | " << format_g(s.p99) << " | "
+              << format_g(s.max_term) << " | " << format_g(s.rms_term) << " |";
             for (std::size_t g = 1; g < r.groups.size(); ++g)
-                m << " " << (l.stats[k][g].pixels ? fmt(l.stats[k][g].rms) : std::string("-")) << " |";
+                m << " " << (l.stats[k][g].pixels ? format_g(l.stats[k][g].rms) : std::string("-")) << " |";
             m << "\n";
         }
         m << "\n";
@@ -1372,18 +1359,18 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
                       render_panels(r.width, r.height,
                                     {{"REFERENCE TERM", l.reference.data(), false, 0, 1, 1},
                                      {"ERROR BOUND, 99.9 PER CENT", bound.data(), false, 0, r.tolerance, 1}},
-                                    r.mask.data(), {"LIGHT " + upper(l.light) + ": THE GENERIC TERM BY VNDF SAMPLING"}));
+                                    r.mask.data(), {"LIGHT " + to_upper(l.light) + ": THE GENERIC TERM BY VNDF SAMPLING"}));
         // Every comparator's weighted error on one shared scale.
         double shared = 0;
         for (std::size_t k = 0; k < r.comparators.size(); ++k) shared = std::max(shared, l.stats[k][0].max);
         std::vector<Panel> all;
         for (std::size_t k = 0; k < r.comparators.size(); ++k)
-            all.push_back({upper(r.comparators[k]), l.error[k].data(), true, 0, 1, shared > 0 ? shared : 1});
+            all.push_back({to_upper(r.comparators[k]), l.error[k].data(), true, 0, 1, shared > 0 ? shared : 1});
         if (!all.empty()) {
             const std::size_t errors_png = out.add(path(l.light + "_errors.png"), true);
             write_png_rgb(out.temp_path(errors_png),
                           render_panels(r.width, r.height, all, r.mask.data(),
-                                        {"LIGHT " + upper(l.light) + ": (APPROXIMATION - REFERENCE) X N.L X INTENSITY, ONE SCALE"}, 160));
+                                        {"LIGHT " + to_upper(l.light) + ": (APPROXIMATION - REFERENCE) X N.L X INTENSITY, ONE SCALE"}, 160));
         }
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
             const PixelErrors& s = l.stats[k][0];
@@ -1391,11 +1378,11 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
             write_png_rgb(out.temp_path(png),
                           render_panels(r.width, r.height,
                                         {{"REFERENCE", l.reference.data(), false, 0, 1, 1},
-                                         {upper(r.comparators[k]), l.approximation[k].data(), false, 0, 1, 1},
+                                         {to_upper(r.comparators[k]), l.approximation[k].data(), false, 0, 1, 1},
                                          {weighted, l.error[k].data(), true, 0, 1, s.max > 0 ? s.max : 1}},
                                         r.mask.data(),
-                                        {"LIGHT " + upper(l.light) + ": " + upper(r.comparators[k]) + " AGAINST THE REFERENCE",
-                                         "WEIGHTED ERROR MAX " + fmt(s.max) + "  RMS " + fmt(s.rms) + "  P99 " + fmt(s.p99)}));
+                                        {"LIGHT " + to_upper(l.light) + ": " + to_upper(r.comparators[k]) + " AGAINST THE REFERENCE",
+                                         "WEIGHTED ERROR MAX " + format_g(s.max) + "  RMS " + format_g(s.rms) + "  P99 " + format_g(s.p99)}));
         }
     }
     out.stream(report_json) << dump_json(report, 2) << "\n";

@@ -31,12 +31,6 @@ using Clock = std::chrono::steady_clock;
 
 double since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-std::string fmt(double v, int digits = 3) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.*g", digits, v);
-    return b;
-}
-
 // The histograms in file order, with what each counts.
 struct HistogramKind {
     const char* name;
@@ -482,26 +476,26 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
     const SceneBakePlan& p = r.plan;
     std::ostringstream m;
     m << "# bake --scene\n\n";
-    m << "Layout: " << (p.fitted ? "fitted to the scene" : "the base layout") << ": visibility [" << fmt(p.spec.visibility.min) << ", "
-      << fmt(p.spec.visibility.max) << "] x " << p.spec.visibility.count << ", NdotL [" << fmt(p.spec.n_dot_l.min) << ", "
-      << fmt(p.spec.n_dot_l.max) << "] x " << p.spec.n_dot_l.count << ", NdotV [" << fmt(p.spec.n_dot_v.min) << ", "
-      << fmt(p.spec.n_dot_v.max) << "] x " << p.spec.n_dot_v.count << ", roughness channels";
-    for (double x : p.spec.roughness) m << " " << fmt(x);
+    m << "Layout: " << (p.fitted ? "fitted to the scene" : "the base layout") << ": visibility [" << format_g(p.spec.visibility.min) << ", "
+      << format_g(p.spec.visibility.max) << "] x " << p.spec.visibility.count << ", NdotL [" << format_g(p.spec.n_dot_l.min) << ", "
+      << format_g(p.spec.n_dot_l.max) << "] x " << p.spec.n_dot_l.count << ", NdotV [" << format_g(p.spec.n_dot_v.min) << ", "
+      << format_g(p.spec.n_dot_v.max) << "] x " << p.spec.n_dot_v.count << ", roughness channels";
+    for (double x : p.spec.roughness) m << " " << format_g(x);
     m << " (" << p.channels_touched.size() << " touched).\n\n";
     m << "| | count | of |\n|---|---|---|\n";
     m << "| slices (channel, NdotV) baked | " << p.baked_slices << " | " << p.slices << " |\n";
     m << "| rows baked | " << p.baked_rows << " | " << p.rows << " |\n";
-    m << "| texels baked (whole rows) | " << p.baked_texels << " | " << p.texels << " (" << fmt(100.0 * double(p.baked_texels) / double(p.texels))
+    m << "| texels baked (whole rows) | " << p.baked_texels << " | " << p.texels << " (" << format_g(100.0 * double(p.baked_texels) / double(p.texels))
       << " %) |\n";
     m << "| texels in some lookup's footprint | " << p.touched_texels << " | " << p.texels << " |\n\n";
-    m << "Time: scene bake " << fmt(r.bake.seconds) << " s";
+    m << "Time: scene bake " << format_g(r.bake.seconds) << " s";
     if (r.full_seconds > 0)
-        m << ", full bake of the same layout " << fmt(r.full_seconds) << " s (ratio " << fmt(r.bake.seconds / r.full_seconds)
-          << ", same run), default LUT " << fmt(r.default_seconds) << " s, reference " << fmt(r.reference_seconds) << " s";
+        m << ", full bake of the same layout " << format_g(r.full_seconds) << " s (ratio " << format_g(r.bake.seconds / r.full_seconds)
+          << ", same run), default LUT " << format_g(r.default_seconds) << " s, reference " << format_g(r.reference_seconds) << " s";
     m << ".\n\n";
     if (r.full_histogram_updates)
         m << "Work (load-independent): histogram updates (samples x rows x azimuth nodes) " << r.bake.sample_node_rows << " of the full bake's "
-          << r.full_histogram_updates << " (" << fmt(double(r.bake.sample_node_rows) / double(r.full_histogram_updates)) << "); normals passes "
+          << r.full_histogram_updates << " (" << format_g(double(r.bake.sample_node_rows) / double(r.full_histogram_updates)) << "); normals passes "
           << r.bake.batches << " of " << r.full_batches << " (slice batches).\n\n";
     if (!r.errors.empty()) {
         m << "## Error on the scene (|LUT - reference| x N.L x intensity, sampled lookups)\n\n";
@@ -510,23 +504,23 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
         for (const auto& e : r.errors)
             for (const auto& [name, s] : {std::pair<std::string, const LutErrorStats&>{"scene", e.scene_lut},
                                           std::pair<std::string, const LutErrorStats&>{"default seed-3d-" + std::to_string(r.default_size), e.default_lut}})
-                m << "| " << e.light << " | " << name << " | " << s.lookups << " | " << fmt(s.max) << " | " << fmt(s.rms) << " | "
-                  << fmt(s.p99) << " | " << fmt(s.max_term) << " | " << fmt(s.rms_term) << " | " << fmt(e.reference_bound) << " |\n";
+                m << "| " << e.light << " | " << name << " | " << s.lookups << " | " << format_g(s.max) << " | " << format_g(s.rms) << " | "
+                  << format_g(s.p99) << " | " << format_g(s.max_term) << " | " << format_g(s.rms_term) << " | " << format_g(e.reference_bound) << " |\n";
         for (const auto& e : r.errors)
             if (e.azimuth_floor.lookups)
                 m << "| " << e.light << " | azimuth-mean floor (any LUT of the azimuth mean) | " << e.azimuth_floor.lookups << " | "
-                  << fmt(e.azimuth_floor.max) << " | " << fmt(e.azimuth_floor.rms) << " | " << fmt(e.azimuth_floor.p99) << " | "
-                  << fmt(e.azimuth_floor.max_term) << " | " << fmt(e.azimuth_floor.rms_term) << " | " << fmt(e.azimuth_floor_bound)
+                  << format_g(e.azimuth_floor.max) << " | " << format_g(e.azimuth_floor.rms) << " | " << format_g(e.azimuth_floor.p99) << " | "
+                  << format_g(e.azimuth_floor.max_term) << " | " << format_g(e.azimuth_floor.rms_term) << " | " << format_g(e.azimuth_floor_bound)
                   << " (mean) |\n";
         m << "\n**Verdict:** the default LUT " << (r.default_serves ? "serves" : "does not serve") << " this scene within "
-          << fmt(r.serve_error) << " (its largest weighted error on the sampled lookups plus the reference's bound).\n\n";
+          << format_g(r.serve_error) << " (its largest weighted error on the sampled lookups plus the reference's bound).\n\n";
     }
     m << "## Domain\n\n| light | shaded pixels | lookups (lit) |";
     for (const auto& k : kHistograms) m << " " << k.name << " range |";
     m << "\n|---|---|---|---|---|---|---|---|\n";
     for (const auto& ld : domain) {
         m << "| " << ld.light << " | " << ld.shaded << " | " << ld.lookups.size() << " |";
-        for (const auto& h : ld.histograms) m << " " << fmt(h.data_min) << " - " << fmt(h.data_max) << " |";
+        for (const auto& h : ld.histograms) m << " " << format_g(h.data_min) << " - " << format_g(h.data_max) << " |";
         m << "\n";
     }
     m << "\nHistograms: histograms_<light>.png, histograms.csv, histograms.json.\n";
@@ -598,8 +592,8 @@ void write_scene_bake_files(const SceneBakeResult& r, const std::vector<LightDom
                                        {"data_min", h.data_min}, {"data_max", h.data_max}});
             const double w = (h.max - h.min) / double(h.counts.size());
             for (std::size_t b = 0; b < h.counts.size(); ++b)
-                csv << csv_field(ld.light) << "," << h.name << ",\"" << h.unit << "\"," << b << "," << fmt(h.min + w * double(b), 6)
-                    << "," << fmt(h.min + w * double(b + 1), 6) << "," << h.counts[b] << "\n";
+                csv << csv_field(ld.light) << "," << h.name << ",\"" << h.unit << "\"," << b << "," << format_g(h.min + w * double(b), 6)
+                    << "," << format_g(h.min + w * double(b + 1), 6) << "," << h.counts[b] << "\n";
             const char* label = h.name.c_str();
             for (const auto& k : kHistograms)
                 if (h.name == k.name) label = k.label;

@@ -12,8 +12,6 @@ namespace ms::oracle {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 Vec3 normalize(const Vec3& v) {

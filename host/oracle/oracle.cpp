@@ -37,8 +37,6 @@ namespace ms::oracle {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 // <a.b> of the seeds: the dot product clamped to [0, 1].
 double clamped_dot(const Vec3& a, const Vec3& b) { return std::fmin(std::fmax(dot(a, b), 0.0), 1.0); }

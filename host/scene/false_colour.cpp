@@ -1,4 +1,5 @@
 #include "scene/false_colour.hpp"
+#include "io/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -7,12 +8,6 @@
 namespace ms::scene {
 
 namespace {
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3g", v);
-    return buf;
-}
 
 void lerp_map(const double (*stops)[3], int n, double t, std::uint8_t rgb[3]) {
     t = std::clamp(std::isfinite(t) ? t : 0.0, 0.0, 1.0) * (n - 1);
@@ -90,7 +85,7 @@ RgbImage render_panels(std::uint32_t width, std::uint32_t height, const std::vec
             const std::int64_t ty = y0 + std::lround((1.0 - t / 4.0) * double(bh - 1));
             const double value = p.diverging ? -p.range + 2 * p.range * t / 4.0 : p.lo + (p.hi - p.lo) * t / 4.0;
             img.fill(bx + bar_w, ty, 4, 1, fg, fg, fg);
-            draw_text(img, bx + bar_w + 10, ty - kGlyphHeight * S / 2, fmt(value), S, fg, fg, fg);
+            draw_text(img, bx + bar_w + 10, ty - kGlyphHeight * S / 2, format_g(value), S, fg, fg, fg);
         }
     }
     if (f > 1)

@@ -5,21 +5,11 @@
 #include <cstdio>
 
 #include "scene/false_colour.hpp"
+#include "io/text.hpp"
 
 namespace ms::scene {
 
 namespace {
-
-std::string fmt(double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.3g", v);
-    return b;
-}
-
-std::string upper(std::string s) {
-    for (char& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
-    return s;
-}
 
 }  // namespace
 
@@ -42,7 +32,7 @@ RgbImage render_histograms(const std::vector<HistogramPanel>& panels, const std:
         std::uint64_t total = 0, peak = 0;
         for (auto c : counts) total += c, peak = std::max(peak, c);
         const std::int64_t y0 = top + std::int64_t(k) * panel_h;
-        draw_text(img, gap, y0, upper(p.title) + ": DATA " + fmt(p.data_min) + " TO " + fmt(p.data_max), S, fg, fg, fg);
+        draw_text(img, gap, y0, to_upper(p.title) + ": DATA " + format_g(p.data_min) + " TO " + format_g(p.data_max), S, fg, fg, fg);
         const std::int64_t px = left, py = y0 + line + 8;
         img.fill(px, py, plot_w, plot_h, 20, 26, 48);
         // Bars: height proportional to the count, the peak filling the plot; coloured by the parameter.
@@ -65,11 +55,11 @@ RgbImage render_histograms(const std::vector<HistogramPanel>& panels, const std:
             const double v = p.min + (p.max - p.min) * t / 2.0;
             const std::int64_t x = px + std::int64_t(plot_w) * t / 2;
             img.fill(x - 1, py + plot_h + 2, 2, 6, fg, fg, fg);
-            const std::string label = fmt(v);
+            const std::string label = format_g(v);
             const std::int64_t lw = text_width(label, S);
             draw_text(img, std::clamp<std::int64_t>(x - lw / 2, px - 4, px + plot_w - lw + 4), py + plot_h + 10, label, S, fg, fg, fg);
         }
-        draw_text(img, px, py + plot_h + 10 + line, "BARS: LOOKUPS PER BIN OF " + fmt((p.max - p.min) / double(n)) + ", " +
+        draw_text(img, px, py + plot_h + 10 + line, "BARS: LOOKUPS PER BIN OF " + format_g((p.max - p.min) / double(n)) + ", " +
                       std::to_string(total) + " IN ALL", S, 180, 190, 210);
     }
     return img;

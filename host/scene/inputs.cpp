@@ -1,4 +1,5 @@
 #include "scene/inputs.hpp"
+#include "io/text.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,12 +18,6 @@ double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 Vec3 cross(Vec3 a, Vec3 b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
 double length(Vec3 a) { return std::hypot(a.x, a.y, a.z); }
 Vec3 unit(Vec3 a) { return scale(a, 1.0 / length(a)); }
-
-std::string fmt(double v) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
-    return buf;
-}
 
 std::string where(const Plane& p, std::size_t i) {
     return p.file + ": channel '" + p.channel + "': pixel (" + std::to_string(i % p.width) + ", " +
@@ -85,7 +80,7 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
     // Constants checked once, with the key that holds them.
     auto check_constant = [&](bool image, double v, double lo, double hi, const std::string& key) {
         if (!image && !(v >= lo && v <= hi))
-            throw SceneError(d.source + ": " + key + ": " + fmt(v) + " outside [" + fmt(lo) + ", " + fmt(hi) + "]");
+            throw SceneError(d.source + ": " + key + ": " + format_g(v, 9) + " outside [" + format_g(lo, 9) + ", " + format_g(hi, 9) + "]");
     };
     check_constant(d.visibility.from_image(), d.visibility.value, 0, 1, "visibility.value");
     check_constant(d.roughness.from_image(), d.roughness.value, d.roughness_kind == RoughnessKind::alpha ? 1e-300 : 0, 1,
@@ -106,20 +101,20 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
         for (const auto* group : {&s.normal_, &s.visibility_, &s.roughness_, &s.anisotropy_, &s.tangent_, &s.material_,
                                   &s.view_, &s.position_})
             if (const Plane* bad = finite(*group, i))
-                throw SceneError(where(*bad, i) + ": " + fmt(bad->data[i]) + " is not a finite number");
+                throw SceneError(where(*bad, i) + ": " + format_g(bad->data[i], 9) + " is not a finite number");
         if (!s.normal_.empty() && !(length(s.world_normal(i)) > 1e-6))
             throw SceneError(where3(s.normal_, i) + ": zero-length normal");
         if (!s.visibility_.empty()) {
             const float v = s.visibility_[0].data[i];
-            if (!(v >= 0 && v <= 1)) throw SceneError(where(s.visibility_[0], i) + ": visibility " + fmt(v) + " outside [0, 1]");
+            if (!(v >= 0 && v <= 1)) throw SceneError(where(s.visibility_[0], i) + ": visibility " + format_g(v, 9) + " outside [0, 1]");
         }
         if (!s.roughness_.empty()) {
             const float r = s.roughness_[0].data[i];
-            if (!(r >= 0 && r <= 1)) throw SceneError(where(s.roughness_[0], i) + ": roughness " + fmt(r) + " outside [0, 1]");
+            if (!(r >= 0 && r <= 1)) throw SceneError(where(s.roughness_[0], i) + ": roughness " + format_g(r, 9) + " outside [0, 1]");
         }
         if (!s.anisotropy_.empty()) {
             const float a = s.anisotropy_[0].data[i];
-            if (!(a >= -1 && a <= 1)) throw SceneError(where(s.anisotropy_[0], i) + ": anisotropy " + fmt(a) + " outside [-1, 1]");
+            if (!(a >= -1 && a <= 1)) throw SceneError(where(s.anisotropy_[0], i) + ": anisotropy " + format_g(a, 9) + " outside [-1, 1]");
         }
         const PixelSurface p = s.pixel(i);
         if (p.alpha_x != p.alpha_y && !p.anisotropic)
@@ -135,8 +130,8 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
             // holds every integer, and an int would wrap.
             const double m = double(s.material_[0].data[i]) * s.material_[0].integer_scale;
             if (!(std::fabs(m) <= kMaxMaterialIndex))
-                throw SceneError(where(s.material_[0], i) + ": material index " + fmt(m) + " outside [-" + fmt(kMaxMaterialIndex) +
-                                 ", " + fmt(kMaxMaterialIndex) + "]");
+                throw SceneError(where(s.material_[0], i) + ": material index " + format_g(m, 9) + " outside [-" + format_g(kMaxMaterialIndex, 9) +
+                                 ", " + format_g(kMaxMaterialIndex, 9) + "]");
             if (materials.insert(int(std::lround(m))).second && materials.size() > kMaxMaterials)
                 throw SceneError(where(s.material_[0], i) + ": more than " + std::to_string(kMaxMaterials) +
                                  " distinct material indices (each is a statistics group of the report)");
@@ -148,13 +143,13 @@ SceneInputs SceneInputs::load(const SceneDescription& d) {
                 throw SceneError(d.source + ": light[" + std::to_string(l) + "] '" + d.lights[l].name + "': pixel (" +
                                  std::to_string(i % s.width_) + ", " + std::to_string(i / s.width_) +
                                  ") is inside the sphere light (distance to its centre " +
-                                 fmt(length(sub(d.lights[l].position, p.position))) + " <= radius " + fmt(d.lights[l].radius) + ")");
+                                 format_g(length(sub(d.lights[l].position, p.position)), 9) + " <= radius " + format_g(d.lights[l].radius, 9) + ")");
             if (d.lights[l].is_area()) continue;  // radiance: the weight is bounded by intensity x pi
             const LightQuery q = light_query(p, d.lights[l]);
             if (!(q.irradiance <= kMaxIrradiance))
                 throw SceneError(d.source + ": light[" + std::to_string(l) + "] '" + d.lights[l].name + "': irradiance " +
-                                 fmt(q.irradiance) + " at pixel (" + std::to_string(i % s.width_) + ", " +
-                                 std::to_string(i / s.width_) + ") is beyond " + fmt(kMaxIrradiance) +
+                                 format_g(q.irradiance, 9) + " at pixel (" + std::to_string(i % s.width_) + ", " +
+                                 std::to_string(i / s.width_) + ") is beyond " + format_g(kMaxIrradiance, 9) +
                                  " (a point light on or next to the surface, or too bright)");
         }
     }

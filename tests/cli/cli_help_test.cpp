@@ -10,7 +10,7 @@
 namespace ms {
 namespace {
 
-testing::RunResult cli(const std::string& args) { return testing::run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+using ms::testing::cli;
 
 TEST(CliHelp, HelpListsTheCommandsAndDescribesOne) {
     const auto all = cli("help");

@@ -28,6 +28,7 @@
 #include <thread>
 
 #include "cli_runner.hpp"
+#include "test_files.hpp"
 
 extern char** environ;
 
@@ -37,12 +38,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using ms::testing::ScratchDirTest;
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 // "name hash" lines of make_golden.sh's output (or of a record), by name.
 std::map<std::string, std::string> golden_lines(const std::string& text) {
@@ -86,7 +82,7 @@ CliRun run_cli(const fs::path& dir, const std::string& args, const std::string& 
     fs::remove(dir / "log.txt");
     const auto t0 = Clock::now();
     const int code = wait_exit(spawn_cli(dir, args, env + " timeout " + std::to_string(timeout_seconds)));
-    return {code, std::chrono::duration<double>(Clock::now() - t0).count(), slurp(dir / "log.txt")};
+    return {code, std::chrono::duration<double>(Clock::now() - t0).count(), slurp_file(dir / "log.txt")};
 }
 
 // Every regular file under dir (relative path -> bytes), except the runs' log.
@@ -94,7 +90,7 @@ std::map<std::string, std::string> snapshot(const fs::path& dir) {
     std::map<std::string, std::string> files;
     for (const auto& e : fs::recursive_directory_iterator(dir))
         if (e.is_regular_file() && e.path().filename() != "log.txt")
-            files[fs::relative(e.path(), dir).string()] = slurp(e.path());
+            files[fs::relative(e.path(), dir).string()] = slurp_file(e.path());
     return files;
 }
 
@@ -129,8 +125,8 @@ protected:
 
 TEST_F(GoldenSet, ScriptReproducesExpectedAndEvalKeepsThePreRefactorBits) {
     const std::string golden = MICROSHADOW_GOLDEN_DIR;
-    const auto expected = golden_lines(slurp(golden + "/expected.txt"));
-    const auto before = golden_lines(slurp(golden + "/before-refactor.txt"));
+    const auto expected = golden_lines(slurp_file(golden + "/expected.txt"));
+    const auto before = golden_lines(slurp_file(golden + "/before-refactor.txt"));
     ASSERT_EQ(expected.size(), 10u) << "tests/golden/expected.txt should name the 10 lines of make_golden.sh";
     ASSERT_EQ(before.size(), 10u);
 
@@ -197,15 +193,15 @@ TEST_F(Failover, EvalWithAFailingDeviceGivesTheSameBytes) {
         const std::string clean_out = "clean" + std::to_string(trial) + ".csv", out = "faulty" + std::to_string(trial) + ".csv";
         const CliRun clean = run_cli(dir_, "eval --method sampled --in " + in + " --out " + clean_out + " -q");
         ASSERT_EQ(clean.exit_code, 0) << clean.log;
-        const std::string expected = slurp(dir_ / clean_out);
+        const std::string expected = slurp_file(dir_ / clean_out);
         ASSERT_FALSE(expected.empty());
         const CliRun faulty =
             run_cli(dir_, "eval --method sampled --in " + in + " --out " + out + " --device all", kTwoDevices + " MICROSHADOW_FAIL_DEVICE=0:0");
         ASSERT_EQ(faulty.exit_code, 0) << "eval --method sampled --in " << in << " (124: hung, see SchedulerFailover.FailoverWhenTheOtherPlacesHaveFinished)\n"
                                        << faulty.log;
-        EXPECT_EQ(slurp(dir_ / out), expected) << in;
+        EXPECT_EQ(slurp_file(dir_ / out), expected) << in;
         // The metadata names both devices: the run really had two places.
-        EXPECT_NE(slurp(dir_ / (out + ".json")).find("; "), std::string::npos) << slurp(dir_ / (out + ".json"));
+        EXPECT_NE(slurp_file(dir_ / (out + ".json")).find("; "), std::string::npos) << slurp_file(dir_ / (out + ".json"));
         ++trial;
     }
 }
@@ -233,7 +229,7 @@ TEST_F(Failover, SweepWithAFailingDeviceGivesTheSameBytes) {
     ASSERT_EQ(faulty.exit_code, 0) << faulty.log;
     for (const char* f : {"sweep.csv", "summary.csv", "summary.md"}) {
         ASSERT_TRUE(fs::exists(dir_ / "clean" / f)) << f;
-        EXPECT_EQ(slurp(dir_ / "faulty" / f), slurp(dir_ / "clean" / f)) << f;
+        EXPECT_EQ(slurp_file(dir_ / "faulty" / f), slurp_file(dir_ / "clean" / f)) << f;
     }
 }
 
@@ -298,12 +294,12 @@ protected:
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(5));
         }
-        const std::string log = slurp(dir_ / "log.txt");
+        const std::string log = slurp_file(dir_ / "log.txt");
         const std::string what = "microshadow " + args + " (signal " + std::to_string(sig) + " after " +
                                  std::to_string(kSignalAfter) + " s)";
         EXPECT_EQ(code, interrupted_status(sig)) << what << "\nexit " << code << " after " << latency << " s\n" << log;
         EXPECT_LE(latency, kExitWithin) << what << ": exited " << latency << " s after the signal\n" << log;
-        EXPECT_EQ(slurp(dir_ / previous), old_bytes) << what << ": the previous output changed";
+        EXPECT_EQ(slurp_file(dir_ / previous), old_bytes) << what << ": the previous output changed";
         EXPECT_NE(log.find("interrupted"), std::string::npos) << what << "\n" << log;
         auto after = snapshot(dir_);
         for (const auto& name : may_appear)

@@ -11,6 +11,7 @@
 
 #include "cli_runner.hpp"
 #include "io/csv.hpp"
+#include "sanitizers.hpp"
 
 namespace {
 
@@ -19,17 +20,7 @@ using ms::testing::RunResult;
 using ms::testing::ScratchDirTest;
 using ms::testing::run_shell;
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAsan = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAsan = true;
-#else
-constexpr bool kAsan = false;
-#endif
-#else
-constexpr bool kAsan = false;
-#endif
+using ms::testing::kAsan;
 
 // Runs the CLI under `timeout` (a hang is a failure, exit 124) and, outside ASan (which reserves
 // terabytes of address space), a 2 GiB address-space limit: an input that makes the program allocate

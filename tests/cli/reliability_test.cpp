@@ -31,6 +31,8 @@
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
 #include "io/text.hpp"
+#include "test_files.hpp"
+#include "sanitizers.hpp"
 
 extern char** environ;
 
@@ -42,29 +44,14 @@ using ms::testing::RunResult;
 using ms::testing::ScratchDirTest;
 using ms::testing::run_shell;
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kAsan = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kAsan = true;
-#else
-constexpr bool kAsan = false;
-#endif
-#else
-constexpr bool kAsan = false;
-#endif
+using ms::testing::kAsan;
 
 std::string cli() {
     const char* other = std::getenv("MICROSHADOW_CLI_UNDER_TEST");
     return other && *other ? other : MICROSHADOW_CLI;
 }
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 // Single-quoted for sh (the tests' own file names hold quotes on purpose).
 std::string sq(const std::string& s) {
@@ -113,12 +100,12 @@ TEST_F(Reliability, SymlinkedOutputReplacesTheTargetAndKeepsTheLink) {
     const auto r = run(kEval + " --out link.csv");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_TRUE(fs::is_symlink(dir_ / "link.csv")) << "the link was replaced by a regular file";
-    EXPECT_CONTAINS(slurp(dir_ / "real.csv"), "term,std_error");
+    EXPECT_CONTAINS(slurp_file(dir_ / "real.csv"), "term,std_error");
     // A dangling link names the file to create, as the shell's '>' does.
     fs::create_symlink("new.csv", dir_ / "dangling.csv");
     ASSERT_EQ(run(kEval + " --out dangling.csv").exit_code, 0);
     EXPECT_TRUE(fs::is_symlink(dir_ / "dangling.csv"));
-    EXPECT_CONTAINS(slurp(dir_ / "new.csv"), "term,std_error");
+    EXPECT_CONTAINS(slurp_file(dir_ / "new.csv"), "term,std_error");
 }
 
 TEST_F(Reliability, NonRegularOutputsAreRefusedBeforeComputing) {
@@ -171,7 +158,7 @@ TEST_F(Reliability, WriteErrorsAreReportedAndLeaveNothing) {
     EXPECT_EQ(r.exit_code, 1) << r.output;
     EXPECT_CONTAINS(r.output, "cannot write r.csv");
     EXPECT_CONTAINS(r.output, "File too large");
-    EXPECT_EQ(slurp(dir_ / "r.csv"), "previous\n");
+    EXPECT_EQ(slurp_file(dir_ / "r.csv"), "previous\n");
     EXPECT_EQ(entries(), std::vector<std::string>{"r.csv"});
 }
 
@@ -202,7 +189,7 @@ TEST_F(Reliability, ABadSidecarPathFailsBeforeComputingAndKeepsTheCsv) {
     const auto r = run(kEval + " --out r.csv");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_CONTAINS(r.output, "cannot write r.csv.json: it is a directory");
-    EXPECT_EQ(slurp(dir_ / "r.csv"), "previous\n");
+    EXPECT_EQ(slurp_file(dir_ / "r.csv"), "previous\n");
     EXPECT_EQ(entries(), (std::vector<std::string>{"r.csv", "r.csv.json"}));
 }
 
@@ -228,7 +215,7 @@ TEST_F(Reliability, OutputSetPutsThePreviousFilesBackWhenARenameFails) {
         fs::create_directories(dir_ / "b.json" / "x");
         EXPECT_THROW(set.commit(), std::runtime_error);
     }
-    EXPECT_EQ(slurp(dir_ / "a.csv"), "old a\n") << "the first output was not put back";
+    EXPECT_EQ(slurp_file(dir_ / "a.csv"), "old a\n") << "the first output was not put back";
     EXPECT_EQ(entries(), (std::vector<std::string>{"a.csv", "b.json"})) << "temporaries or backups left";
     // Two names for one file are refused (they would share a temporary).
     fs::create_symlink("a.csv", dir_ / "alias.csv");
@@ -260,7 +247,7 @@ TEST_F(Reliability, PlotFileNamesAreNeverParsedByAShell) {
     EXPECT_FALSE(fs::exists(dir_ / "PWNED2")) << r.output;
     EXPECT_EQ(r.exit_code, 3) << "the plotter's exit status\n" << r.output;
     EXPECT_CONTAINS(r.output, "plotting failed (exit status 3)");
-    const std::string args = slurp(dir_ / "share" / "microshadow" / "plot_sweep.py.args");
+    const std::string args = slurp_file(dir_ / "share" / "microshadow" / "plot_sweep.py.args");
     EXPECT_EQ(args, "heatmaps\n" + (dir_ / out / "sweep.csv").string() + "\n--out\n" + (dir_ / out / "figures").string());
     EXPECT_TRUE(fs::exists(dir_ / out / "sweep.csv"));
 }
@@ -327,14 +314,14 @@ TEST_F(Reliability, NonUtf8FileNamesWorkAndAreEscapedInTheProvenance) {
     const std::string name = "r\xE9.csv";  // Latin-1 e-acute: a legal Linux file name, not UTF-8
     auto r = run(kEval + " --out " + sq(name));
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    const auto meta = nlohmann::json::parse(slurp(dir_ / (name + ".json")));
+    const auto meta = nlohmann::json::parse(slurp_file(dir_ / (name + ".json")));
     const std::string recorded = meta.at("command_line").get<std::string>();
     EXPECT_CONTAINS(recorded, "$'r\\xE9.csv'");
     // The sweep records its spec's name in the manifest.
     write("s\xE9.toml", kTinySpec);
     r = run("sweep " + sq("s\xE9.toml") + " --out o --backend oracle --method sampled --samples 64 -q");
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    EXPECT_CONTAINS(nlohmann::json::parse(slurp(dir_ / "o" / "manifest.json")).at("spec").get<std::string>(), "s\\xE9.toml");
+    EXPECT_CONTAINS(nlohmann::json::parse(slurp_file(dir_ / "o" / "manifest.json")).at("spec").get<std::string>(), "s\\xE9.toml");
     // A bake records the command line in the EXR header.
     r = run("bake --layout seed-2d --size 2 --samples 64 -q --out " + sq("l\xE9.exr"));
     ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -402,7 +389,7 @@ TEST_F(Reliability, DamagedKernelCacheEntriesAreNamedInsteadOfAborting) {
 TEST_F(Reliability, IntegerOptionsAreDecimal) {
     ASSERT_EQ(run(kEval + " --out a.csv --seed 010").exit_code, 0);
     ASSERT_EQ(run(kEval + " --out b.csv --seed 10").exit_code, 0);
-    EXPECT_EQ(slurp(dir_ / "a.csv"), slurp(dir_ / "b.csv")) << "--seed 010 was not read as ten";
+    EXPECT_EQ(slurp_file(dir_ / "a.csv"), slurp_file(dir_ / "b.csv")) << "--seed 010 was not read as ten";
     auto r = run(kEval + " --out c.csv --seed 0x10");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_CONTAINS(r.output, "'0x10' is not a decimal integer");
@@ -523,7 +510,7 @@ TEST_F(Reliability, AnInterruptedSweepSaysWhatItKeptAndNothingElse) {
     kill(pid, SIGINT);
     int status = 0;
     waitpid(pid, &status, 0);
-    const std::string log = slurp(dir_ / "log.txt");
+    const std::string log = slurp_file(dir_ / "log.txt");
     ASSERT_TRUE(WIFEXITED(status)) << log;
     if (WEXITSTATUS(status) == 0) GTEST_SKIP() << "the sweep finished before the interrupt";
     EXPECT_EQ(WEXITSTATUS(status), 130) << log;

@@ -25,6 +25,7 @@
 
 #include "cli_runner.hpp"
 #include "lut/exr_lut.hpp"
+#include "test_files.hpp"
 
 extern char** environ;
 
@@ -34,12 +35,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 using ms::testing::ScratchDirTest;
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 // Starts `env... microshadow args` in `dir` with output to dir/log.txt; returns the CLI's own pid
 // (sh execs it, so a kill reaches the CLI, not a shell).
@@ -69,7 +65,7 @@ CliRun run_cli(const fs::path& dir, const std::string& args, const std::string& 
     fs::remove(dir / "log.txt");
     const auto t0 = Clock::now();
     const int code = wait_exit(spawn_cli(dir, args, env + " timeout 120"));
-    return {code, std::chrono::duration<double>(Clock::now() - t0).count(), slurp(dir / "log.txt")};
+    return {code, std::chrono::duration<double>(Clock::now() - t0).count(), slurp_file(dir / "log.txt")};
 }
 
 class Resilience : public ScratchDirTest {
@@ -93,7 +89,7 @@ TEST_F(Resilience, EvalKilledAtRandomMomentsLeavesThePreviousFileIntact) {
     const std::string args = "eval --method sampled --in q.csv --out r.csv --samples 65536 --seed 3 -q";
     const CliRun reference = run_cli(dir_, args);
     ASSERT_EQ(reference.exit_code, 0) << reference.log;
-    const std::string expected = slurp(dir_ / "r.csv");
+    const std::string expected = slurp_file(dir_ / "r.csv");
     const std::string previous = "previous,file\n1,2\n";
 
     std::mt19937 rng(42);
@@ -106,7 +102,7 @@ TEST_F(Resilience, EvalKilledAtRandomMomentsLeavesThePreviousFileIntact) {
         kill(pid, SIGKILL);
         wait_exit(pid);
         ++trials;
-        const std::string now = slurp(dir_ / "r.csv");
+        const std::string now = slurp_file(dir_ / "r.csv");
         // Either untouched or the whole new result: never a mix, never truncated.
         if (now == previous) ++intact;
         else if (now == expected) ++complete;
@@ -115,7 +111,7 @@ TEST_F(Resilience, EvalKilledAtRandomMomentsLeavesThePreviousFileIntact) {
     }
     // The same command after the kills: same bytes as the first run (the seed fixes every bit).
     ASSERT_EQ(run_cli(dir_, args).exit_code, 0);
-    EXPECT_EQ(slurp(dir_ / "r.csv"), expected);
+    EXPECT_EQ(slurp_file(dir_ / "r.csv"), expected);
     std::printf("[resilience] eval kill -9: %d trials, %d left the previous file, %d had completed\n", trials, intact,
                 complete);
 }
@@ -134,7 +130,7 @@ TEST_F(Resilience, SweepKilledAtRandomMomentsResumesToTheSameBytes) {
     const std::string args = "sweep s.toml --out ref --method sampled --samples 16384 --seed 9 -q";
     const CliRun reference = run_cli(dir_, args);
     ASSERT_EQ(reference.exit_code, 0) << reference.log;
-    const std::string expected = slurp(dir_ / "ref" / "sweep.csv");
+    const std::string expected = slurp_file(dir_ / "ref" / "sweep.csv");
     ASSERT_FALSE(expected.empty());
 
     std::mt19937 rng(7);
@@ -150,13 +146,13 @@ TEST_F(Resilience, SweepKilledAtRandomMomentsResumesToTheSameBytes) {
         ++trials;
         // Killed before the final rename: no sweep.csv at all, never a partial one.
         if (fs::exists(dir_ / out / "sweep.csv")) {
-            EXPECT_EQ(slurp(dir_ / out / "sweep.csv"), expected) << "trial " << trial << ": partial sweep.csv";
+            EXPECT_EQ(slurp_file(dir_ / out / "sweep.csv"), expected) << "trial " << trial << ": partial sweep.csv";
         } else {
             ++killed_midway;
         }
         const CliRun resumed = run_cli(dir_, targs);
         ASSERT_EQ(resumed.exit_code, 0) << "trial " << trial << "\n" << resumed.log;
-        const bool equal = slurp(dir_ / out / "sweep.csv") == expected;
+        const bool equal = slurp_file(dir_ / out / "sweep.csv") == expected;
         same += equal;
         EXPECT_TRUE(equal) << "trial " << trial << ": resumed sweep differs from the uninterrupted one";
     }
@@ -173,7 +169,7 @@ TEST_F(Resilience, SweepIsTheSameAcrossChunkSizesAndDeviceCounts) {
     const CliRun b = run_cli(dir_, "sweep b.toml --out b --method sampled --samples 4096 --seed 1 -q --device all",
                           "POCL_DEVICES='pthread pthread'");
     ASSERT_EQ(b.exit_code, 0) << b.log;
-    EXPECT_EQ(slurp(dir_ / "a" / "sweep.csv"), slurp(dir_ / "b" / "sweep.csv"));
+    EXPECT_EQ(slurp_file(dir_ / "a" / "sweep.csv"), slurp_file(dir_ / "b" / "sweep.csv"));
 }
 
 TEST_F(Resilience, EvalIsTheSameAcrossDeviceCountsAndComputeUnits) {
@@ -188,10 +184,10 @@ TEST_F(Resilience, EvalIsTheSameAcrossDeviceCountsAndComputeUnits) {
     ASSERT_EQ(one_cu.exit_code, 0) << one_cu.log;
     const CliRun many_cu = run_cli(dir_, "eval --method sampled --out d.csv" + args, "POCL_MAX_PTHREAD_COUNT=64 POCL_CPU_MAX_CU_COUNT=64");
     ASSERT_EQ(many_cu.exit_code, 0) << many_cu.log;
-    const std::string a = slurp(dir_ / "a.csv");
-    EXPECT_EQ(a, slurp(dir_ / "b.csv")) << "two devices";
-    EXPECT_EQ(a, slurp(dir_ / "c.csv")) << "one compute unit";
-    EXPECT_EQ(a, slurp(dir_ / "d.csv")) << "64 compute units";
+    const std::string a = slurp_file(dir_ / "a.csv");
+    EXPECT_EQ(a, slurp_file(dir_ / "b.csv")) << "two devices";
+    EXPECT_EQ(a, slurp_file(dir_ / "c.csv")) << "one compute unit";
+    EXPECT_EQ(a, slurp_file(dir_ / "d.csv")) << "64 compute units";
 }
 
 TEST_F(Resilience, BakeSurvivesAFailingDeviceWithIdenticalResults) {

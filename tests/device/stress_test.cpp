@@ -83,7 +83,7 @@ Grid make_grid() {
     return g;
 }
 
-std::unique_ptr<TermBackend> opencl() { return make_opencl_backend(ocl::select_devices("default")); }
+std::unique_ptr<TermBackend> default_kernels() { return make_opencl_backend(ocl::select_devices("default")); }
 
 // Small enough that the double oracle covers the ~4000-query grid in about a second per setting.
 const SamplingPlan kPlan{Sequence::sobol, 4 * 1024, 4, 2024};
@@ -117,7 +117,7 @@ struct Worst {
 
 TEST(Stress, FloatKernelFollowsDoubleOracleAtTheExtremes) {
     const Grid g = make_grid();
-    auto cl = opencl();
+    auto cl = default_kernels();
     auto oracle = make_oracle_backend();
     const PointSet points = make_point_set(kPlan);
     const std::size_t R = kPlan.replicates;
@@ -169,7 +169,7 @@ TEST(Stress, FloatKernelResolvesConesOfEverySize) {
     // former float cosine test was 0.04 off here at v = 1e-7 and counted nothing at 1e-9 (float cos_t
     // = 1); the tangent test must follow the oracle on the same points down to v = 1e-12, with a term
     // well inside (0, 1) so that agreement is not 0 = 0 or 1 = 1.
-    auto cl = opencl();
+    auto cl = default_kernels();
     auto oracle = make_oracle_backend();
     const SamplingPlan plan{Sequence::sobol, 8 * 2048, 8, 77};
     const PointSet points = make_point_set(plan);
@@ -226,7 +226,7 @@ TEST(Stress, ViewAtTheHorizonIsRejected) {
         q.wi = wi;
         q.wo = wo;
         q.visibility = 0.9;  // outside the zero region even for wo at the horizon (2 v + NdotL > 1)
-        for (auto* backend : {opencl().release(), make_oracle_backend().release()}) {
+        for (auto* backend : {default_kernels().release(), make_oracle_backend().release()}) {
             std::unique_ptr<TermBackend> owned(backend);
             for (Form form : {Form::height_correlated, Form::uncorrelated}) {
                 const auto r = evaluate(*owned, {q}, {form, AoWeighting::cosine}, kPlan);
@@ -250,7 +250,7 @@ TEST(Stress, BothFormsAgreeOnTheSamePointsAtTheExtremes) {
                             (q.alpha_x == 1e-4 && q.alpha_y == 0.1);
         if (picked && q.visibility > 0 && q.visibility < 1) subset.push_back(q);
     }
-    auto cl = opencl();
+    auto cl = default_kernels();
     auto oracle = make_oracle_backend();
     for (AoWeighting ao : {AoWeighting::cosine, AoWeighting::uniform}) {
         const auto hc = evaluate(*oracle, subset, {Form::height_correlated, ao}, kPlan);

@@ -10,6 +10,7 @@
 #include <functional>
 
 #include "cli_runner.hpp"
+#include "core/types.hpp"
 #include "env/cubemap.hpp"
 #include "env/image.hpp"
 #include "env/preview.hpp"
@@ -21,7 +22,7 @@ namespace {
 
 using namespace ms;
 using ms::testing::run_shell;
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 
 env::Image equirect(std::uint32_t w, const std::function<std::array<double, 3>(const env::Dir&)>& f) {
     env::Image img(w, w / 2, {"R", "G", "B"});

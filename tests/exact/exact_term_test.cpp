@@ -22,7 +22,7 @@
 namespace {
 
 using namespace ms;
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 
 Vec3 direction(double cos_theta, double phi) {
     const double s = std::sqrt(std::max(0.0, 1 - cos_theta * cos_theta));

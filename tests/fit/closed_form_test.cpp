@@ -18,13 +18,14 @@
 #include "jobs/design.hpp"
 #include "jobs/design_closed_form.hpp"
 #include "vulkan_compute.hpp"
+#include "glslang.hpp"
 
 namespace {
 
 using ms::testing::RunResult;
 using ms::testing::run_shell;
 
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 
 // Points over the whole isotropic domain, drawn once (fixed seed).
 std::vector<ms::design::ReferencePoint> random_points(std::size_t n, unsigned seed) {
@@ -194,23 +195,13 @@ TEST(ClosedFormCost, OrderOneIsCheaperInAluThanPart1sPzTerm) {
 }
 
 #ifdef MICROSHADOW_HAVE_VULKAN
-bool have_glslang() { return run_shell("command -v glslangValidator >/dev/null 2>&1").exit_code == 0; }
-
-std::vector<std::uint32_t> compile(const std::string& source, const std::string& file, const std::string& flags) {
-    std::ofstream(file) << source;
-    const RunResult r = run_shell("glslangValidator " + flags + " -V -o " + file + ".spv " + file + " 2>&1");
-    EXPECT_EQ(r.exit_code, 0) << file << ":\n" << r.output << "\n" << source;
-    std::ifstream in(file + ".spv", std::ios::binary);
-    std::vector<char> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    std::vector<std::uint32_t> words(bytes.size() / 4);
-    if (!words.empty()) std::memcpy(words.data(), bytes.data(), words.size() * 4);
-    return words;
-}
+using ms::testing::have_glslang;
+using ms::testing::compile_spirv;
 
 // The harness passes one vec4 per invocation; the closed form has five inputs, so invocation i reads
 // inputs[2i] = (visibility, NdotL, NdotV, roughness) and inputs[2i + 1].x = VdotL and writes output
 // 2i (odd outputs are unused). The texture binding is the harness's; the closed form reads none.
-std::string glsl_wrapper(const std::string& generated) {
+std::string closed_form_glsl_wrapper(const std::string& generated) {
     return "#version 450\nlayout(local_size_x = 64) in;\n"
            "layout(set = 0, binding = 0) uniform sampler2D unused;\n"
            "layout(std430, set = 0, binding = 1) readonly buffer Inputs { vec4 inputs[]; };\n"
@@ -220,7 +211,7 @@ std::string glsl_wrapper(const std::string& generated) {
            "    vec4 p = inputs[i];\n    outputs[i] = ms_micro_shadowing_fit(p.x, p.y, p.z, p.w, inputs[i + 1u].x);\n}\n";
 }
 
-std::string hlsl_wrapper(const std::string& generated) {
+std::string closed_form_hlsl_wrapper(const std::string& generated) {
     return generated + "[[vk::binding(0)]] Texture2D<float4> g_unused;\n[[vk::binding(1)]] SamplerState g_sampler;\n"
            "[[vk::binding(2)]] StructuredBuffer<float4> g_inputs;\n[[vk::binding(3)]] RWStructuredBuffer<float> g_outputs;\n"
            "[numthreads(64, 1, 1)] void main(uint3 id : SV_DispatchThreadID) {\n"
@@ -245,9 +236,9 @@ TEST_F(ClosedFormShader, GlslAndHlslOnLavapipeMatchTheCppEvaluation) {
         for (std::size_t k = 0; k < ms::fit::closed_form_monomials(order).size(); ++k) f.coefficients.push_back(coef(rng));
         f.coefficients[1] = 3;
         const std::string base = path("order" + std::to_string(order));
-        const auto glsl = compile(glsl_wrapper(ms::fit::generate_closed_form_shader(f, ms::fit::ClosedFormLanguage::glsl, "t")),
+        const auto glsl = compile_spirv(closed_form_glsl_wrapper(ms::fit::generate_closed_form_shader(f, ms::fit::ClosedFormLanguage::glsl, "t")),
                                   base + ".comp", "");
-        const auto hlsl = compile(hlsl_wrapper(ms::fit::generate_closed_form_shader(f, ms::fit::ClosedFormLanguage::hlsl, "t")),
+        const auto hlsl = compile_spirv(closed_form_hlsl_wrapper(ms::fit::generate_closed_form_shader(f, ms::fit::ClosedFormLanguage::hlsl, "t")),
                                   base + "_cs.hlsl", "-D -e main -S comp");
         ASSERT_FALSE(glsl.empty() || hlsl.empty());
         const auto points = random_points(1024, 11);

@@ -12,8 +12,11 @@
 #include "jobs/area.hpp"
 #include "jobs/area_shader.hpp"
 #include "vulkan_compute.hpp"
+#include "glslang.hpp"
 
 namespace {
+
+using ms::testing::compile_spirv;
 
 using ms::testing::run_shell;
 
@@ -44,24 +47,13 @@ std::string hlsl_wrapper() {
            "    g_outputs[id.x] = ms_area_light_taps(a.xyz, b.xyz, b.w, c.x, c.y, int(a.w));\n}\n";
 }
 
-std::vector<std::uint32_t> compile(const std::string& source, const std::string& file, const std::string& flags) {
-    std::ofstream(file) << source;
-    const auto r = run_shell("glslangValidator " + flags + " -V -o " + file + ".spv " + file + " 2>&1");
-    EXPECT_EQ(r.exit_code, 0) << file << ":\n" << r.output << "\n" << source;
-    std::ifstream in(file + ".spv", std::ios::binary);
-    std::vector<char> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    std::vector<std::uint32_t> words(bytes.size() / 4);
-    if (!words.empty()) std::memcpy(words.data(), bytes.data(), words.size() * 4);
-    return words;
-}
-
 TEST(AreaShaderTest, TapsShaderMatchesTheCppTapsOnLavapipe) {
     if (run_shell("command -v glslangValidator >/dev/null 2>&1").exit_code != 0)
         GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";
     const std::string dir = std::filesystem::temp_directory_path() / ("microshadow_area_shader_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
-    const auto glsl = compile(glsl_wrapper(), dir + "/taps.comp", "");
-    const auto hlsl = compile(hlsl_wrapper(), dir + "/taps.hlsl", "-D -e main -S comp");
+    const auto glsl = compile_spirv(glsl_wrapper(), dir + "/taps.comp", "");
+    const auto hlsl = compile_spirv(hlsl_wrapper(), dir + "/taps.hlsl", "-D -e main -S comp");
     ms::testing::ComputeTexture tex;
     tex.width = tex.height = tex.depth = 1;
     tex.vk_format = 109;  // VK_FORMAT_R32G32B32A32_SFLOAT
@@ -79,7 +71,7 @@ TEST(AreaShaderTest, TapsShaderMatchesTheCppTapsOnLavapipe) {
         const double nv = 0.1 + 0.9 * u(rng), phi_v = 6.283185307 * u(rng);
         q.wi = {std::sqrt(1 - nv * nv) * std::cos(phi_v), std::sqrt(1 - nv * nv) * std::sin(phi_v), nv};
         const double gamma = ms::area::radians(0.5 + 29.5 * u(rng));
-        const double el = -gamma + (ms::area::kPi / 2 + gamma) * u(rng), az = 6.283185307 * u(rng);
+        const double el = -gamma + (ms::kPi / 2 + gamma) * u(rng), az = 6.283185307 * u(rng);
         q.light.sphere.centre = {std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el)};
         q.light.sphere.half_angle = gamma;
         const double r = 0.1 + 0.9 * u(rng);
@@ -141,8 +133,8 @@ TEST(AreaShaderTest, RectTapsShaderMatchesTheCppTapsOnLavapipe) {
         GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";
     const std::string dir = std::filesystem::temp_directory_path() / ("microshadow_rect_shader_" + std::to_string(::getpid()));
     std::filesystem::create_directories(dir);
-    const auto glsl = compile(rect_glsl_wrapper(), dir + "/rect.comp", "");
-    const auto hlsl = compile(rect_hlsl_wrapper(), dir + "/rect.hlsl", "-D -e main -S comp");
+    const auto glsl = compile_spirv(rect_glsl_wrapper(), dir + "/rect.comp", "");
+    const auto hlsl = compile_spirv(rect_hlsl_wrapper(), dir + "/rect.hlsl", "-D -e main -S comp");
     ms::testing::ComputeTexture tex;
     tex.width = tex.height = tex.depth = 1;
     tex.vk_format = 109;  // VK_FORMAT_R32G32B32A32_SFLOAT

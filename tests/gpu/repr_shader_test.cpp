@@ -28,6 +28,7 @@
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "vulkan_compute.hpp"
+#include "glslang.hpp"
 
 namespace {
 
@@ -35,7 +36,8 @@ using ms::testing::RunResult;
 using ms::testing::run_shell;
 namespace repr = ms::repr;
 
-bool have_glslang() { return run_shell("command -v glslangValidator >/dev/null 2>&1").exit_code == 0; }
+using ms::testing::have_glslang;
+using ms::testing::compile_spirv;
 
 // Two input vec4 per lookup: (visibility, NdotL, NdotV, roughness) and (cos_phi, 0, 0, 0).
 std::string glsl_wrapper(const std::string& generated) {
@@ -58,17 +60,6 @@ std::string hlsl_wrapper(const std::string& generated) {
            "    g_outputs[id.x] = ms_micro_shadowing(g_lut, g_linear_clamp, p.x, p.y, p.z, p.w, q.x);\n}\n";
 }
 
-std::vector<std::uint32_t> compile(const std::string& source, const std::string& file, const std::string& flags) {
-    std::ofstream(file) << source;
-    const RunResult r = run_shell("glslangValidator " + flags + " -V -o " + file + ".spv " + file + " 2>&1");
-    EXPECT_EQ(r.exit_code, 0) << file << ":\n" << r.output << "\n" << source;
-    std::ifstream in(file + ".spv", std::ios::binary);
-    std::vector<char> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    std::vector<std::uint32_t> words(bytes.size() / 4);
-    if (!words.empty()) std::memcpy(words.data(), bytes.data(), words.size() * 4);
-    return words;
-}
-
 // A bake of random values in [0, 1] on `grid` (no sampling: the shader test needs texels, not the term).
 repr::AzimuthBake synthetic_bake(const repr::ReprGrid& grid, std::uint32_t nodes, std::uint32_t seed) {
     repr::AzimuthBake b;
@@ -83,13 +74,13 @@ repr::AzimuthBake synthetic_bake(const repr::ReprGrid& grid, std::uint32_t nodes
     return b;
 }
 
-struct Case {
+struct ReprShaderCase {
     std::string name, kind;
     repr::ReprGrid grid;
     std::uint32_t nodes;
 };
 
-std::vector<Case> cases() {
+std::vector<ReprShaderCase> cases() {
     repr::ReprGrid linear;
     linear.visibility = 5, linear.n_dot_l = 4, linear.n_dot_v = 3, linear.roughness = {0.2, 0.5, 0.9};
     repr::ReprGrid warped = linear;
@@ -130,8 +121,8 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
     for (const auto& c : cases()) {
         SCOPED_TRACE(c.name);
         const auto rep = repr::build_representation(c.kind, synthetic_bake(c.grid, c.nodes, 11));
-        const auto glsl = compile(glsl_wrapper(rep->shader(repr::ShaderLanguage::glsl, c.name)), dir + "/" + c.name + ".comp", "");
-        const auto hlsl = compile(hlsl_wrapper(rep->shader(repr::ShaderLanguage::hlsl, c.name)), dir + "/" + c.name + ".hlsl",
+        const auto glsl = compile_spirv(glsl_wrapper(rep->shader(repr::ShaderLanguage::glsl, c.name)), dir + "/" + c.name + ".comp", "");
+        const auto hlsl = compile_spirv(hlsl_wrapper(rep->shader(repr::ShaderLanguage::hlsl, c.name)), dir + "/" + c.name + ".hlsl",
                                   "-D -e main -S comp");
         ms::testing::ComputeTexture tex;
         tex.width = rep->texture_width(), tex.height = rep->texture_height(), tex.depth = rep->texture_depth();
@@ -217,8 +208,8 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
         for (auto& x : rgba) x = float(2 * u(rng) - 1);
         const auto rep = mapped ? repr::build_representation("anisotropic-mapped-harmonics", synthetic_bake(g, 7, 29))
                                 : repr::build_anisotropic_harmonics(g, rgba);
-        const auto glsl = compile(anisotropic_glsl_wrapper(rep->shader(repr::ShaderLanguage::glsl, name)), dir + "/" + name + ".comp", "");
-        const auto hlsl = compile(anisotropic_hlsl_wrapper(rep->shader(repr::ShaderLanguage::hlsl, name)), dir + "/" + name + ".hlsl",
+        const auto glsl = compile_spirv(anisotropic_glsl_wrapper(rep->shader(repr::ShaderLanguage::glsl, name)), dir + "/" + name + ".comp", "");
+        const auto hlsl = compile_spirv(anisotropic_hlsl_wrapper(rep->shader(repr::ShaderLanguage::hlsl, name)), dir + "/" + name + ".hlsl",
                                   "-D -e main -S comp");
         ms::testing::ComputeTexture tex;
         tex.width = rep->texture_width(), tex.height = rep->texture_height(), tex.depth = rep->texture_depth();
@@ -384,7 +375,7 @@ TEST(ReprKtx2Test, TextureEqualsTheExrAndTheGeneratedShaderSamplesIt) {
         // dimensions) agrees with the C++ lookup of the half EXR: the shader samples the KTX2 layout.
         if (!have_glslang()) continue;
         const Ktx2File k = read_ktx2(base + "_half.ktx2");
-        const auto glsl = compile(glsl_wrapper(exr->shader(repr::ShaderLanguage::glsl, c.name)), base + "_ktx2.comp", "");
+        const auto glsl = compile_spirv(glsl_wrapper(exr->shader(repr::ShaderLanguage::glsl, c.name)), base + "_ktx2.comp", "");
         ms::testing::ComputeTexture tex;
         tex.width = k.width, tex.height = k.height, tex.depth = k.depth;
         tex.three_d = true;

@@ -19,6 +19,7 @@
 #include "cli_runner.hpp"
 #include "lut/lookup.hpp"
 #include "vulkan_compute.hpp"
+#include "glslang.hpp"
 
 namespace {
 
@@ -27,7 +28,7 @@ using ms::testing::RunResult;
 using ms::testing::ScratchDirTest;
 using ms::testing::run_shell;
 
-RunResult cli(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+using ms::testing::cli;
 
 std::string read_text(const std::string& path) {
     std::ifstream in(path);
@@ -36,7 +37,8 @@ std::string read_text(const std::string& path) {
     return ss.str();
 }
 
-bool have_glslang() { return run_shell("command -v glslangValidator >/dev/null 2>&1").exit_code == 0; }
+using ms::testing::have_glslang;
+using ms::testing::compile_spirv;
 
 // GLSL compute wrapper: one lookup per input vec4 (visibility, NdotL, NdotV, roughness).
 std::string glsl_wrapper(const std::string& generated, bool three_d) {
@@ -69,17 +71,6 @@ std::string hlsl_pixel_wrapper(const std::string& generated, bool three_d) {
 }
 
 // Compiles with glslangValidator to SPIR-V; returns the words, or fails the test with the log.
-std::vector<std::uint32_t> compile(const std::string& source, const std::string& file, const std::string& flags) {
-    std::ofstream(file) << source;
-    const RunResult r = run_shell("glslangValidator " + flags + " -V -o " + file + ".spv " + file + " 2>&1");
-    EXPECT_EQ(r.exit_code, 0) << file << ":\n" << r.output << "\n" << source;
-    std::ifstream in(file + ".spv", std::ios::binary);
-    std::vector<char> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    std::vector<std::uint32_t> words(bytes.size() / 4);
-    if (!words.empty()) std::memcpy(words.data(), bytes.data(), words.size() * 4);  // no memcpy from null
-    return words;
-}
-
 // The one level of a KTX2 file as a texture (the header fields are checked in lut_formats_test).
 ms::testing::ComputeTexture ktx2_texture(const std::string& path) {
     std::ifstream in(path, std::ios::binary);
@@ -98,7 +89,7 @@ ms::testing::ComputeTexture ktx2_texture(const std::string& path) {
     return t;
 }
 
-struct Case {
+struct LutShaderCase {
     std::string name, bake_args;
 };
 
@@ -110,7 +101,7 @@ protected:
 // Layouts that exercise every part of the mapping: the seed 3D LUT (texel centres), a custom LUT with
 // narrowed axis ranges, endpoint texels and roughness channels given out of order, the 2D LUT, and a
 // uniform-AO LUT (the other zero region).
-const std::vector<Case> kCases = {
+const std::vector<LutShaderCase> kCases = {
     {"seed3d", "--size 8 --samples 4096"},
     {"custom", "--layout custom --size-visibility 9 --size-n-dot-l 7 --size-n-dot-v 5 --texel endpoints "
                "--visibility-range 0.1,0.95 --n-dot-l-range 0.05,1 --n-dot-v-range 0.2,1 --roughness 0.8,0.3,0.55 --samples 4096"},
@@ -132,9 +123,9 @@ TEST_F(ShaderTest, GeneratedGlslAndHlslCompile) {
         EXPECT_EQ(g.output, read_text(base + ".glsl"));
         ASSERT_EQ(cli("shader " + base + ".exr --lang hlsl --out " + base + "2.hlsl").exit_code, 0);
         EXPECT_EQ(read_text(base + "2.hlsl"), read_text(base + ".hlsl"));
-        compile(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
-        compile(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
-        compile(hlsl_pixel_wrapper(read_text(base + ".hlsl"), three_d), base + "_ps.hlsl", "-D -e main -S frag");
+        compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
+        compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
+        compile_spirv(hlsl_pixel_wrapper(read_text(base + ".hlsl"), three_d), base + "_ps.hlsl", "-D -e main -S frag");
         const std::string glsl = read_text(base + ".glsl");
         EXPECT_NE(glsl.find(c.name == "uniform" ? "2.0 * cos_t * cos_t - 1.0" : "2.0 * visibility + n_dot_l <= 1.0"), std::string::npos);
         EXPECT_NE(glsl.find("(alpha_x * alpha_y)^(1/4)"), std::string::npos);
@@ -214,8 +205,8 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
         }
         const auto lookup = ms::LutLookup::open(base + ".exr");
         const bool three_d = c.name != "seed2d", cosine = c.name != "uniform";
-        const auto glsl = compile(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
-        const auto hlsl = compile(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
+        const auto glsl = compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
+        const auto hlsl = compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
         ASSERT_FALSE(glsl.empty() || hlsl.empty()) << "the shaders did not compile";
         const std::vector<float> points = sample_points(lookup.file(), 4000);
         // Each texture is compared with the lut3d comparator on the values it stores (the EXR's texels

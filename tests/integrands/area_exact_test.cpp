@@ -17,6 +17,7 @@
 #include "integrands/area_light/light_geometry.hpp"
 #include "jobs/area.hpp"
 #include "jobs/eval.hpp"
+#include "area_light_queries.hpp"
 
 namespace ms {
 namespace {
@@ -24,37 +25,12 @@ namespace {
 using area::AreaQuery;
 using area::LightShape;
 using area::Lobe;
-
-constexpr std::uint32_t kReplicates = 8;
-
-double bar(double se_a, double se_b, int comparisons) {
-    return student_t_quantile(1.0 - (1.0 - 0.999) / comparisons, int(kReplicates) - 1) * std::hypot(se_a, se_b);
-}
-
-SamplingPlan plan(std::uint64_t samples, std::uint64_t seed) {
-    SamplingPlan p;
-    p.samples = samples;
-    p.replicates = kReplicates;
-    p.seed = seed;
-    return p;
-}
-
-Vec3 direction(double elevation_deg, double azimuth_deg) {
-    const double e = area::radians(elevation_deg), a = area::radians(azimuth_deg);
-    return {std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
-}
-
-AreaQuery sphere(double v, double alpha, double n_dot_v, double elevation, double azimuth, double gamma_deg, Lobe lobe) {
-    AreaQuery q;
-    q.visibility = v;
-    q.alpha_x = q.alpha_y = alpha;
-    q.wi = {std::sqrt(1 - n_dot_v * n_dot_v), 0, n_dot_v};
-    q.light.shape = LightShape::sphere;
-    q.light.sphere.centre = direction(elevation, azimuth);
-    q.light.sphere.half_angle = area::radians(gamma_deg);
-    q.lobe = lobe;
-    return q;
-}
+using testing::bar;
+using testing::direction_deg;
+using testing::have_device;
+using testing::kReplicates;
+using testing::plan;
+using testing::sphere;
 
 // A rectangle of sides a x b facing the shaded point at distance 2 along `towards`.
 AreaQuery rect(double v, double alpha, double n_dot_v, const Vec3& towards, double a, double b, Lobe lobe) {
@@ -80,14 +56,6 @@ area::AreaRoutineConfig exact_config(double tolerance = area::kExactInnerToleran
     return c;
 }
 
-bool have_device() {
-    try {
-        return !ocl::select_devices("default").empty();
-    } catch (const std::exception&) {
-        return false;
-    }
-}
-
 TEST(AreaLightExactInner, AgreesWithTheSampledPathWithinBars) {
     // Sphere and rectangle lights, both lobes, one anisotropic surface and one light across the horizon;
     // the sampled reference is the joint kernel where a device exists, else the independent oracle.
@@ -95,8 +63,8 @@ TEST(AreaLightExactInner, AgreesWithTheSampledPathWithinBars) {
         sphere(0.5, 0.25, 0.7, 40, 180, 10, Lobe::ggx),
         sphere(0.6, 0.49, 0.4, 25, 60, 20, Lobe::lambert),
         sphere(0.7, 1.0, 0.3, 5, 120, 15, Lobe::ggx),  // straddles the horizon
-        rect(0.5, 0.25, 0.7, direction(45, 180), 1.2, 0.6, Lobe::ggx),
-        rect(0.6, 0.36, 0.5, direction(30, 90), 0.8, 1.6, Lobe::lambert),
+        rect(0.5, 0.25, 0.7, direction_deg(45, 180), 1.2, 0.6, Lobe::ggx),
+        rect(0.6, 0.36, 0.5, direction_deg(30, 90), 0.8, 1.6, Lobe::lambert),
     };
     queries[1].alpha_y = 0.16;
     auto host = make_oracle_backend();
@@ -123,7 +91,7 @@ TEST(AreaLightExactInner, TinyLightsGiveTheExactPointTerm) {
     const double gamma = area::radians(0.001);
     const std::vector<AreaQuery> queries = {sphere(0.5, 0.25, 0.7, 40, 180, 0.001, Lobe::ggx),
                                             sphere(0.6, 0.09, 0.4, 25, 60, 0.001, Lobe::lambert),
-                                            rect(0.5, 0.36, 0.7, direction(35, 90), 2 * std::tan(gamma), 2 * std::tan(gamma), Lobe::ggx)};
+                                            rect(0.5, 0.36, 0.7, direction_deg(35, 90), 2 * std::tan(gamma), 2 * std::tan(gamma), Lobe::ggx)};
     auto host = make_oracle_backend();
     const auto e = area::evaluate_area(*host, queries, {}, plan(8 * 64, 13), exact_config(1e-10));
     for (std::size_t i = 0; i < queries.size(); ++i) {

@@ -19,44 +19,20 @@
 #include "jobs/eval.hpp"
 #include "oracle/oracle.hpp"
 #include "sampling/joint_point_set.hpp"
+#include "area_light_queries.hpp"
 
 namespace ms {
 namespace {
 
 using area::AreaQuery;
 using area::Lobe;
+using testing::bar;
+using testing::direction_deg;
+using testing::have_device;
+using testing::kReplicates;
+using testing::plan;
+using testing::sphere;
 using area::LightShape;
-
-constexpr std::uint32_t kReplicates = 8;
-
-double bar(double se_a, double se_b, int comparisons) {
-    return student_t_quantile(1.0 - (1.0 - 0.999) / comparisons, int(kReplicates) - 1) * std::hypot(se_a, se_b);
-}
-
-SamplingPlan plan(std::uint64_t samples, std::uint64_t seed = 1) {
-    SamplingPlan p;
-    p.samples = samples;
-    p.replicates = kReplicates;
-    p.seed = seed;
-    return p;
-}
-
-Vec3 direction(double elevation_deg, double azimuth_deg) {
-    const double e = area::radians(elevation_deg), a = area::radians(azimuth_deg);
-    return {std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e)};
-}
-
-AreaQuery sphere(double v, double alpha, double n_dot_v, double elevation, double azimuth, double gamma_deg, Lobe lobe) {
-    AreaQuery q;
-    q.visibility = v;
-    q.alpha_x = q.alpha_y = alpha;
-    q.wi = {std::sqrt(1 - n_dot_v * n_dot_v), 0, n_dot_v};
-    q.light.shape = LightShape::sphere;
-    q.light.sphere.centre = direction(elevation, azimuth);
-    q.light.sphere.half_angle = area::radians(gamma_deg);
-    q.lobe = lobe;
-    return q;
-}
 
 // A square of side `side` facing the shaded point at unit distance along `towards`.
 AreaQuery rect(double v, double alpha, double n_dot_v, const Vec3& towards, double side, Lobe lobe) {
@@ -74,14 +50,6 @@ AreaQuery rect(double v, double alpha, double n_dot_v, const Vec3& towards, doub
     };
     q.light.rect.corners = {corner(-h, -h), corner(h, -h), corner(h, h), corner(-h, h)};
     return q;
-}
-
-bool have_device() {
-    try {
-        return !ocl::select_devices("default").empty();
-    } catch (const std::exception&) {
-        return false;
-    }
 }
 
 std::unique_ptr<TermBackend> kernels() { return make_opencl_backend(ocl::select_devices("default")); }
@@ -143,7 +111,7 @@ TEST(AreaLightInput, RefusesBadLightsWithClearMessages) {
     q.light.sphere.centre = {0, 0, 0};
     EXPECT_NE(message(q).find("centre direction"), std::string::npos);
 
-    AreaQuery r = rect(0.5, 0.25, 0.7, direction(40, 0), 0.5, Lobe::ggx);
+    AreaQuery r = rect(0.5, 0.25, 0.7, direction_deg(40, 0), 0.5, Lobe::ggx);
     EXPECT_EQ(message(r), "");
     AreaQuery bad = r;
     bad.light.rect.corners[1] = bad.light.rect.corners[0];
@@ -167,7 +135,7 @@ TEST(AreaLightExact, LightsBelowTheHorizonAreExactlyZero) {
     const std::vector<AreaQuery> queries = {
         sphere(0.5, 0.25, 0.7, -20, 30, 19.9, Lobe::ggx),     // top at -0.1 degrees
         sphere(0.5, 0.25, 0.7, -20, 30, 20.0, Lobe::lambert),  // touches the horizon only
-        rect(0.5, 0.25, 0.7, direction(-40, 10), 0.5, Lobe::ggx),
+        rect(0.5, 0.25, 0.7, direction_deg(-40, 10), 0.5, Lobe::ggx),
     };
     auto oracle = make_oracle_backend(1);
     area::AreaEvalStats stats;
@@ -189,10 +157,10 @@ TEST(AreaLightExact, LightsBelowTheHorizonAreExactlyZero) {
 TEST(AreaLightGeometry, MaxHeightSolidAngleAndRepresentativePoint) {
     const AreaQuery s = area::normalised(sphere(0.5, 0.25, 0.6, 30, 0, 10, Lobe::ggx));
     EXPECT_NEAR(area::max_height(s.light), std::sin(area::radians(40)), 1e-12);
-    EXPECT_NEAR(area::solid_angle(s.light), 2 * area::kPi * (1 - std::cos(area::radians(10))), 1e-12);
+    EXPECT_NEAR(area::solid_angle(s.light), 2 * ms::kPi * (1 - std::cos(area::radians(10))), 1e-12);
     // A square of side 2 at unit distance subtends 4 asin(1/3) (a cube face: 4 pi / 6 = 2.0944).
     const AreaQuery face = rect(0.5, 0.25, 0.6, {0, 0, 1}, 2, Lobe::ggx);
-    EXPECT_NEAR(area::solid_angle(face.light), 4 * area::kPi / 6, 1e-12);
+    EXPECT_NEAR(area::solid_angle(face.light), 4 * ms::kPi / 6, 1e-12);
     EXPECT_EQ(area::max_height(face.light), 1.0);
     // Karis: the mirror direction inside the sphere is its own representative point; outside, the
     // point lies on the light's rim side towards it, within gamma of the centre.
@@ -238,7 +206,7 @@ TEST(AreaLightKernel, AgreesWithTheOracleWithinStatisticalBars) {
     std::vector<AreaQuery> queries = {
         sphere(0.5, 0.25, 0.7, 40, 180, 10, Lobe::ggx),   sphere(0.6, 0.49, 0.4, 25, 60, 20, Lobe::lambert),
         sphere(0.3, 0.09, 0.9, 70, 0, 5, Lobe::ggx),      sphere(0.7, 1.0, 0.3, 5, 120, 15, Lobe::ggx),  // straddles the horizon
-        rect(0.5, 0.25, 0.7, direction(45, 180), 0.6, Lobe::ggx), rect(0.6, 0.36, 0.5, direction(30, 90), 0.8, Lobe::lambert),
+        rect(0.5, 0.25, 0.7, direction_deg(45, 180), 0.6, Lobe::ggx), rect(0.6, 0.36, 0.5, direction_deg(30, 90), 0.8, Lobe::lambert),
     };
     queries[1].alpha_y = 0.16;  // anisotropic
     auto device = kernels();
@@ -262,7 +230,7 @@ TEST(AreaLightKernel, SmallLightGivesThePointTerm) {
     // gamma = 0.05 degrees: T varies by far less than the error bars across the light.
     const std::vector<AreaQuery> queries = {sphere(0.5, 0.25, 0.7, 40, 180, 0.05, Lobe::ggx),
                                             sphere(0.6, 0.09, 0.4, 25, 60, 0.05, Lobe::lambert),
-                                            rect(0.5, 0.36, 0.7, direction(35, 90), 1e-3, Lobe::ggx)};
+                                            rect(0.5, 0.36, 0.7, direction_deg(35, 90), 1e-3, Lobe::ggx)};
     auto device = kernels();
     const auto a = area::evaluate_area(*device, queries, {}, plan(8 * 65536, 5));
     std::vector<Query> points;
@@ -289,7 +257,7 @@ TEST(AreaLightKernel, WholeHemisphereLambertIsTheCosineWeightedMean) {
             std::vector<Query> pts;
             std::vector<double> w;
             for (int i = 0; i < nodes; ++i) {
-                double z = std::cos(area::kPi * (i + 0.75) / (nodes + 0.5)), dp = 0;
+                double z = std::cos(ms::kPi * (i + 0.75) / (nodes + 0.5)), dp = 0;
                 for (int it = 0; it < 100; ++it) {
                     double p0 = 1, p1 = z;
                     for (int k = 2; k <= nodes; ++k) {
@@ -497,8 +465,8 @@ TEST(AreaLightLobe, HemisphereGgxLobeIntegralIsTheDirectionalAlbedo) {
         double band_max = 0;
         const AreaQuery nq = area::normalised(q);
         for (int k = 0; k < 360; ++k)
-            for (double el : {0.0005, 0.001}) band_max = std::max(band_max, area::lobe_weight(nq, direction(el, k)));
-        const double band = 2 * area::kPi * std::sin(area::radians(0.001)) * band_max;
+            for (double el : {0.0005, 0.001}) band_max = std::max(band_max, area::lobe_weight(nq, direction_deg(el, k)));
+        const double band = 2 * ms::kPi * std::sin(area::radians(0.001)) * band_max;
         const double albedo = e.scale + e.bias, quadrature = e.scale_error + e.bias_error;
         area::AreaRoutineConfig one;
         one.inner_term = [](const Query&) { return 1.0; };
@@ -524,8 +492,8 @@ namespace {
 TEST(AreaLightKernel, UniformAoAndLightsAcrossTheHorizonAgreeWithTheOracle) {
     if (!have_device()) GTEST_SKIP() << "no OpenCL device";
     const std::vector<AreaQuery> queries = {sphere(0.4, 0.36, 0.6, 8, 150, 20, Lobe::lambert),
-                                            rect(0.5, 0.25, 0.8, direction(6, 200), 0.7, Lobe::ggx),
-                                            rect(0.3, 0.49, 0.5, direction(20, 30), 0.4, Lobe::lambert)};
+                                            rect(0.5, 0.25, 0.8, direction_deg(6, 200), 0.7, Lobe::ggx),
+                                            rect(0.3, 0.49, 0.5, direction_deg(20, 30), 0.4, Lobe::lambert)};
     TermOptions uniform;
     uniform.ao_weighting = AoWeighting::uniform;
     auto device = kernels();
@@ -588,7 +556,7 @@ TEST(AreaLightTaps, RectTapsCoverTheLightOrTheNarrowLobeAndWeighNothingBelowTheH
         const Vec3 n{a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
         polygon += std::atan2(std::hypot(n.x, n.y, n.z), a.x * b.x + a.y * b.y + a.z * b.z) * n.z / std::hypot(n.x, n.y, n.z);
     }
-    const double lambert_integral = std::fabs(polygon) / (2 * area::kPi);  // (1/pi) Int cos dw
+    const double lambert_integral = std::fabs(polygon) / (2 * ms::kPi);  // (1/pi) Int cos dw
     EXPECT_NEAR(sum * 0.25, lambert_integral, 1e-4 * lambert_integral);  // area 0.5 x 0.5
     // A narrow GGX lobe (alpha 0.01) whose mirror direction hits a large panel: the taps gather within the
     // lobe's angle (2 atan(0.02) along each side, sqrt(2) of it to a corner) of Karis's point.
@@ -599,7 +567,7 @@ TEST(AreaLightTaps, RectTapsCoverTheLightOrTheNarrowLobeAndWeighNothingBelowTheH
         EXPECT_LE(angle, std::sqrt(2.0) * 2 * std::atan(0.02) + 1e-9);
     }
     // A panel across the horizon: the taps below it weigh nothing.
-    const auto straddling = area::rect_taps(rect(0.5, 0.25, 0.7, direction(0, 30), 0.8, Lobe::lambert));
+    const auto straddling = area::rect_taps(rect(0.5, 0.25, 0.7, direction_deg(0, 30), 0.8, Lobe::lambert));
     int below = 0, above = 0;
     for (const auto& t : straddling) below += t.wo.z <= 0 && t.weight == 0, above += t.wo.z > 0 && t.weight > 0;
     EXPECT_GE(below, 3);

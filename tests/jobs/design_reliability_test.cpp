@@ -118,7 +118,7 @@ TEST_F(DesignReliability, AnInteriorTermWhoseReplicatesAgreeHasANonZeroErrorBarT
 // ---------------------------------------------------------------------------------------------------
 // The design reference cache.
 
-ms::design::ReferenceDefinition small_definition() {
+ms::design::ReferenceDefinition small_reliability_definition() {
     ms::design::ReferenceDefinition d;
     d.name = "small";
     d.count = 40;
@@ -148,7 +148,7 @@ void rewrite_term(const std::string& file, std::size_t line, const std::string& 
 
 TEST_F(DesignReliability, ChangedRowsOfTheReferenceCacheAreSetAsideAndRecomputed) {
     auto backend = ms::make_oracle_backend(2);
-    const auto def = small_definition();
+    const auto def = small_reliability_definition();
     ms::design::CacheConfig config;
     config.dir = path("cache");
     config.backend = backend.get();
@@ -188,7 +188,7 @@ TEST_F(DesignReliability, ChangedRowsOfTheReferenceCacheAreSetAsideAndRecomputed
 
 TEST_F(DesignReliability, ChangedChunksAreSetAsideAndRecomputedOnResume) {
     auto backend = ms::make_oracle_backend(2);
-    const auto def = small_definition();
+    const auto def = small_reliability_definition();
     ms::design::CacheConfig config;
     config.dir = path("cache");
     config.backend = backend.get();
@@ -215,7 +215,7 @@ TEST_F(DesignReliability, ChangedChunksAreSetAsideAndRecomputedOnResume) {
 TEST_F(DesignReliability, ASecondRunOnTheSameCacheWaitsForTheFirstAndReadsItsSet) {
     auto backend_a = ms::make_oracle_backend(1);
     auto backend_b = ms::make_oracle_backend(1);
-    const auto def = small_definition();
+    const auto def = small_reliability_definition();
     // Run A is held inside its computation (in its progress callback) until run B has shown that it
     // waits; without a lock B would compute the same chunks and A's cleanup would remove them.
     std::mutex m;

@@ -145,7 +145,7 @@ TEST(DesignPareto, FrontAndBudgetChoice) {
     EXPECT_THROW(ms::design::choose(c, m, b), std::invalid_argument);
 }
 
-RunResult cli(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+using ms::testing::cli;
 
 // The command end to end on a tiny reference set of 48 points at relative azimuth 0 and roughness
 // 0.4: a LUT baked at that azimuth and roughness must rank first (its only error is interpolation,

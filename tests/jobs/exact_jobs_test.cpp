@@ -23,6 +23,7 @@
 #include "lut/exr_lut.hpp"
 #include "jobs/repr_bake.hpp"
 #include "repr/representation.hpp"
+#include "test_files.hpp"
 
 namespace {
 
@@ -32,12 +33,7 @@ using namespace ms;
 constexpr double kFamilyRisk = 0.001;
 constexpr std::uint32_t kReplicates = 8;
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 // The two-sided bound one of `n` comparisons may reach: Bonferroni over the family.
 double family_t(std::size_t n) { return student_t_quantile(1.0 - kFamilyRisk / double(n), int(kReplicates) - 1); }
@@ -133,12 +129,12 @@ TEST_F(ExactJobsTest, SweepExactAgreesWithSampledAndRecordsItsMethod) {
     EXPECT_EQ(e.points, 72u);
     expect_within_bars(sweep_values(path("exact") + "/sweep.csv"), sweep_values(path("sampled") + "/sweep.csv"), "sweep");
 
-    const auto provenance = nlohmann::json::parse(slurp(path("exact") + "/sweep.json"));
+    const auto provenance = nlohmann::json::parse(slurp_file(path("exact") + "/sweep.json"));
     EXPECT_EQ(provenance.at("sampling").at("method"), "exact");
     EXPECT_EQ(provenance.at("sampling").at("tolerance"), 1e-10);
     EXPECT_NE(provenance.at("sampling").at("rule").get<std::string>().find("Gauss-Legendre"), std::string::npos);
     EXPECT_FALSE(provenance.at("sampling").contains("samples"));
-    const auto sampled = nlohmann::json::parse(slurp(path("sampled") + "/sweep.json"));
+    const auto sampled = nlohmann::json::parse(slurp_file(path("sampled") + "/sweep.json"));
     EXPECT_EQ(sampled.at("sampling").at("method"), "sampled");
     EXPECT_EQ(sampled.at("sampling").at("samples"), 4096);
 }
@@ -167,7 +163,7 @@ TEST_F(ExactJobsTest, SweepOfOneMethodIsNeverResumedByTheOther) {
     again.restart = true;
     const sweep::RunResult redone = sweep::run_sweep(spec, again);
     EXPECT_EQ(redone.skipped, 0u);
-    EXPECT_EQ(slurp(path("s") + "/sweep.csv"), slurp(path("out") + "/sweep.csv"));
+    EXPECT_EQ(slurp_file(path("s") + "/sweep.csv"), slurp_file(path("out") + "/sweep.csv"));
 }
 
 TEST_F(ExactJobsTest, SweepSpecMethodKeys) {
@@ -198,19 +194,19 @@ TEST_F(ExactJobsTest, SweepCommandDefaultsToExactAndRefusesATolerancedSampledSwe
     const std::string cli = std::string("cd '") + dir_.string() + "' && '" + MICROSHADOW_CLI + "' ";
     const auto ok = ms::testing::run_shell(cli + "sweep s.toml --out e --backend oracle -q");
     ASSERT_EQ(ok.exit_code, 0) << ok.output;
-    EXPECT_EQ(nlohmann::json::parse(slurp(path("e/sweep.json"))).at("sampling").at("method"), "exact");
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(path("e/sweep.json"))).at("sampling").at("method"), "exact");
     const auto s = ms::testing::run_shell(cli + "sweep s.toml --out s --backend oracle --method sampled --samples 1024 -q");
     ASSERT_EQ(s.exit_code, 0) << s.output;
-    EXPECT_EQ(nlohmann::json::parse(slurp(path("s/sweep.json"))).at("sampling").at("method"), "sampled");
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(path("s/sweep.json"))).at("sampling").at("method"), "sampled");
     // The spec's key is the default; the command line wins over it.
     {
         std::ofstream(path("k.toml")) << "[sampling]\nmethod = \"sampled\"\nsamples = 1024\n[sweep]\nchunk_size = 8\n"
                                          "[parameters]\nvisibility = [0.5, 0.8]\nn_dot_l = [0.3, 0.7]\nroughness = [0.5]\n";
     }
     ASSERT_EQ(ms::testing::run_shell(cli + "sweep k.toml --out k --backend oracle -q").exit_code, 0);
-    EXPECT_EQ(nlohmann::json::parse(slurp(path("k/sweep.json"))).at("sampling").at("method"), "sampled");
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(path("k/sweep.json"))).at("sampling").at("method"), "sampled");
     ASSERT_EQ(ms::testing::run_shell(cli + "sweep k.toml --out k2 --backend oracle --method exact -q").exit_code, 0);
-    EXPECT_EQ(nlohmann::json::parse(slurp(path("k2/sweep.json"))).at("sampling").at("method"), "exact");
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(path("k2/sweep.json"))).at("sampling").at("method"), "exact");
     const auto bad = ms::testing::run_shell(cli + "sweep s.toml --out t --backend oracle --method sampled --tolerance 1e-3 -q 2>&1");
     EXPECT_EQ(bad.exit_code, 2) << bad.output;
     EXPECT_NE(bad.output.find("--tolerance"), std::string::npos) << bad.output;
@@ -248,11 +244,11 @@ TEST_F(ExactJobsTest, ReferenceSetExactAgreesWithSampledAndIsAnotherCache) {
     expect_within_bars(exact.values, sampled.values, "reference set");
     EXPECT_LE(exact.max_std_error, 1e-9);
 
-    const auto meta = nlohmann::json::parse(slurp(fs::path(exact.file).replace_extension(".json")));
+    const auto meta = nlohmann::json::parse(slurp_file(fs::path(exact.file).replace_extension(".json")));
     EXPECT_EQ(meta.at("method"), "exact");
     EXPECT_EQ(meta.at("exact").at("tolerance"), 1e-10);
     EXPECT_NE(meta.at("definition").get<std::string>().find("method=exact"), std::string::npos);
-    EXPECT_EQ(nlohmann::json::parse(slurp(fs::path(sampled.file).replace_extension(".json"))).at("method"), "sampled");
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(fs::path(sampled.file).replace_extension(".json"))).at("method"), "sampled");
     // Loaded again, each from its own file, bit for bit.
     design::CacheReport third;
     const design::ReferenceSet again = design::load_or_compute(exact_def, config, &third);

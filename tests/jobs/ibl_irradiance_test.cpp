@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "cli_runner.hpp"
+#include "core/types.hpp"
 #include "env/irradiance.hpp"
 #include "env/sh.hpp"
 #include "integrands/irradiance/irradiance_integrand.hpp"
@@ -20,7 +21,7 @@
 namespace {
 
 using namespace ms;
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 
 env::Cubemap make_cube(std::uint32_t n, const std::function<std::array<double, 3>(const env::Dir&)>& f) {
     env::Cubemap c(n);

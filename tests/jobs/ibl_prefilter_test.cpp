@@ -18,9 +18,9 @@
 namespace {
 
 using namespace ms;
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 
-env::Cubemap make_cube(std::uint32_t n, const std::function<std::array<double, 3>(const env::Dir&)>& f) {
+env::Cubemap make_prefilter_cube(std::uint32_t n, const std::function<std::array<double, 3>(const env::Dir&)>& f) {
     env::Cubemap c(n);
     for (int face = 0; face < 6; ++face)
         for (std::uint32_t y = 0; y < n; ++y)
@@ -52,7 +52,7 @@ TEST(IblPrefilter, RoughnessMappings) {
 }
 
 TEST(IblPrefilter, ConstantEnvironmentStaysConstant) {
-    const env::Cubemap src = make_cube(32, [](const env::Dir&) { return std::array<double, 3>{0.5, 2.0, 7.0}; });
+    const env::Cubemap src = make_prefilter_cube(32, [](const env::Dir&) { return std::array<double, 3>{0.5, 2.0, 7.0}; });
     PrefilterSpec spec;
     spec.threads = 2;
     const PrefilterResult r = prefilter_cubemap(src, spec);
@@ -81,7 +81,7 @@ TEST(IblPrefilter, ConstantEnvironmentStaysConstant) {
 // A linear environment L = 1 + d.x: the lobe is symmetric about n, so P(n) = 1 + c(r) n.x exactly, on
 // every face alike; texels next to seams read across them, so a seam error would break the fit.
 TEST(IblPrefilter, LinearEnvironmentAcrossSeams) {
-    const env::Cubemap src = make_cube(32, [](const env::Dir& d) { return std::array<double, 3>{1 + d.x, 1, 1}; });
+    const env::Cubemap src = make_prefilter_cube(32, [](const env::Dir& d) { return std::array<double, 3>{1 + d.x, 1, 1}; });
     const std::vector<env::Cubemap> chain = env::mip_chain(src);
     const PointSet pts = make_point_set({Sequence::sobol, 4096, 8, 1});
     env::PrefilterOptions unfiltered;
@@ -109,7 +109,7 @@ TEST(IblPrefilter, BrightDiscGivesTheGgxLobe) {
     const env::Dir d0{0.2, 0.1, std::sqrt(1 - 0.05)};
     const double cos_disc = std::cos(1.5 * kPi / 180);
     const std::uint32_t n = 64;
-    const env::Cubemap src = make_cube(n, [&](const env::Dir& d) {
+    const env::Cubemap src = make_prefilter_cube(n, [&](const env::Dir& d) {
         const double c = d.x * d0.x + d.y * d0.y + d.z * d0.z;
         return std::array<double, 3>{c > cos_disc ? 1000.0 : 0.0, 1, 0};
     });
@@ -173,7 +173,7 @@ TEST(IblPrefilter, BrightTexelsSummedExplicitly) {
 
     const env::Dir d0{0.2, 0.1, std::sqrt(1 - 0.05)};
     const std::uint32_t n = 32;
-    const env::Cubemap src = make_cube(n, [&](const env::Dir& d) {
+    const env::Cubemap src = make_prefilter_cube(n, [&](const env::Dir& d) {
         const double c = d.x * d0.x + d.y * d0.y + d.z * d0.z;
         return std::array<double, 3>{c > std::cos(3 * kPi / 180) ? 1000.0 : 0.5 + 0.3 * d.y, 1, 0.2};
     });
@@ -209,7 +209,7 @@ TEST(IblPrefilter, BrightTexelsSummedExplicitly) {
     std::printf("[ bright ] %zu texels, %.3f of the power; mean relative std error %.4f plain, %.4f split\n", split.texels.size(),
                 split.bright_power_fraction, se_plain / 6, se_split / 6);
     EXPECT_LT(se_split, 0.2 * se_plain);
-    const env::Cubemap flat = make_cube(8, [](const env::Dir&) { return std::array<double, 3>{2, 2, 2}; });
+    const env::Cubemap flat = make_prefilter_cube(8, [](const env::Dir&) { return std::array<double, 3>{2, 2, 2}; });
     EXPECT_TRUE(env::split_bright_texels(flat, 2, 1024).texels.empty());
 }
 
@@ -219,7 +219,7 @@ TEST(IblPrefilter, BrightTexelsSummedExplicitly) {
 TEST(IblPrefilterKernel, MatchesTheCppEstimatorAndTheOracle) {
     const env::Dir d0{0.2, 0.1, std::sqrt(1 - 0.05)};
     const std::uint32_t n = 32;
-    const env::Cubemap src = make_cube(n, [&](const env::Dir& d) {
+    const env::Cubemap src = make_prefilter_cube(n, [&](const env::Dir& d) {
         const double c = d.x * d0.x + d.y * d0.y + d.z * d0.z;
         return std::array<double, 3>{c > std::cos(0.1) ? 50.0 : 0.2 + 0.1 * d.y, 1, 0.5 + 0.5 * d.x};
     });
@@ -265,7 +265,7 @@ protected:
 
 TEST_F(IblPrefilterCli, WritesMipsIrradianceAndPreviews) {
     // A 4:3 horizontal cross of 16^2 faces: a sky gradient.
-    env::Cubemap cube = make_cube(16, [](const env::Dir& d) { return std::array<double, 3>{1 + d.y, 1, 0.5}; });
+    env::Cubemap cube = make_prefilter_cube(16, [](const env::Dir& d) { return std::array<double, 3>{1 + d.y, 1, 0.5}; });
     env::write_exr(path("sky.exr"), env::cross_image(cube), {{"note", "test"}});
     const auto res = ms::testing::run_shell(std::string(MICROSHADOW_CLI) + " ibl prefilter " + path("sky.exr") + " --out " + path("out") +
                                             " --samples 64 --verify 4 --irradiance-size 8 --threads 2 2>&1");
@@ -288,7 +288,7 @@ namespace {
 // keeps the split exact (the texels plus the rest's power are the source's); a constant environment gets none.
 TEST(IblPrefilter, AutomaticSplitTakesTheDisc) {
     const env::Dir d0{0.2, 0.1, std::sqrt(1 - 0.05)};
-    const env::Cubemap src = make_cube(32, [&](const env::Dir& d) {
+    const env::Cubemap src = make_prefilter_cube(32, [&](const env::Dir& d) {
         const double c = d.x * d0.x + d.y * d0.y + d.z * d0.z;
         return std::array<double, 3>{c > std::cos(3 * kPi / 180) ? 1000.0 : 0.5 + 0.3 * d.y, 1, 0.2};
     });
@@ -297,7 +297,7 @@ TEST(IblPrefilter, AutomaticSplitTakesTheDisc) {
     EXPECT_GE(chosen.texels.size(), fixed.texels.size());  // at least every disc texel
     EXPECT_GE(chosen.bright_power_fraction, fixed.bright_power_fraction - 1e-12);
     EXPECT_GT(chosen.threshold, 0);
-    const env::Cubemap flat = make_cube(8, [](const env::Dir&) { return std::array<double, 3>{2, 2, 2}; });
+    const env::Cubemap flat = make_prefilter_cube(8, [](const env::Dir&) { return std::array<double, 3>{2, 2, 2}; });
     EXPECT_TRUE(env::choose_bright_split(flat, 0.01, 1024).texels.empty());
     EXPECT_THROW(env::choose_bright_split(flat, 0, 1024), std::invalid_argument);
 }

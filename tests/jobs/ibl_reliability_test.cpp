@@ -36,6 +36,7 @@
 #include "env/image.hpp"
 #include "io/atomic_file.hpp"
 #include "jobs/ibl_env.hpp"
+#include "test_files.hpp"
 
 extern char** environ;
 
@@ -52,19 +53,14 @@ std::string cli_binary() {
     return other && *other ? other : MICROSHADOW_CLI;
 }
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 // Every regular file under dir (relative path -> bytes), hidden temporaries included.
 std::map<std::string, std::string> snapshot(const fs::path& dir) {
     std::map<std::string, std::string> files;
     if (!fs::exists(dir)) return files;
     for (const auto& e : fs::recursive_directory_iterator(dir))
-        if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = slurp(e.path());
+        if (e.is_regular_file()) files[fs::relative(e.path(), dir).string()] = slurp_file(e.path());
     return files;
 }
 
@@ -247,7 +243,7 @@ TEST_F(IblReliability, RadianceHeaderClaimsAreBoundedBeforeAnyAllocation) {
     for (const char* file : {"claims.hdr", "limit.hdr"}) {
         const double own = own_peak_mib();
         const auto [code, mib] = run_measured(dir_, std::string("ibl sh ") + file + " --out x.json -q");
-        EXPECT_EQ(code, 2) << slurp(dir_ / "log.txt");
+        EXPECT_EQ(code, 2) << slurp_file(dir_ / "log.txt");
         EXPECT_LT(mib - own, 256.0) << file << ": peak resident memory " << mib << " MiB, this process's " << own << " MiB";
         std::printf("[ibl] refusing %s: peak resident memory %.1f MiB (this process's: %.1f MiB)\n", file, mib, own);
     }
@@ -264,7 +260,7 @@ TEST_F(IblReliability, TruncatedAndHostileFilesExitTwo) {
     expect_refused("runs.hdr", "scanline 0: bad run", "x1");
     // A truncated EXR (half its bytes), and the hand-made hostile EXRs of the preflight's tests.
     env::write_exr(path("whole.exr"), sky(), {});
-    const std::string exr = slurp(dir_ / "whole.exr");
+    const std::string exr = slurp_file(dir_ / "whole.exr");
     std::ofstream(path("half.exr"), std::ios::binary) << exr.substr(0, exr.size() / 2);
     expect_refused("half.exr", "half.exr", "x2");
     int k = 3;
@@ -312,7 +308,7 @@ TEST_F(IblReliability, TwoOutputsAtOnePathAreRefusedBeforeAnyWork) {
         EXPECT_TRUE(snapshot(dir_) == before) << args << ": files changed:" << names(before) << " ->" << names(snapshot(dir_));
         EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 30.0) << args;
     }
-    EXPECT_EQ(slurp(dir_ / "s.json"), "previous\n");
+    EXPECT_EQ(slurp_file(dir_ / "s.json"), "previous\n");
 }
 
 TEST_F(IblReliability, AnOutFolderThatCannotBeMadeIsRefusedBeforeAnyWork) {
@@ -393,7 +389,7 @@ TEST_F(IblReliability, ASignalDuringTheWritesCommitsNothing) {
     outputs.stream(outputs.add(path("a.txt"))) << "new a\n";
     commit_outputs(outputs, {path("b.txt")});  // b.txt: an earlier run's file this run does not write
     EXPECT_EQ(names(snapshot(dir_)), " a.txt");
-    EXPECT_EQ(slurp(dir_ / "a.txt"), "new a\n");
+    EXPECT_EQ(slurp_file(dir_ / "a.txt"), "new a\n");
 }
 
 // Starts `args` in dir (stdout and stderr to dir/log.txt); returns the CLI's own pid.
@@ -423,7 +419,7 @@ void interrupt_between_runs(const fs::path& dir, const std::string& earlier, con
         const pid_t pid = spawn_cli(dir, args);
         int status = 0;
         waitpid(pid, &status, 0);
-        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << args << "\n" << slurp(dir / "log.txt");
+        EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << args << "\n" << slurp_file(dir / "log.txt");
         return std::chrono::duration<double>(Clock::now() - t0).count();
     };
     run_to_end(earlier);
@@ -455,9 +451,9 @@ void interrupt_between_runs(const fs::path& dir, const std::string& earlier, con
             for (const auto& [name, bytes] : after)
                 if (!before.count(name) || before.at(name) != bytes) changed += " " + name;
             EXPECT_TRUE(after == before) << later << " (SIGTERM after " << delay << " s, exit " << code << "): files changed:" << changed
-                                         << "; before:" << names(before) << ", after:" << names(after) << "\n" << slurp(dir / "log.txt");
+                                         << "; before:" << names(before) << ", after:" << names(after) << "\n" << slurp_file(dir / "log.txt");
         } else {
-            EXPECT_EQ(code, 0) << slurp(dir / "log.txt");
+            EXPECT_EQ(code, 0) << slurp_file(dir / "log.txt");
             EXPECT_EQ(after_names, later_names) << "SIGTERM after " << delay << " s, exit " << code;
             for (const auto& [name, bytes] : after)
                 if (before.count(name)) EXPECT_TRUE(bytes != before.at(name)) << name << " is the earlier run's (exit " << code << ")";

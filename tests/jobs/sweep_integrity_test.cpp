@@ -19,6 +19,7 @@
 #include "jobs/sweep/runner.hpp"
 #include "jobs/sweep/spec.hpp"
 #include "oracle/oracle.hpp"
+#include "test_files.hpp"
 
 namespace ms {
 namespace {
@@ -27,12 +28,7 @@ namespace fs = std::filesystem;
 using sweep::RunConfig;
 using sweep::Spec;
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 void spit(const fs::path& p, const std::string& text) { std::ofstream(p, std::ios::binary | std::ios::trunc) << text; }
 
@@ -89,19 +85,19 @@ TEST(SweepIntegrity, EveryKindOfChunkDamageIsSetAsideAndRecomputed) {
     auto backend = make_oracle_backend(1);
     const fs::path clean = fresh_dir("clean");
     ASSERT_TRUE(sweep::run_sweep(spec, config(clean, *backend)).assembled);
-    const std::string expected = slurp(clean / "sweep.csv");
+    const std::string expected = slurp_file(clean / "sweep.csv");
     for (const Damage& d : kDamages) {
         const fs::path dir = fresh_dir("damaged");
         RunConfig c = config(dir, *backend);
         c.max_chunks = 2;
         ASSERT_FALSE(sweep::run_sweep(spec, c).complete);
-        spit(chunk(dir, 1), d.apply(slurp(chunk(dir, 1))));
+        spit(chunk(dir, 1), d.apply(slurp_file(chunk(dir, 1))));
         c.max_chunks = 0;
         std::vector<std::string> told;
         c.warn = [&](const std::string& w) { told.push_back(w); };
         const sweep::RunResult r = sweep::run_sweep(spec, c);
         ASSERT_TRUE(r.assembled) << d.name;
-        EXPECT_EQ(slurp(dir / "sweep.csv"), expected) << d.name;
+        EXPECT_EQ(slurp_file(dir / "sweep.csv"), expected) << d.name;
         ASSERT_EQ(told.size(), 1u) << d.name;
         EXPECT_NE(told[0].find("chunk-0000000001.csv"), std::string::npos) << told[0];
         EXPECT_EQ(r.warnings, told);
@@ -119,12 +115,12 @@ TEST(SweepIntegrity, ChunksWithoutDigestsAreCheckedByStructure) {
     RunConfig c = config(dir, *backend);
     c.max_chunks = 2;
     sweep::run_sweep(spec, c);
-    nlohmann::json m = nlohmann::json::parse(slurp(dir / "manifest.json"));
+    nlohmann::json m = nlohmann::json::parse(slurp_file(dir / "manifest.json"));
     ASSERT_TRUE(m.contains("digests"));
     m.erase("digests");
     m["format"] = "microshadow-sweep-manifest/1";
     spit(dir / "manifest.json", m.dump(1));
-    spit(chunk(dir, 0), kDamages[0].apply(slurp(chunk(dir, 0))));
+    spit(chunk(dir, 0), kDamages[0].apply(slurp_file(chunk(dir, 0))));
     c.max_chunks = 0;
     const sweep::RunResult r = sweep::run_sweep(spec, c);
     ASSERT_EQ(r.warnings.size(), 1u);
@@ -143,7 +139,7 @@ TEST(SweepIntegrity, MergeNamesADamagedShardChunkAndARerunRepairsIt) {
         c.shard = {index, 2};
         ASSERT_TRUE(sweep::run_sweep(spec, c).complete);
     }
-    spit(chunk(s1, 3), kDamages[4].apply(slurp(chunk(s1, 3))));
+    spit(chunk(s1, 3), kDamages[4].apply(slurp_file(chunk(s1, 3))));
     try {
         sweep::merge_shards({s0.string(), s1.string()}, out.string(), "test");
         FAIL() << "merged a truncated chunk";
@@ -156,7 +152,7 @@ TEST(SweepIntegrity, MergeNamesADamagedShardChunkAndARerunRepairsIt) {
     c.shard = {1, 2};
     EXPECT_EQ(sweep::run_sweep(spec, c).computed, 1u);
     sweep::merge_shards({s0.string(), s1.string()}, out.string(), "test");
-    EXPECT_EQ(slurp(out / "sweep.csv"), slurp(clean / "sweep.csv"));
+    EXPECT_EQ(slurp_file(out / "sweep.csv"), slurp_file(clean / "sweep.csv"));
 }
 
 TEST(SweepIntegrity, RestartRemovesEverythingTheOldSweepWrote) {
@@ -241,7 +237,7 @@ TEST(SweepIntegrity, ASweepBegunOnOneDeviceResumesOnAllOfThem) {
     const auto whole = testing::run_shell(env + bin + " sweep " + spec + " --out " + (dir / "b").string() +
                                           " --method sampled --samples 1024 -q 2>&1");
     ASSERT_EQ(whole.exit_code, 0) << whole.output;
-    EXPECT_EQ(slurp(dir / "a" / "sweep.csv"), slurp(dir / "b" / "sweep.csv"));
+    EXPECT_EQ(slurp_file(dir / "a" / "sweep.csv"), slurp_file(dir / "b" / "sweep.csv"));
 }
 
 }  // namespace

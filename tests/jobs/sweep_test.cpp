@@ -17,6 +17,7 @@
 #include "jobs/sweep/points.hpp"
 #include "jobs/sweep/runner.hpp"
 #include "jobs/sweep/spec.hpp"
+#include "test_files.hpp"
 
 namespace {
 
@@ -24,12 +25,7 @@ namespace fs = std::filesystem;
 using namespace ms;
 using namespace ms::sweep;
 
-std::string slurp(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using ms::testing::slurp_file;
 
 fs::path fresh_dir(const std::string& name) {
     const fs::path d = fs::temp_directory_path() / ("microshadow_sweep_test_" + std::to_string(::getpid())) / name;
@@ -271,7 +267,7 @@ TEST(SweepRun, ResumeAfterInterruptionSkipsFinishedChunksAndMatchesACleanRun) {
     EXPECT_GE(r.skipped, 9u);
     EXPECT_EQ(r.computed, r.chunks - r.skipped);
     ASSERT_TRUE(r.assembled);
-    EXPECT_EQ(slurp(clean / "sweep.csv"), slurp(resumed / "sweep.csv"));
+    EXPECT_EQ(slurp_file(clean / "sweep.csv"), slurp_file(resumed / "sweep.csv"));
     // A finished sweep reruns without computing anything.
     r = run_sweep(spec, c);
     EXPECT_EQ(r.computed, 0u);
@@ -297,8 +293,8 @@ TEST(SweepRun, ShardsMergeToTheUnsplitFile) {
     }
     EXPECT_THROW(merge_shards({dirs[0], dirs[2]}, merged.string(), "test"), std::invalid_argument);  // shard 1 missing
     merge_shards(dirs, merged.string(), "test");
-    EXPECT_EQ(slurp(whole / "sweep.csv"), slurp(merged / "sweep.csv"));
-    EXPECT_EQ(slurp(whole / "summary.csv"), slurp(merged / "summary.csv"));
+    EXPECT_EQ(slurp_file(whole / "sweep.csv"), slurp_file(merged / "sweep.csv"));
+    EXPECT_EQ(slurp_file(whole / "summary.csv"), slurp_file(merged / "summary.csv"));
     EXPECT_THROW(parse_shard("3/3"), std::invalid_argument);
     EXPECT_THROW(parse_shard("1"), std::invalid_argument);
 }

@@ -51,7 +51,7 @@ std::uint32_t dxgi_format(PixelEncoding e) {
          : e == PixelEncoding::unorm8  ? kDxgiR8G8B8A8Unorm : kDxgiR16G16B16A16Unorm;
 }
 
-RunResult cli(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+using ms::testing::cli;
 
 std::vector<std::uint8_t> slurp(const std::string& path) {
     std::ifstream in(path, std::ios::binary);

@@ -29,7 +29,7 @@ using namespace ms::lutfmt;
 using ms::testing::RunResult;
 using ms::testing::run_shell;
 
-RunResult cli(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+using ms::testing::cli;
 
 // What a stored component must read back as: the encoding's own rounding of the baked float,
 // computed here from the definitions (encoding.hpp), not by the reader.

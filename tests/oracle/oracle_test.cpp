@@ -28,7 +28,7 @@ namespace {
 using namespace ms;
 namespace o = ms::oracle;
 
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 constexpr double kConfidence = 0.999;
 
 Vec3 spherical(double cos_theta, double phi) {

@@ -35,6 +35,7 @@
 #include "scene/description.hpp"
 #include "scene/image_io.hpp"
 #include "scene/inputs.hpp"
+#include "test_files.hpp"
 
 namespace ms {
 namespace {
@@ -42,12 +43,9 @@ namespace {
 namespace fs = std::filesystem;
 using testing::ScratchDirTest;
 
-void write_text(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
+void write_text_file(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
-std::string slurp(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string(std::istreambuf_iterator<char>(in), {});
-}
+using ms::testing::slurp_file;
 
 // A PNG through libpng: grey (1), RGB (3) or RGBA (4) channels of 8-bit codes, or a palette image
 // (palette non-empty: `codes` are indices).
@@ -76,13 +74,13 @@ void write_png_codes(const std::string& path, int w, int h, int channels, const 
     std::fclose(f);
 }
 
-struct ExrPart {
+struct WindowedExrPart {
     std::string name;
     Imath::Box2i window;  // data window (the display window is the union of all parts')
     std::vector<std::pair<std::string, std::vector<float>>> channels;
 };
 
-void write_exr(const std::string& path, const std::vector<ExrPart>& parts) {
+void write_exr(const std::string& path, const std::vector<WindowedExrPart>& parts) {
     Imath::Box2i display = parts[0].window;
     for (const auto& p : parts) display.extendBy(p.window);
     std::vector<Imf::Header> headers;
@@ -108,7 +106,7 @@ void write_exr(const std::string& path, const std::vector<ExrPart>& parts) {
     }
 }
 
-TermBackend& backend() {
+TermBackend& scene_backend() {
     static std::unique_ptr<TermBackend> b = make_opencl_backend(ocl::select_devices("default"));
     return *b;
 }
@@ -138,7 +136,7 @@ std::string small_scene(const fs::path& dir, const std::string& lights = "[[ligh
         codes.push_back(240);
     }
     write_png_codes((dir / "n.png").string(), 8, 8, 3, codes);
-    write_text((dir / "s.toml").string(), "[normal]\nfile = \"n.png\"\nspace = \"tangent\"\n[visibility]\nvalue = 0.6\n"
+    write_text_file((dir / "s.toml").string(), "[normal]\nfile = \"n.png\"\nspace = \"tangent\"\n[visibility]\nvalue = 0.6\n"
                                           "[roughness]\nvalue = 0.5\n[view]\ndirection = [0.1, 0.2, 1]\n" +
                                               lights + extra +
                                               "[comparators]\nanalytic = [\"pz-analytic\"]\nseed_3d = false\nseed_2d = false\n"
@@ -172,7 +170,7 @@ TEST_F(SceneReliability, LutsNamedAAndAErrorKeepTheirOwnLayers) {
     // mask + one light x (reference, std_error, weight + 2 x 3 comparators).
     EXPECT_EQ(layers.size(), 1u + 3u + 2u * 3u);
     EXPECT_EQ(distinct.size(), layers.size());
-    const auto j = nlohmann::json::parse(slurp(path("out/report.json")));
+    const auto j = nlohmann::json::parse(slurp_file(path("out/report.json")));
     ASSERT_EQ(j["comparators"].size(), 3u);
     // Both LUT files are the same bake: their approximation layers are the same image.
     const std::string a = j["comparators"][1], b = j["comparators"][2];
@@ -185,8 +183,8 @@ TEST_F(SceneReliability, LutsNamedAAndAErrorKeepTheirOwnLayers) {
 // 3x the reported bound. Steps are capped at 0.25, where the measured shift stays within E / 2.
 TEST_F(SceneReliability, DedupStepIsCappedWhereTheGridShiftStaysWithinHalfTheTolerance) {
     const std::string base = small_scene(dir_);
-    std::string text = slurp(base);
-    write_text(path("big.toml"), text + "dedup_step = 4\n");
+    std::string text = slurp_file(base);
+    write_text_file(path("big.toml"), text + "dedup_step = 4\n");
     std::string e = load_error(path("big.toml"));
     EXPECT_NE(e.find("sampling.dedup_step"), std::string::npos) << e;
     EXPECT_NE(e.find("[0, 0.25]"), std::string::npos) << e;
@@ -206,7 +204,7 @@ TEST_F(SceneReliability, DedupStepIsCappedWhereTheGridShiftStaysWithinHalfTheTol
     write_png_codes(path("vn.png"), w, h, 3, normal);
     write_png_codes(path("vao.png"), w, h, 1, ao);
     write_png_codes(path("vr.png"), w, h, 1, rough);
-    write_text(path("v.toml"), R"([normal]
+    write_text_file(path("v.toml"), R"([normal]
 file = "vn.png"
 space = "tangent"
 [visibility]
@@ -229,13 +227,13 @@ dedup_step = 0.25
     scene::SceneRunOptions options;
     options.bake_seed_luts = false;
     options.skip = false;
-    const auto exact = scene::run_scene(scene::SceneInputs::load(d), backend(), options);
+    const auto exact = scene::run_scene(scene::SceneInputs::load(d), scene_backend(), options);
     options.skip = true;
     // The cap, and (set past the parser, for the record) the default and the former limit.
     double at_cap = 0;
     for (const double step : {0.125, 0.25, 1.0, 4.0}) {
         d.sampling.dedup_step = step;
-        const auto keyed = scene::run_scene(scene::SceneInputs::load(d), backend(), options);
+        const auto keyed = scene::run_scene(scene::SceneInputs::load(d), scene_backend(), options);
         double max_diff = 0;
         for (int i = 0; i < w * h; ++i)
             max_diff = std::max(max_diff, std::fabs(double(keyed.lights[0].reference[i]) - exact.lights[0].reference[i]));
@@ -256,7 +254,7 @@ TEST_F(SceneReliability, MaterialIdsBeyondSixteenBitsKeepTheirGroupsAndPercentil
         nx[i] = 0.3f * float(i % 7) / 7.0f;  // some spread in the errors
     }
     write_exr(path("m.exr"), {{"p", Imath::Box2i({0, 0}, {w - 1, h - 1}), {{"id", id}, {"nx", nx}, {"ny", ny}, {"nz", nz}}}});
-    write_text(path("m.toml"), R"([normal]
+    write_text_file(path("m.toml"), R"([normal]
 file = "m.exr"
 channels = ["nx", "ny", "nz"]
 [visibility]
@@ -277,7 +275,7 @@ analytic = ["naughty-dog", "pz-analytic"]
     scene::SceneRunOptions options;
     options.bake_seed_luts = false;
     const auto t0 = std::chrono::steady_clock::now();
-    const auto r = scene::run_scene(inputs, backend(), options);  // visibility 1: exact, nothing sampled
+    const auto r = scene::run_scene(inputs, scene_backend(), options);  // visibility 1: exact, nothing sampled
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     ASSERT_EQ(r.groups.size(), 5u + std::size_t(w * h));
     EXPECT_EQ(r.groups.back(), "material " + std::to_string(100000 + w * h - 1));
@@ -304,7 +302,7 @@ TEST_F(SceneReliability, ExrPartsWithDifferentDataWindowsAreRefused) {
     const std::vector<float> z(16, 0.0f), one(16, 1.0f), half(16, 0.5f);
     write_exr(path("w.exr"), {{"n", Imath::Box2i({0, 0}, {3, 3}), {{"X", z}, {"Y", z}, {"Z", one}}},
                               {"r", Imath::Box2i({2, 1}, {5, 4}), {{"rough", half}}}});
-    write_text(path("w.toml"), "[normal]\nfile = \"w.exr\"\nchannels = [\"X\", \"Y\", \"Z\"]\n[visibility]\nvalue = 1\n"
+    write_text_file(path("w.toml"), "[normal]\nfile = \"w.exr\"\nchannels = [\"X\", \"Y\", \"Z\"]\n[visibility]\nvalue = 1\n"
                                "[roughness]\nfile = \"w.exr\"\nchannel = \"rough\"\n[view]\ndirection = [0, 0, 1]\n"
                                "[[light]]\ndirection = [0, 0, 1]\n");
     const std::string e = load_error(path("w.toml"));
@@ -318,7 +316,7 @@ TEST_F(SceneReliability, PalettePngMaskIsReadAsIndices) {
     std::vector<int> index(16);
     for (int i = 0; i < 16; ++i) index[i] = i % 3;
     write_png_codes(path("ids.png"), 4, 4, 1, index, palette);
-    write_text(path("p.toml"), "[normal]\nvalue = [0, 0, 1]\n[visibility]\nfile = \"ids.png\"\nchannel = \"G\"\n"
+    write_text_file(path("p.toml"), "[normal]\nvalue = [0, 0, 1]\n[visibility]\nfile = \"ids.png\"\nchannel = \"G\"\n"
                                "[roughness]\nvalue = 0.5\n[mask]\nfile = \"ids.png\"\nkind = \"object-index\"\nobjects = [1]\n"
                                "[material]\nfile = \"ids.png\"\n[view]\ndirection = [0, 0, 1]\n[[light]]\ndirection = [0, 0, 1]\n");
     const scene::SceneInputs inputs = scene::SceneInputs::load(scene::load_scene(path("p.toml")));
@@ -339,7 +337,7 @@ TEST_F(SceneReliability, DegenerateVectorsAreNormalisedOrRefused) {
     write_png_codes(path("ao.png"), 4, 4, 1, grey);
     const std::string head = "[normal]\nvalue = [0, 0, 1]\n[visibility]\nfile = \"ao.png\"\n[roughness]\nvalue = 0.5\n";
     auto first_pixel = [&](const std::string& view, const std::string& light) {
-        write_text(path("d.toml"), head + "[view]\ndirection = " + view + "\n[[light]]\ndirection = " + light + "\n");
+        write_text_file(path("d.toml"), head + "[view]\ndirection = " + view + "\n[[light]]\ndirection = " + light + "\n");
         const scene::SceneInputs inputs = scene::SceneInputs::load(scene::load_scene(path("d.toml")));
         return scene::light_query(inputs.pixel(0), inputs.description().lights[0]);
     };
@@ -359,15 +357,15 @@ TEST_F(SceneReliability, DegenerateVectorsAreNormalisedOrRefused) {
         EXPECT_NEAR(q.irradiance, reference.irradiance, 1e-15) << light;
     }
     // A point light 1e-170 above the surface plane at pixel (1, 2): I / d^2 is not a number.
-    write_text(path("p.toml"), head + "[view]\ndirection = [0, 0, 1]\n[[light]]\nname = \"bulb\"\ntype = \"point\"\n"
+    write_text_file(path("p.toml"), head + "[view]\ndirection = [0, 0, 1]\n[[light]]\nname = \"bulb\"\ntype = \"point\"\n"
                                       "position = [0.375, 0.375, 1e-170]\n");
     std::string e = load_error(path("p.toml"));
     EXPECT_NE(e.find("light[0] 'bulb'"), std::string::npos) << e;
     EXPECT_NE(e.find("pixel (1, 2)"), std::string::npos) << e;
-    write_text(path("i.toml"), head + "[view]\ndirection = [0, 0, 1]\n[[light]]\ndirection = [0, 0, 1]\nintensity = 1e300\n");
+    write_text_file(path("i.toml"), head + "[view]\ndirection = [0, 0, 1]\n[[light]]\ndirection = [0, 0, 1]\nintensity = 1e300\n");
     e = load_error(path("i.toml"));
     EXPECT_NE(e.find("light[0].intensity"), std::string::npos) << e;
-    write_text(path("c.toml"), head + "[view]\nposition = \"x.exr\"\nposition_channels = [\"X\", \"Y\", \"Z\"]\ncamera = [1.7e308, 0, 0]\n"
+    write_text_file(path("c.toml"), head + "[view]\nposition = \"x.exr\"\nposition_channels = [\"X\", \"Y\", \"Z\"]\ncamera = [1.7e308, 0, 0]\n"
                                       "[[light]]\ndirection = [0, 0, 1]\n");
     e = load_error(path("c.toml"));
     EXPECT_NE(e.find("view.camera"), std::string::npos) << e;
@@ -378,9 +376,9 @@ TEST_F(SceneReliability, FifoInputsAreRefusedWithoutBlocking) {
     const std::string toml = small_scene(dir_);
     ASSERT_EQ(::mkfifo(path("fifo.png").c_str(), 0600), 0);
     ASSERT_EQ(::mkfifo(path("fifo.exr").c_str(), 0600), 0);
-    std::string text = slurp(toml);
+    std::string text = slurp_file(toml);
     text.replace(text.find("\"n.png\""), 7, "\"fifo.png\"");
-    write_text(path("f.toml"), text);
+    write_text_file(path("f.toml"), text);
     auto r = testing::run_shell("cd " + dir_.string() + " && timeout -s KILL 20 " + kCli + " scene f.toml --out out -q 2>&1");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("fifo.png: is a FIFO"), std::string::npos) << r.output;
@@ -394,7 +392,7 @@ TEST_F(SceneReliability, FifoInputsAreRefusedWithoutBlocking) {
 // own messages went raw to stderr.
 TEST_F(SceneReliability, PngHeaderClaimsAreBoundedAndLibpngMessagesWrapped) {
     write_png_codes(path("tiny.png"), 2, 2, 4, std::vector<int>(16, 7));
-    std::string bytes = slurp(path("tiny.png"));
+    std::string bytes = slurp_file(path("tiny.png"));
     // IHDR: at offset 8 (length, "IHDR", width, height, depth, colour, ..., CRC at 29).
     auto put32 = [&](std::size_t at, std::uint32_t v) {
         for (int k = 0; k < 4; ++k) bytes[at + k] = char((v >> (24 - 8 * k)) & 255);
@@ -409,15 +407,15 @@ TEST_F(SceneReliability, PngHeaderClaimsAreBoundedAndLibpngMessagesWrapped) {
     EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
     EXPECT_NE(e.find("bomb.png: claims 16384 x 16384 pixels"), std::string::npos) << e;
     // A bad CRC: libpng's message inside ours, nothing raw on stderr.
-    std::string broken = slurp(path("tiny.png"));
+    std::string broken = slurp_file(path("tiny.png"));
     broken[29] = char(broken[29] ^ 0x55);
     std::ofstream(path("crc.png"), std::ios::binary) << broken;
     e = error_of([&] { scene::read_channels(path("crc.png"), {"R"}); });
     EXPECT_NE(e.find("crc.png: not a readable PNG (libpng: "), std::string::npos) << e;
     const std::string toml = small_scene(dir_);
-    std::string text = slurp(toml);
+    std::string text = slurp_file(toml);
     text.replace(text.find("\"n.png\""), 7, "\"crc.png\"");
-    write_text(path("c.toml"), text);
+    write_text_file(path("c.toml"), text);
     const auto r = cli("scene c.toml --out out -q");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_EQ(r.output.find("libpng error"), std::string::npos) << r.output;
@@ -432,14 +430,14 @@ TEST_F(SceneReliability, AmbiguousChannelAdviceCanBeFollowed) {
     write_exr(path("b.exr"), {{"x", win, {{"a.R", v}}}, {"a", win, {{"R", v}}}});
     const std::string rest = "[normal]\nvalue = [0, 0, 1]\n[roughness]\nvalue = 0.5\n[view]\ndirection = [0, 0, 1]\n"
                              "[[light]]\ndirection = [0, 0, 1]\n";
-    write_text(path("a.toml"), rest + "[visibility]\nfile = \"a.exr\"\nchannel = \"A\"\n");
+    write_text_file(path("a.toml"), rest + "[visibility]\nfile = \"a.exr\"\nchannel = \"A\"\n");
     std::string e = load_error(path("a.toml"));
     EXPECT_NE(e.find("name 'beauty.A' (part 0 'beauty'), 'aovs.A' (part 1 'aovs')"), std::string::npos) << e;
     // The advice works.
-    write_text(path("a2.toml"), rest + "[visibility]\nfile = \"a.exr\"\nchannel = \"aovs.A\"\n");
+    write_text_file(path("a2.toml"), rest + "[visibility]\nfile = \"a.exr\"\nchannel = \"aovs.A\"\n");
     EXPECT_EQ(load_error(path("a2.toml")), "(no error)");
     // "a.R" is part x's channel and part a's qualified R: x's can be named x.a.R, a's cannot be named.
-    write_text(path("b.toml"), rest + "[visibility]\nfile = \"b.exr\"\nchannel = \"a.R\"\n");
+    write_text_file(path("b.toml"), rest + "[visibility]\nfile = \"b.exr\"\nchannel = \"a.R\"\n");
     e = load_error(path("b.toml"));
     EXPECT_NE(e.find("name 'x.a.R' (part 0 'x')"), std::string::npos) << e;
     EXPECT_NE(e.find("no name picks the channel of part 1 'a'"), std::string::npos) << e;
@@ -467,9 +465,9 @@ TEST_F(SceneReliability, FittedSceneLutRefusesLookupsOutsideItsScene) {
     r = cli("scene s.toml --lut fit.exr --out own -q");
     EXPECT_EQ(r.exit_code, 0) << r.output;
     // Another AO: visibility outside the fitted range (the same rows: only the range refuses it).
-    std::string text = slurp(toml);
+    std::string text = slurp_file(toml);
     text.replace(text.find("value = 0.6"), 11, "value = 0.9");
-    write_text(path("other.toml"), text);
+    write_text_file(path("other.toml"), text);
     r = cli("scene other.toml --lut fit.exr --out other -q");
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("comparator lut-fit at pixel"), std::string::npos) << r.output;
@@ -493,7 +491,7 @@ TEST_F(SceneReliability, LightCountAndOutputMemoryAreBounded) {
     options.memory_limit = 4 * 64 * 5;  // bytes: less than mask + 1 light x (3 + 2) planes of 64 floats
     bool checked = false;
     options.check_outputs = [&](const std::vector<std::string>&) { checked = true; };
-    e = error_of([&] { scene::run_scene(inputs, backend(), options); });
+    e = error_of([&] { scene::run_scene(inputs, scene_backend(), options); });
     EXPECT_NE(e.find("the output images need about"), std::string::npos) << e;
     EXPECT_FALSE(checked);
 }
@@ -506,7 +504,7 @@ TEST_F(SceneReliability, OutputProblemsAreRefusedBeforeAnyWork) {
     const std::string fail = "MICROSHADOW_FAIL_DEVICE=0:0";
     const std::string toml = small_scene(dir_, "[[light]]\nname = \"a\"\ndirection = [0.5, 0.2, 0.8]\n"
                                                "[[light]]\nname = \"a_lut-b\"\ndirection = [0.2, 0.5, 0.8]\n");
-    write_text(path("file"), "x");
+    write_text_file(path("file"), "x");
     auto r = cli("scene s.toml --out file/sub -q", fail);
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("file/sub: cannot be created"), std::string::npos) << r.output;
@@ -517,9 +515,9 @@ TEST_F(SceneReliability, OutputProblemsAreRefusedBeforeAnyWork) {
     EXPECT_NE(r.output.find("two outputs would both be a_lut-b_reference.png"), std::string::npos) << r.output;
     EXPECT_FALSE(fs::exists(path("out")));
     // Seed LUTs on: a missing --lut is found before they are baked.
-    std::string text = slurp(toml);
+    std::string text = slurp_file(toml);
     text.replace(text.find("seed_3d = false"), 15, "seed_3d = true");
-    write_text(path("seed.toml"), text);
+    write_text_file(path("seed.toml"), text);
     r = cli("scene seed.toml --lut missing.exr --out out -q", fail);
     EXPECT_EQ(r.exit_code, 2) << r.output;
     EXPECT_NE(r.output.find("missing.exr"), std::string::npos) << r.output;
@@ -564,10 +562,10 @@ TEST_F(SceneReliability, SigtermMidRunThenRerunLeavesOneCompleteSet) {
     small_scene(dir_, both);
     fs::rename(path("s.toml"), path("two.toml"));
     small_scene(dir_);
-    std::string text = slurp(path("s.toml"));
+    std::string text = slurp_file(path("s.toml"));
     text.replace(text.find("tolerance = 0.02"), 16, "tolerance = 0.001");
     text.replace(text.find("max_samples = 65536"), 19, "max_samples = 1048576");
-    write_text(path("s.toml"), text);
+    write_text_file(path("s.toml"), text);
     auto r = cli("scene two.toml --out out -q");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     const std::vector<std::string> comparators = {"pz-analytic"};
@@ -593,11 +591,11 @@ TEST_F(SceneReliability, SigtermMidRunThenRerunLeavesOneCompleteSet) {
         int status = 0;
         waitpid(pid, &status, 0);
         const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
-        EXPECT_TRUE(code == 143 || code == 0) << "SIGTERM at " << at << " s: " << code << " " << slurp(path("log.txt"));
+        EXPECT_TRUE(code == 143 || code == 0) << "SIGTERM at " << at << " s: " << code << " " << slurp_file(path("log.txt"));
         std::printf("SIGTERM at %.1f s: exit status %d\n", at, code);
         const auto now = files_in();
         EXPECT_TRUE(now == old_set || now == new_set) << "SIGTERM at " << at << " s: " << now.size() << " files";
-        const auto j = nlohmann::json::parse(slurp(path("out/report.json")));
+        const auto j = nlohmann::json::parse(slurp_file(path("out/report.json")));
         EXPECT_EQ(j["lights"].size(), now == old_set ? 2u : 1u);
     }
     r = cli("scene s.toml --out out -q");
@@ -616,7 +614,7 @@ TEST_F(SceneReliability, SigtermDuringBakeSceneThenRerunLeavesOneCompleteSet) {
     ASSERT_EQ(r.exit_code, 0) << r.output;
     // One run's set: the LUT's scene is the report's, and the histogram images are the report's lights'.
     auto consistent = [&](const std::string& when) {
-        const auto report = nlohmann::json::parse(slurp(path("rep/report.json")));
+        const auto report = nlohmann::json::parse(slurp_file(path("rep/report.json")));
         const LutFile lut = read_lut(path("l.exr"));
         EXPECT_EQ(lut.metadata.value("scene", ""), report["provenance"]["scene"].get<std::string>()) << when;
         std::set<std::string> images, expected;
@@ -643,7 +641,7 @@ TEST_F(SceneReliability, SigtermDuringBakeSceneThenRerunLeavesOneCompleteSet) {
         waitpid(pid, &status, 0);
         const int code = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
         std::printf("bake --scene, SIGTERM at %.1f s: exit status %d\n", at, code);
-        EXPECT_TRUE(code == 143 || code == 0) << code << " " << slurp(path("log.txt"));
+        EXPECT_TRUE(code == 143 || code == 0) << code << " " << slurp_file(path("log.txt"));
         consistent("SIGTERM at " + std::to_string(at) + " s");
     }
     r = cli("bake --scene s.toml" + args);

@@ -23,6 +23,7 @@
 #include "scene/image_io.hpp"
 #include "schedule/distributed.hpp"
 #include "schedule/item_bytes.hpp"
+#include "test_files.hpp"
 
 namespace {
 
@@ -477,10 +478,7 @@ std::string small_scene_description(const std::string& dir) {
     return dir + "/s.toml";
 }
 
-std::string slurp_file(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    return std::string((std::istreambuf_iterator<char>(in)), {});
-}
+using ms::testing::slurp_file;
 
 // Two scene output folders hold the same run: every file byte for byte, but for what records the run
 // (report.json's provenance and times, report.md's line of times, scene.exr's header holding the report):

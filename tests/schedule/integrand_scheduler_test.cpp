@@ -44,7 +44,7 @@ namespace {
 using namespace ms;
 using Clock = std::chrono::steady_clock;
 
-constexpr double kPi = 3.14159265358979323846;
+using ms::kPi;
 constexpr double kFamilyAlpha = 0.001;  // family-wise false-alarm probability of a statistical test
 
 double bonferroni_t(std::size_t comparisons, std::uint32_t replicates) {

@@ -15,16 +15,11 @@
 #include <sstream>
 #include <string>
 
+#include "test_files.hpp"
+
 extern char** environ;
 
 namespace ms::testing {
-
-inline std::string slurp_file(const std::filesystem::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
 
 // The binary under test: MICROSHADOW_CLI_UNDER_TEST when set (another build), else this build's.
 inline std::string microshadow_under_test() {

@@ -29,6 +29,9 @@ inline RunResult run_shell(const std::string& command) {
     return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
 }
 
+// Runs this build's `microshadow ARGS` with stderr joined to stdout.
+inline RunResult cli(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+
 // A fresh, empty directory per test (prefix + pid + test name), removed afterwards.
 class ScratchDirTest : public ::testing::Test {
 protected:

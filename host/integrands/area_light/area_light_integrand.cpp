@@ -18,12 +18,6 @@ static_assert(sizeof(ms_area_query) == 128, "ms_area_query layout must match the
 
 namespace {
 
-double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3 scale(const Vec3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-Vec3 unit(const Vec3& v) { return scale(v, 1.0 / std::hypot(v.x, v.y, v.z)); }
-
 double smith_lambda(const Vec3& w, double ax, double ay) {
     const double a = (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z);
     return a / (2.0 * (1.0 + std::sqrt(1.0 + a)));

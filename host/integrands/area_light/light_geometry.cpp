@@ -8,14 +8,6 @@ namespace ms::area {
 
 namespace {
 
-double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-Vec3 add(const Vec3& a, const Vec3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3 scale(const Vec3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
-Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
-double length(const Vec3& v) { return std::hypot(v.x, v.y, v.z); }
-Vec3 unit(const Vec3& v) { return scale(v, 1.0 / length(v)); }
-
 Vec3 rect_centre(const RectLight& r) { return scale(add(r.corners[0], r.corners[2]), 0.5); }
 
 // Largest z on the minor great-circle arc from unit a to unit b.

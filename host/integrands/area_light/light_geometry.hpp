@@ -4,10 +4,21 @@
 // the light sampler of the host's own estimator (outer light sampling with a given inner term).
 #pragma once
 
+#include <cmath>
+
 #include "core/area_light.hpp"
 #include "core/types.hpp"
 
 namespace ms::area {
+
+// Vector arithmetic in double for the light geometry and the area-light integrand.
+inline double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline Vec3 add(const Vec3& a, const Vec3& b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
+inline Vec3 sub(const Vec3& a, const Vec3& b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
+inline Vec3 scale(const Vec3& a, double s) { return {a.x * s, a.y * s, a.z * s}; }
+inline Vec3 cross(const Vec3& a, const Vec3& b) { return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x}; }
+inline double length(const Vec3& v) { return std::hypot(v.x, v.y, v.z); }
+inline Vec3 unit(const Vec3& v) { return scale(v, 1.0 / length(v)); }
 
 // The unit direction to the light's centre (a rectangle's centre of area).
 Vec3 centre_direction(const Light& light);

@@ -45,8 +45,6 @@ void gauss_legendre(int n, std::vector<double>& nodes, std::vector<double>& weig
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // A rule on [0, 1]: composite Gauss-Legendre on panels graded geometrically towards both ends
 // (edges q^k, k = levels .. 1, mirrored), which resolves end layers down to a width of q^levels.
 struct Rule {

@@ -13,8 +13,6 @@ namespace ms::exact_term {
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 class SliceWorker final : public schedule::Worker {
 public:
     SliceWorker(ExactLutIntegrand& owner, std::unique_ptr<Evaluator> evaluator)

@@ -14,8 +14,6 @@ const std::uint64_t kDefaultBatchSamples = 65536;
 
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 std::string number(double v) {
     char b[32];
     std::snprintf(b, sizeof b, "%g", v);

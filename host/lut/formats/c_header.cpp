@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "lut/formats/binary_writer.hpp"
+#include "io/text.hpp"
 
 namespace ms::lutfmt {
 
@@ -17,11 +18,6 @@ std::string c_identifier_for(const std::string& path) {
 }
 
 namespace {
-
-std::string upper(std::string s) {
-    for (char& c : s) c = char(std::toupper(static_cast<unsigned char>(c)));
-    return s;
-}
 
 // A C string literal of `s` (quotes, backslashes and control bytes escaped; split every 120 bytes so
 // no line is huge).
@@ -80,7 +76,7 @@ const char* c_type(PixelEncoding e) {
 void write_c_header(const std::string& path, const LutFile& lut, PixelEncoding encoding, bool inc_only) {
     check_lut_shape(lut);
     const nlohmann::json meta = format_metadata(lut, encoding, inc_only ? "c-inc" : "c-header", true);
-    const std::string id = c_identifier_for(path), ID = upper(id);
+    const std::string id = c_identifier_for(path), ID = to_upper(id);
     const bool three_d = lut.n_dot_v().count > 1;
     std::ostringstream o;
     o << "/* microshadow LUT (" << meta.value("layout", std::string("?")) << "), written by microshadow " << MICROSHADOW_VERSION

@@ -14,7 +14,7 @@ namespace ms::lutfmt {
 namespace {
 
 constexpr unsigned char kKtx2Identifier[12] = {0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A};
-constexpr std::uint32_t kDdsMagic = 0x20534444u, kFourCcDx10 = 0x30315844u;
+constexpr std::uint32_t kDdsMagicWord = 0x20534444u, kFourCcDx10 = 0x30315844u;
 // A sidecar holds a few KiB of JSON; this bounds what a hostile one can make the reader parse.
 constexpr std::uint64_t kMaxSidecarBytes = std::uint64_t(16) << 20;
 
@@ -194,7 +194,7 @@ nlohmann::json read_dds_metadata(const std::string& path) {
 TextureFile read_dds_texture(const std::string& path, std::uint64_t max_texels) {
     const std::string b = read_whole(path, max_texels);
     const Bytes r{b};
-    if (b.size() < 148 || r.u32(0) != kDdsMagic) throw std::runtime_error("not a DDS file with a DX10 header");
+    if (b.size() < 148 || r.u32(0) != kDdsMagicWord) throw std::runtime_error("not a DDS file with a DX10 header");
     if (r.u32(4) != 124 || r.u32(76) != 32) throw std::runtime_error("DDS_HEADER or DDS_PIXELFORMAT has the wrong size");
     if (!(r.u32(80) & 0x4u) || r.u32(84) != kFourCcDx10) throw std::runtime_error("no DX10 header (the only DDS this tool writes)");
     TextureFile out;

@@ -318,7 +318,8 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
         bake.metadata["roughness_chosen_from"] = a.roughness;
         bake.metadata["roughness_blend_rms"] = worst;
     }
-    const auto rep = repr::build_representation(a.kind, bake);
+    const auto rep = a.preset.empty() ? repr::build_representation(a.kind, bake)
+                                      : repr::build_preset(repr::preset(a.preset, spec.term.ao_weighting), bake, *backend);
     const std::string name = std::filesystem::path(a.out).filename().string();
     file->write(outputs, *rep, a.half);
     if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);

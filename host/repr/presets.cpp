@@ -92,8 +92,13 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         p.name = name;
         p.summary = "anisotropic, roughness 0.05-1 per axis, ratio <= 25, visibility 0.02-1, NdotV 0.02-1: the full-range azimuth "
                     "harmonics (32 v x 16 NdotL x 8 NdotV x 16 roughness) at the surface's isotropic equivalent, 512 KiB, 2 fetches";
-        p.kind = "anisotropic-mapped-harmonics";
+        p.kind = "anisotropic-corrected-harmonics";
         p.domain.max_alpha_ratio = p.max_ratio;
+        // The correction's fit: 1,000,000 exact queries (measured: 500,000 left RMS 0.026 on the
+        // figures' queries, 1,500,000 0.022), 40 conjugate-gradient iterations.
+        p.correction_queries = 1000000;
+        p.correction_iterations = 40;
+        p.correction_seed = 7;
         return p;
     }
     std::string list;

@@ -245,6 +245,7 @@ std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, 
     else if (kind == "azimuth-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
     else if (kind == "anisotropic-harmonics") r = make_anisotropic_harmonics(grid, std::move(t), meta);
     else if (kind == "anisotropic-mapped-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta, true);
+    else if (kind == "anisotropic-corrected-harmonics") r = make_anisotropic_corrected(grid, azimuth_nodes, std::move(t), meta);
     else throw std::runtime_error("unknown representation '" + kind + "'");
     static_cast<const TextureRepresentation&>(*r).check_contents(channels);
     return r;

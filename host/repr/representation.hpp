@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -154,7 +155,7 @@ struct AzimuthBakeSpec {
 class Representation : public approx::Approximation {
 public:
     ~Representation() override = default;
-    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics" | "anisotropic-mapped-harmonics"
+    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics" | "anisotropic-mapped-harmonics" | "anisotropic-corrected-harmonics"
     std::string name() const override = 0;  // kind and layout in words
     approx::Cost cost() const override = 0;
     // The renderer's lookup (the generated shader's arithmetic, in double).
@@ -220,6 +221,35 @@ struct IsotropicEquivalent {
 };
 IsotropicEquivalent isotropic_equivalent(double alpha_x, double alpha_y, double view_azimuth, double light_azimuth, double n_dot_v,
                                          double n_dot_l);
+
+// "anisotropic-corrected-harmonics", the anisotropic preset's kind (harmonics.cpp derives it): the
+// anisotropic-mapped-harmonics lookup plus a correction c . g per texel, c four coefficients in a second
+// block of slabs on the same grid (read at the same texel coordinates), g the anisotropy features below;
+// 4 fetches. On an isotropic surface g = 0 and the lookup is the azimuth-harmonics one.
+// g = (log(alpha_l / alpha_g), log(alpha_v / alpha_g), rho - cos(dphi), log(alpha_rms / alpha_g)):
+// projected roughnesses along L and V, their slopes' correlation, alpha_g = sqrt(alpha_x alpha_y),
+// alpha_rms = sqrt((alpha_x^2 + alpha_y^2) / 2); azimuths in radians from the tangent.
+std::array<double, 4> anisotropy_features(double alpha_x, double alpha_y, double view_azimuth, double light_azimuth);
+// Texels of the correction block of a grid (visibility x NdotL x NdotV x roughness nodes).
+std::size_t anisotropic_correction_texels(const ReprGrid& grid);
+// From a bake of the harmonics and the correction's coefficients (RGBA, x fastest, the same layout as
+// the harmonics' texture; empty: zero, the mapped lookup itself); correction_metadata (how it was
+// fitted) is recorded as "correction".
+std::unique_ptr<Representation> build_anisotropic_corrected(const AzimuthBake& bake, const std::vector<float>& correction,
+                                                            const nlohmann::json& correction_metadata);
+// The lookup of an anisotropic-corrected-harmonics representation at `in`, written as a linear function
+// of its correction: before the final clamp to [0, 1] it is base + sum_k weight[k] dot(c(texel[k]), features),
+// texel numbers within the correction block. active is false where the lookup answers by rule (the zero
+// region, full visibility) and reads no texel. std::invalid_argument for another kind.
+struct CorrectionStencil {
+    bool active = false;
+    double base = 0;
+    std::array<double, 4> features{0, 0, 0, 0};
+    std::size_t texels = 0;  // entries used: 8 per roughness slab read
+    std::array<std::uint32_t, 16> texel{};
+    std::array<double, 16> weight{};
+};
+CorrectionStencil correction_stencil(const Representation& representation, const approx::Inputs& in);
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
 std::vector<std::string> representation_kinds();
 

@@ -53,6 +53,32 @@ std::array<double, 4> Texture3D::sample(double x, double y, double z) const {
     return out;
 }
 
+std::array<std::pair<std::size_t, double>, 8> Texture3D::corners(double x, double y, double z) const {
+    // sample()'s texels and weights, corner by corner in the same order.
+    const double t[3] = {x, y, z};
+    const std::uint32_t n[3] = {width, height, depth};
+    std::uint32_t i0[3], i1[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const double c = std::clamp(t[a], 0.0, double(n[a] - 1));
+        i0[a] = std::uint32_t(std::floor(c));
+        i1[a] = std::min(i0[a] + 1, n[a] - 1);
+        f[a] = c - i0[a];
+    }
+    std::array<std::pair<std::size_t, double>, 8> out;
+    for (int corner = 0; corner < 8; ++corner) {
+        double w = 1;
+        std::uint32_t idx[3];
+        for (int a = 0; a < 3; ++a) {
+            const bool hi = (corner >> a) & 1;
+            w *= hi ? f[a] : 1 - f[a];
+            idx[a] = hi ? i1[a] : i0[a];
+        }
+        out[corner] = {(std::size_t(idx[2]) * height + idx[1]) * width + idx[0], w};
+    }
+    return out;
+}
+
 TextureRepresentation::TextureRepresentation(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                              nlohmann::json metadata)
     : grid_(std::move(grid)), azimuth_nodes_(azimuth_nodes), texture_(std::move(texture)), metadata_(std::move(metadata)) {

@@ -41,6 +41,25 @@
 // (docs/representations.md, "Anisotropic surfaces"): the mapping alone, exact isotropic term at the
 // mapped inputs, misses the anisotropic term by N.L-weighted RMS 0.044 (the isotropic-equivalent
 // roughness with the true azimuth: 0.125).
+//
+// "anisotropic-corrected-harmonics" (the anisotropic preset): the mapped lookup above plus a correction
+// that reads what the mapping loses. Why: the mapping alone misses the anisotropic term by RMS 0.044,
+// growing with the ratio, because a strongly anisotropic surface's slopes follow a nearly 1-D law that no
+// isotropic roughness reproduces; more mapping constants or a second mapped lookup gained 0.001. The
+// correction is linear in four features of the surface and directions that vanish on an isotropic one,
+//   g = (log(alpha_l / alpha_g), log(alpha_v / alpha_g), rho - cos(dphi), log(alpha_rms / alpha_g)),
+// alpha_g = sqrt(alpha_x alpha_y), alpha_rms = sqrt((alpha_x^2 + alpha_y^2) / 2) (the projected
+// roughnesses, their slopes' correlation and the anisotropy's strength, as above), with coefficients
+// c(visibility, NdotL, NdotV, roughness) stored per texel of the same grid in a second block of R slabs:
+//   lookup = clamp(sum_j w_j (series_j + c_j . g), 0, 1),
+// c_j read at slab j's own texel coordinates (the mapped NdotL and NdotV) R slabs further down, so the
+// four fetches share one set of coordinates and one roughness blend. On an isotropic surface g = 0 and
+// the lookup is azimuth-harmonics' exactly, whatever c. The lookup is linear in c, so c is fitted by
+// least squares to the exact term on random anisotropic queries (jobs/repr_bake.cpp). Chosen by
+// measurement (docs/representations.md, "Anisotropic surfaces"): with c multilinear on 8^4 nodes, these features
+// scored RMS 0.024-0.025 where the mapping's own residual features (log(alpha_v / alpha_l) and its
+// square, rho - cos(dphi), log(alpha_rms / alpha_g)) scored 0.032-0.033 and cos 2 psi terms of the azimuths
+// from the rougher axis 0.033.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -223,7 +242,8 @@ public:
             if (edge) o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << width(r[0]) << ");\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
               << ", (tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
-              << (corrected_ ? "    return clamp(dot(FETCH(c0), basis) + dot(FETCH(c0 + VEC3(0.0, 0.0, " + correction_dz + ")), g), 0.0, 1.0);\n}\n"
+              << (corrected_ ? "    VEC3 d0 = c0 + VEC3(0.0, 0.0, " + correction_dz + ");  // the correction slab\n"
+                               "    return clamp(dot(FETCH(c0), basis) + dot(FETCH(d0), g), 0.0, 1.0);\n}\n"
                              : "    return clamp(dot(FETCH(c0), basis), 0.0, 1.0);\n}\n");
         } else {
             // Nodes in geometric progression (r_k = r_0 q^k, as the full-range preset's): the slab from a
@@ -268,8 +288,9 @@ public:
             else
                 o << "    VEC3 c1 = c0 + VEC3(0.0, 0.0, " << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";
             if (corrected_)
-                o << "    VEC3 dz = VEC3(0.0, 0.0, " << correction_dz << ");\n"
-                  << "    return clamp(MIX(dot(FETCH(c0), basis) + dot(FETCH(c0 + dz), g), dot(FETCH(c1), basis) + dot(FETCH(c1 + dz), g), f), 0.0, 1.0);\n}\n";
+                o << "    // The correction slabs of j and j + 1.\n"
+                  << "    VEC3 d0 = c0 + VEC3(0.0, 0.0, " << correction_dz << "), d1 = c1 + VEC3(0.0, 0.0, " << correction_dz << ");\n"
+                  << "    return clamp(MIX(dot(FETCH(c0), basis) + dot(FETCH(d0), g), dot(FETCH(c1), basis) + dot(FETCH(d1), g), f), 0.0, 1.0);\n}\n";
             else
                 o << "    return clamp(MIX(dot(FETCH(c0), basis), dot(FETCH(c1), basis), f), 0.0, 1.0);\n}\n";
         }
@@ -416,7 +437,9 @@ std::unique_ptr<Representation> build_anisotropic_corrected(const AzimuthBake& b
     t.depth *= 2;
     nlohmann::json meta = harmonics_metadata(bake, residual);
     meta["correction"] = correction_metadata;
-    meta["correction_bound"] = bound;
+    // The bound a file's texels are checked against: the largest |c|, widened by half a half-float step
+    // (relative 2^-11) and more, so the RGBA16F rounding of the largest coefficient stays inside.
+    meta["correction_bound"] = bound * (1 + 1.0 / 1024);
     return make_anisotropic_corrected(bake.grid, bake.azimuth_nodes, std::move(t), std::move(meta));
 }
 

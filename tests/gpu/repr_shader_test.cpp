@@ -196,14 +196,22 @@ std::string anisotropic_hlsl_wrapper(const std::string& generated) {
 // slab, node weight, rho or azimuth errs by the coefficients' spread, ~0.5. The anisotropic preset's kind
 // (anisotropic-mapped-harmonics, a synthetic azimuth bake on the same grid) is held to the same bound: its
 // float mapping moves NdotL, NdotV and the roughness by a few ulps (relative 1e-6 after log and exp),
-// which the same widths turn into at most the same 1e-4.
+// which the same widths turn into at most the same 1e-4. The preset's own kind
+// (anisotropic-corrected-harmonics: the mapped lookup plus a correction with random coefficients in
+// [-1, 1]) too: its features g (|g_i| < 2 up to ratio 30) weigh its coefficients as the series' basis
+// (|T_m| <= 1, coefficients up to 1) weighs the harmonics', and their float rounding (1e-7 relative
+// after log) adds ~1e-6. Measured on lavapipe: worst 1.8e-6 (anisotropic-harmonics), 5e-7 (mapped),
+// 4.5e-6 (corrected).
 TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
     if (!have_glslang()) GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";
     const std::string dir = ::testing::TempDir() + "repr_shader_aniso";
     std::filesystem::create_directories(dir);
-    for (const bool mapped : {false, true})
+    // 0: anisotropic-harmonics, 1: anisotropic-mapped-harmonics, 2: anisotropic-corrected-harmonics.
+    for (const int kind : {0, 1, 2})
     for (const auto weighting : {ms::AoWeighting::cosine, ms::AoWeighting::uniform}) {
-        const std::string name = std::string(mapped ? "aniso_mapped_" : "aniso_") + (weighting == ms::AoWeighting::cosine ? "cosine" : "uniform");
+        const bool mapped = kind == 1;
+        const std::string name = std::string(kind == 2 ? "aniso_corrected_" : mapped ? "aniso_mapped_" : "aniso_") +
+                                 (weighting == ms::AoWeighting::cosine ? "cosine" : "uniform");
         SCOPED_TRACE(name);
         repr::ReprGrid g;
         g.visibility = 4, g.n_dot_l = 5, g.n_dot_v = 3, g.roughness = {0.1, 0.2, 0.4, 0.8};
@@ -215,8 +223,11 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
         std::uniform_real_distribution<double> u(0, 1);
         std::vector<float> rgba(g.visibility * R * g.n_dot_l * g.n_dot_v * R * 4);
         for (auto& x : rgba) x = float(2 * u(rng) - 1);
-        const auto rep = mapped ? repr::build_representation("anisotropic-mapped-harmonics", synthetic_bake(g, 7, 29))
-                                : repr::build_anisotropic_harmonics(g, rgba);
+        std::vector<float> correction(kind == 2 ? repr::anisotropic_correction_texels(g) * 4 : 0);
+        for (auto& x : correction) x = float(2 * u(rng) - 1);
+        const auto rep = kind == 2 ? repr::build_anisotropic_corrected(synthetic_bake(g, 7, 29), correction, nlohmann::json::object())
+                         : mapped  ? repr::build_representation("anisotropic-mapped-harmonics", synthetic_bake(g, 7, 29))
+                                   : repr::build_anisotropic_harmonics(g, rgba);
         const auto glsl = compile(anisotropic_glsl_wrapper(rep->shader(repr::ShaderLanguage::glsl, name)), dir + "/" + name + ".comp", "");
         const auto hlsl = compile(anisotropic_hlsl_wrapper(rep->shader(repr::ShaderLanguage::hlsl, name)), dir + "/" + name + ".hlsl",
                                   "-D -e main -S comp");

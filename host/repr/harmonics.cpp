@@ -112,7 +112,7 @@ class AzimuthHarmonics final : public TextureRepresentation {
 public:
     AzimuthHarmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture, nlohmann::json metadata, HarmonicsLookup lookup)
         : TextureRepresentation(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata)),
-          lookup_(lookup), mapped_(lookup != HarmonicsLookup::isotropic), corrected_(lookup == HarmonicsLookup::corrected) {
+          mapped_(lookup != HarmonicsLookup::isotropic), corrected_(lookup == HarmonicsLookup::corrected) {
         correction_bound_ = metadata_.value("correction_bound", 0.0);
     }
     std::string kind() const override {
@@ -335,7 +335,6 @@ private:
         return o.str();
     }
 
-    HarmonicsLookup lookup_;
     bool mapped_, corrected_;
     double correction_bound_ = 0;
 };

@@ -144,7 +144,6 @@ public:
     // over the correction texels it reads (what the correction's fit solves for).
     double evaluate(const approx::Inputs& in, CorrectionStencil* stencil) const {
         if (stencil) *stencil = CorrectionStencil{};
-
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
         // Full visibility: the cone is the whole hemisphere and the term is exactly 1 above the horizon.
         // Just below v = 1 a light under the cone's edge sqrt(1 - v) is still shadowed, so no texel

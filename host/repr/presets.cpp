@@ -79,6 +79,14 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // The first visibility texel at the domain's 0.02 (its first cell centre was 0.031: the search
         // found 0.13 at v = 0.02, clamped to it).
         p.grid.visibility_start = 0.02;
+        // Up to v = 1 (docs/representations.md, "The top of the visibility axis"): each slab's visibility
+        // axis follows the cone edge's elevation, spending 0.4 / 1.4 of its texels logarithmically down to
+        // the scale s = 0.5 min(alpha, NdotV / 4) where the term rises to 1 as the edge reaches the horizon,
+        // its last texel at v = 1; and the NdotL width is at most NdotV + c, the scale of the shadow a
+        // grazing view meets there. Measured (searched max 0.84 -> 0.07 above v = 0.998).
+        p.grid.warps.visibility = VisibilityWarp::edge_roughness;
+        p.grid.visibility_edge_share = 0.4, p.grid.visibility_edge_width = 0.5, p.grid.visibility_edge_view = 0.25;
+        p.grid.n_dot_l_edge_view = 1;
         p.domain.roughness_min = 0.05, p.domain.roughness_max = 1;
         p.domain.visibility_min = 0.02, p.domain.visibility_max = 1;
         p.domain.n_dot_v_min = 0.02, p.domain.n_dot_v_max = 1;

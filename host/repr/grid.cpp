@@ -98,10 +98,10 @@ struct EdgeWarp {
 };
 
 // The edge-roughness visibility warp of one roughness node at one NdotV (representation.hpp derives
-// it): the cone edge's elevation above the horizon e = asin(c) 2 / pi through
-// H(e) = e + beta asinh(e / s) / asinh(1 / s), s = b min(alpha, kappa NdotV), increasing from H(0) = 0 at
-// v = 1 to H(1) = 1 + beta at v = 0. Texel t of n sits where H = H(e0) (1 - t / (n - 1)), e0 the first
-// texel's elevation (the visibility start's, else 1): the last texel at v = 1.
+// it): of the cone's cosine c, H(c) = 1 - sqrt(1 - c) + beta asinh(c / s) / asinh(1 / s),
+// s = b min(alpha, kappa NdotV), increasing from H(0) = 0 at v = 1 to H(1) = 1 + beta at v = 0. Texel t
+// of n sits where H = H(c0) (1 - t / (n - 1)), c0 the first texel's cosine (the visibility start's, else
+// 1): the last texel at v = 1.
 struct VisibilityEdgeWarp {
     AoWeighting weighting;
     double s, a1, beta, h0;
@@ -109,11 +109,11 @@ struct VisibilityEdgeWarp {
         : weighting(g.weighting),
           s(g.visibility_edge_width * std::min(g.roughness.at(ir) * g.roughness.at(ir),
                                                 g.visibility_edge_view > 0 ? g.visibility_edge_view * std::max(nv, kViewFloor) : 1.0)),
-          a1(std::asinh(1 / s)), beta(g.visibility_edge_share), h0(h(g.edge_elevation(g.visibility_start))) {}
-    double h(double e) const { return e + beta * std::asinh(e / s) / a1; }
-    // The continuous texel coordinate of an elevation on an n-texel axis (unclamped).
-    double texel(double e, std::uint32_t n) const { return (1 - h(e) / h0) * (n - 1.0); }
-    // The visibility of texel t: H is increasing, so bisection on e (64 halvings reach double precision).
+          a1(std::asinh(1 / s)), beta(g.visibility_edge_share), h0(h(g.edge_cos(g.visibility_start))) {}
+    double h(double c) const { return 1 - std::sqrt(std::max(1 - c, 0.0)) + beta * std::asinh(c / s) / a1; }
+    // The continuous texel coordinate of a cone cosine on an n-texel axis (unclamped).
+    double texel(double c, std::uint32_t n) const { return (1 - h(c) / h0) * (n - 1.0); }
+    // The visibility of texel t: H is increasing, so bisection on c (64 halvings reach double precision).
     double visibility_at(double t, std::uint32_t n) const {
         const double target = n > 1 ? h0 * (1 - t / (n - 1.0)) : h0;
         double lo = 0, hi = 1;
@@ -121,7 +121,7 @@ struct VisibilityEdgeWarp {
             const double mid = 0.5 * (lo + hi);
             (h(mid) < target ? lo : hi) = mid;
         }
-        const double c = std::sin(0.5 * (lo + hi) * M_PI_2);
+        const double c = 0.5 * (lo + hi);
         return weighting == AoWeighting::cosine ? 1 - c * c : 1 - c;
     }
 };
@@ -144,7 +144,7 @@ double ReprGrid::visibility_at(std::uint32_t iv, std::uint32_t ir, double nv) co
 double ReprGrid::visibility_texel_of(double v, std::uint32_t ir, double nv) const {
     const double last = visibility - 1.0;
     if (warps.visibility == VisibilityWarp::edge_roughness) {
-        return std::clamp(VisibilityEdgeWarp(*this, ir, nv).texel(edge_elevation(v), visibility), 0.0, last);
+        return std::clamp(VisibilityEdgeWarp(*this, ir, nv).texel(edge_cos(v), visibility), 0.0, last);
     }
     const double u = visibility_u(v);
     if (visibility_start > 0 && visibility > 1) {
@@ -154,9 +154,7 @@ double ReprGrid::visibility_texel_of(double v, std::uint32_t ir, double nv) cons
     return std::clamp(u * visibility - 0.5, 0.0, last);
 }
 
-double ReprGrid::edge_elevation(double v) const {
-    return std::asin(std::min(cone_cos(std::clamp(v, 0.0, 1.0), weighting), 1.0)) * M_2_PI;
-}
+double ReprGrid::edge_cos(double v) const { return cone_cos(std::clamp(v, 0.0, 1.0), weighting); }
 
 double ReprGrid::visibility_u(double v) const {
     if (warps.visibility == VisibilityWarp::edge_roughness) throw std::logic_error("visibility_u: the edge-roughness warp is per roughness node");

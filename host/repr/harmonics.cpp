@@ -179,7 +179,7 @@ public:
         auto width = [&](double x) { return capped(L(grid_.edge_width * x * x) + " * max(s_e, " + L(x * x) + ")"); };
         // The edge-roughness visibility texel of a slab of squared roughness `alpha` (an expression).
         auto visibility_texel = [&](const std::string& alpha) {
-            return "ms_edge_visibility_texel(e_v, " + L(grid_.visibility_edge_width) + " * min(" + alpha + ", s_view))";
+            return "ms_edge_visibility_texel(e_v, c_e, " + L(grid_.visibility_edge_width) + " * min(" + alpha + ", s_view))";
         };
         if (r.size() == 1) {
             if (edge) o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << width(r[0]) << ");\n";

@@ -80,7 +80,7 @@ Preset preset(const std::string& name, AoWeighting weighting) {
         // found 0.13 at v = 0.02, clamped to it).
         p.grid.visibility_start = 0.02;
         // Up to v = 1 (docs/representations.md, "The top of the visibility axis"): each slab's visibility
-        // axis follows the cone edge's elevation, spending 0.4 / 1.4 of its texels logarithmically down to
+        // axis follows the cone's angle (1 - sqrt(1 - c) near v = 0), spending 0.4 / 1.4 of its texels logarithmically in c down to
         // the scale s = 0.5 min(alpha, NdotV / 4) where the term rises to 1 as the edge reaches the horizon,
         // its last texel at v = 1; and the NdotL width is at most NdotV + c, the scale of the shadow a
         // grazing view meets there. Measured (searched max 0.84 -> 0.07 above v = 0.998).

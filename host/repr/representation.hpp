@@ -126,9 +126,9 @@ struct ReprGrid {
     // The continuous texel coordinate of a warped NdotL or NdotV coordinate u on an n-texel axis,
     // clamped to [0, n - 1] (the placement's inverse: u n - 0.5 at centres, u (n - 1) at the ends).
     double texel_of(double u, std::uint32_t n) const;
-    // The cone edge's elevation above the horizon, asin(c(v)) 2 / pi: 1 at v = 0, 0 at v = 1 (the
-    // edge-roughness visibility warp's coordinate; c(v) the cone's cosine).
-    double edge_elevation(double visibility) const;
+    // The visibility cone's cosine c(v) (cosine AO: sqrt(1 - v), uniform: 1 - v), where a smooth
+    // surface's shadow edge lies (NdotL = c).
+    double edge_cos(double visibility) const;
     // The continuous visibility texel coordinate of a visibility, clamped to [0, n - 1].
     double visibility_texel_of(double visibility, std::uint32_t ir = 0, double n_dot_v = 1) const;
 };

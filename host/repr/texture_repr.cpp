@@ -212,8 +212,8 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
       << "// Axes (texel centres at (i + 0.5) / n of the warped coordinate): visibility "
       << (grid_.warps.visibility == VisibilityWarp::sqrt_top ? std::string("u = 1 - sqrt(1 - v)")
           : grid_.warps.visibility == VisibilityWarp::edge_roughness
-              ? "per roughness slab, the cone edge's elevation e = asin(c(v)) 2 / pi through H(e) = e + " +
-                    shader_literal(grid_.visibility_edge_share) + " asinh(e / s) / asinh(1 / s), s = " +
+              ? "per roughness slab, of the cone's cosine c(v), H = 1 - sqrt(1 - c) + " +
+                    shader_literal(grid_.visibility_edge_share) + " asinh(c / s) / asinh(1 / s), s = " +
                     shader_literal(grid_.visibility_edge_width) + " min(alpha, " + shader_literal(grid_.visibility_edge_view) +
                     " NdotV), texels evenly in H down to v = 1"
               : std::string("linear"))
@@ -249,14 +249,14 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
     }
     if (grid_.warps.visibility == VisibilityWarp::edge_roughness) {
         const auto L = shader_literal;
-        const double b = grid_.visibility_edge_share, e0 = grid_.edge_elevation(grid_.visibility_start), last = grid_.visibility - 1.0;
-        o << "// The visibility texel of one roughness slab: the cone edge's elevation e through\n"
-          << "// H(e) = e + " << L(b) << " asinh(e / s) / asinh(1 / s), texels evenly in H from the first (e0 = " << L(e0)
+        const double b = grid_.visibility_edge_share, c0 = grid_.edge_cos(grid_.visibility_start), last = grid_.visibility - 1.0;
+        o << "// The visibility texel of one roughness slab: of the cone's cosine c (e = 1 - sqrt(1 - c)),\n"
+          << "// H(c) = e + " << L(b) << " asinh(c / s) / asinh(1 / s), texels evenly in H from the first (c0 = " << L(c0)
           << ") down to H = 0 (v = 1); clamped to [0, n - 1].\n"
-          << "float ms_edge_visibility_texel(float e, float s)\n{\n"
+          << "float ms_edge_visibility_texel(float e, float c, float s)\n{\n"
           << "    float a1 = ms_asinh(1.0 / s);\n"
-          << "    float h = e + " << L(b) << " * ms_asinh(e / s) / a1;\n"
-          << "    float h0 = " << L(e0) << " + " << L(b) << " * ms_asinh(" << L(e0) << " / s) / a1;\n"
+          << "    float h = e + " << L(b) << " * ms_asinh(c / s) / a1;\n"
+          << "    float h0 = " << L(1 - std::sqrt(1 - c0)) << " + " << L(b) << " * ms_asinh(" << L(c0) << " / s) / a1;\n"
           << "    return clamp((1.0 - h / h0) * " << L(last) << ", 0.0, " << L(last) << ");\n}\n\n";
     }
     return o.str();
@@ -304,8 +304,8 @@ std::string TextureRepresentation::shader_coordinates() const {
             o << "    // The NdotL widths' cap: a grazing view meeting a cone edge near the horizon shadows on this scale.\n"
               << "    float w_cap = " << L(grid_.n_dot_l_edge_view) << " * (max(n_dot_v, " << L(kViewFloor) << ") + c_e);\n";
         if (edge_visibility)
-            o << "    // The cone edge's elevation above the horizon (0 at v = 1, 1 at v = 0) and the visibility scales' view bound.\n"
-              << "    float e_v = asin(min(c_e, 1.0)) * " << L(M_2_PI) << ";\n"
+            o << "    // The visibility warp's linear part, 1 - sqrt(1 - c) (~ the cone's angle near v = 0), and its scales' view bound.\n"
+              << "    float e_v = 1.0 - sqrt(max(1.0 - c_e, 0.0));\n"
               << "    float s_view = "
               << (grid_.visibility_edge_view > 0 ? L(grid_.visibility_edge_view) + " * max(n_dot_v, " + L(kViewFloor) + ")" : std::string("1.0"))
               << ";\n";

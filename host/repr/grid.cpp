@@ -113,15 +113,23 @@ struct VisibilityEdgeWarp {
     double h(double c) const { return 1 - std::sqrt(std::max(1 - c, 0.0)) + beta * std::asinh(c / s) / a1; }
     // The continuous texel coordinate of a cone cosine on an n-texel axis (unclamped).
     double texel(double c, std::uint32_t n) const { return (1 - h(c) / h0) * (n - 1.0); }
-    // The visibility of texel t: H is increasing, so bisection on c (64 halvings reach double precision).
+    // dH/dc, positive on [0, 1).
+    double slope(double c) const { return 0.5 / std::sqrt(std::max(1 - c, 1e-300)) + beta / (a1 * std::hypot(s, c)); }
+    // The visibility of texel t: H is increasing, so Newton's method on c kept inside a bracket that
+    // every step narrows (a step leaving it bisects instead); a few steps reach double precision, which
+    // matters as the bake asks for every texel's visibility several times.
     double visibility_at(double t, std::uint32_t n) const {
         const double target = n > 1 ? h0 * (1 - t / (n - 1.0)) : h0;
-        double lo = 0, hi = 1;
-        for (int i = 0; i < 64; ++i) {
-            const double mid = 0.5 * (lo + hi);
-            (h(mid) < target ? lo : hi) = mid;
+        double lo = 0, hi = 1, c = 0.5;
+        for (int i = 0; i < 100 && hi - lo > 1e-15; ++i) {
+            const double f = h(c) - target;
+            if (f == 0) break;
+            (f < 0 ? lo : hi) = c;
+            const double next = c - f / slope(c);
+            c = next > lo && next < hi ? next : 0.5 * (lo + hi);
+            if (std::abs(f) < 1e-15 * h0) break;
         }
-        const double c = 0.5 * (lo + hi);
+        if (t >= n - 1.0) c = 0;  // the last texel: v = 1 exactly
         return weighting == AoWeighting::cosine ? 1 - c * c : 1 - c;
     }
 };

@@ -48,6 +48,13 @@ enum class ShaderLanguage { glsl, hlsl };
 //          resolved where a linear axis would jump from 0 to 1 in one texel.
 //   visibility: linear u = v, or sqrt_top u = 1 - sqrt(1 - v): texels dense near v = 1, where the term
 //          rises to exactly 1 and is smooth in sqrt(1 - v) (the cosine AO cone's cos theta), not in v.
+//          Or edge_roughness (harmonics with the edge-roughness NdotL warp only): per roughness slab r and
+//          the query's NdotV, texels evenly in H(c) = 1 - sqrt(1 - c) + beta asinh(c / s) / asinh(1 / s)
+//          of the cone's cosine c, s = b min(alpha, kappa NdotV), from visibility_start (else v = 0) down
+//          to v = 1 (H = 0). As the cone's edge nears the horizon (c of a few s) the shadow below it goes
+//          and the term rises to 1: over c ~ alpha for a smooth surface, ~ NdotV / 4 for a grazing view on
+//          the far side; the asinh spends beta / (1 + beta) of the texels there, logarithmically, and
+//          1 - sqrt(1 - c) is uniform in the cone's angle near v = 0, where the narrow cone changes fast.
 enum class NdotVWarp { linear, sqrt };
 enum class NdotLWarp { linear, shadow_edge, sqrt_top, edge_roughness };
 enum class VisibilityWarp { linear, sqrt_top, edge_roughness };

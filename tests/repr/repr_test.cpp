@@ -449,7 +449,7 @@ TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRef
 // form's max is found), over the preset's domain (any azimuth), in three visibility bands up to v = 1 so
 // that the top, where the cone's edge reaches the horizon within a few edge widths, gets its own starts.
 // The bound is the preset's target, max |error| <= 0.1 (docs/representations.md, "Presets"); measured
-// 0.053, 0.070 and 0.046 (the layout before the edge-roughness visibility warp: 0.071, 0.30, 0.99).
+// 0.053, 0.070 and 0.049 (with the sqrt-top visibility axis and the uncapped NdotL width: 0.071, 0.30, 0.99).
 TEST(ReprPresetMax, FullRangeMeetsItsMaxTargetUpToVisibilityOne) {
     const auto rep = repr::baked_preset("full-range");
     const auto lookup = [&](double v, double l, double nv, double r, double phi) {

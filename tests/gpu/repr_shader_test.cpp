@@ -222,6 +222,9 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
         g.warps = {repr::NdotVWarp::sqrt, repr::NdotLWarp::edge_roughness, repr::VisibilityWarp::sqrt_top};
         g.edge_width = 1.0;
         g.weighting = weighting;
+        // The mapped kind reads the full-range preset's texture: its edge-roughness visibility warp and
+        // the NdotL width's view cap, at the mapped NdotV (anisotropic-harmonics has neither).
+        if (mapped) g.warps.visibility = repr::VisibilityWarp::edge_roughness, g.n_dot_l_edge_view = 1, g.visibility_start = 0.02;
         const std::size_t R = g.roughness.size();
         std::mt19937 rng(23);
         std::uniform_real_distribution<double> u(0, 1);

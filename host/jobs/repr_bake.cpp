@@ -30,6 +30,13 @@ void validate(const AzimuthBakeSpec& s) {
     if (!(g.visibility_start >= 0 && g.visibility_start < 0.5))
         throw std::invalid_argument("representation grid: visibility_start must be in [0, 0.5)");
     if (!(g.n_dot_v_start >= 0 && g.n_dot_v_start < 1)) throw std::invalid_argument("representation grid: n_dot_v_start must be in [0, 1)");
+    if (g.warps.visibility == VisibilityWarp::edge_roughness &&
+        (g.warps.n_dot_l != NdotLWarp::edge_roughness || !(g.visibility_edge_width > 0 && g.visibility_edge_width <= 100) ||
+         !(g.visibility_edge_share >= 0 && g.visibility_edge_share <= 100) || !(g.visibility_edge_view >= 0 && g.visibility_edge_view <= 100)))
+        throw std::invalid_argument("representation grid: the edge-roughness visibility warp needs the edge-roughness NdotL warp, a width "
+                                    "factor in (0, 100], a share and a view factor in [0, 100]");
+    if (!(g.n_dot_l_edge_view >= 0 && g.n_dot_l_edge_view <= 100))
+        throw std::invalid_argument("representation grid: the NdotL edge view factor must be in [0, 100]");
     if (s.term.ao_weighting != g.weighting) throw std::invalid_argument("representation bake: term and grid AO weightings differ");
     const std::uint64_t queries = std::uint64_t(g.visibility) * g.n_dot_l * g.n_dot_v * g.roughness.size() * s.azimuth_nodes;
     if (queries > (std::uint64_t(1) << 24)) throw std::invalid_argument("representation bake: more than 2^24 texels x nodes");
@@ -145,6 +152,8 @@ void validate_anisotropic(const AnisotropicBakeSpec& s) {
     for (auto n : {g.visibility, g.n_dot_l, g.n_dot_v})
         if (n < 2 || n > 256) throw std::invalid_argument("anisotropic grid: every axis needs 2 to 256 texels");
     if (g.roughness.size() < 2 || g.roughness.size() > 32) throw std::invalid_argument("anisotropic grid: 2 to 32 roughness nodes");
+    if (g.warps.visibility == VisibilityWarp::edge_roughness || g.n_dot_l_edge_view > 0)
+        throw std::invalid_argument("anisotropic grid: not with the edge-roughness visibility warp or an NdotL edge view factor");
     for (std::size_t i = 0; i < g.roughness.size(); ++i)
         if (!(g.roughness[i] > 0 && g.roughness[i] <= 1) || (i && !(g.roughness[i] > g.roughness[i - 1])))
             throw std::invalid_argument("anisotropic grid: roughness nodes must increase within (0, 1]");
@@ -179,10 +188,10 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
                     for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
                         // The texel's query as eval takes it: V in the xz plane, L at azimuth phi from it
                         // (node k of this texel: the far-side warp places them by its NdotV and NdotL).
-                        const double nl = g.n_dot_l_at(iv, il, r), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
+                        const double nl = g.n_dot_l_at(iv, il, r, nv), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
                         const double phi = g.azimuth_node(k, spec.azimuth_nodes, nv, nl);
                         Query& q = queries[bake.index(r, k, iv, il, ivv)];
-                        q.visibility = g.visibility_at(iv);
+                        q.visibility = g.visibility_at(iv, r, nv);
                         q.alpha_x = q.alpha_y = g.roughness[r] * g.roughness[r];
                         q.wi = {std::sqrt(std::max(0.0, 1 - nv * nv)), 0, nv};
                         q.wo = {sl * std::cos(phi), sl * std::sin(phi), nl};

@@ -161,14 +161,14 @@ public:
         }
         const std::size_t slab_texels = std::size_t(texture_.width) * texture_.height * grid_.n_dot_v;
         const double correction_z = double(grid_.roughness.size()) * grid_.n_dot_v;
-        const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(n_dot_v);
+        const double tz = n_dot_v_texel(n_dot_v);
         const double c = grid_.azimuth_coordinate(cos_phi, n_dot_v, n_dot_l);
         const double basis[kHarmonics] = {1, c, 2 * c * c - 1, (4 * c * c - 3) * c};
-        // The NdotL texel of a slab: its own under the edge-roughness warp, else one for all.
+        // The NdotL and visibility texels of a slab: its own under the edge-roughness warps, else one for all.
         // The corrected kind adds, per slab, the correction slab's coefficients dot g (at the same texel
         // coordinates, R slabs further down the texture); `weight` is the slab's share of the blend.
         auto series = [&](std::uint32_t slab, double weight) {
-            const double tl = n_dot_l_texel(in.visibility, n_dot_l, slab);
+            const double tl = n_dot_l_texel(in.visibility, n_dot_l, slab, n_dot_v), tv = visibility_texel(in.visibility, slab, n_dot_v);
             const auto a = texture_.sample(tv, tl, double(slab) * grid_.n_dot_v + tz);
             double s = 0;
             for (int m = 0; m < kHarmonics; ++m) s += a[m] * basis[m];
@@ -235,10 +235,17 @@ public:
           << "    // cos(2 phi) and cos(3 phi) from cos(phi) (Chebyshev polynomials): no trigonometry.\n"
           << "    VEC4 basis = VEC4(1.0, c, 2.0 * c * c - 1.0, (4.0 * c * c - 3.0) * c);\n";
         const bool edge = grid_.warps.n_dot_l == NdotLWarp::edge_roughness;
-        // The edge warp's width of a node: k alpha max(s_e, alpha), alpha = r^2.
-        auto width = [&](double x) { return L(grid_.edge_width * x * x) + " * max(s_e, " + L(x * x) + ")"; };
+        const bool edge_visibility = grid_.warps.visibility == VisibilityWarp::edge_roughness;
+        // The edge warp's width from k alpha max(s_e, alpha) (alpha = r^2), capped by w_cap under the view factor.
+        auto capped = [&](const std::string& w) { return grid_.n_dot_l_edge_view > 0 ? "min(" + w + ", w_cap)" : w; };
+        auto width = [&](double x) { return capped(L(grid_.edge_width * x * x) + " * max(s_e, " + L(x * x) + ")"); };
+        // The edge-roughness visibility texel of a slab of squared roughness `alpha` (an expression).
+        auto visibility_texel = [&](const std::string& alpha) {
+            return "ms_edge_visibility_texel(e_v, c_e, " + L(grid_.visibility_edge_width) + " * min(" + alpha + ", s_view))";
+        };
         if (r.size() == 1) {
             if (edge) o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << width(r[0]) << ");\n";
+            if (edge_visibility) o << "    float tv = " << visibility_texel(L(r[0] * r[0])) << ";\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
               << ", (tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
               << (corrected_ ? "    VEC3 d0 = c0 + VEC3(0.0, 0.0, " + correction_dz + ");  // the correction slab\n"
@@ -277,12 +284,15 @@ public:
                 o << "; }\n";
             }
             if (edge)
-                o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, ka0 * max(s_e, al0));\n"
-                  << "    float tl1 = ms_edge_texel(n_dot_l, c_e, l0, ka1 * max(s_e, al1));\n";
+                o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << capped("ka0 * max(s_e, al0)") << ");\n"
+                  << "    float tl1 = ms_edge_texel(n_dot_l, c_e, l0, " << capped("ka1 * max(s_e, al1)") << ");\n";
+            // Under the edge-roughness visibility warp each slab has its own visibility axis too.
+            if (edge_visibility)
+                o << "    float tv = " << visibility_texel("al0") << ";\n    float tv1 = " << visibility_texel("al1") << ";\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
               << ", (j * " << L(grid_.n_dot_v) << " + tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n";
             if (edge)
-                o << "    VEC3 c1 = VEC3(c0.x, (tl1 + 0.5) * " << L(1.0 / texture_.height) << ", c0.z + "
+                o << "    VEC3 c1 = VEC3(" << (edge_visibility ? "(tv1 + 0.5) * " + L(1.0 / texture_.width) : std::string("c0.x")) << ", (tl1 + 0.5) * " << L(1.0 / texture_.height) << ", c0.z + "
                   << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";
             else
                 o << "    VEC3 c1 = c0 + VEC3(0.0, 0.0, " << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";

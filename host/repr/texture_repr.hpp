@@ -63,8 +63,8 @@ protected:
     // True where the term is 0 by rule: NdotL <= 0 or in the zero region of the grid's AO weighting.
     bool zero_region(double visibility, double n_dot_l) const;
     // Clamped texel coordinates of (visibility, NdotL, NdotV) within one block of the texture.
-    double visibility_texel(double visibility) const;
-    double n_dot_l_texel(double visibility, double n_dot_l, std::uint32_t roughness_node = 0) const;
+    double visibility_texel(double visibility, std::uint32_t roughness_node = 0, double n_dot_v = 1) const;
+    double n_dot_l_texel(double visibility, double n_dot_l, std::uint32_t roughness_node = 0, double n_dot_v = 1) const;
     double n_dot_v_texel(double n_dot_v) const;
     // Shader text shared by both kinds: header comment lines, the zero region, the three coordinates
     // (statements that set tv, tl, tz), written in GLSL with VEC3/VEC4/MIX/FETCH placeholders.

@@ -109,6 +109,16 @@ std::vector<Case> cases() {
     repr::ReprGrid edge_one = edge;
     edge_one.roughness = {0.3};
     edge_one.weighting = ms::AoWeighting::uniform;
+    // The edge-roughness visibility warp (each slab its own visibility coordinate, from the start or
+    // from v = 0) with the NdotL width's view cap: nodes found by comparison, and one uniform-AO node.
+    repr::ReprGrid edge_visibility = edge;
+    edge_visibility.warps.visibility = repr::VisibilityWarp::edge_roughness;
+    edge_visibility.n_dot_l_edge_view = 1;
+    edge_visibility.visibility_start = 0.02;
+    repr::ReprGrid edge_visibility_one = edge_one;
+    edge_visibility_one.warps.visibility = repr::VisibilityWarp::edge_roughness;
+    edge_visibility_one.n_dot_l_edge_view = 0.5;
+    edge_visibility_one.visibility_edge_view = 0;
     return {{"harm_edge", "azimuth-harmonics", edge, 7}, {"harm_edge_one", "azimuth-harmonics", edge_one, 7},
             {"harm_edge_geometric", "azimuth-harmonics", edge_geometric, 7}, {"harm_top_geometric", "azimuth-harmonics",
             [&] { repr::ReprGrid g = top; g.roughness = {0.1, 0.3, 0.9}; return g; }(), 7},
@@ -116,9 +126,11 @@ std::vector<Case> cases() {
             {"axis_uniform", "azimuth-axis", uniform, 3},     {"harm_linear", "azimuth-harmonics", linear, 9},
             {"harm_warped", "azimuth-harmonics", warped, 7},  {"axis_top", "azimuth-axis", top, 6},
             {"harm_top", "azimuth-harmonics", top, 7},  {"harm_uniform", "azimuth-harmonics", uniform, 8},
-            // The full-range preset's grid: NdotL and NdotV texels from end to end, the visibility start and
-            // the far-side azimuth warp.
-            {"harm_full_range", "azimuth-harmonics", repr::preset("full-range").grid, 9}};
+            // The full-range preset's grid: NdotL and NdotV texels from end to end, the visibility start,
+            // the far-side azimuth warp, the edge-roughness visibility warp and the NdotL width's view cap.
+            {"harm_full_range", "azimuth-harmonics", repr::preset("full-range").grid, 9},
+            {"harm_edge_visibility", "azimuth-harmonics", edge_visibility, 7},
+            {"harm_edge_visibility_one", "azimuth-harmonics", edge_visibility_one, 7}};
 }
 
 TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
@@ -218,6 +230,9 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
         g.warps = {repr::NdotVWarp::sqrt, repr::NdotLWarp::edge_roughness, repr::VisibilityWarp::sqrt_top};
         g.edge_width = 1.0;
         g.weighting = weighting;
+        // The mapped kind reads the full-range preset's texture: its edge-roughness visibility warp and
+        // the NdotL width's view cap, at the mapped NdotV (anisotropic-harmonics has neither).
+        if (mapped) g.warps.visibility = repr::VisibilityWarp::edge_roughness, g.n_dot_l_edge_view = 1, g.visibility_start = 0.02;
         const std::size_t R = g.roughness.size();
         std::mt19937 rng(23);
         std::uniform_real_distribution<double> u(0, 1);

@@ -318,7 +318,8 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
         bake.metadata["roughness_chosen_from"] = a.roughness;
         bake.metadata["roughness_blend_rms"] = worst;
     }
-    const auto rep = repr::build_representation(a.kind, bake);
+    const auto rep = a.preset.empty() ? repr::build_representation(a.kind, bake)
+                                      : repr::build_preset(repr::preset(a.preset, spec.term.ao_weighting), bake, *backend);
     const std::string name = std::filesystem::path(a.out).filename().string();
     file->write(outputs, *rep, a.half);
     if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
@@ -357,7 +358,7 @@ void add_repr_command(CLI::App& app) {
     bake->add_option("--preset", a->preset,
                      "a named layout (the default, with no layout option: full-range): realistic (roughness 0.3-0.9, visibility "
                      "0.5-1, NdotV 0.2-1; 256 KiB), full-range (roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1; 512 KiB) or "
-                     "anisotropic (roughness 0.05-1 per axis, alpha ratio <= 25, any tangent-relative azimuths; 512 KiB); "
+                     "anisotropic (roughness 0.05-1 per axis, alpha ratio <= 25, any tangent-relative azimuths; 1 MiB, 4 fetches); "
                      "docs/representations.md gives their measured errors")
         ->check(CLI::IsMember(repr::preset_names()));
     bake->add_option("--kind", a->kind, "a custom layout: azimuth-axis or azimuth-harmonics")->check(CLI::IsMember(repr::representation_kinds()));

@@ -49,6 +49,11 @@ std::vector<AnisotropicSurface> anisotropic_surfaces(const AnisotropicBakeSpec& 
 std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
                                             const std::function<void(std::size_t, std::size_t)>& progress = {});
 
+// A preset's representation from its bake (build_representation, and for the anisotropic preset's
+// "anisotropic-corrected-harmonics" the correction's least-squares fit to the exact term at
+// p.correction_queries random anisotropic queries of its domain, evaluated on `backend`).
+std::unique_ptr<Representation> build_preset(const Preset& p, const AzimuthBake& bake, TermBackend& backend);
+
 // A preset baked once per process and name on this machine's CPU with the exact method (a few seconds;
 // the same texels every time), for the comparators that name one. Thread-safe.
 std::shared_ptr<const Representation> baked_preset(const std::string& name);

@@ -172,6 +172,9 @@ std::unique_ptr<Representation> make_anisotropic_harmonics(ReprGrid grid, Textur
     const std::uint32_t R = std::uint32_t(grid.roughness.size());
     if (R < 2 || !is_geometric(grid.roughness)) throw std::invalid_argument("anisotropic-harmonics: 2 or more geometric roughness nodes");
     if (grid.warps.n_dot_l != NdotLWarp::edge_roughness) throw std::invalid_argument("anisotropic-harmonics: the NdotL warp must be edge-roughness");
+    // Its lookup reads one visibility coordinate and the NdotL width without the view factor.
+    if (grid.warps.visibility == VisibilityWarp::edge_roughness || grid.n_dot_l_edge_view > 0)
+        throw std::invalid_argument("anisotropic-harmonics: not with the edge-roughness visibility warp or an NdotL edge view factor");
     if (texture.width != grid.visibility * R || texture.height != grid.n_dot_l || texture.depth != grid.n_dot_v * R)
         throw std::invalid_argument("anisotropic-harmonics: texture size does not match the grid");
     const double bound = metadata.value("coefficient_bound", 0.0);

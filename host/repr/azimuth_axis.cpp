@@ -111,6 +111,8 @@ std::unique_ptr<Representation> make_azimuth_axis(ReprGrid grid, std::uint32_t a
     // node its own.
     if (grid.warps.n_dot_l == NdotLWarp::edge_roughness)
         throw std::invalid_argument("azimuth-axis: the edge-roughness NdotL warp needs an NdotL axis per roughness node (azimuth-harmonics)");
+    if (grid.warps.visibility == VisibilityWarp::edge_roughness)
+        throw std::invalid_argument("azimuth-axis: the edge-roughness visibility warp needs a visibility axis per roughness node (azimuth-harmonics)");
     // Its azimuth slots are the same nodes for every texel; the far-side warp moves them per texel.
     if (grid.azimuth_warp > 0) throw std::invalid_argument("azimuth-axis: the far-side azimuth warp is for azimuth-harmonics");
     if (texture.width != grid.visibility * azimuth_nodes || texture.height != grid.n_dot_l || texture.depth != grid.n_dot_v)

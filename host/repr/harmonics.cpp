@@ -41,6 +41,25 @@
 // (docs/representations.md, "Anisotropic surfaces"): the mapping alone, exact isotropic term at the
 // mapped inputs, misses the anisotropic term by N.L-weighted RMS 0.044 (the isotropic-equivalent
 // roughness with the true azimuth: 0.125).
+//
+// "anisotropic-corrected-harmonics" (the anisotropic preset): the mapped lookup above plus a correction
+// that reads what the mapping loses. Why: the mapping alone misses the anisotropic term by RMS 0.044,
+// growing with the ratio, because a strongly anisotropic surface's slopes follow a nearly 1-D law that no
+// isotropic roughness reproduces; more mapping constants or a second mapped lookup gained 0.001. The
+// correction is linear in four features of the surface and directions that vanish on an isotropic one,
+//   g = (log(alpha_l / alpha_g), log(alpha_v / alpha_g), rho - cos(dphi), log(alpha_rms / alpha_g)),
+// alpha_g = sqrt(alpha_x alpha_y), alpha_rms = sqrt((alpha_x^2 + alpha_y^2) / 2) (the projected
+// roughnesses, their slopes' correlation and the anisotropy's strength, as above), with coefficients
+// c(visibility, NdotL, NdotV, roughness) stored per texel of the same grid in a second block of R slabs:
+//   lookup = clamp(sum_j w_j (series_j + c_j . g), 0, 1),
+// c_j read at slab j's own texel coordinates (the mapped NdotL and NdotV) R slabs further down, so the
+// four fetches share one set of coordinates and one roughness blend. On an isotropic surface g = 0 and
+// the lookup is azimuth-harmonics' exactly, whatever c. The lookup is linear in c, so c is fitted by
+// least squares to the exact term on random anisotropic queries (jobs/repr_bake.cpp). Chosen by
+// measurement (docs/representations.md, "Anisotropic surfaces"): with c multilinear on 8^4 nodes, these features
+// scored RMS 0.024-0.025 where the mapping's own residual features (log(alpha_v / alpha_l) and its
+// square, rho - cos(dphi), log(alpha_rms / alpha_g)) scored 0.032-0.033 and cos 2 psi terms of the azimuths
+// from the rougher axis 0.033.
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -91,25 +110,40 @@ constexpr int kHarmonics = 4;
 
 class AzimuthHarmonics final : public TextureRepresentation {
 public:
-    AzimuthHarmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture, nlohmann::json metadata, bool mapped)
-        : TextureRepresentation(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata)), mapped_(mapped) {}
-    std::string kind() const override { return mapped_ ? "anisotropic-mapped-harmonics" : "azimuth-harmonics"; }
+    AzimuthHarmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture, nlohmann::json metadata, HarmonicsLookup lookup)
+        : TextureRepresentation(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata)),
+          mapped_(lookup != HarmonicsLookup::isotropic), corrected_(lookup == HarmonicsLookup::corrected) {
+        correction_bound_ = metadata_.value("correction_bound", 0.0);
+    }
+    std::string kind() const override {
+        return corrected_ ? "anisotropic-corrected-harmonics" : mapped_ ? "anisotropic-mapped-harmonics" : "azimuth-harmonics";
+    }
     std::string name() const override {
         std::ostringstream o;
-        o << (mapped_ ? "azimuth harmonics a0..a3 at the isotropic equivalent of an anisotropic surface: " : "azimuth harmonics a0..a3: ") << grid_.visibility << " visibility (" << to_string(grid_.warps.visibility) << ") x " << grid_.n_dot_l << " NdotL ("
+        o << (corrected_ ? "azimuth harmonics a0..a3 at the isotropic equivalent of an anisotropic surface, plus its anisotropy correction per texel: "
+              : mapped_ ? "azimuth harmonics a0..a3 at the isotropic equivalent of an anisotropic surface: " : "azimuth harmonics a0..a3: ") << grid_.visibility << " visibility (" << to_string(grid_.warps.visibility) << ") x " << grid_.n_dot_l << " NdotL ("
           << to_string(grid_.warps.n_dot_l) << ") x " << grid_.n_dot_v << " NdotV (" << to_string(grid_.warps.n_dot_v)
           << ") x " << grid_.roughness.size() << " roughness slabs:";
         for (double r : grid_.roughness) o << " " << r;
         return o.str();
     }
+    // The corrected kind's correction slabs reuse the four channels for their coefficients c_0..c_3.
     std::vector<std::string> channel_names() const override { return {"cos0phi", "cos1phi", "cos2phi", "cos3phi"}; }
     // With f_k in [0, 1] and sum_k w_k = N: a_0 = (1/N) sum w_k f_k is in [0, 1] and
-    // |a_m| <= (2/N) sum w_k |f_k cos(m phi_k)| <= 2.
+    // |a_m| <= (2/N) sum w_k |f_k cos(m phi_k)| <= 2. The correction's coefficients lie within the
+    // bound its fit recorded (the largest |c| it produced).
     std::array<double, 2> channel_range(std::size_t c) const override {
-        return c == 0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{-2.0, 2.0};
+        std::array<double, 2> range = c == 0 ? std::array<double, 2>{0.0, 1.0} : std::array<double, 2>{-2.0, 2.0};
+        if (corrected_) range = {std::min(range[0], -correction_bound_), std::max(range[1], correction_bound_)};
+        return range;
     }
 
-    double operator()(const approx::Inputs& in) const override {
+    double operator()(const approx::Inputs& in) const override { return evaluate(in, nullptr); }
+
+    // The lookup, and with `stencil` the same lookup written as base + sum_k weight_k dot(texel_k, g)
+    // over the correction texels it reads (what the correction's fit solves for).
+    double evaluate(const approx::Inputs& in, CorrectionStencil* stencil) const {
+        if (stencil) *stencil = CorrectionStencil{};
         if (zero_region(in.visibility, in.n_dot_l)) return 0;
         // Full visibility: the cone is the whole hemisphere and the term is exactly 1 above the horizon.
         // Just below v = 1 a light under the cone's edge sqrt(1 - v) is still shadowed, so no texel
@@ -118,28 +152,49 @@ public:
         // The anisotropic kind reads the surface's alphas and tangent-relative azimuths when given (an
         // isotropic caller's roughness and relative azimuth otherwise: the mapping's identity).
         double n_dot_l = in.n_dot_l, n_dot_v = in.n_dot_v, roughness = in.roughness, cos_phi = std::cos(in.relative_azimuth);
+        // The anisotropy features the correction's coefficients multiply: zero on an isotropic surface.
+        std::array<double, 4> g{0, 0, 0, 0};
         if (mapped_ && in.alpha_x > 0 && in.alpha_y > 0) {
             const auto e = isotropic_equivalent(in.alpha_x, in.alpha_y, in.view_azimuth, in.light_azimuth, in.n_dot_v, in.n_dot_l);
             n_dot_l = e.n_dot_l, n_dot_v = e.n_dot_v, roughness = e.roughness, cos_phi = e.cos_phi;
+            if (corrected_) g = anisotropy_features(in.alpha_x, in.alpha_y, in.view_azimuth, in.light_azimuth);
         }
-        const double tv = visibility_texel(in.visibility), tz = n_dot_v_texel(n_dot_v);
+        const std::size_t slab_texels = std::size_t(texture_.width) * texture_.height * grid_.n_dot_v;
+        const double correction_z = double(grid_.roughness.size()) * grid_.n_dot_v;
+        const double tz = n_dot_v_texel(n_dot_v);
         const double c = grid_.azimuth_coordinate(cos_phi, n_dot_v, n_dot_l);
         const double basis[kHarmonics] = {1, c, 2 * c * c - 1, (4 * c * c - 3) * c};
-        // The NdotL texel of a slab: its own under the edge-roughness warp, else one for all.
-        auto series = [&](std::uint32_t slab) {
-            const double tl = n_dot_l_texel(in.visibility, n_dot_l, slab);
+        // The NdotL and visibility texels of a slab: its own under the edge-roughness warps, else one for all.
+        // The corrected kind adds, per slab, the correction slab's coefficients dot g (at the same texel
+        // coordinates, R slabs further down the texture); `weight` is the slab's share of the blend.
+        auto series = [&](std::uint32_t slab, double weight) {
+            const double tl = n_dot_l_texel(in.visibility, n_dot_l, slab, n_dot_v), tv = visibility_texel(in.visibility, slab, n_dot_v);
             const auto a = texture_.sample(tv, tl, double(slab) * grid_.n_dot_v + tz);
             double s = 0;
             for (int m = 0; m < kHarmonics; ++m) s += a[m] * basis[m];
+            if (stencil) {
+                stencil->base += weight * s;
+                const auto corners = texture_.corners(tv, tl, correction_z + double(slab) * grid_.n_dot_v + tz);
+                for (int k = 0; k < 8; ++k) {
+                    const std::size_t n = stencil->texels++;
+                    stencil->texel[n] = std::uint32_t(corners[k].first - slab_texels * grid_.roughness.size());
+                    stencil->weight[n] = weight * corners[k].second;
+                }
+            }
+            if (corrected_ && (g[0] != 0 || g[1] != 0 || g[2] != 0 || g[3] != 0)) {
+                const auto b = texture_.sample(tv, tl, correction_z + double(slab) * grid_.n_dot_v + tz);
+                for (int m = 0; m < 4; ++m) s += b[m] * g[m];
+            }
             return s;
         };
+        if (stencil) stencil->features = g, stencil->active = true;
         const auto& r = grid_.roughness;
-        if (r.size() == 1) return std::clamp(series(0), 0.0, 1.0);
+        if (r.size() == 1) return std::clamp(series(0, 1), 0.0, 1.0);
         const double x = std::clamp(roughness, r.front(), r.back());
         std::size_t j = 0;
         while (j + 2 < r.size() && x > r[j + 1]) ++j;
         const double f = (x - r[j]) * (1 / (r[j + 1] - r[j]));
-        const double a = series(std::uint32_t(j)), b = series(std::uint32_t(j + 1));
+        const double a = series(std::uint32_t(j), 1 - f), b = series(std::uint32_t(j + 1), f);
         return std::clamp(a + (b - a) * f, 0.0, 1.0);
     }
 
@@ -168,18 +223,34 @@ public:
             o << "ENTRY(float visibility, float n_dot_l, float n_dot_v, float roughness, float cos_phi)\n{\n"
               << "    if (ms_zero_region(visibility, n_dot_l)) return 0.0;  // early-out: no fetch\n"
               << "    if (visibility >= 1.0) return 1.0;  // the cone is the hemisphere: lit wherever above the horizon\n";
+        if (corrected_)
+            o << "    // The anisotropy features g the correction's coefficients multiply (each 0 on an isotropic surface):\n"
+              << "    // log(alpha_l / alpha_g), log(alpha_v / alpha_g), rho - cos(dphi), log(alpha_rms / alpha_g), alpha_g = sqrt(alpha_x alpha_y).\n"
+              << "    float lg2 = log(alpha_x * alpha_y);\n"
+              << "    VEC4 g = VEC4(0.5 * (log(al2) - lg2), 0.5 * (log(av2) - lg2), rho - dot(uv_d, ul_d), 0.5 * (log(0.5 * (a2.x + a2.y)) - lg2));\n";
+        // The corrected kind's correction slab of a fetch lies R slabs further down the texture.
+        const std::string correction_dz = L(double(grid_.n_dot_v * r.size()) / texture_.depth);
         o << shader_coordinates()
           << "    float c = clamp(cos_phi, -1.0, 1.0);\n" << azimuth_warp_text()
           << "    // cos(2 phi) and cos(3 phi) from cos(phi) (Chebyshev polynomials): no trigonometry.\n"
           << "    VEC4 basis = VEC4(1.0, c, 2.0 * c * c - 1.0, (4.0 * c * c - 3.0) * c);\n";
         const bool edge = grid_.warps.n_dot_l == NdotLWarp::edge_roughness;
-        // The edge warp's width of a node: k alpha max(s_e, alpha), alpha = r^2.
-        auto width = [&](double x) { return L(grid_.edge_width * x * x) + " * max(s_e, " + L(x * x) + ")"; };
+        const bool edge_visibility = grid_.warps.visibility == VisibilityWarp::edge_roughness;
+        // The edge warp's width from k alpha max(s_e, alpha) (alpha = r^2), capped by w_cap under the view factor.
+        auto capped = [&](const std::string& w) { return grid_.n_dot_l_edge_view > 0 ? "min(" + w + ", w_cap)" : w; };
+        auto width = [&](double x) { return capped(L(grid_.edge_width * x * x) + " * max(s_e, " + L(x * x) + ")"); };
+        // The edge-roughness visibility texel of a slab of squared roughness `alpha` (an expression).
+        auto visibility_texel = [&](const std::string& alpha) {
+            return "ms_edge_visibility_texel(e_v, c_e, " + L(grid_.visibility_edge_width) + " * min(" + alpha + ", s_view))";
+        };
         if (r.size() == 1) {
             if (edge) o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << width(r[0]) << ");\n";
+            if (edge_visibility) o << "    float tv = " << visibility_texel(L(r[0] * r[0])) << ";\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
               << ", (tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n"
-              << "    return clamp(dot(FETCH(c0), basis), 0.0, 1.0);\n}\n";
+              << (corrected_ ? "    VEC3 d0 = c0 + VEC3(0.0, 0.0, " + correction_dz + ");  // the correction slab\n"
+                               "    return clamp(dot(FETCH(c0), basis) + dot(FETCH(d0), g), 0.0, 1.0);\n}\n"
+                             : "    return clamp(dot(FETCH(c0), basis), 0.0, 1.0);\n}\n");
         } else {
             // Nodes in geometric progression (r_k = r_0 q^k, as the full-range preset's): the slab from a
             // logarithm, a dozen ALU, instead of a comparison per node.
@@ -213,17 +284,24 @@ public:
                 o << "; }\n";
             }
             if (edge)
-                o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, ka0 * max(s_e, al0));\n"
-                  << "    float tl1 = ms_edge_texel(n_dot_l, c_e, l0, ka1 * max(s_e, al1));\n";
+                o << "    float tl = ms_edge_texel(n_dot_l, c_e, l0, " << capped("ka0 * max(s_e, al0)") << ");\n"
+                  << "    float tl1 = ms_edge_texel(n_dot_l, c_e, l0, " << capped("ka1 * max(s_e, al1)") << ");\n";
+            // Under the edge-roughness visibility warp each slab has its own visibility axis too.
+            if (edge_visibility)
+                o << "    float tv = " << visibility_texel("al0") << ";\n    float tv1 = " << visibility_texel("al1") << ";\n";
             o << "    VEC3 c0 = VEC3((tv + 0.5) * " << L(1.0 / texture_.width) << ", (tl + 0.5) * " << L(1.0 / texture_.height)
               << ", (j * " << L(grid_.n_dot_v) << " + tz + 0.5) * " << L(1.0 / texture_.depth) << ");\n";
             if (edge)
-                o << "    VEC3 c1 = VEC3(c0.x, (tl1 + 0.5) * " << L(1.0 / texture_.height) << ", c0.z + "
+                o << "    VEC3 c1 = VEC3(" << (edge_visibility ? "(tv1 + 0.5) * " + L(1.0 / texture_.width) : std::string("c0.x")) << ", (tl1 + 0.5) * " << L(1.0 / texture_.height) << ", c0.z + "
                   << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";
             else
                 o << "    VEC3 c1 = c0 + VEC3(0.0, 0.0, " << L(double(grid_.n_dot_v) / texture_.depth) << ");\n";
-            o
-              << "    return clamp(MIX(dot(FETCH(c0), basis), dot(FETCH(c1), basis), f), 0.0, 1.0);\n}\n";
+            if (corrected_)
+                o << "    // The correction slabs of j and j + 1.\n"
+                  << "    VEC3 d0 = c0 + VEC3(0.0, 0.0, " << correction_dz << "), d1 = c1 + VEC3(0.0, 0.0, " << correction_dz << ");\n"
+                  << "    return clamp(MIX(dot(FETCH(c0), basis) + dot(FETCH(d0), g), dot(FETCH(c1), basis) + dot(FETCH(d1), g), f), 0.0, 1.0);\n}\n";
+            else
+                o << "    return clamp(MIX(dot(FETCH(c0), basis), dot(FETCH(c1), basis), f), 0.0, 1.0);\n}\n";
         }
         return finish_shader(o.str(), language);
     }
@@ -266,7 +344,8 @@ private:
         return o.str();
     }
 
-    bool mapped_;
+    bool mapped_, corrected_;
+    double correction_bound_ = 0;
 };
 
 }  // namespace
@@ -277,10 +356,26 @@ std::unique_ptr<Representation> make_azimuth_harmonics(ReprGrid grid, std::uint3
     if (texture.width != grid.visibility || texture.height != grid.n_dot_l || texture.depth != grid.n_dot_v * grid.roughness.size())
         throw std::invalid_argument("azimuth-harmonics: texture size does not match the grid");
     metadata["fetches_per_light"] = grid.roughness.size() == 1 ? 1 : 2;
-    return std::make_unique<AzimuthHarmonics>(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata), anisotropic_mapped);
+    return std::make_unique<AzimuthHarmonics>(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata),
+                                              anisotropic_mapped ? HarmonicsLookup::mapped : HarmonicsLookup::isotropic);
 }
 
-std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake, bool anisotropic_mapped) {
+std::unique_ptr<Representation> make_anisotropic_corrected(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
+                                                           nlohmann::json metadata) {
+    if (grid.roughness.empty()) throw std::invalid_argument("anisotropic-corrected-harmonics: at least 1 roughness node");
+    if (texture.width != grid.visibility || texture.height != grid.n_dot_l || texture.depth != 2 * grid.n_dot_v * grid.roughness.size())
+        throw std::invalid_argument("anisotropic-corrected-harmonics: texture size does not match the grid (two blocks of slabs)");
+    if (!(metadata.value("correction_bound", -1.0) >= 0))
+        throw std::invalid_argument("anisotropic-corrected-harmonics: metadata needs the correction's coefficient bound");
+    metadata["fetches_per_light"] = grid.roughness.size() == 1 ? 2 : 4;
+    return std::make_unique<AzimuthHarmonics>(std::move(grid), azimuth_nodes, std::move(texture), std::move(metadata),
+                                              HarmonicsLookup::corrected);
+}
+
+namespace {
+
+// The harmonics' texture of a bake (derivation at the top), and the truncation residual at the nodes.
+Texture3D harmonics_texture(const AzimuthBake& bake, double* residual_max) {
     const auto& g = bake.grid;
     const std::uint32_t K = bake.azimuth_nodes, N = K - 1;
     if (K < 2 * kHarmonics - 1)
@@ -311,10 +406,67 @@ std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake,
                     const std::size_t z = std::size_t(r) * g.n_dot_v + ivv;
                     for (int m = 0; m < kHarmonics; ++m) t.texels[((z * t.height + il) * t.width + iv) * 4 + m] = float(a[m]);
                 }
+    *residual_max = residual;
+    return t;
+}
+
+nlohmann::json harmonics_metadata(const AzimuthBake& bake, double residual) {
     nlohmann::json meta = {{"bake", bake.metadata}, {"node_residual_max", residual}};
     for (const char* key : {"version", "command_line", "domain", "preset"})
         if (bake.metadata.contains(key)) meta[key] = bake.metadata[key];
-    return make_azimuth_harmonics(g, K, std::move(t), std::move(meta), anisotropic_mapped);
+    return meta;
+}
+
+}  // namespace
+
+std::unique_ptr<Representation> build_azimuth_harmonics(const AzimuthBake& bake, bool anisotropic_mapped) {
+    double residual = 0;
+    Texture3D t = harmonics_texture(bake, &residual);
+    return make_azimuth_harmonics(bake.grid, bake.azimuth_nodes, std::move(t), harmonics_metadata(bake, residual), anisotropic_mapped);
+}
+
+std::size_t anisotropic_correction_texels(const ReprGrid& grid) {
+    return std::size_t(grid.visibility) * grid.n_dot_l * grid.n_dot_v * grid.roughness.size();
+}
+
+std::unique_ptr<Representation> build_anisotropic_corrected(const AzimuthBake& bake, const std::vector<float>& correction,
+                                                            const nlohmann::json& correction_metadata) {
+    double residual = 0;
+    Texture3D t = harmonics_texture(bake, &residual);
+    const std::size_t n = anisotropic_correction_texels(bake.grid);
+    if (!correction.empty() && correction.size() != 4 * n)
+        throw std::invalid_argument("anisotropic-corrected-harmonics: the correction has " + std::to_string(correction.size() / 4) +
+                                    " texels, the grid " + std::to_string(n));
+    // Empty: a zero correction (the mapped lookup itself, the start of the correction's fit).
+    double bound = 0;
+    for (float c : correction) bound = std::max(bound, double(std::fabs(c)));
+    t.texels.insert(t.texels.end(), correction.begin(), correction.end());
+    t.texels.resize(8 * n, 0.0f);
+    t.depth *= 2;
+    nlohmann::json meta = harmonics_metadata(bake, residual);
+    meta["correction"] = correction_metadata;
+    // The bound a file's texels are checked against: the largest |c|, widened by half a half-float step
+    // (relative 2^-11) and more, so the RGBA16F rounding of the largest coefficient stays inside.
+    meta["correction_bound"] = bound * (1 + 1.0 / 1024);
+    return make_anisotropic_corrected(bake.grid, bake.azimuth_nodes, std::move(t), std::move(meta));
+}
+
+CorrectionStencil correction_stencil(const Representation& representation, const approx::Inputs& in) {
+    const auto* r = dynamic_cast<const AzimuthHarmonics*>(&representation);
+    if (!r || r->kind() != "anisotropic-corrected-harmonics")
+        throw std::invalid_argument("correction_stencil: not an anisotropic-corrected-harmonics representation");
+    CorrectionStencil s;
+    r->evaluate(in, &s);
+    return s;
+}
+
+std::array<double, 4> anisotropy_features(double alpha_x, double alpha_y, double view_azimuth, double light_azimuth) {
+    const double cv = std::cos(view_azimuth), sv = std::sin(view_azimuth), cl = std::cos(light_azimuth), sl = std::sin(light_azimuth);
+    const double ax2 = alpha_x * alpha_x, ay2 = alpha_y * alpha_y;
+    const double av2 = ax2 * cv * cv + ay2 * sv * sv, al2 = ax2 * cl * cl + ay2 * sl * sl;
+    const double rho = (ax2 * cv * cl + ay2 * sv * sl) / std::sqrt(av2 * al2);
+    const double lg2 = std::log(alpha_x * alpha_y);
+    return {0.5 * (std::log(al2) - lg2), 0.5 * (std::log(av2) - lg2), rho - (cv * cl + sv * sl), 0.5 * (std::log(0.5 * (ax2 + ay2)) - lg2)};
 }
 
 }  // namespace ms::repr

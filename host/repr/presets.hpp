@@ -20,13 +20,17 @@ namespace ms::repr {
 struct Preset {
     std::string name;
     std::string summary;  // one line for help and metadata
-    std::string kind;     // "azimuth-harmonics", "azimuth-axis", "anisotropic-harmonics" or "anisotropic-mapped-harmonics"
+    std::string kind;     // "azimuth-harmonics", "azimuth-axis", "anisotropic-harmonics", "anisotropic-mapped-harmonics" or "anisotropic-corrected-harmonics"
     ReprGrid grid;
     std::uint32_t azimuth_nodes = 9;
     // anisotropic-harmonics: the surfaces fitted per slab (AnisotropicBakeSpec); max_ratio also bounds
     // the anisotropic preset's domain (alpha_ratio).
     std::uint32_t azimuth_configs = 8, correlation_configs = 4;
     double max_ratio = 25;
+    // anisotropic-corrected-harmonics: the random anisotropic queries of the domain its correction is
+    // fitted to, their seed, and the fit's conjugate-gradient iterations (jobs/repr_bake.cpp).
+    std::uint64_t correction_queries = 0, correction_seed = 1;
+    std::uint32_t correction_iterations = 0;
     LookupDomain domain;
 };
 

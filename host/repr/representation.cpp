@@ -41,7 +41,9 @@ nlohmann::json grid_to_json(const ReprGrid& g) {
             {"visibility_warp", to_string(g.warps.visibility)},
             {"ao_weighting", to_string(g.weighting)}, {"n_dot_l_edge_width", g.edge_width},
             {"texel_placement", to_string(g.placement)}, {"n_dot_v_start", g.n_dot_v_start},
-            {"azimuth_warp", g.azimuth_warp}, {"visibility_start", g.visibility_start}};
+            {"azimuth_warp", g.azimuth_warp}, {"visibility_start", g.visibility_start},
+            {"visibility_edge_share", g.visibility_edge_share}, {"visibility_edge_width", g.visibility_edge_width},
+            {"visibility_edge_view", g.visibility_edge_view}, {"n_dot_l_edge_view", g.n_dot_l_edge_view}};
 }
 
 namespace {
@@ -103,6 +105,23 @@ ReprGrid grid_from_json(const nlohmann::json& j) {
                 throw std::invalid_argument("azimuth_warp must be a number in [0, 1000]");
             g.azimuth_warp = a.get<double>();
         }
+        // Absent in files written before the view-dependent widths and the edge-roughness visibility
+        // warp: no view factor (the NdotL width k alpha max(sin theta_c, alpha) alone); the visibility
+        // constants are read by that warp only, which such files do not name.
+        auto number = [&](const char* key, double lo, double hi, bool lo_open, double& out) {
+            if (!j.contains(key)) return;
+            const auto& x = j.at(key);
+            if (!x.is_number() || !((lo_open ? x.get<double>() > lo : x.get<double>() >= lo) && x.get<double>() <= hi))
+                throw std::invalid_argument(std::string(key) + " must be a number in " + (lo_open ? "(" : "[") + shader_literal(lo) + ", " +
+                                            shader_literal(hi) + "]");
+            out = x.get<double>();
+        };
+        number("visibility_edge_share", 0, 100, false, g.visibility_edge_share);
+        number("visibility_edge_width", 0, 100, true, g.visibility_edge_width);
+        number("visibility_edge_view", 0, 100, false, g.visibility_edge_view);
+        number("n_dot_l_edge_view", 0, 100, false, g.n_dot_l_edge_view);
+        if (g.warps.visibility == VisibilityWarp::edge_roughness && g.warps.n_dot_l != NdotLWarp::edge_roughness)
+            throw std::invalid_argument("the edge-roughness visibility warp needs the edge-roughness NdotL warp");
     } catch (const std::invalid_argument& e) {
         throw std::runtime_error(std::string("metadata grid: ") + e.what());
     }
@@ -245,6 +264,7 @@ std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, 
     else if (kind == "azimuth-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta);
     else if (kind == "anisotropic-harmonics") r = make_anisotropic_harmonics(grid, std::move(t), meta);
     else if (kind == "anisotropic-mapped-harmonics") r = make_azimuth_harmonics(grid, azimuth_nodes, std::move(t), meta, true);
+    else if (kind == "anisotropic-corrected-harmonics") r = make_anisotropic_corrected(grid, azimuth_nodes, std::move(t), meta);
     else throw std::runtime_error("unknown representation '" + kind + "'");
     static_cast<const TextureRepresentation&>(*r).check_contents(channels);
     return r;

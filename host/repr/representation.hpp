@@ -17,6 +17,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -48,9 +49,16 @@ enum class ShaderLanguage { glsl, hlsl };
 //          resolved where a linear axis would jump from 0 to 1 in one texel.
 //   visibility: linear u = v, or sqrt_top u = 1 - sqrt(1 - v): texels dense near v = 1, where the term
 //          rises to exactly 1 and is smooth in sqrt(1 - v) (the cosine AO cone's cos theta), not in v.
+//          Or edge_roughness (harmonics with the edge-roughness NdotL warp only): per roughness slab r and
+//          the query's NdotV, texels evenly in H(c) = 1 - sqrt(1 - c) + beta asinh(c / s) / asinh(1 / s)
+//          of the cone's cosine c, s = b min(alpha, kappa NdotV), from visibility_start (else v = 0) down
+//          to v = 1 (H = 0). As the cone's edge nears the horizon (c of a few s) the shadow below it goes
+//          and the term rises to 1: over c ~ alpha for a smooth surface, ~ NdotV / 4 for a grazing view on
+//          the far side; the asinh spends beta / (1 + beta) of the texels there, logarithmically, and
+//          1 - sqrt(1 - c) is uniform in the cone's angle near v = 0, where the narrow cone changes fast.
 enum class NdotVWarp { linear, sqrt };
 enum class NdotLWarp { linear, shadow_edge, sqrt_top, edge_roughness };
-enum class VisibilityWarp { linear, sqrt_top };
+enum class VisibilityWarp { linear, sqrt_top, edge_roughness };
 // Where the NdotL and NdotV texels sit on their warped axes: at cell centres u = (i + 0.5) / n (the
 // lookup clamps to the first and last centres, so the axis's last half texel at either end repeats
 // them), or at the ends u = i / (n - 1): the first and last texels lie on the axis's ends (NdotL: the
@@ -71,6 +79,9 @@ TexelPlacement parse_texel_placement(const std::string&);  // "centres" | "ends"
 NdotVWarp parse_n_dot_v_warp(const std::string&);  // "linear" | "sqrt"; std::invalid_argument
 NdotLWarp parse_n_dot_l_warp(const std::string&);  // "linear" | "shadow-edge" | "sqrt-top" | "edge-roughness"; std::invalid_argument
 VisibilityWarp parse_visibility_warp(const std::string&);  // "linear" | "sqrt-top"; std::invalid_argument
+
+// The least NdotV the view-dependent widths and scales read (they scale with it): keeps them above 0.
+constexpr double kViewFloor = 1e-3;
 
 // The texel grid every representation is baked on: visibility, NdotL and NdotV texel centres in
 // warped coordinates and the roughness nodes.
@@ -96,6 +107,13 @@ struct ReprGrid {
     // run evenly in the warped coordinate from it to the last cell centre, so the domain's lowest
     // visibility, where the term changes fastest with v, is not clamped to a texel above it.
     double visibility_start = 0;
+    // The edge-roughness visibility warp's constants (VisibilityWarp::edge_roughness): the share beta of
+    // the axis spent logarithmically, the width factor b and the view factor kappa of its scale
+    // s = b min(alpha, kappa NdotV) (kappa = 0: s = b alpha). Read only by that warp.
+    double visibility_edge_share = 0.4, visibility_edge_width = 0.5, visibility_edge_view = 0.25;
+    // The edge-roughness NdotL warp's view factor kappa (0: none): the width w is at most
+    // kappa (NdotV + c) (the shadow's scale in NdotL where a grazing view meets a cone edge near the horizon).
+    double n_dot_l_edge_view = 0;
     // tau of a query or texel, and the series' coordinate y of cos phi under it (cos phi when unwarped).
     double azimuth_tau(double n_dot_v, double n_dot_l) const;
     double azimuth_coordinate(double cos_phi, double n_dot_v, double n_dot_l) const;
@@ -105,19 +123,22 @@ struct ReprGrid {
 
     // Parameters of texel (iv, il, ivv) (NdotL depends on visibility under the shadow-edge warps, and
     // on the roughness node ir under edge_roughness).
-    double visibility_at(std::uint32_t iv) const;
-    double n_dot_l_at(std::uint32_t iv, std::uint32_t il, std::uint32_t ir = 0) const;
+    double visibility_at(std::uint32_t iv, std::uint32_t ir = 0, double n_dot_v = 1) const;
+    double n_dot_l_at(std::uint32_t iv, std::uint32_t il, std::uint32_t ir = 0, double n_dot_v = 1) const;
     double n_dot_v_at(std::uint32_t ivv) const;
     // Warped coordinates in [0, 1] of a lookup's parameters (the inverse of the above). n_dot_l_u of a
     // point in the zero region is <= 0 (the lookup returns 0 there before reading any texel).
-    double n_dot_l_u(double visibility, double n_dot_l, std::uint32_t ir = 0) const;
+    double n_dot_l_u(double visibility, double n_dot_l, std::uint32_t ir = 0, double n_dot_v = 1) const;
     double n_dot_v_u(double n_dot_v) const;
-    double visibility_u(double visibility) const;
+    double visibility_u(double visibility) const;  // linear and sqrt-top only
     // The continuous texel coordinate of a warped NdotL or NdotV coordinate u on an n-texel axis,
     // clamped to [0, n - 1] (the placement's inverse: u n - 0.5 at centres, u (n - 1) at the ends).
     double texel_of(double u, std::uint32_t n) const;
+    // The visibility cone's cosine c(v) (cosine AO: sqrt(1 - v), uniform: 1 - v), where a smooth
+    // surface's shadow edge lies (NdotL = c).
+    double edge_cos(double visibility) const;
     // The continuous visibility texel coordinate of a visibility, clamped to [0, n - 1].
-    double visibility_texel_of(double visibility) const;
+    double visibility_texel_of(double visibility, std::uint32_t ir = 0, double n_dot_v = 1) const;
 };
 
 // The domain of a grid: its roughness nodes' range, the given visibility and NdotV ranges, any NdotL
@@ -154,7 +175,7 @@ struct AzimuthBakeSpec {
 class Representation : public approx::Approximation {
 public:
     ~Representation() override = default;
-    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics" | "anisotropic-mapped-harmonics"
+    std::string kind() const override = 0;  // "azimuth-axis" | "azimuth-harmonics" | "anisotropic-harmonics" | "anisotropic-mapped-harmonics" | "anisotropic-corrected-harmonics"
     std::string name() const override = 0;  // kind and layout in words
     approx::Cost cost() const override = 0;
     // The renderer's lookup (the generated shader's arithmetic, in double).
@@ -220,6 +241,35 @@ struct IsotropicEquivalent {
 };
 IsotropicEquivalent isotropic_equivalent(double alpha_x, double alpha_y, double view_azimuth, double light_azimuth, double n_dot_v,
                                          double n_dot_l);
+
+// "anisotropic-corrected-harmonics", the anisotropic preset's kind (harmonics.cpp derives it): the
+// anisotropic-mapped-harmonics lookup plus a correction c . g per texel, c four coefficients in a second
+// block of slabs on the same grid (read at the same texel coordinates), g the anisotropy features below;
+// 4 fetches. On an isotropic surface g = 0 and the lookup is the azimuth-harmonics one.
+// g = (log(alpha_l / alpha_g), log(alpha_v / alpha_g), rho - cos(dphi), log(alpha_rms / alpha_g)):
+// projected roughnesses along L and V, their slopes' correlation, alpha_g = sqrt(alpha_x alpha_y),
+// alpha_rms = sqrt((alpha_x^2 + alpha_y^2) / 2); azimuths in radians from the tangent.
+std::array<double, 4> anisotropy_features(double alpha_x, double alpha_y, double view_azimuth, double light_azimuth);
+// Texels of the correction block of a grid (visibility x NdotL x NdotV x roughness nodes).
+std::size_t anisotropic_correction_texels(const ReprGrid& grid);
+// From a bake of the harmonics and the correction's coefficients (RGBA, x fastest, the same layout as
+// the harmonics' texture; empty: zero, the mapped lookup itself); correction_metadata (how it was
+// fitted) is recorded as "correction".
+std::unique_ptr<Representation> build_anisotropic_corrected(const AzimuthBake& bake, const std::vector<float>& correction,
+                                                            const nlohmann::json& correction_metadata);
+// The lookup of an anisotropic-corrected-harmonics representation at `in`, written as a linear function
+// of its correction: before the final clamp to [0, 1] it is base + sum_k weight[k] dot(c(texel[k]), features),
+// texel numbers within the correction block. active is false where the lookup answers by rule (the zero
+// region, full visibility) and reads no texel. std::invalid_argument for another kind.
+struct CorrectionStencil {
+    bool active = false;
+    double base = 0;
+    std::array<double, 4> features{0, 0, 0, 0};
+    std::size_t texels = 0;  // entries used: 8 per roughness slab read
+    std::array<std::uint32_t, 16> texel{};
+    std::array<double, 16> weight{};
+};
+CorrectionStencil correction_stencil(const Representation& representation, const approx::Inputs& in);
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
 std::vector<std::string> representation_kinds();
 

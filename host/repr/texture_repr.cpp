@@ -53,6 +53,32 @@ std::array<double, 4> Texture3D::sample(double x, double y, double z) const {
     return out;
 }
 
+std::array<std::pair<std::size_t, double>, 8> Texture3D::corners(double x, double y, double z) const {
+    // sample()'s texels and weights, corner by corner in the same order.
+    const double t[3] = {x, y, z};
+    const std::uint32_t n[3] = {width, height, depth};
+    std::uint32_t i0[3], i1[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        const double c = std::clamp(t[a], 0.0, double(n[a] - 1));
+        i0[a] = std::uint32_t(std::floor(c));
+        i1[a] = std::min(i0[a] + 1, n[a] - 1);
+        f[a] = c - i0[a];
+    }
+    std::array<std::pair<std::size_t, double>, 8> out;
+    for (int corner = 0; corner < 8; ++corner) {
+        double w = 1;
+        std::uint32_t idx[3];
+        for (int a = 0; a < 3; ++a) {
+            const bool hi = (corner >> a) & 1;
+            w *= hi ? f[a] : 1 - f[a];
+            idx[a] = hi ? i1[a] : i0[a];
+        }
+        out[corner] = {(std::size_t(idx[2]) * height + idx[1]) * width + idx[0], w};
+    }
+    return out;
+}
+
 TextureRepresentation::TextureRepresentation(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                              nlohmann::json metadata)
     : grid_(std::move(grid)), azimuth_nodes_(azimuth_nodes), texture_(std::move(texture)), metadata_(std::move(metadata)) {
@@ -86,9 +112,9 @@ bool TextureRepresentation::zero_region(double v, double l) const {
     return l <= 2 * c * c - 1;
 }
 
-double TextureRepresentation::visibility_texel(double v) const { return grid_.visibility_texel_of(v); }
-double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir) const {
-    return grid_.texel_of(grid_.n_dot_l_u(v, l, ir), grid_.n_dot_l);
+double TextureRepresentation::visibility_texel(double v, std::uint32_t ir, double nv) const { return grid_.visibility_texel_of(v, ir, nv); }
+double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir, double nv) const {
+    return grid_.texel_of(grid_.n_dot_l_u(v, l, ir, nv), grid_.n_dot_l);
 }
 double TextureRepresentation::n_dot_v_texel(double nv) const { return grid_.texel_of(grid_.n_dot_v_u(nv), grid_.n_dot_v); }
 
@@ -210,12 +236,21 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
       << "// Texture: 3D, " << texture_.width << " x " << texture_.height << " x " << texture_.depth
       << " RGBA (RGBA16F in an engine); upload one level, no mips; sampler: linear, clamp-to-edge, level 0.\n"
       << "// Axes (texel centres at (i + 0.5) / n of the warped coordinate): visibility "
-      << (grid_.warps.visibility == VisibilityWarp::sqrt_top ? "u = 1 - sqrt(1 - v)" : "linear") << "; NdotL "
+      << (grid_.warps.visibility == VisibilityWarp::sqrt_top ? std::string("u = 1 - sqrt(1 - v)")
+          : grid_.warps.visibility == VisibilityWarp::edge_roughness
+              ? "per roughness slab, of the cone's cosine c(v), H = 1 - sqrt(1 - c) + " +
+                    shader_literal(grid_.visibility_edge_share) + " asinh(c / s) / asinh(1 / s), s = " +
+                    shader_literal(grid_.visibility_edge_width) + " min(alpha, " + shader_literal(grid_.visibility_edge_view) +
+                    " NdotV), texels evenly in H down to v = 1"
+              : std::string("linear"))
+      << "; NdotL "
       << (grid_.warps.n_dot_l == NdotLWarp::shadow_edge ? "from the shadow edge, u = (NdotL - l0(v)) / (1 - l0(v))"
           : grid_.warps.n_dot_l == NdotLWarp::sqrt_top ? "u = 1 - sqrt(1 - NdotL)"
           : grid_.warps.n_dot_l == NdotLWarp::edge_roughness
               ? "per roughness slab, g(x) = asinh((x - c(v)) / w), w = " + shader_literal(grid_.edge_width) +
-                    " alpha max(sin theta_c, alpha), u = (g(NdotL) - g(l0(v))) / (g(1) - g(l0(v)))"
+                    " alpha max(sin theta_c, alpha)" +
+                    (grid_.n_dot_l_edge_view > 0 ? " (at most " + shader_literal(grid_.n_dot_l_edge_view) + " (NdotV + c))" : std::string()) +
+                    ", u = (g(NdotL) - g(l0(v))) / (g(1) - g(l0(v)))"
               : std::string("linear"))
       << "; NdotV " << (grid_.warps.n_dot_v == NdotVWarp::sqrt ? "u = sqrt(NdotV)" : "linear") << ".\n"
       << "// cos_phi: cosine of the relative azimuth of L and V (their projections on the surface,\n"
@@ -238,6 +273,18 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
           << "    float u = (ms_asinh((n_dot_l - c) / w) - g0) / (ms_asinh((1.0 - c) / w) - g0);\n"
           << "    return " << axis_texel("u", grid_.n_dot_l) << ";\n}\n\n";
     }
+    if (grid_.warps.visibility == VisibilityWarp::edge_roughness) {
+        const auto L = shader_literal;
+        const double b = grid_.visibility_edge_share, c0 = grid_.edge_cos(grid_.visibility_start), last = grid_.visibility - 1.0;
+        o << "// The visibility texel of one roughness slab: of the cone's cosine c (e = 1 - sqrt(1 - c)),\n"
+          << "// H(c) = e + " << L(b) << " asinh(c / s) / asinh(1 / s), texels evenly in H from the first (c0 = " << L(c0)
+          << ") down to H = 0 (v = 1); clamped to [0, n - 1].\n"
+          << "float ms_edge_visibility_texel(float e, float c, float s)\n{\n"
+          << "    float a1 = ms_asinh(1.0 / s);\n"
+          << "    float h = e + " << L(b) << " * ms_asinh(c / s) / a1;\n"
+          << "    float h0 = " << L(1 - std::sqrt(1 - c0)) << " + " << L(b) << " * ms_asinh(" << L(c0) << " / s) / a1;\n"
+          << "    return clamp((1.0 - h / h0) * " << L(last) << ", 0.0, " << L(last) << ");\n}\n\n";
+    }
     return o.str();
 }
 
@@ -251,9 +298,17 @@ std::string TextureRepresentation::shader_coordinates() const {
     const auto L = shader_literal;
     std::ostringstream o;
     o << "    // Texel coordinates within a block, clamped to [0, n - 1] as host/repr/texture_repr.cpp does.\n";
-    if (grid_.warps.visibility == VisibilityWarp::sqrt_top) o << "    float uv = 1.0 - sqrt(max(1.0 - visibility, 0.0));\n";
-    else o << "    float uv = visibility;\n";
-    if (grid_.visibility_start > 0 && grid_.visibility > 1) {
+    // The edge-roughness visibility warp's texel is per roughness slab (the sampler's body), from the
+    // elevation e_v set with the NdotL coordinates below.
+    const bool edge_visibility = grid_.warps.visibility == VisibilityWarp::edge_roughness;
+    if (edge_visibility) {
+    } else if (grid_.warps.visibility == VisibilityWarp::sqrt_top) {
+        o << "    float uv = 1.0 - sqrt(max(1.0 - visibility, 0.0));\n";
+    } else {
+        o << "    float uv = visibility;\n";
+    }
+    if (edge_visibility) {
+    } else if (grid_.visibility_start > 0 && grid_.visibility > 1) {
         // Texels from the start's coordinate u0 to the last cell centre u1, evenly.
         const double u0 = grid_.visibility_u(grid_.visibility_start), u1 = (grid_.visibility - 0.5) / grid_.visibility;
         o << "    float tv = clamp((uv - " << L(u0) << ") * " << L((grid_.visibility - 1) / (u1 - u0)) << ", 0.0, "
@@ -271,6 +326,15 @@ std::string TextureRepresentation::shader_coordinates() const {
             o << "    float c_e = sqrt(max(1.0 - visibility, 0.0));\n    float l0 = max(1.0 - 2.0 * visibility, 0.0);\n";
         else o << "    float c_e = 1.0 - visibility;\n    float l0 = max(2.0 * c_e * c_e - 1.0, 0.0);\n";
         o << "    float s_e = sqrt(max(1.0 - c_e * c_e, 0.0));  // sin of the cone's half-angle\n";
+        if (grid_.n_dot_l_edge_view > 0)
+            o << "    // The NdotL widths' cap: a grazing view meeting a cone edge near the horizon shadows on this scale.\n"
+              << "    float w_cap = " << L(grid_.n_dot_l_edge_view) << " * (max(n_dot_v, " << L(kViewFloor) << ") + c_e);\n";
+        if (edge_visibility)
+            o << "    // The visibility warp's linear part, 1 - sqrt(1 - c) (~ the cone's angle near v = 0), and its scales' view bound.\n"
+              << "    float e_v = 1.0 - sqrt(max(1.0 - c_e, 0.0));\n"
+              << "    float s_view = "
+              << (grid_.visibility_edge_view > 0 ? L(grid_.visibility_edge_view) + " * max(n_dot_v, " + L(kViewFloor) + ")" : std::string("1.0"))
+              << ";\n";
     } else {
         o << "    // NdotL from the shadow edge l0(v): no texel lies in the zero region (l0 < 1 outside it).\n";
         if (grid_.weighting == AoWeighting::cosine) o << "    float l0 = max(1.0 - 2.0 * visibility, 0.0);\n";

@@ -20,6 +20,9 @@ struct Texture3D {
     std::uint32_t width = 0, height = 0, depth = 0;
     std::vector<float> texels;  // RGBA, x fastest, then y, then z
     std::array<double, 4> sample(double x, double y, double z) const;
+    // The texels sample() blends and their weights (texel numbers, x fastest; zero weights included):
+    // sample() is sum_k weight_k texel_k.
+    std::array<std::pair<std::size_t, double>, 8> corners(double x, double y, double z) const;
 };
 
 class TextureRepresentation : public Representation {
@@ -60,8 +63,8 @@ protected:
     // True where the term is 0 by rule: NdotL <= 0 or in the zero region of the grid's AO weighting.
     bool zero_region(double visibility, double n_dot_l) const;
     // Clamped texel coordinates of (visibility, NdotL, NdotV) within one block of the texture.
-    double visibility_texel(double visibility) const;
-    double n_dot_l_texel(double visibility, double n_dot_l, std::uint32_t roughness_node = 0) const;
+    double visibility_texel(double visibility, std::uint32_t roughness_node = 0, double n_dot_v = 1) const;
+    double n_dot_l_texel(double visibility, double n_dot_l, std::uint32_t roughness_node = 0, double n_dot_v = 1) const;
     double n_dot_v_texel(double n_dot_v) const;
     // Shader text shared by both kinds: header comment lines, the zero region, the three coordinates
     // (statements that set tv, tl, tz), written in GLSL with VEC3/VEC4/MIX/FETCH placeholders.
@@ -96,5 +99,12 @@ std::unique_ptr<Representation> make_anisotropic_harmonics(ReprGrid grid, Textur
 // at an anisotropic surface's isotropic equivalent.
 std::unique_ptr<Representation> make_azimuth_harmonics(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
                                                        nlohmann::json metadata, bool anisotropic_mapped = false);
+// How an azimuth-harmonics texture is looked up: at the caller's isotropic inputs, at an anisotropic
+// surface's isotropic equivalent, or there plus the anisotropy correction of the texture's second block.
+enum class HarmonicsLookup { isotropic, mapped, corrected };
+// The "anisotropic-corrected-harmonics" kind: texture depth 2 n_dot_v R (the harmonics' slabs, then the
+// correction's); metadata records "correction_bound".
+std::unique_ptr<Representation> make_anisotropic_corrected(ReprGrid grid, std::uint32_t azimuth_nodes, Texture3D texture,
+                                                           nlohmann::json metadata);
 
 }  // namespace ms::repr

@@ -100,6 +100,16 @@ std::vector<ReprShaderCase> cases() {
     repr::ReprGrid edge_one = edge;
     edge_one.roughness = {0.3};
     edge_one.weighting = ms::AoWeighting::uniform;
+    // The edge-roughness visibility warp (each slab its own visibility coordinate, from the start or
+    // from v = 0) with the NdotL width's view cap: nodes found by comparison, and one uniform-AO node.
+    repr::ReprGrid edge_visibility = edge;
+    edge_visibility.warps.visibility = repr::VisibilityWarp::edge_roughness;
+    edge_visibility.n_dot_l_edge_view = 1;
+    edge_visibility.visibility_start = 0.02;
+    repr::ReprGrid edge_visibility_one = edge_one;
+    edge_visibility_one.warps.visibility = repr::VisibilityWarp::edge_roughness;
+    edge_visibility_one.n_dot_l_edge_view = 0.5;
+    edge_visibility_one.visibility_edge_view = 0;
     return {{"harm_edge", "azimuth-harmonics", edge, 7}, {"harm_edge_one", "azimuth-harmonics", edge_one, 7},
             {"harm_edge_geometric", "azimuth-harmonics", edge_geometric, 7}, {"harm_top_geometric", "azimuth-harmonics",
             [&] { repr::ReprGrid g = top; g.roughness = {0.1, 0.3, 0.9}; return g; }(), 7},
@@ -107,9 +117,11 @@ std::vector<ReprShaderCase> cases() {
             {"axis_uniform", "azimuth-axis", uniform, 3},     {"harm_linear", "azimuth-harmonics", linear, 9},
             {"harm_warped", "azimuth-harmonics", warped, 7},  {"axis_top", "azimuth-axis", top, 6},
             {"harm_top", "azimuth-harmonics", top, 7},  {"harm_uniform", "azimuth-harmonics", uniform, 8},
-            // The full-range preset's grid: NdotL and NdotV texels from end to end, the visibility start and
-            // the far-side azimuth warp.
-            {"harm_full_range", "azimuth-harmonics", repr::preset("full-range").grid, 9}};
+            // The full-range preset's grid: NdotL and NdotV texels from end to end, the visibility start,
+            // the far-side azimuth warp, the edge-roughness visibility warp and the NdotL width's view cap.
+            {"harm_full_range", "azimuth-harmonics", repr::preset("full-range").grid, 9},
+            {"harm_edge_visibility", "azimuth-harmonics", edge_visibility, 7},
+            {"harm_edge_visibility_one", "azimuth-harmonics", edge_visibility_one, 7}};
 }
 
 TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
@@ -187,27 +199,41 @@ std::string anisotropic_hlsl_wrapper(const std::string& generated) {
 // slab, node weight, rho or azimuth errs by the coefficients' spread, ~0.5. The anisotropic preset's kind
 // (anisotropic-mapped-harmonics, a synthetic azimuth bake on the same grid) is held to the same bound: its
 // float mapping moves NdotL, NdotV and the roughness by a few ulps (relative 1e-6 after log and exp),
-// which the same widths turn into at most the same 1e-4.
+// which the same widths turn into at most the same 1e-4. The preset's own kind
+// (anisotropic-corrected-harmonics: the mapped lookup plus a correction with random coefficients in
+// [-1, 1]) too: its features g (|g_i| < 2 up to ratio 30) weigh its coefficients as the series' basis
+// (|T_m| <= 1, coefficients up to 1) weighs the harmonics', and their float rounding (1e-7 relative
+// after log) adds ~1e-6. Measured on lavapipe: worst 1.8e-6 (anisotropic-harmonics), 5e-7 (mapped),
+// 4.5e-6 (corrected).
 TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
     if (!have_glslang()) GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";
     const std::string dir = ::testing::TempDir() + "repr_shader_aniso";
     std::filesystem::create_directories(dir);
-    for (const bool mapped : {false, true})
+    // 0: anisotropic-harmonics, 1: anisotropic-mapped-harmonics, 2: anisotropic-corrected-harmonics.
+    for (const int kind : {0, 1, 2})
     for (const auto weighting : {ms::AoWeighting::cosine, ms::AoWeighting::uniform}) {
-        const std::string name = std::string(mapped ? "aniso_mapped_" : "aniso_") + (weighting == ms::AoWeighting::cosine ? "cosine" : "uniform");
+        const bool mapped = kind == 1;
+        const std::string name = std::string(kind == 2 ? "aniso_corrected_" : mapped ? "aniso_mapped_" : "aniso_") +
+                                 (weighting == ms::AoWeighting::cosine ? "cosine" : "uniform");
         SCOPED_TRACE(name);
         repr::ReprGrid g;
         g.visibility = 4, g.n_dot_l = 5, g.n_dot_v = 3, g.roughness = {0.1, 0.2, 0.4, 0.8};
         g.warps = {repr::NdotVWarp::sqrt, repr::NdotLWarp::edge_roughness, repr::VisibilityWarp::sqrt_top};
         g.edge_width = 1.0;
         g.weighting = weighting;
+        // The mapped kind reads the full-range preset's texture: its edge-roughness visibility warp and
+        // the NdotL width's view cap, at the mapped NdotV (anisotropic-harmonics has neither).
+        if (mapped) g.warps.visibility = repr::VisibilityWarp::edge_roughness, g.n_dot_l_edge_view = 1, g.visibility_start = 0.02;
         const std::size_t R = g.roughness.size();
         std::mt19937 rng(23);
         std::uniform_real_distribution<double> u(0, 1);
         std::vector<float> rgba(g.visibility * R * g.n_dot_l * g.n_dot_v * R * 4);
         for (auto& x : rgba) x = float(2 * u(rng) - 1);
-        const auto rep = mapped ? repr::build_representation("anisotropic-mapped-harmonics", synthetic_bake(g, 7, 29))
-                                : repr::build_anisotropic_harmonics(g, rgba);
+        std::vector<float> correction(kind == 2 ? repr::anisotropic_correction_texels(g) * 4 : 0);
+        for (auto& x : correction) x = float(2 * u(rng) - 1);
+        const auto rep = kind == 2 ? repr::build_anisotropic_corrected(synthetic_bake(g, 7, 29), correction, nlohmann::json::object())
+                         : mapped  ? repr::build_representation("anisotropic-mapped-harmonics", synthetic_bake(g, 7, 29))
+                                   : repr::build_anisotropic_harmonics(g, rgba);
         const auto glsl = compile_spirv(anisotropic_glsl_wrapper(rep->shader(repr::ShaderLanguage::glsl, name)), dir + "/" + name + ".comp", "");
         const auto hlsl = compile_spirv(anisotropic_hlsl_wrapper(rep->shader(repr::ShaderLanguage::hlsl, name)), dir + "/" + name + ".hlsl",
                                   "-D -e main -S comp");

@@ -137,7 +137,7 @@ void check_texel_centres(const repr::Representation& rep, const repr::AzimuthBak
             for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv)
                 for (std::uint32_t il = 0; il < g.n_dot_l; ++il)
                     for (std::uint32_t iv = 0; iv < g.visibility; ++iv) {
-                        const double v = g.visibility_at(iv), nl = g.n_dot_l_at(iv, il, r), nv = g.n_dot_v_at(ivv);
+                        const double nv = g.n_dot_v_at(ivv), v = g.visibility_at(iv, r, nv), nl = g.n_dot_l_at(iv, il, r, nv);
                         const double phi = b.azimuth_at(k), rough = g.roughness[r];
                         queries.push_back(query_of(v, nl, nv, rough, phi));
                         looked_up.push_back(rep(inputs_of(v, nl, nv, rough, phi)));
@@ -401,9 +401,9 @@ TEST_F(ReprCliTest, BakeWritesFileAndShadersAndEvalComparesIt) {
     EXPECT_NE(r.output.find("q.csv"), std::string::npos);
 }
 
-// Files baked before the texel placement, visibility start and far-side warp existed have none of
-// their fields: they open as cell centres in cos phi (what they were baked as); a bad value is refused
-// naming the field.
+// Files baked before the texel placement, visibility start, far-side warp, NdotL edge view cap and
+// edge-roughness visibility warp existed have none of their fields: they open as cell centres in cos phi
+// with the uncapped NdotL width (what they were baked as); a bad value is refused naming the field.
 TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRefused) {
     const repr::ReprGrid preset = repr::preset("full-range").grid;
     nlohmann::json j = repr::grid_to_json(preset);
@@ -412,8 +412,18 @@ TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRef
     EXPECT_EQ(back.azimuth_warp, preset.azimuth_warp);
     EXPECT_EQ(back.visibility_start, preset.visibility_start);
     EXPECT_EQ(back.n_dot_v_start, preset.n_dot_v_start);
-    for (const char* key : {"texel_placement", "n_dot_v_start", "azimuth_warp", "visibility_start"}) j.erase(key);
+    EXPECT_EQ(back.warps.visibility, repr::VisibilityWarp::edge_roughness);
+    EXPECT_EQ(back.visibility_edge_share, preset.visibility_edge_share);
+    EXPECT_EQ(back.visibility_edge_width, preset.visibility_edge_width);
+    EXPECT_EQ(back.visibility_edge_view, preset.visibility_edge_view);
+    EXPECT_EQ(back.n_dot_l_edge_view, preset.n_dot_l_edge_view);
+    for (const char* key : {"texel_placement", "n_dot_v_start", "azimuth_warp", "visibility_start", "n_dot_l_edge_view", "visibility_edge_share",
+                            "visibility_edge_width", "visibility_edge_view"})
+        j.erase(key);
+    j["visibility_warp"] = "sqrt-top";
     const repr::ReprGrid old = repr::grid_from_json(j);
+    EXPECT_EQ(old.n_dot_l_edge_view, 0);  // the NdotL width without the view cap
+    EXPECT_EQ(old.warps.visibility, repr::VisibilityWarp::sqrt_top);
     EXPECT_EQ(old.placement, repr::TexelPlacement::centres);
     EXPECT_EQ(old.azimuth_warp, 0);
     EXPECT_EQ(old.visibility_start, 0);
@@ -421,7 +431,8 @@ TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRef
     EXPECT_EQ(old.azimuth_coordinate(-0.3, 0.1, 0.2), -0.3);    // the series in cos phi
     EXPECT_DOUBLE_EQ(old.n_dot_v_at(0), 0.5 / 8 * (0.5 / 8));  // the first cell centre
     for (const auto& [key, bad] : std::vector<std::pair<std::string, nlohmann::json>>{
-             {"texel_placement", "middle"}, {"azimuth_warp", -1}, {"visibility_start", 0.7}, {"n_dot_v_start", "x"}}) {
+             {"texel_placement", "middle"}, {"azimuth_warp", -1}, {"visibility_start", 0.7}, {"n_dot_v_start", "x"},
+             {"n_dot_l_edge_view", -1}, {"visibility_edge_width", 0}, {"visibility_edge_share", "x"}, {"visibility_edge_view", 1000}}) {
         nlohmann::json b = repr::grid_to_json(preset);
         b[key] = bad;
         try {
@@ -435,35 +446,68 @@ TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRef
 
 // The full-range preset's max error, searched: Nelder-Mead maximising |lookup - exact term| from the
 // worst of 2000 random points and from uniform starts (design::search_max_error, as a fitted closed
-// form's max is found), over the preset's domain (any azimuth) up to visibility 0.998. The bound is the
-// preset's target, max |error| <= 0.1 (docs/representations.md, "Presets"); measured: 0.07. Above
-// v = 0.998 it is missed (docs: "The whole domain"): the cone's edge sqrt(1 - v) comes within a few
-// edge widths of the horizon, where the edge-roughness coordinate of one visibility texel no longer
-// lines up with the next one's.
-TEST(ReprPresetMax, FullRangeMeetsItsMaxTargetOnASearchedRegion) {
+// form's max is found), over the preset's domain (any azimuth), in three visibility bands up to v = 1 so
+// that the top, where the cone's edge reaches the horizon within a few edge widths, gets its own starts.
+// The bound is the preset's target, max |error| <= 0.1 (docs/representations.md, "Presets"); measured
+// 0.053, 0.070 and 0.049 (with the sqrt-top visibility axis and the uncapped NdotL width: 0.071, 0.30, 0.99).
+TEST(ReprPresetMax, FullRangeMeetsItsMaxTargetUpToVisibilityOne) {
     const auto rep = repr::baked_preset("full-range");
     const auto lookup = [&](double v, double l, double nv, double r, double phi) {
         ms::approx::Inputs in;
         in.visibility = v, in.n_dot_l = l, in.n_dot_v = nv, in.roughness = r, in.relative_azimuth = phi;
         return (*rep)(in);
     };
-    ms::design::SearchRegion region;
-    region.visibility_min = 0.02, region.visibility_max = 0.998;
-    region.n_dot_v_min = 0.02, region.n_dot_v_max = 1;
-    region.roughness_min = 0.05, region.roughness_max = 1;
-    std::mt19937_64 rng(24);
-    std::uniform_real_distribution<double> u01(0, 1);
-    std::vector<ms::design::ReferencePoint> seeds(2000);
-    for (auto& p : seeds) {
-        p.visibility = region.visibility_min + (region.visibility_max - region.visibility_min) * u01(rng);
-        p.n_dot_l = u01(rng);
-        p.n_dot_v = region.n_dot_v_min + (1 - region.n_dot_v_min) * u01(rng);
-        p.roughness = region.roughness_min + (1 - region.roughness_min) * u01(rng);
-        p.relative_azimuth = M_PI * u01(rng);
+    for (const auto& [v_min, v_max] : std::vector<std::pair<double, double>>{{0.02, 0.998}, {0.998, 0.9999}, {0.9999, 1.0}}) {
+        ms::design::SearchRegion region;
+        region.visibility_min = v_min, region.visibility_max = v_max;
+        region.n_dot_v_min = 0.02, region.n_dot_v_max = 1;
+        region.roughness_min = 0.05, region.roughness_max = 1;
+        std::mt19937_64 rng(24);
+        std::uniform_real_distribution<double> u01(0, 1);
+        std::vector<ms::design::ReferencePoint> seeds(2000);
+        for (auto& p : seeds) {
+            p.visibility = v_min + (v_max - v_min) * u01(rng);
+            p.n_dot_l = u01(rng);
+            p.n_dot_v = region.n_dot_v_min + (1 - region.n_dot_v_min) * u01(rng);
+            p.roughness = region.roughness_min + (1 - region.roughness_min) * u01(rng);
+            p.relative_azimuth = M_PI * u01(rng);
+        }
+        const auto worst = ms::design::search_max_error(lookup, ms::AoWeighting::cosine, region, seeds, 64);
+        EXPECT_LE(worst.max_abs, 0.1) << "visibility " << v_min << "-" << v_max << ": at v " << worst.visibility << " NdotL "
+                                      << worst.n_dot_l << " NdotV " << worst.n_dot_v << " roughness " << worst.roughness << " phi "
+                                      << worst.relative_azimuth * 180 / M_PI;
     }
-    const auto worst = ms::design::search_max_error(lookup, ms::AoWeighting::cosine, region, seeds, 64);
-    EXPECT_LE(worst.max_abs, 0.1) << "at v " << worst.visibility << " NdotL " << worst.n_dot_l << " NdotV " << worst.n_dot_v
-                                  << " roughness " << worst.roughness << " phi " << worst.relative_azimuth * 180 / M_PI;
+}
+
+// The top of the full-range preset's visibility axis: each slab's last texel lies at v = 1, where the
+// term is 1 above the horizon (a0 = 1, the azimuth harmonics 0), and the texels below it come closer
+// to v = 1 the smoother the slab (the axis is logarithmic down to the scale 0.5 min(alpha, NdotV / 4)).
+TEST(ReprPresetMax, FullRangeVisibilityAxisReachesOneAtEverySlab) {
+    const auto rep = repr::baked_preset("full-range");
+    const auto& g = rep->grid();
+    ASSERT_EQ(g.warps.visibility, repr::VisibilityWarp::edge_roughness);
+    const auto& t = rep->texels();
+    double previous_gap = 0;
+    for (std::uint32_t ir = 0; ir < g.roughness.size(); ++ir) {
+        for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv) {
+            EXPECT_EQ(g.visibility_at(g.visibility - 1, ir, g.n_dot_v_at(ivv)), 1.0);
+            for (std::uint32_t il = 0; il < g.n_dot_l; ++il) {
+                const std::size_t z = std::size_t(ir) * g.n_dot_v + ivv, x = g.visibility - 1;
+                const float* a = &t[((z * rep->texture_height() + il) * rep->texture_width() + x) * 4];
+                EXPECT_NEAR(a[0], 1.0, 1e-6) << ir << " " << ivv << " " << il;
+                for (int m = 1; m < 4; ++m) EXPECT_NEAR(a[m], 0.0, 1e-6) << ir << " " << ivv << " " << il;
+            }
+        }
+        // 1 - v of the texel below the last, at NdotV = 1: it grows with the roughness while alpha is
+        // below the view's bound NdotV / 4, and stays put beyond.
+        const double gap = 1 - g.visibility_at(g.visibility - 2, ir, 1.0);
+        if (g.roughness[ir] * g.roughness[ir] < g.visibility_edge_view) EXPECT_GT(gap, previous_gap) << ir;
+        else EXPECT_GE(gap, previous_gap - 1e-12) << ir;
+        previous_gap = gap;
+        // The lookup finds its texels back: the visibility coordinate inverts visibility_at.
+        for (std::uint32_t iv = 0; iv < g.visibility; iv += 5)
+            EXPECT_NEAR(g.visibility_texel_of(g.visibility_at(iv, ir, 0.3), ir, 0.3), iv, 1e-6) << ir << " " << iv;
+    }
 }
 
 // Why the far-side warp: with the light at the horizon opposite a grazing view, the four-term series

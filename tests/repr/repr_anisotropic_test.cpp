@@ -25,6 +25,7 @@
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "repr/texture_repr.hpp"
+#include "sanitizers.hpp"
 
 namespace {
 
@@ -428,7 +429,29 @@ TEST(ReprAnisotropicCorrectedTest, TheKindsFileRoundTripsAndACoefficientBeyondIt
 // squared errors), so a preset no worse than measured passes with probability ~0.999 each; the
 // target 0.03 is asserted too (over 5 standard errors above the measured figure). The mapped lookup
 // alone (the zero correction, measured 0.0463) fails the first bound.
+// The preset's own fit at a small size (the whole preset's is 2,000,000 queries and runs in the test
+// below): the same coefficients every time, and a fit that improves on the mapped lookup it starts
+// from. Conjugate gradients from the zero correction never raise the ridge objective, so the weighted
+// RMS of the data term can only fall (it is computed on the coefficients as stored).
+TEST(ReprAnisotropicCorrectedTest, ASmallFitIsRepeatableAndImprovesOnTheMappedLookup) {
+    auto p = repr::preset("anisotropic");
+    p.grid = tiny_azimuth_bake().grid;
+    p.correction_queries = 4000, p.correction_iterations = 10;
+    auto backend = ms::make_oracle_backend();
+    const auto a = repr::build_preset(p, tiny_azimuth_bake(), *backend);
+    const auto b = repr::build_preset(p, tiny_azimuth_bake(), *backend);
+    EXPECT_EQ(a->kind(), "anisotropic-corrected-harmonics");
+    EXPECT_TRUE(a->texels() == b->texels());
+    const auto texels = a->texels();
+    EXPECT_TRUE(std::any_of(texels.begin() + texels.size() / 2, texels.end(), [](float x) { return x != 0; }));
+    const auto& fit = static_cast<const repr::TextureRepresentation&>(*a).metadata().at("correction");
+    EXPECT_LT(fit.at("fit_rms_after").get<double>(), fit.at("fit_rms_before").get<double>()) << fit.dump(2);
+}
+
 TEST(ReprAnisotropicCorrectedTest, ThePresetMeetsItsMeasuredAccuracyAgainstTheExactTerm) {
+    // The shipped preset's accuracy is a property of its numbers, measured in the optimised build; under
+    // the sanitizers its 2,000,000-query fit would take minutes, and its code runs in the small fit above.
+    if (ms::testing::kAsan) GTEST_SKIP() << "accuracy of the shipped preset: checked in the optimised build";
     const auto p = repr::preset("anisotropic");
     EXPECT_EQ(p.kind, "anisotropic-corrected-harmonics");
     EXPECT_DOUBLE_EQ(p.domain.max_alpha_ratio, 25);
@@ -472,10 +495,10 @@ TEST(ReprAnisotropicCorrectedTest, ThePresetMeetsItsMeasuredAccuracyAgainstTheEx
         return std::make_pair(std::sqrt(mse), std::sqrt(var) / (2 * std::sqrt(mse)));
     };
     const auto [rms, se] = rms_and_error(*rep, 1, 26);
-    EXPECT_LE(rms, 0.0207 + 3 * se) << "standard error " << se;
+    EXPECT_LE(rms, 0.0204 + 3 * se) << "standard error " << se;
     EXPECT_LE(rms, 0.03);
     const auto [band, band_se] = rms_and_error(*rep, 10, 26);
-    EXPECT_LE(band, 0.0232 + 3 * band_se) << "ratio 10-25: standard error " << band_se;
+    EXPECT_LE(band, 0.0228 + 3 * band_se) << "ratio 10-25: standard error " << band_se;
     // The mapped lookup alone: the same texture without the correction.
     const auto& t = static_cast<const repr::TextureRepresentation&>(*rep);
     auto texels = rep->texels();
@@ -484,7 +507,7 @@ TEST(ReprAnisotropicCorrectedTest, ThePresetMeetsItsMeasuredAccuracyAgainstTheEx
                                                        ms::repr::Texture3D{rep->texture_width(), rep->texture_height(), rep->texture_depth(), texels},
                                                        t.metadata());
     const auto [zero_rms, zero_se] = rms_and_error(*zero, 1, 26);
-    EXPECT_GT(zero_rms, 0.0207 + 3 * se) << "the mapped lookup alone: standard error " << zero_se;
+    EXPECT_GT(zero_rms, 0.0204 + 3 * se) << "the mapped lookup alone: standard error " << zero_se;
 }
 
 }  // namespace

@@ -23,6 +23,7 @@
 #include "lut/lookup.hpp"
 #include <nlohmann/json.hpp>
 #include "jobs/repr_bake.hpp"
+#include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "sampling/point_set.hpp"
 
@@ -275,6 +276,19 @@ void save_representation(const ms::repr::Representation& r, const std::string& p
 
 LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
     // What `microshadow repr bake` builds from the same options (cli/cmd_repr.cpp).
+    std::optional<ms::repr::Preset> preset;
+    if (!a.preset.empty()) {
+        const ReprBakeOptions d;
+        const bool default_layout = a.kind == d.kind && a.visibility_count == d.visibility_count && a.n_dot_l_count == d.n_dot_l_count &&
+                                    a.n_dot_v_count == d.n_dot_v_count && a.azimuth_nodes == d.azimuth_nodes &&
+                                    a.roughness == d.roughness && a.roughness_count == d.roughness_count &&
+                                    a.n_dot_v_warp == d.n_dot_v_warp && a.n_dot_l_warp == d.n_dot_l_warp &&
+                                    a.visibility_warp == d.visibility_warp;
+        if (!default_layout)
+            throw std::invalid_argument("microshadow::repr_bake: preset '" + a.preset +
+                                        "' sets the whole layout: leave kind, the counts, roughness and the warps at their defaults");
+        preset = ms::repr::preset(a.preset, term_options(a.sampling).ao_weighting);  // names the presets when unknown
+    }
     ms::repr::AzimuthBakeSpec spec;
     spec.grid.visibility = a.visibility_count;
     spec.grid.n_dot_l = a.n_dot_l_count;
@@ -300,6 +314,26 @@ LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
         ms::exact_term::validate_tolerance(spec.plan.tolerance);
     }
     spec.command_line = "microshadow::repr_bake (library " + version() + ")";
+    if (preset) {
+        spec.grid = preset->grid;
+        spec.azimuth_nodes = preset->azimuth_nodes;
+        auto backend = make_backend(o);
+        // The preset's bake and build as `repr bake --preset` does them: the exact term at its grid, then
+        // (the anisotropic preset) the correction's fit.
+        ms::repr::AzimuthBake baked = detail::run_with_progress(progress, [&](const auto& report) {
+            return ms::repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { report(done, total); });
+        });
+        baked.metadata["domain"] = preset->domain.to_json("the preset's domain: its measured errors hold here; outside, its axes clamp");
+        baked.metadata["preset"] = a.preset;
+        auto data = std::make_shared<LookupFile::Data>();
+        data->representation = ms::repr::build_preset(*preset, baked, *backend);
+        data->kind = preset->kind;
+        nlohmann::json metadata = baked.metadata;
+        metadata["kind"] = "representation";
+        metadata["representation"] = preset->kind;
+        data->metadata_json = metadata.dump();
+        return LookupFile(std::move(data));
+    }
     const auto kinds = ms::repr::representation_kinds();
     if (std::find(kinds.begin(), kinds.end(), a.kind) == kinds.end())
         throw std::invalid_argument("microshadow::repr_bake: kind '" + a.kind + "' (azimuth-axis or azimuth-harmonics)");

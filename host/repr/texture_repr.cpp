@@ -25,36 +25,18 @@
 namespace ms::repr {
 
 std::array<double, 4> Texture3D::sample(double x, double y, double z) const {
-    // The trilinear blend a linear sampler computes: texels floor(t) and floor(t) + 1 per axis with
-    // weight frac(t); the +1 neighbour is clamped to the edge (its weight is 0 there anyway).
-    const double t[3] = {x, y, z};
-    const std::uint32_t n[3] = {width, height, depth};
-    std::uint32_t i0[3], i1[3];
-    double f[3];
-    for (int a = 0; a < 3; ++a) {
-        const double c = std::clamp(t[a], 0.0, double(n[a] - 1));
-        i0[a] = std::uint32_t(std::floor(c));
-        i1[a] = std::min(i0[a] + 1, n[a] - 1);
-        f[a] = c - i0[a];
-    }
+    // The trilinear blend a linear sampler computes, over the eight corners() and their weights.
     std::array<double, 4> out{0, 0, 0, 0};
-    for (int corner = 0; corner < 8; ++corner) {
-        double w = 1;
-        std::uint32_t idx[3];
-        for (int a = 0; a < 3; ++a) {
-            const bool hi = (corner >> a) & 1;
-            w *= hi ? f[a] : 1 - f[a];
-            idx[a] = hi ? i1[a] : i0[a];
-        }
+    for (const auto& [texel, w] : corners(x, y, z)) {
         if (w == 0) continue;
-        const std::size_t base = ((std::size_t(idx[2]) * height + idx[1]) * width + idx[0]) * 4;
-        for (int c = 0; c < 4; ++c) out[c] += w * texels[base + c];
+        for (int c = 0; c < 4; ++c) out[c] += w * texels[texel * 4 + c];
     }
     return out;
 }
 
 std::array<std::pair<std::size_t, double>, 8> Texture3D::corners(double x, double y, double z) const {
-    // sample()'s texels and weights, corner by corner in the same order.
+    // Texels floor(t) and floor(t) + 1 per axis with weight frac(t); the +1 neighbour is clamped to the
+    // edge (its weight is 0 there anyway). Corner k takes the +1 texel on axis a where bit a of k is set.
     const double t[3] = {x, y, z};
     const std::uint32_t n[3] = {width, height, depth};
     std::uint32_t i0[3], i1[3];

@@ -110,8 +110,12 @@ private:
 LookupFile open_file(const std::string& path);
 
 // A representation bake (`microshadow repr bake`, docs/representations.md): the term at
-// `azimuth_nodes` relative azimuths over [0, 180] degrees per texel, built into `kind`.
+// `azimuth_nodes` relative azimuths over [0, 180] degrees per texel, built into `kind`; or a preset.
 struct ReprBakeOptions {
+    // A preset's name ("full-range", "realistic", "anisotropic": `repr bake --preset`): its kind and
+    // whole layout, the fields below up to the sampling left at their defaults (std::invalid_argument
+    // otherwise, as the CLI refuses layout options beside --preset). Empty: the layout below.
+    std::string preset;
     std::string kind = "azimuth-harmonics";  // or "azimuth-axis" (1 to 4 roughness nodes)
     std::uint32_t visibility_count = 16, n_dot_l_count = 16, n_dot_v_count = 16;
     std::uint32_t azimuth_nodes = 9;

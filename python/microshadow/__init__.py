@@ -45,6 +45,7 @@ __all__ = [
     "Lut",
     "Representation",
     "repr_bake",
+    "REPR_PRESETS",
     "analytic",
     "ANALYTIC_TERMS",
     "sweep",
@@ -653,11 +654,18 @@ def bake(
 
 
 _REPR_KINDS = ("azimuth-axis", "azimuth-harmonics")
+#: The representation presets (``repr bake --preset``; docs/representations.md, the presets table).
+REPR_PRESETS = ("full-range", "realistic", "anisotropic")
+# repr_bake()'s layout arguments as their defaults: what a preset leaves alone.
+_REPR_LAYOUT_DEFAULTS = dict(kind="", visibility_count=16, n_dot_l_count=16, n_dot_v_count=16, azimuth_nodes=9,
+                             roughness=(0.1, 0.4, 0.7, 1.0), roughness_count=0, n_dot_v_warp="linear",
+                             n_dot_l_warp="linear", visibility_warp="linear")
 
 
 def repr_bake(
     *,
-    kind: str,
+    preset: str = "",
+    kind: str = "",
     visibility_count: int = 16,
     n_dot_l_count: int = 16,
     n_dot_v_count: int = 16,
@@ -685,6 +693,9 @@ def repr_bake(
     files (call ``.save(path)``); docs/representations.md compares them.
 
     Args:
+        preset: "full-range" (the whole isotropic domain), "realistic" (roughness 0.3-0.9) or
+            "anisotropic" (alpha_x, alpha_y and tangent-relative azimuths; its fit takes about 40 s of
+            CPU): ``repr bake --preset``, the whole layout (leave kind and the layout arguments out).
         kind: "azimuth-axis" (the azimuth as a texture axis; 1 to 4 roughness nodes in RGBA) or
             "azimuth-harmonics" (cos(m phi) coefficients, m <= 3; roughness slabs).
         visibility_count, n_dot_l_count, n_dot_v_count: texels (2 to 256). azimuth_nodes: nodes over
@@ -695,6 +706,18 @@ def repr_bake(
             visibility_warp: "linear" or "sqrt-top".
         method ... exact_float, progress: as :func:`evaluate` (progress counts queries).
     """
+    if preset:
+        _choice("preset", preset, REPR_PRESETS)
+        layout = dict(kind=kind, visibility_count=visibility_count, n_dot_l_count=n_dot_l_count,
+                      n_dot_v_count=n_dot_v_count, azimuth_nodes=azimuth_nodes, roughness=tuple(roughness),
+                      roughness_count=roughness_count, n_dot_v_warp=n_dot_v_warp, n_dot_l_warp=n_dot_l_warp,
+                      visibility_warp=visibility_warp)
+        given = [k for k, v in layout.items() if v != _REPR_LAYOUT_DEFAULTS[k]]
+        if given:
+            raise ValueError(f"preset = {preset!r} sets the whole layout: {', '.join(given)} cannot be given beside it")
+        kind = "azimuth-harmonics"  # the library's default; the preset chooses its own
+    elif not kind:
+        raise ValueError("kind: required for a custom layout (or name a preset: " + ", ".join(REPR_PRESETS) + ")")
     _choice("kind", kind, _REPR_KINDS)
     for name, value in (("visibility_count", visibility_count), ("n_dot_l_count", n_dot_l_count),
                         ("n_dot_v_count", n_dot_v_count)):
@@ -712,7 +735,7 @@ def repr_bake(
         i = int(np.flatnonzero(np.diff(r) <= 0)[0]) + 1
         raise ValueError(f"roughness[{i}] = {r[i]!r}: the nodes must increase")
     tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
-    native = _core.repr_bake(kind, int(visibility_count), int(n_dot_l_count), int(n_dot_v_count), int(azimuth_nodes),
+    native = _core.repr_bake(preset, kind, int(visibility_count), int(n_dot_l_count), int(n_dot_v_count), int(azimuth_nodes),
                              [float(x) for x in r], int(roughness_count), n_dot_v_warp, n_dot_l_warp, visibility_warp,
                              method, tolerance, int(samples), int(replicates), int(seed), sequence, form, ao_weighting,
                              backend, device, bool(fast_math), bool(exact_float), _progress("repr bake", progress))

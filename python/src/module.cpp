@@ -9,9 +9,16 @@
 
 #include <microshadow/microshadow.hpp>
 
+#include <chrono>
+#include <condition_variable>
 #include <cstring>
+#include <exception>
+#include <mutex>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
+#include <utility>
 
 namespace py = pybind11;
 using namespace microshadow;
@@ -51,10 +58,12 @@ AoWeighting parse_ao_weighting(const std::string& s) {
 
 // --- progress, Ctrl-C and the GIL --------------------------------------------------------------------
 
-// The Progress of one long call. Each report takes the GIL for a moment: it lets Python run its
-// signal handlers (PyErr_CheckSignals; Ctrl-C raises KeyboardInterrupt there) and calls the user's
-// callback. Either raising stops the call (the C++ side throws Cancelled); the Python exception is kept
-// and raised again once the call has unwound.
+// The Progress of one long call. Each report takes the GIL for a moment and calls the user's callback;
+// the calling thread meanwhile runs Python's signal handlers every 0.1 s (check_signals: Ctrl-C raises
+// KeyboardInterrupt there). Python runs signal handlers only in its main thread, and the library
+// reports progress from whichever worker thread finishes an item, so the reports cannot be where
+// Ctrl-C is noticed. Either raising stops the call (the next report returns false and the C++ side
+// throws Cancelled); the Python exception is kept and raised again once the call has unwound.
 class PythonProgress {
 public:
     explicit PythonProgress(py::object callback) : callback_(std::move(callback)) {}
@@ -70,10 +79,6 @@ public:
         return [this](std::uint64_t done, std::uint64_t total) {
             py::gil_scoped_acquire gil;
             if (pending()) return false;
-            if (PyErr_CheckSignals() != 0) {
-                keep_error();
-                return false;
-            }
             if (!callback_.is_none()) {
                 try {
                     callback_(done, total);
@@ -85,6 +90,12 @@ public:
             }
             return true;
         };
+    }
+    // Whether a signal handler or the callback raised (their exception is kept for raise()).
+    bool stopped() const { return pending(); }
+    // Runs Python's signal handlers (the caller holds the GIL); one that raises stops the call.
+    void check_signals() {
+        if (!pending() && PyErr_CheckSignals() != 0) keep_error();
     }
     // After Cancelled: the exception that stopped the call (KeyboardInterrupt when none was kept).
     [[noreturn]] void raise() {
@@ -106,16 +117,51 @@ private:
     PyObject* traceback_ = nullptr;
 };
 
-// Runs `call(progress)` without the GIL (so other Python threads run meanwhile).
+// Runs `call(progress)` on a thread of its own without the GIL (so other Python threads run
+// meanwhile), while this thread wakes every 0.1 s to run Python's signal handlers.
 template <class Call>
 auto run_long(const py::object& callback, Call&& call) {
+    using Result = decltype(call(std::declval<Progress>()));
     PythonProgress bridge(callback);
-    try {
+    std::optional<Result> result;
+    std::exception_ptr failure;
+    std::mutex mutex;
+    std::condition_variable finished;
+    bool done = false;
+    {
         py::gil_scoped_release release;
-        return call(bridge.progress());
-    } catch (const Cancelled&) {
-        bridge.raise();
+        std::thread worker([&] {
+            try {
+                result.emplace(call(bridge.progress()));
+            } catch (...) {
+                failure = std::current_exception();
+            }
+            const std::lock_guard<std::mutex> lock(mutex);
+            done = true;
+            finished.notify_one();
+        });
+        std::unique_lock<std::mutex> lock(mutex);
+        while (!finished.wait_for(lock, std::chrono::milliseconds(100), [&] { return done; })) {
+            lock.unlock();
+            {
+                py::gil_scoped_acquire gil;
+                bridge.check_signals();
+            }
+            lock.lock();
+        }
+        lock.unlock();
+        worker.join();
     }
+    if (failure) {
+        try {
+            std::rethrow_exception(failure);
+        } catch (const Cancelled&) {
+            bridge.raise();
+        }
+    }
+    // A Ctrl-C (or a callback's exception) after the last report still stops the caller.
+    if (bridge.stopped()) bridge.raise();
+    return std::move(*result);
 }
 
 template <class T>
@@ -372,13 +418,14 @@ PYBIND11_MODULE(_microshadow, m) {
 
     m.def(
         "repr_bake",
-        [](const std::string& kind, std::uint32_t visibility_count, std::uint32_t n_dot_l_count, std::uint32_t n_dot_v_count,
-           std::uint32_t azimuth_nodes, const std::vector<double>& roughness, std::uint32_t roughness_count,
+        [](const std::string& preset, const std::string& kind, std::uint32_t visibility_count, std::uint32_t n_dot_l_count,
+           std::uint32_t n_dot_v_count, std::uint32_t azimuth_nodes, const std::vector<double>& roughness, std::uint32_t roughness_count,
            const std::string& n_dot_v_warp, const std::string& n_dot_l_warp, const std::string& visibility_warp,
            const std::string& method, double tolerance, std::uint64_t samples, std::uint32_t replicates, std::uint64_t seed,
            const std::string& sequence, const std::string& form, const std::string& ao_weighting, const std::string& backend,
            const std::string& device, bool fast_math, bool exact_float, const py::object& progress) {
             ReprBakeOptions o;
+            o.preset = preset;
             o.kind = kind;
             o.visibility_count = visibility_count;
             o.n_dot_l_count = n_dot_l_count;
@@ -393,7 +440,7 @@ PYBIND11_MODULE(_microshadow, m) {
                                           device, fast_math, exact_float);
             return run_long(progress, [&](const Progress& p) { return repr_bake(o, p); });
         },
-        "kind"_a, "visibility_count"_a, "n_dot_l_count"_a, "n_dot_v_count"_a, "azimuth_nodes"_a, "roughness"_a,
+        "preset"_a, "kind"_a, "visibility_count"_a, "n_dot_l_count"_a, "n_dot_v_count"_a, "azimuth_nodes"_a, "roughness"_a,
         "roughness_count"_a, "n_dot_v_warp"_a, "n_dot_l_warp"_a, "visibility_warp"_a, "method"_a, "tolerance"_a, "samples"_a,
         "replicates"_a, "seed"_a, "sequence"_a, "form"_a, "ao_weighting"_a, "backend"_a, "device"_a, "fast_math"_a,
         "exact_float"_a, "progress"_a);

@@ -71,6 +71,22 @@ def test_repr_formats_and_bad_options(representation, tmp_path):
         ms.repr_bake(kind="azimuth-axis", roughness=[0.5, 0.3])
 
 
+def test_repr_bake_preset_gives_the_clis_preset_file(cli, tmp_path):
+    # The default preset, as `repr bake --preset full-range` bakes it (the exact term at its 512 KiB grid).
+    cli("repr", "bake", "--preset", "full-range", "--backend", "oracle", "--out", tmp_path / "cli.exr", "-q")
+    back = ms.open(tmp_path / "cli.exr")
+    rep = ms.repr_bake(preset="full-range", backend="oracle")
+    assert rep.kind == back.kind == "azimuth-harmonics"
+    assert rep.metadata["preset"] == "full-range"
+    np.testing.assert_array_equal(rep.data, back.data)
+    with pytest.raises(ValueError, match="preset = 'full-range' sets the whole layout: kind, visibility_count"):
+        ms.repr_bake(preset="full-range", kind="azimuth-axis", visibility_count=8)
+    with pytest.raises(ValueError, match="preset = 'fullrange': one of"):
+        ms.repr_bake(preset="fullrange")
+    with pytest.raises(ValueError, match="kind: required for a custom layout"):
+        ms.repr_bake()
+
+
 def test_analytic_terms_are_the_clis_compare_columns(cli, tmp_path):
     queries = random_queries(20, seed=9)
     cols = _compare_columns(cli, tmp_path, queries, *ms.ANALYTIC_TERMS)

@@ -193,4 +193,26 @@ TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
     EXPECT_THROW(microshadow::open_file(path.string()), std::runtime_error);
 }
 
+// A preset sets the whole layout: a layout field beside it, or a name that is no preset, is refused
+// before any bake, with the reason (the bake itself is compared with the CLI's in the Python tests).
+TEST(LibraryApi, ARepresentationPresetRefusesALayoutBesideItAndUnknownNames) {
+    microshadow::ReprBakeOptions o;
+    o.preset = "full-range";
+    o.visibility_count = 8;
+    try {
+        microshadow::repr_bake(o);
+        ADD_FAILURE() << "a layout field beside a preset was accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("sets the whole layout"), std::string::npos) << e.what();
+    }
+    o = {};
+    o.preset = "fullrange";
+    try {
+        microshadow::repr_bake(o);
+        ADD_FAILURE() << "an unknown preset was accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("full-range"), std::string::npos) << e.what();
+    }
+}
+
 }  // namespace

@@ -315,38 +315,29 @@ LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
     }
     spec.command_line = "microshadow::repr_bake (library " + version() + ")";
     if (preset) {
+        // The preset's layout, baked and built as `repr bake --preset` does: the exact term at its grid,
+        // then (the anisotropic preset) the correction's fit.
         spec.grid = preset->grid;
         spec.azimuth_nodes = preset->azimuth_nodes;
-        auto backend = make_backend(o);
-        // The preset's bake and build as `repr bake --preset` does them: the exact term at its grid, then
-        // (the anisotropic preset) the correction's fit.
-        ms::repr::AzimuthBake baked = detail::run_with_progress(progress, [&](const auto& report) {
-            return ms::repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { report(done, total); });
-        });
-        baked.metadata["domain"] = preset->domain.to_json("the preset's domain: its measured errors hold here; outside, its axes clamp");
-        baked.metadata["preset"] = a.preset;
-        auto data = std::make_shared<LookupFile::Data>();
-        data->representation = ms::repr::build_preset(*preset, baked, *backend);
-        data->kind = preset->kind;
-        nlohmann::json metadata = baked.metadata;
-        metadata["kind"] = "representation";
-        metadata["representation"] = preset->kind;
-        data->metadata_json = metadata.dump();
-        return LookupFile(std::move(data));
+    } else {
+        const auto kinds = ms::repr::representation_kinds();
+        if (std::find(kinds.begin(), kinds.end(), a.kind) == kinds.end())
+            throw std::invalid_argument("microshadow::repr_bake: kind '" + a.kind + "' (azimuth-axis or azimuth-harmonics)");
+        if (a.roughness_count && (a.roughness_count < 2 || a.roughness_count > a.roughness.size()))
+            throw std::invalid_argument("microshadow::repr_bake: roughness_count must be between 2 and the number of roughness values");
+        if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
+            throw std::invalid_argument("microshadow::repr_bake: azimuth-axis holds 1 to 4 roughness nodes (RGBA): set roughness_count 4");
+        if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
+            throw std::invalid_argument("microshadow::repr_bake: azimuth-harmonics projects on cos(m phi), m <= 3: azimuth_nodes must be at least 7");
     }
-    const auto kinds = ms::repr::representation_kinds();
-    if (std::find(kinds.begin(), kinds.end(), a.kind) == kinds.end())
-        throw std::invalid_argument("microshadow::repr_bake: kind '" + a.kind + "' (azimuth-axis or azimuth-harmonics)");
-    if (a.roughness_count && (a.roughness_count < 2 || a.roughness_count > a.roughness.size()))
-        throw std::invalid_argument("microshadow::repr_bake: roughness_count must be between 2 and the number of roughness values");
-    if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
-        throw std::invalid_argument("microshadow::repr_bake: azimuth-axis holds 1 to 4 roughness nodes (RGBA): set roughness_count 4");
-    if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
-        throw std::invalid_argument("microshadow::repr_bake: azimuth-harmonics projects on cos(m phi), m <= 3: azimuth_nodes must be at least 7");
     auto backend = make_backend(o);
     ms::repr::AzimuthBake baked = detail::run_with_progress(progress, [&](const auto& report) {
         return ms::repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { report(done, total); });
     });
+    if (preset) {
+        baked.metadata["domain"] = preset->domain.to_json("the preset's domain: its measured errors hold here; outside, its axes clamp");
+        baked.metadata["preset"] = a.preset;
+    }
     if (a.roughness_count) {
         double worst = 0;
         const auto keep = ms::repr::choose_roughness_nodes(baked, a.roughness_count, &worst);
@@ -354,12 +345,13 @@ LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
         baked.metadata["roughness_chosen_from"] = a.roughness;
         baked.metadata["roughness_blend_rms"] = worst;
     }
+    const std::string kind = preset ? preset->kind : a.kind;
     auto data = std::make_shared<LookupFile::Data>();
-    data->representation = ms::repr::build_representation(a.kind, baked);
-    data->kind = a.kind;
+    data->representation = preset ? ms::repr::build_preset(*preset, baked, *backend) : ms::repr::build_representation(kind, baked);
+    data->kind = kind;
     nlohmann::json metadata = baked.metadata;
     metadata["kind"] = "representation";
-    metadata["representation"] = a.kind;
+    metadata["representation"] = kind;
     data->metadata_json = metadata.dump();
     return LookupFile(std::move(data));
 }

@@ -13,6 +13,9 @@
 #include <iostream>
 #include <limits>
 
+#include "cli/progress.hpp"
+#include "core/cancel.hpp"
+#include "io/csv.hpp"
 #include "io/text.hpp"
 #include "sampling/point_set.hpp"
 
@@ -41,6 +44,32 @@ void set_command_line(int argc, char** argv) {
 }
 
 std::string command_line() { return g_command_line; }
+
+int report_error(const std::exception_ptr& error) {
+    try {
+        std::rethrow_exception(error);
+    } catch (const ReportedError& e) {
+        return e.code();
+    } catch (const Cancelled& e) {
+        std::cerr << "microshadow: " << e.what() << "\n";
+        return interrupted_exit_status();
+    } catch (const CsvError& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 2;
+    } catch (const std::invalid_argument& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 2;
+    } catch (const ExitError& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return e.code();
+    } catch (const std::exception& e) {
+        std::cerr << "microshadow: error: " << e.what() << "\n";
+        return 1;
+    } catch (...) {
+        std::cerr << "microshadow: error: unknown failure\n";
+        return 1;
+    }
+}
 
 void check_sampling_size(const SamplingPlan& p) {
     const std::uint64_t per_replicate = p.samples / p.replicates;

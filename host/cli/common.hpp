@@ -116,10 +116,32 @@ private:
     int code_;
 };
 
+// A failure already reported on stderr (rank 0 of an MPI world reports before the world ends): main
+// prints nothing more and exits with its status.
+class ReportedError : public std::runtime_error {
+public:
+    explicit ReportedError(int code) : std::runtime_error("reported"), code_(code) {}
+    int code() const { return code_; }
+
+private:
+    int code_;
+};
+
+// Prints a failure of a command's run as "microshadow: ..." on stderr and returns its exit status: 2 for
+// bad input (std::invalid_argument, CSV errors), the signal's status when interrupted, an ExitError's
+// own, 1 otherwise.
+int report_error(const std::exception_ptr& error);
+
 // The full command line (each argument quoted as a bash word, valid UTF-8 whatever the bytes), for
 // provenance records in output files.
 std::string command_line();
 void set_command_line(int argc, char** argv);
+
+// The program (program.cpp): every command registered on `app`, with its description and --version
+// (the CLI fuzzer parses with the same app), and a whole run: parses argv, runs the command and returns
+// the exit status (main.cpp is a call of it).
+void build_app(CLI::App& app);
+int run_program(int argc, char** argv);
 
 // Subcommand registration (one per file in host/cli/).
 void add_devices_command(CLI::App& app);

@@ -202,6 +202,9 @@ MpiWorld::~MpiWorld() {
         MPI_Abort(MPI_COMM_WORLD, interrupted_exit_status());
         return;
     }
+    // No rank leaves before every rank is here: rank 0 reports a failure before it gets here, and a rank
+    // that exited with an error earlier could make mpirun end rank 0 before its message is out.
+    MPI_Barrier(MPI_COMM_WORLD);
     MPI_Finalize();
 }
 
@@ -286,7 +289,18 @@ schedule::DistributionRequest distribution_request(const DistributionArgs& args,
 void with_distribution(const DistributionArgs& args, const std::function<void(MpiWorld*)>& body) {
     if (!args.mpi) return body(nullptr);
     MpiWorld world;
-    world.guard([&] { body(&world); });
+    try {
+        world.guard([&] { body(&world); });
+    } catch (const Cancelled&) {
+        throw;  // the world is aborted on the way out, with its own message
+    } catch (...) {
+        if (!world.writer()) throw;
+        // Rank 0 speaks for the world: its message goes out while the world still stands (the other ranks
+        // wait for it at the end), then main adds nothing.
+        const int status = report_error(std::current_exception());
+        std::cerr.flush();
+        throw ReportedError(status);
+    }
 }
 
 }  // namespace ms::cli

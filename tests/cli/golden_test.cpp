@@ -251,7 +251,7 @@ TEST_F(Failover, SweepWithItsOnlyDeviceFailingWritesNoResult) {
 
 // ---------------------------------------------------------------------------------------------------
 // Signals. Both stop the run cooperatively (ms::cancel_requested(), ms::Cancelled); the exit status is
-// the shell's convention, 128 + the signal (main.cpp: 130 for SIGINT, 143 for SIGTERM).
+// the shell's convention, 128 + the signal (host/cli/program.cpp: 130 for SIGINT, 143 for SIGTERM).
 
 int interrupted_status(int sig) { return 128 + sig; }
 constexpr double kSignalAfter = 1.0;   // seconds after the start

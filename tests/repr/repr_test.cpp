@@ -23,6 +23,7 @@
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "repr/texture_repr.hpp"
+#include "sanitizers.hpp"
 
 namespace {
 
@@ -451,6 +452,9 @@ TEST(ReprGridJson, FieldsAbsentInOlderFilesDefaultToTheOldLayoutAndBadOnesAreRef
 // The bound is the preset's target, max |error| <= 0.1 (docs/representations.md, "Presets"); measured
 // 0.053, 0.070 and 0.049 (with the sqrt-top visibility axis and the uncapped NdotL width: 0.071, 0.30, 0.99).
 TEST(ReprPresetMax, FullRangeMeetsItsMaxTargetUpToVisibilityOne) {
+    // The preset's bake runs under the sanitizers in PresetTest (through the program); what this adds is
+    // the accuracy of the optimised build's texels, checked there.
+    if (ms::testing::kAsan) GTEST_SKIP() << "accuracy of the shipped preset: checked in the optimised build";
     const auto rep = repr::baked_preset("full-range");
     const auto lookup = [&](double v, double l, double nv, double r, double phi) {
         ms::approx::Inputs in;
@@ -483,6 +487,9 @@ TEST(ReprPresetMax, FullRangeMeetsItsMaxTargetUpToVisibilityOne) {
 // term is 1 above the horizon (a0 = 1, the azimuth harmonics 0), and the texels below it come closer
 // to v = 1 the smoother the slab (the axis is logarithmic down to the scale 0.5 min(alpha, NdotV / 4)).
 TEST(ReprPresetMax, FullRangeVisibilityAxisReachesOneAtEverySlab) {
+    // The preset's bake runs under the sanitizers in PresetTest (through the program); this checks the
+    // texels it gives, which the optimised build bakes the same.
+    if (ms::testing::kAsan) GTEST_SKIP() << "the shipped preset's texels: checked in the optimised build";
     const auto rep = repr::baked_preset("full-range");
     const auto& g = rep->grid();
     ASSERT_EQ(g.warps.visibility, repr::VisibilityWarp::edge_roughness);

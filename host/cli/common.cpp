@@ -53,18 +53,11 @@ int report_error(const std::exception_ptr& error) {
     } catch (const Cancelled& e) {
         std::cerr << "microshadow: " << e.what() << "\n";
         return interrupted_exit_status();
-    } catch (const CsvError& e) {
-        std::cerr << "microshadow: error: " << e.what() << "\n";
-        return 2;
-    } catch (const std::invalid_argument& e) {
-        std::cerr << "microshadow: error: " << e.what() << "\n";
-        return 2;
-    } catch (const ExitError& e) {
-        std::cerr << "microshadow: error: " << e.what() << "\n";
-        return e.code();
     } catch (const std::exception& e) {
         std::cerr << "microshadow: error: " << e.what() << "\n";
-        return 1;
+        if (const auto* exit = dynamic_cast<const ExitError*>(&e)) return exit->code();
+        const bool bad_input = dynamic_cast<const CsvError*>(&e) || dynamic_cast<const std::invalid_argument*>(&e);
+        return bad_input ? 2 : 1;
     } catch (...) {
         std::cerr << "microshadow: error: unknown failure\n";
         return 1;

@@ -162,5 +162,8 @@ typedef struct ms_exact_value {
 /* A piece met the bound of the kernel's fixed-size subdivision stack and was finished with the rule
  * as it stood; its integral of |f| was added to the error estimate. */
 #define MS_EXACT_FLAG_STACK_FULL 1u
+/* The working precision could not resolve the value (the hemisphere's probability rounded to 0): the
+ * value is 0 with error 1, and the host computes it again in double. */
+#define MS_EXACT_FLAG_UNRESOLVED 2u
 
 #endif /* MICROSHADOW_SHARED_H */

@@ -120,11 +120,22 @@ inline void exact_basis(real3 n, real3* e1, real3* e2)
 }
 
 /* The parts of circle k inside every other cap, as psi intervals; returns their number. */
-inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1, real3 e2, real* arc_lo, real* arc_hi)
+/* Each arc end also gets a first-order bound on its rounding error (end_lo, end_hi, radians): an end is
+ * centre +- acos(C / R), and acos amplifies an error d of x = C / R by 1 / sqrt(1 - x^2), or to
+ * sqrt(6 d) where 1 - |x| < 2 d (acos(1 - u) ~ sqrt(2 u)). Near tangency (x ~ 1, two circles barely
+ * crossing, or a grazing view's great circle passing just inside a narrow cone) that is many ulps of
+ * an end, which moves the integral by the integrand there times the shift: the dominant rounding of
+ * the float kernel for narrow cones seen at grazing angles. d bounds the rounding of C and R from
+ * their inputs (the cosines and sines of the caps, the axis difference and the basis, each correct to
+ * a few ulps): 16 ulps of the sizes that enter them, over R. The ends of a whole circle (0, 2 pi) are
+ * no ends: the integrand is periodic. */
+inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1, real3 e2, real* arc_lo, real* arc_hi,
+                               real* end_lo, real* end_hi)
 {
     int arcs = 1;
     arc_lo[0] = MS_R(0.0);
     arc_hi[0] = MS_EXACT_TWO_PI;
+    end_lo[0] = end_hi[0] = MS_R(0.0);
     int full = 1;
     for (int j = 0; j < count; ++j) {
         if (j == k) continue;
@@ -137,15 +148,25 @@ inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1
         if (C < -R) continue;     /* circle k lies inside cap j */
         if (C >= R) return 0;     /* outside, or touching only */
         const real centre = atan2(B, A);
-        const real half_angle = acos(C / R);
+        const real x = C / R;
+        const real half_angle = acos(x);
         const real allowed_lo = centre - half_angle, allowed_hi = centre + half_angle;
+        /* The ends' rounding (above): of x, of the centre (atan2: |d(A, B)| / R), and of the sums. */
+        const real dn_size = sqrt(dot(dn, dn));
+        const real dx = MS_R(4.0) * MS_EXACT_EPS *
+                        (fabs(cj.c) + fabs(ck.c) + cj.s + ck.s * dn_size * (MS_R(1.0) + fabs(x)) + fabs(C)) / R;
+        const real gap = MS_R(1.0) - fabs(x);
+        const real d_half = gap > MS_R(2.0) * dx ? dx / sqrt(gap * (MS_R(1.0) + fabs(x))) : sqrt(MS_R(6.0) * dx);
+        const real d_centre = MS_R(4.0) * MS_EXACT_EPS * ck.s * dn_size / R;
+        const real d_end = fmin(MS_EXACT_PI, d_half + d_centre) + MS_R(4.0) * MS_EXACT_EPS * (fabs(centre) + MS_EXACT_TWO_PI);
         if (full) {
             arc_lo[0] = allowed_lo;
             arc_hi[0] = allowed_hi;
+            end_lo[0] = end_hi[0] = d_end;
             full = 0;
             continue;
         }
-        real next_lo[MS_EXACT_MAX_ARCS], next_hi[MS_EXACT_MAX_ARCS];
+        real next_lo[MS_EXACT_MAX_ARCS], next_hi[MS_EXACT_MAX_ARCS], next_end_lo[MS_EXACT_MAX_ARCS], next_end_hi[MS_EXACT_MAX_ARCS];
         int next = 0;
         for (int i = 0; i < arcs; ++i)
             for (int shift = -1; shift <= 1; ++shift) {
@@ -154,12 +175,17 @@ inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1
                 if (hi > lo && next < MS_EXACT_MAX_ARCS) {
                     next_lo[next] = lo;
                     next_hi[next] = hi;
+                    /* an end is this cap's where this cap's bound it */
+                    next_end_lo[next] = arc_lo[i] >= allowed_lo + shift * MS_EXACT_TWO_PI ? end_lo[i] : d_end;
+                    next_end_hi[next] = arc_hi[i] <= allowed_hi + shift * MS_EXACT_TWO_PI ? end_hi[i] : d_end;
                     ++next;
                 }
             }
         for (int i = 0; i < next; ++i) {
             arc_lo[i] = next_lo[i];
             arc_hi[i] = next_hi[i];
+            end_lo[i] = next_end_lo[i];
+            end_hi[i] = next_end_hi[i];
         }
         arcs = next;
         if (arcs == 0) return 0;
@@ -267,10 +293,20 @@ inline int exact_pole_near_piece(real lo, real hi, const real* pole_re, const re
 
 /* ---- the arc integrand and its pieces ------------------------------------------------------------- */
 
+/* |v(psi)|^2 for v = p + q cos psi + r sin psi. */
+inline real exact_norm2_at(real3 p, real3 q, real3 r, real psi)
+{
+    real c;
+    const real s = sincos(psi, &c);
+    const real3 v = p + q * c + r * s;
+    return dot(v, v);
+}
+
 /* v = p + q cos psi + r sin psi; the integrand (k + bc cos psi - bs sin psi) / |v|^2. */
 typedef struct exact_arc {
     real3 p, q, r;
     real k, bc, bs;
+    real parameter_size; /* |q||r| + |p||r| + |p||q|: what k, bc, bs are rounded relative to */
 } exact_arc;
 
 inline real exact_arc_integrand(const exact_arc* f, real psi)
@@ -326,12 +362,18 @@ inline void exact_integrate_arc(const exact_arc* f, const real* pole_re, const r
             }
             stack_full = 1;
         }
-        real qh = MS_R(0.0), ql = MS_R(0.0), magnitude = MS_R(0.0);
+        real qh = MS_R(0.0), ql = MS_R(0.0), magnitude = MS_R(0.0), sensitivity = MS_R(0.0);
         for (int i = 0; i < rule->arc_high; ++i) {
             const real w = gauss[rule->arc_high_at + rule->arc_high + i];
-            const real fx = exact_arc_integrand(f, mid + half_width * gauss[rule->arc_high_at + i]);
+            const real psi = mid + half_width * gauss[rule->arc_high_at + i];
+            const real fx = exact_arc_integrand(f, psi);
             qh += w * fx;
             magnitude += w * fabs(fx);
+            /* The integrand's rounding from its parameters: k, bc, bs are rounded relative to the
+             * products they are made of (parameter_size), not to |k + bc cos - bs sin|, which cancels
+             * where the boundary runs nearly along the view's direction (grazing views). */
+            const real norm2 = exact_norm2_at(f->p, f->q, f->r, psi);
+            sensitivity += w * f->parameter_size / norm2;
         }
         for (int i = 0; i < rule->arc_low; ++i)
             ql += gauss[rule->arc_low_at + rule->arc_low + i] * exact_arc_integrand(f, mid + half_width * gauss[rule->arc_low_at + i]);
@@ -354,7 +396,8 @@ inline void exact_integrate_arc(const exact_arc* f, const real* pole_re, const r
             stack_full = 1;
         }
         out->value += qh;
-        out->error += difference + MS_R(64.0) * MS_EXACT_EPS * half_width * magnitude;
+        out->error += difference + MS_R(64.0) * MS_EXACT_EPS * half_width * magnitude +
+                      MS_R(8.0) * MS_EXACT_EPS * half_width * sensitivity;
         out->pieces += 1;
         if (stack_full) {
             out->error += half_width * magnitude;
@@ -419,13 +462,13 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
     const real ax = surface->ax, ay = surface->ay;
     const real3 a = surface->a;
     exact_sum result = {MS_R(0.0), MS_R(0.0), 0u, 0u};
-    real rounding = MS_R(0.0);
+    real rounding = MS_R(0.0), ends = MS_R(0.0);
     const real tolerance_per_radian = absolute_tolerance / (MS_EXACT_TWO_PI * count);
     for (int k = 0; k < count; ++k) {
         real3 e1, e2;
         exact_basis(caps[k].n, &e1, &e2);
-        real arc_lo[MS_EXACT_MAX_ARCS], arc_hi[MS_EXACT_MAX_ARCS];
-        const int arcs = exact_boundary_arcs(caps, count, k, e1, e2, arc_lo, arc_hi);
+        real arc_lo[MS_EXACT_MAX_ARCS], arc_hi[MS_EXACT_MAX_ARCS], end_lo[MS_EXACT_MAX_ARCS], end_hi[MS_EXACT_MAX_ARCS];
+        const int arcs = exact_boundary_arcs(caps, count, k, e1, e2, arc_lo, arc_hi, end_lo, end_hi);
         if (arcs == 0) continue;
         const exact_cap cap = caps[k];
         /* m / (ax, ay, 1) componentwise, as the host divides */
@@ -437,10 +480,12 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
             const real3 sn = (real3)(ax * cap.n.x, ay * cap.n.y, cap.n.z);
             const real3 axis = sn * (MS_R(1.0) / sqrt(dot(sn, sn)));
             const real weight = dot(a, axis);
+            const real sweep_rate = fabs(weight * dot(cross(q, r), axis)); /* over |v|^2: d angle / d psi */
             for (int i = 0; i < arcs; ++i) {
                 const real part = weight * exact_swept_angle(q, r, axis, arc_lo[i], arc_hi[i]);
                 result.value += part;
                 rounding += fabs(part);
+                ends += sweep_rate * (end_lo[i] / exact_norm2_at(p, q, r, arc_lo[i]) + end_hi[i] / exact_norm2_at(p, q, r, arc_hi[i]));
             }
             continue;
         }
@@ -454,6 +499,7 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
                                   norm2;
                 result.value += part;
                 rounding += fabs(k_const * (arc_hi[i] - arc_lo[i]) / norm2) + (fabs(bc) + fabs(bs)) * MS_R(2.0) / norm2;
+                ends += (fabs(k_const) + fabs(bc) + fabs(bs)) * (end_lo[i] + end_hi[i]) / norm2;
             }
             continue;
         }
@@ -464,17 +510,24 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
         f.k = k_const;
         f.bc = bc;
         f.bs = bs;
+        {
+            const real lp = length(p), lq = length(q), lr = length(r);
+            f.parameter_size = lq * lr + lp * lr + lp * lq;
+        }
         real pole_re[4], pole_im[4];
         const int poles = exact_poles(p, q, r, pole_re, pole_im);
         exact_sum sum = {MS_R(0.0), MS_R(0.0), 0u, 0u};
-        for (int i = 0; i < arcs; ++i)
+        for (int i = 0; i < arcs; ++i) {
             exact_integrate_arc(&f, pole_re, pole_im, poles, arc_lo[i], arc_hi[i], rule, gauss, tolerance_per_radian, &sum);
+            ends += fabs(exact_arc_integrand(&f, arc_lo[i])) * end_lo[i] + fabs(exact_arc_integrand(&f, arc_hi[i])) * end_hi[i];
+        }
         result.value += sum.value;
         result.error += sum.error;
         result.pieces += sum.pieces;
         result.flags |= sum.flags;
     }
-    result.error += MS_R(32.0) * MS_EXACT_EPS * rounding;
+    /* An end moved by its rounding moves the integral by the integrand there times the shift. */
+    result.error += MS_R(32.0) * MS_EXACT_EPS * rounding + ends;
     return result;
 }
 
@@ -499,7 +552,13 @@ inline exact_sum exact_term_of(real ax, real ay, real3 wi, real3 wo, real c, rea
     caps[1] = exact_cap_make(wo, MS_R(0.0), MS_R(1.0));
     caps[2] = exact_cap_make(wi, MS_R(0.0), MS_R(1.0));
     const exact_sum hemisphere = exact_boundary_integral(&surface, caps, 3, rule, gauss, MS_R(0.0));
-    if (!(hemisphere.value > MS_R(0.0))) return out;
+    if (!(hemisphere.value > MS_R(0.0))) {
+        /* wi and wo above the horizon give the hemisphere a positive probability: rounding lost it
+         * (float, views within ~1e-6 of the horizon), and nothing is known of the ratio. */
+        out.error = MS_R(1.0);
+        out.flags = MS_EXACT_FLAG_UNRESOLVED;
+        return out;
+    }
     const real s = sqrt(s2);
     caps[0] = exact_cap_make(ez, c, s);
     caps[1] = exact_cap_make(wo, c, s);

@@ -96,6 +96,7 @@ void ExactKernel::run(cl::Kernel& kernel, const std::vector<Item>& items, double
                       std::vector<ExactValue>& out) {
     out.assign(items.size(), ExactValue{});
     stack_limited_ = 0;
+    unresolved_.clear();
     if (items.empty()) return;
     const LaunchRules rules = launch_rules(tolerance, term_tolerance);
     const std::size_t batch = std::min(items.size(), batch_size(sizeof(Item)));
@@ -134,6 +135,7 @@ void ExactKernel::run(cl::Kernel& kernel, const std::vector<Item>& items, double
                 o.error = join(v.error_hi, v.error_lo);
                 o.quadrature_pieces = static_cast<int>(v.quadrature_pieces);
                 if (v.flags & MS_EXACT_FLAG_STACK_FULL) ++stack_limited_;
+                if (v.flags & MS_EXACT_FLAG_UNRESOLVED) unresolved_.push_back(first + i);
             }
         }
         return 0;
@@ -157,6 +159,14 @@ void ExactKernel::terms(const std::vector<Query>& q, AoWeighting weighting, doub
         split(wo.z, k.wo_z_hi, k.wo_z_lo);
     }
     run(term_kernel_, items, tolerance, tolerance, out);
+    // What float cannot resolve, the C++ evaluator computes in double (see exact_kernel.hpp).
+    if (!build_.double_precision)
+        for (std::size_t i = 0; i < q.size(); ++i)
+            if (std::max(q[i].alpha_x, q[i].alpha_y) > kFloatAnisotropyLimit * std::min(q[i].alpha_x, q[i].alpha_y))
+                unresolved_.push_back(i);
+    std::sort(unresolved_.begin(), unresolved_.end());
+    unresolved_.erase(std::unique(unresolved_.begin(), unresolved_.end()), unresolved_.end());
+    for (std::size_t i : unresolved_) out[i] = exact_term(q[i], weighting, tolerance);
 }
 
 void ExactKernel::azimuth_means(const std::vector<ExactTexel>& texels, AoWeighting weighting, double tolerance,
@@ -174,6 +184,19 @@ void ExactKernel::azimuth_means(const std::vector<ExactTexel>& texels, AoWeighti
     }
     // exact_azimuth_mean gives each term a quarter of the mean's tolerance.
     run(mean_kernel_, items, tolerance, 0.25 * tolerance, out);
+    // A texel carries only the cosines: float's 1 - NdotL^2 keeps few digits of the sine within
+    // kFloatNearNormal of the normal (see exact_kernel.hpp); those go to the C++ evaluator.
+    if (!build_.double_precision)
+        for (std::size_t i = 0; i < texels.size(); ++i) {
+            const auto near_normal = [](double c) { return c < 1 && c > 1 - kFloatNearNormal; };
+            if (near_normal(texels[i].n_dot_l) || near_normal(texels[i].n_dot_v)) unresolved_.push_back(i);
+        }
+    std::sort(unresolved_.begin(), unresolved_.end());
+    unresolved_.erase(std::unique(unresolved_.begin(), unresolved_.end()), unresolved_.end());
+    for (std::size_t i : unresolved_) {
+        const ExactTexel& t = texels[i];
+        out[i] = exact_azimuth_mean(t.visibility, t.alpha, t.n_dot_v, t.n_dot_l, weighting, tolerance);
+    }
 }
 
 }  // namespace ms::exact

@@ -4,11 +4,17 @@
 //
 // Precision. With BuildConfig::double_precision (devices with cl_khr_fp64) the kernel runs in double
 // and agrees with the C++ evaluator within their error estimates. Without it the kernel runs in float,
-// and float rounding, not the quadrature, limits it whatever the tolerance asked: measured worst cases
-// (tests/integrands/exact_kernel_test.cpp, PoCL) 1.6e-5 absolute on stress queries, 1.2e-6 on azimuth means, and
-// 2.2e-3 on azimuth means of very narrow cones (v = 1e-6) lit from within 1e-6 of the normal, where
-// float's 1 - NdotL^2 keeps only a few digits of sin^2 of the light angle (there the float estimate
-// is not a bound either). Parameters travel as float pairs (~48 bits).
+// and float rounding, not the quadrature, limits it whatever the tolerance asked. Its error estimate
+// then carries float's rounding as first-order bounds (kernels/exact/exact_term.cl): the arc ends'
+// rounding amplified by acos near tangency (narrow cones seen at grazing angles, where the ends of the
+// view's great circle inside the cone are ill-conditioned) times the integrand there, and the
+// integrand's parameters rounded relative to the products they are made of. Checked value by value
+// against the C++ evaluator on stress sets (tests/integrands/exact_kernel_test.cpp). Two kinds of
+// query float cannot resolve go to the C++ evaluator on the host instead, in double: a hemisphere
+// probability that rounds to 0 (views within ~1e-6 of the horizon; the kernel flags them) and
+// anisotropy beyond kFloatAnisotropyLimit, where the estimate fell short of the error by up to 2x;
+// and texels lit or seen within kFloatNearNormal of the normal.
+// Parameters travel as float pairs (~48 bits).
 #pragma once
 
 #include <vector>
@@ -23,6 +29,14 @@ namespace ms::exact {
 struct ExactTexel {
     double visibility = 1, alpha = 0.5, n_dot_v = 1, n_dot_l = 1;
 };
+
+// Beyond alpha_x : alpha_y = 1000 : 1 (either way) a float build's queries are computed on the host.
+inline constexpr double kFloatAnisotropyLimit = 1000;
+// A float build's texels with NdotL or NdotV in (1 - kFloatNearNormal, 1) are computed on the host:
+// a texel carries only the cosines, and float's 1 - NdotL^2 resolves the sine to ~6e-8 / (1 - NdotL),
+// which moves a narrow cone's term by more than the kernel's estimate (2e-3 at v = 1e-6, NdotL
+// 1 - 1e-6). Queries carry the directions' components and need no such rule.
+inline constexpr double kFloatNearNormal = 1e-4;
 
 class ExactKernel {
 public:
@@ -42,6 +56,10 @@ public:
     // the pieces' whole magnitude; 0 unless a build lowered MS_EXACT_ARC_STACK / MS_EXACT_AZIMUTH_STACK).
     std::size_t stack_limited() const { return stack_limited_; }
 
+    // Values of the last call computed by the C++ evaluator instead (float builds: what float cannot
+    // resolve, above), by index.
+    const std::vector<std::size_t>& recomputed() const { return unresolved_; }
+
     // Items per kernel launch: bounded by the device's largest buffer and a share of its memory.
     std::size_t batch_size(std::size_t item_bytes) const;
 
@@ -54,6 +72,7 @@ private:
     ocl::BuildConfig build_;
     cl::Kernel term_kernel_, mean_kernel_;
     std::size_t stack_limited_ = 0;
+    std::vector<std::size_t> unresolved_;
 };
 
 }  // namespace ms::exact

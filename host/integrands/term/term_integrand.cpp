@@ -204,23 +204,11 @@ std::vector<Estimate> TermIntegrand::evaluate(Tallier& tallier, const Batch& bat
     Tallies t;
     t.resize(to_sample.size() * R);
     tallier.tally(to_sample.data(), sample_options.data(), to_sample.size(), pts, t, 0);
-    // When every replicate agrees the spread is 0, although the term is not known exactly: no sample
-    // (or every sample) passed the cone (a grazing 1:50 anisotropic query gave 0 +- 0 for 13 of 20 seeds
-    // where the term is 0.0111), or the stratified points gave each replicate the same count (v 0.95,
-    // alpha 0.05, wi = wo = normal: one failure in each replicate, 0.9998779 +- 0 where the term is
-    // 0.9998685). Report the exact binomial bound instead, scaled so that the usual 99.9 % error bar
-    // (Student t with R - 1 degrees of freedom times the error) is it.
-    const double t999 = R > 1 ? student_t_quantile(0.999, int(R) - 1) : 1.0;
+    // Few rare samples, agreeing replicates, or no sample in the denominator: the bar from the pooled
+    // counts (the derivation is above reduce_count_replicates, core/estimate.hpp).
     for (std::size_t k = 0; k < to_sample.size(); ++k) {
-        Estimate e = reduce_replicates(&t.cone[k * R], &t.hemisphere[k * R], R);
-        if (e.std_error == 0) {
-            double passed = 0, total = 0;
-            for (std::size_t r = 0; r < R; ++r) {
-                passed += t.cone_count[k * R + r];
-                total += t.hemisphere_count[k * R + r];
-            }
-            if (total > 0) e.std_error = binomial_agreement_bound(std::min(passed, total), total, 0.999) / t999;
-        }
+        Estimate e = reduce_count_replicates(
+            {&t.cone[k * R], &t.hemisphere[k * R], &t.cone_count[k * R], &t.hemisphere_count[k * R]}, R);
         results[where[k]] = e;
     }
     stats_.sampled += to_sample.size();

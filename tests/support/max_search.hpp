@@ -3,7 +3,7 @@
 // to the inputs, e.g. densely towards v = 1 and the horizon, where a layout is hardest pressed) and
 // returns the error there. The search screens `screen` uniform random points, then runs Nelder-Mead
 // maximising the error from the worst `starts` of them, each for at most `steps` iterations (clamped to
-// the box; initial simplex 5 % of the box). A lower bound of the true max, but one that climbs to the
+// the box; initial simplex 5 % of the box; host/fit/nelder_mead.hpp). A lower bound of the true max, but one that climbs to the
 // local maxima a grid or a random sample only straddles.
 #pragma once
 
@@ -13,6 +13,8 @@
 #include <random>
 #include <utility>
 #include <vector>
+
+#include "fit/nelder_mead.hpp"
 
 namespace ms::testing {
 
@@ -42,61 +44,9 @@ inline MaxSearchResult search_max_error(const std::function<double(const std::ve
     }
     std::partial_sort(screened.begin(), screened.begin() + std::ptrdiff_t(starts), screened.end(),
                       [](const auto& a, const auto& b) { return a.first > b.first; });
-    auto clamp_box = [](std::vector<double> x) {
-        for (double& c : x) c = std::clamp(c, 0.0, 1.0);
-        return x;
-    };
-    for (std::size_t s = 0; s < starts; ++s) {
-        // Nelder-Mead on -error: the simplex's vertices and their values.
-        std::vector<std::vector<double>> simplex(dims + 1, screened[s].second);
-        std::vector<double> f(dims + 1);
-        for (std::size_t k = 0; k <= dims; ++k) {
-            if (k > 0) simplex[k][k - 1] += simplex[k][k - 1] > 0.5 ? -0.05 : 0.05;
-            f[k] = -value(simplex[k]);
-        }
-        for (int it = 0; it < steps; ++it) {
-            std::size_t hi = 0, lo = 0;
-            for (std::size_t k = 1; k <= dims; ++k) {
-                if (f[k] > f[hi]) hi = k;
-                if (f[k] < f[lo]) lo = k;
-            }
-            std::size_t second = lo;
-            for (std::size_t k = 0; k <= dims; ++k)
-                if (k != hi && f[k] > f[second]) second = k;
-            if (f[hi] - f[lo] < 1e-9) break;
-            std::vector<double> centroid(dims, 0.0);
-            for (std::size_t k = 0; k <= dims; ++k)
-                if (k != hi)
-                    for (std::size_t d = 0; d < dims; ++d) centroid[d] += simplex[k][d] / double(dims);
-            auto along = [&](double t) {
-                std::vector<double> x(dims);
-                for (std::size_t d = 0; d < dims; ++d) x[d] = centroid[d] + t * (simplex[hi][d] - centroid[d]);
-                return clamp_box(x);
-            };
-            const auto reflected = along(-1);
-            const double fr = -value(reflected);
-            if (fr < f[lo]) {
-                const auto expanded = along(-2);
-                const double fe = -value(expanded);
-                if (fe < fr) simplex[hi] = expanded, f[hi] = fe;
-                else simplex[hi] = reflected, f[hi] = fr;
-            } else if (fr < f[second]) {
-                simplex[hi] = reflected, f[hi] = fr;
-            } else {
-                const auto contracted = along(0.5);
-                const double fc = -value(contracted);
-                if (fc < f[hi]) {
-                    simplex[hi] = contracted, f[hi] = fc;
-                } else {  // shrink towards the best vertex
-                    for (std::size_t k = 0; k <= dims; ++k)
-                        if (k != lo) {
-                            for (std::size_t d = 0; d < dims; ++d) simplex[k][d] = simplex[lo][d] + 0.5 * (simplex[k][d] - simplex[lo][d]);
-                            f[k] = -value(simplex[k]);
-                        }
-                }
-            }
-        }
-    }
+    // Nelder-Mead on -error from each start (fit/nelder_mead.hpp; value() keeps the best point seen).
+    for (std::size_t s = 0; s < starts; ++s)
+        fit::nelder_mead_unit_box([&](const std::vector<double>& x) { return -value(x); }, screened[s].second, steps, 1e-9, 0.05, nullptr);
     return best;
 }
 

@@ -296,12 +296,15 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
         tex.texels.resize(rep->texels().size() * 4);
         std::memcpy(tex.texels.data(), rep->texels().data(), tex.texels.size());
         // Surfaces over ratio 1-30 and alphas beyond the nodes (clamping), any azimuths, V or L along
-        // the normal now and then.
-        const std::size_t n = 512;
+        // the normal now and then; of the last 256, every eighth at v = 1, every eighth one float step
+        // below it (the harmonics kinds' full-visibility rule) and every eighth with alpha_x 1.
+        const std::size_t n = 768;
         std::vector<float> inputs;
         std::vector<double> expected;
         for (std::size_t i = 0; i < n; ++i) {
-            const float v = float(u(rng)), ax = float(0.005 + u(rng)), ay = float(i % 8 == 0 ? ax : ax / (1 + 29 * u(rng)));
+            const bool edge = i >= 512;
+            const float v = edge && i % 8 < 2 ? (i % 8 == 0 ? 1.0f : std::nextafter(1.0f, 0.0f)) : float(u(rng));
+            const float ax0 = float(0.005 + u(rng)), ax = edge && i % 8 == 2 ? 1.0f : ax0, ay = float(i % 8 == 0 ? ax : ax / (1 + 29 * u(rng)));
             auto dir3 = [&](double cos_theta, double phi, bool normal) {
                 if (normal) return std::array<float, 3>{0, 0, 1};
                 const double s = std::sqrt(1 - cos_theta * cos_theta);

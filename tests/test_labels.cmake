@@ -88,6 +88,7 @@ set(microshadow_cli_tests
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
   "^ReprPresetMax\\."
+  "^StoredBoundTest\\.ExactDfgFilesHoldEveryTexelWithinTheirRecordedBound$"
   "^ReprAnisotropicCorrectedTest\\.ThePresetMeetsItsMeasuredAccuracyAgainstTheExactTerm$"
   "^Distributed\\.CliSceneShardsMergeToOneProcess$"
   "^ExactTerm\\.AgreesWithTheScalarOracleOnAnisotropicAndUniformQueries$"

@@ -10,6 +10,7 @@
 #include "core/lookup_domain.hpp"
 #include "exact/exact_term.hpp"
 #include "fit/least_squares.hpp"
+#include "fit/nelder_mead.hpp"
 #include "io/text.hpp"
 
 namespace ms::design {
@@ -174,71 +175,16 @@ SearchedMax search_max_error(const LookupFunction& form, AoWeighting weighting, 
         std::uniform_real_distribution<double> u01(0, 1);
         while (start_points.size() < starts) start_points.push_back({u01(rng), u01(rng), u01(rng), u01(rng), u01(rng)});
     }
-    // Nelder-Mead maximising the error (minimising its negative) in the unit box, 5 dimensions.
-    constexpr int kDim = 5;
-    constexpr int kMaxIterations = 200;  // 1-2 evaluations each, 5 more on a shrink
+    // Nelder-Mead maximising the error (minimising its negative) in the unit box, 5 dimensions
+    // (fit/nelder_mead.hpp): at most 200 iterations of 1-2 evaluations each (5 more on a shrink), an
+    // initial step of 5 % of the box.
+    constexpr int kMaxIterations = 200;
     for (const auto& x0 : start_points) {
-        std::array<std::array<double, 5>, kDim + 1> simplex;
-        std::array<double, kDim + 1> f;
-        auto clampx = [](std::array<double, 5> x) {
-            for (double& c : x) c = std::clamp(c, 0.0, 1.0);
-            return x;
-        };
-        auto value = [&](const std::array<double, 5>& x) { return -error_at(at_unit(region, x), nullptr); };
-        for (int k = 0; k <= kDim; ++k) {
-            simplex[k] = x0;
-            // An initial step of 5 % of the box, away from the nearer wall.
-            if (k > 0) simplex[k][k - 1] += simplex[k][k - 1] > 0.5 ? -0.05 : 0.05;
-            simplex[k] = clampx(simplex[k]);
-            f[k] = value(simplex[k]);
-        }
-        for (int it = 0; it < kMaxIterations; ++it) {
-            int hi = 0, lo = 0;
-            for (int k = 1; k <= kDim; ++k) {
-                if (f[k] > f[hi]) hi = k;
-                if (f[k] < f[lo]) lo = k;
-            }
-            int second = lo;
-            for (int k = 0; k <= kDim; ++k)
-                if (k != hi && f[k] > f[second]) second = k;
-            if (f[hi] - f[lo] < 1e-7) break;
-            std::array<double, 5> centroid{};
-            for (int k = 0; k <= kDim; ++k)
-                if (k != hi)
-                    for (int d = 0; d < kDim; ++d) centroid[d] += simplex[k][d] / kDim;
-            auto along = [&](double t) {
-                std::array<double, 5> x;
-                for (int d = 0; d < kDim; ++d) x[d] = centroid[d] + t * (simplex[hi][d] - centroid[d]);
-                return clampx(x);
-            };
-            const auto reflected = along(-1);
-            const double fr = value(reflected);
-            if (fr < f[lo]) {
-                const auto expanded = along(-2);
-                const double fe = value(expanded);
-                if (fe < fr) simplex[hi] = expanded, f[hi] = fe;
-                else simplex[hi] = reflected, f[hi] = fr;
-            } else if (fr < f[second]) {
-                simplex[hi] = reflected, f[hi] = fr;
-            } else {
-                const auto contracted = along(0.5);
-                const double fc = value(contracted);
-                if (fc < f[hi]) {
-                    simplex[hi] = contracted, f[hi] = fc;
-                } else {  // shrink towards the best vertex
-                    for (int k = 0; k <= kDim; ++k)
-                        if (k != lo) {
-                            for (int d = 0; d < kDim; ++d) simplex[k][d] = simplex[lo][d] + 0.5 * (simplex[k][d] - simplex[lo][d]);
-                            f[k] = value(simplex[k]);
-                        }
-                }
-            }
-        }
-        int lo = 0;
-        for (int k = 1; k <= kDim; ++k)
-            if (f[k] < f[lo]) lo = k;
-        if (-f[lo] > best.max_abs) {
-            const RegionPoint p = at_unit(region, simplex[lo]);
+        auto value = [&](const std::vector<double>& x) { return -error_at(at_unit(region, {x[0], x[1], x[2], x[3], x[4]}), nullptr); };
+        double f_best = 0;
+        const std::vector<double> x = fit::nelder_mead_unit_box(value, {x0.begin(), x0.end()}, kMaxIterations, 1e-7, 0.05, &f_best);
+        if (-f_best > best.max_abs) {
+            const RegionPoint p = at_unit(region, {x[0], x[1], x[2], x[3], x[4]});
             double term = 0;
             best.max_abs = error_at(p, &term);
             best.visibility = p.v, best.n_dot_l = p.l, best.n_dot_v = std::max(p.nv, 1e-6), best.roughness = p.r;

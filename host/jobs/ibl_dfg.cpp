@@ -293,6 +293,21 @@ std::vector<float> channel_data(const DfgBakeResult& result) {
     return data;
 }
 
+// The metadata a file records for the values it stores: the computed values' bound
+// ("max_error_bound_99.9" as dfg_metadata made it, kept as "computed_error_bound_99.9") plus their
+// rounding to the stored encoding (float32 at least: the quadrature's ~1e-12 is far below half a float
+// step), so that every stored texel lies within "max_error_bound_99.9" of the integral.
+nlohmann::json stored_metadata(const nlohmann::json& metadata, const std::vector<float>& data, lutfmt::PixelEncoding encoding) {
+    nlohmann::json m = metadata.is_object() ? metadata : nlohmann::json::object();
+    const double computed = m.contains("computed_error_bound_99.9") ? m["computed_error_bound_99.9"].get<double>()
+                                                                     : m.value("max_error_bound_99.9", 0.0);
+    const double rounding = lutfmt::quantisation_error(data, encoding);
+    m["computed_error_bound_99.9"] = computed;
+    m["storage_rounding"] = {{"encoding", lutfmt::to_string(encoding)}, {"max_abs", rounding}, {"kind", lutfmt::quantisation_kind(encoding)}};
+    m["max_error_bound_99.9"] = computed + rounding;
+    return m;
+}
+
 // The metadata as a C comment ("*/" inside it broken up).
 void write_c_comment(std::ostream& out, const nlohmann::json& metadata) {
     std::string meta = metadata.dump(2);
@@ -330,11 +345,16 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
     const std::string path = outputs.target(files.lut).named;
     const std::string ext = extension(path);
     const std::size_t nc = result.channels.size();
+    // Every format records the bound of what it stores (stored_metadata): the encoding it rounds to.
+    const lutfmt::PixelEncoding stored_encoding = ext == ".png" ? lutfmt::PixelEncoding::unorm16
+                                                  : half        ? lutfmt::PixelEncoding::float16
+                                                                : lutfmt::PixelEncoding::float32;
+    const nlohmann::json stored = stored_metadata(metadata, channel_data(result), stored_encoding);
     if (ext == ".h") {
         // A C/C++ header: the metadata as a comment, then the texels [roughness][NdotV][channel] under
         // `symbol`, with SYMBOL_WIDTH / _HEIGHT / _CHANNELS.
         std::ostream& out = outputs.stream(files.lut);
-        write_c_comment(out, metadata);
+        write_c_comment(out, stored);
         const std::string macro = to_upper(symbol);
         out << "#pragma once\n\n";
         out << "/* channels: " << channels_string(result.channels) << (half ? " (IEEE binary16 bits)" : "") << " */\n";
@@ -351,7 +371,7 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
         // An initialiser list to #include inside an array definition (cmgen's DFG .inc): the metadata
         // as a comment, then width x height x channels values, rows of NdotV, roughness increasing.
         std::ostream& out = outputs.stream(files.lut);
-        write_c_comment(out, metadata);
+        write_c_comment(out, stored);
         out << "/* " << result.width << " x " << result.height << " texels (NdotV across, roughness down), channels "
             << channels_string(result.channels) << (half ? ", IEEE binary16 bits" : ", floats") << " */\n";
         write_c_values(out, result, half, /*braces=*/false);
@@ -369,9 +389,9 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
                 pixels[(i * png_channels + c) * 2] = std::uint8_t(q >> 8);  // PNG samples are big-endian
                 pixels[(i * png_channels + c) * 2 + 1] = std::uint8_t(q & 0xff);
             }
-        nlohmann::json meta = metadata;
+        nlohmann::json meta = stored;
         meta["file_format"] = "png16";
-        meta["quantisation"] = {{"kind", "unorm16"}, {"max_abs", 0.5 / 65535}};
+        meta["quantisation"] = {{"kind", "unorm16"}, {"max_abs", meta["storage_rounding"]["max_abs"]}};
         if (nc < 3) meta["unused_channels_zero"] = true;
         PngImage image;
         image.width = result.width;
@@ -390,7 +410,7 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
         for (std::uint32_t y = 0; y < result.height; ++y)
             for (std::uint32_t x = 0; x < result.width; ++x)
                 for (std::size_t c = 0; c < nc; ++c) img.at(x, y, int(c)) = data[(std::size_t(y) * result.width + x) * nc + c];
-        env::write_exr_file(outputs.temp_path(files.lut), path, img, metadata, half);
+        env::write_exr_file(outputs.temp_path(files.lut), path, img, stored, half);
         return;
     }
     // KTX2 / DDS (lut/formats/texture.hpp): a 2D texture, x = NdotV, y = roughness; two channels are
@@ -404,7 +424,7 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
     t.stored_components = nc == 2 ? 2 : 4;
     t.levels.push_back(channel_data(result));
     const std::vector<float>& data = t.levels[0];
-    t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
+    t.metadata = stored;
     t.metadata["file_format"] = ktx2 ? "ktx2-2d" : "dds-2d";
     t.metadata["texture_channels"] = t.stored_components;
     if (t.stored_components > nc) {

@@ -105,7 +105,10 @@ nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result
 // metadata gains the error budget with the float16 rounding); a 16-bit PNG (".png", RGB or RGBA,
 // metadata in iTXt "microshadow"); a C header (".h": the metadata as a comment,
 // float symbol[height][width][channels], or unsigned short half bits with `half`) or a C initialiser
-// list (".inc", the same values without a declaration). Other extensions are refused.
+// list (".inc", the same values without a declaration). Other extensions are refused. Every file's
+// "max_error_bound_99.9" bounds the values it stores: the computed values' bound (kept as
+// "computed_error_bound_99.9") plus their rounding to the stored encoding ("storage_rounding": float32,
+// float16 with `half`, unorm16 in a PNG).
 void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work
 // The format and what it can hold (a PNG cannot hold sheen, which exceeds 1), and the C symbol.
 void check_dfg_lut_output(const std::string& path, const std::vector<DfgChannel>& channels, const std::string& symbol);

@@ -26,6 +26,14 @@ Tap tap(const LutAxis& a, double p) {
 
 }  // namespace
 
+bool lookup_zero_region(AoWeighting weighting, double visibility, double n_dot_l) {
+    const float v = float(visibility), l = float(n_dot_l);
+    if (l <= 0.0f) return true;
+    if (weighting == AoWeighting::cosine) return 2.0f * v + l <= 1.0f;
+    const float cos_t = 1.0f - v;
+    return l + 1.0f <= 2.0f * cos_t * cos_t;
+}
+
 LutLookup::LutLookup(LutFile lut) : lut_(std::move(lut)) {
     if (lut_.axes.size() != 3 || lut_.channels.empty())
         throw std::runtime_error("LUT: need the visibility, n_dot_l and n_dot_v axes and at least one channel");
@@ -43,6 +51,11 @@ LutLookup::LutLookup(LutFile lut) : lut_(std::move(lut)) {
     } else {
         domain_ = lut_domain(lut_.axes, lut_.channels);
     }
+    // The zero region the lookup answers 0 in is the weighting's the LUT was baked with (the shader
+    // generator reads the same field and refuses the same values).
+    const std::string weighting = lut_.metadata.is_object() ? lut_.metadata.value("ao_weighting", std::string("cosine")) : "cosine";
+    if (weighting == "uniform") weighting_ = AoWeighting::uniform;
+    else if (weighting != "cosine") throw std::runtime_error("LUT: unknown ao_weighting '" + weighting + "'");
 }
 
 LutLookup LutLookup::open(const std::string& path) {
@@ -59,6 +72,8 @@ double LutLookup::operator()(double visibility, double n_dot_l, double n_dot_v, 
     if (domain_.refuse_outside && !domain_.contains(visibility, n_dot_l, n_dot_v, roughness))
         throw std::domain_error("LUT lookup at " + domain_.first_outside(visibility, n_dot_l, n_dot_v, roughness) +
                                 ", the range of the scene this LUT was fitted to (\"domain\" in its metadata)");
+    // The shaders' early-out, before any texel is read (the header says why).
+    if (lookup_zero_region(weighting_, visibility, n_dot_l)) return 0;
     const double value = blend(visibility, n_dot_l, n_dot_v, roughness);
     // Only a partial bake's unbaked texels are NaN (read_lut checks them against the file's coverage
     // record): a lookup whose filter footprint touches one is refused, never answered.

@@ -12,15 +12,32 @@
 // [r_0, r_last] and blends linearly between the two channels that bracket it, i.e. the way a shader
 // lerps the RGBA sample by roughness. The LUT knows no azimuth: its "azimuth" policy (mean or fixed)
 // is part of what a study measures.
+//
+// Before any texel is read the lookup answers exactly 0 where the term is 0 for every roughness and
+// view (lookup_zero_region below: the light at or below the horizon, or inside the zero region of the
+// LUT's AO weighting, its metadata's "ao_weighting", cosine when absent), as the generated shader's
+// early-out does (lut/shader/shader_gen.hpp): the texels' linear blend across the region's edge
+// would otherwise answer up to a few hundredths there. tests/gpu/shader_test.cpp runs the shaders
+// against this lookup, zero region and its edge included.
 #pragma once
 
 #include <string>
 #include <vector>
 
 #include "core/lookup_domain.hpp"
+#include "core/types.hpp"
 #include "lut/exr_lut.hpp"
 
 namespace ms {
+
+// The early-out every lookup (LUT and representation, C++ and generated GLSL/HLSL) applies first: true
+// where the term is exactly 0 whatever the roughness, view and azimuth: NdotL <= 0, or NdotL at or below
+// the zero region's edge 2 cos_t^2 - 1 (cosine AO, cos_t^2 = 1 - v: 2 v + NdotL <= 1; uniform AO,
+// cos_t = 1 - v: NdotL + 1 <= 2 cos_t^2). Decided as the shaders decide it, in binary32 arithmetic on
+// the inputs rounded to binary32, in forms no compiler can fuse into a different rounding (2 v is exact,
+// and the uniform test compares a sum with a product): so a point within a rounding of the edge gets
+// the same answer from the C++ lookup and from every shader.
+bool lookup_zero_region(AoWeighting weighting, double visibility, double n_dot_l);
 
 class LutLookup {
 public:
@@ -35,12 +52,15 @@ public:
     // The metadata's "domain", or for a file without one its axes' and roughness channels' ranges
     // (visibility and NdotV axes as baked; a 2D LUT, made to stand in at every view, NdotV [0, 1]).
     const LookupDomain& domain() const { return domain_; }
+    // The AO weighting whose zero region the lookup answers 0 in (the metadata's "ao_weighting").
+    AoWeighting ao_weighting() const { return weighting_; }
 
 private:
     double blend(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
     LutFile lut_;
     std::vector<std::uint32_t> order_;  // channel indices by increasing roughness
     LookupDomain domain_;
+    AoWeighting weighting_ = AoWeighting::cosine;
 };
 
 }  // namespace ms

@@ -148,7 +148,8 @@ public:
         // Full visibility: the cone is the whole hemisphere and the term is exactly 1 above the horizon.
         // Just below v = 1 a light under the cone's edge sqrt(1 - v) is still shadowed, so no texel
         // holds both sides of that limit.
-        if (in.visibility >= 1) return 1;
+        // Decided on the binary32 visibility, as the shader decides it.
+        if (float(in.visibility) >= 1.0f) return 1;
         // The anisotropic kind reads the surface's alphas and tangent-relative azimuths when given (an
         // isotropic caller's roughness and relative azimuth otherwise: the mapping's identity).
         double n_dot_l = in.n_dot_l, n_dot_v = in.n_dot_v, roughness = in.roughness, cos_phi = std::cos(in.relative_azimuth);

@@ -1,6 +1,7 @@
 // Named representations a renderer can ship without choosing a layout: each preset is a kind, a grid,
 // azimuth nodes and the domain its measured errors hold for (docs/representations.md, "Presets", gives
-// their memory, fetches, ALU and errors on random queries of that domain).
+// their memory, fetches, ALU, errors on random queries of that domain and the max an adversarial search
+// finds there; tests/repr hold each preset to that stated max).
 //   realistic:  roughness 0.3-0.9, visibility 0.5-1, NdotV 0.2-1 (content whose roughness stays there)
 //   full-range: roughness 0.05-1, visibility 0.02-1, NdotV 0.02-1 (the whole isotropic domain)
 //   anisotropic: alpha_x, alpha_y 0.0025-1 (roughness 0.05-1 per axis) with ratio <= 25, any

@@ -20,6 +20,7 @@
 #include "io/atomic_file.hpp"
 #include "io/exr_file.hpp"
 #include "lut/formats/texture.hpp"
+#include "lut/lookup.hpp"
 #include "lut/shader/alu_count.hpp"
 
 namespace ms::repr {
@@ -87,12 +88,8 @@ LookupDomain grid_domain(const ReprGrid& grid, double visibility_min, double vis
     return d;
 }
 
-bool TextureRepresentation::zero_region(double v, double l) const {
-    if (l <= 0) return true;
-    if (grid_.weighting == AoWeighting::cosine) return 2 * v + l <= 1;
-    const double c = 1 - v;
-    return l <= 2 * c * c - 1;
-}
+// The one early-out of every lookup, decided in binary32 as the generated shaders decide it.
+bool TextureRepresentation::zero_region(double v, double l) const { return lookup_zero_region(grid_.weighting, v, l); }
 
 double TextureRepresentation::visibility_texel(double v, std::uint32_t ir, double nv) const { return grid_.visibility_texel_of(v, ir, nv); }
 double TextureRepresentation::n_dot_l_texel(double v, double l, std::uint32_t ir, double nv) const {
@@ -243,7 +240,8 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
           << "    return n_dot_l <= 0.0 || 2.0 * visibility + n_dot_l <= 1.0;\n}\n\n";
     else
         o << "    // Uniform AO: the term is 0 for NdotL <= 2 (1 - v)^2 - 1 (and below the horizon).\n"
-          << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l <= 2.0 * cos_t * cos_t - 1.0;\n}\n\n";
+          << "    // Compared as NdotL + 1 <= 2 cos_t^2: no multiply-add can round it differently (host/lut/lookup.hpp).\n"
+          << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l + 1.0 <= 2.0 * cos_t * cos_t;\n}\n\n";
     if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness || grid_.azimuth_warp > 0)
         o << "// asinh(x) written out, odd so that it keeps its precision for x << 0 (HLSL has no asinh).\n"
           << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n";

@@ -60,7 +60,8 @@ protected:
     // The metadata every file of this representation records ("microshadow"): the bake's, plus kind,
     // grid, azimuth nodes, texture layout, file format and precision.
     nlohmann::json file_metadata(const std::string& file_format, bool half) const;
-    // True where the term is 0 by rule: NdotL <= 0 or in the zero region of the grid's AO weighting.
+    // True where the term is 0 by rule: NdotL <= 0 or in the zero region of the grid's AO weighting
+    // (lut/lookup.hpp's lookup_zero_region: decided in binary32, as the shaders decide it).
     bool zero_region(double visibility, double n_dot_l) const;
     // Clamped texel coordinates of (visibility, NdotL, NdotV) within one block of the texture.
     double visibility_texel(double visibility, std::uint32_t roughness_node = 0, double n_dot_v = 1) const;

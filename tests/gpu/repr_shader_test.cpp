@@ -25,6 +25,7 @@
 #include "cli_runner.hpp"
 #include "core/query.hpp"
 #include "jobs/compare.hpp"
+#include "lut/lookup.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "vulkan_compute.hpp"
@@ -124,6 +125,49 @@ std::vector<ReprShaderCase> cases() {
             {"harm_edge_visibility_one", "azimuth-harmonics", edge_visibility_one, 7}};
 }
 
+// The points where a lookup's rules act (each (v, NdotL, NdotV, roughness, cos_phi)): the zero region's
+// edge exactly (its binary32 arithmetic exact there: 2 v + NdotL = 1 with v in [1/4, 1/2], or 1 - v = k / 2048
+// for uniform AO), one binary32 step either side and 2^-21 above (the C++ lookup decides the early-out in
+// binary32, as the shader does); v = 1 (the harmonics' rule) and the visibility just below it; the
+// domain's edges: v 0, the grid's visibility start, NdotL 1, NdotV 0.02, its start and 1, the first and
+// last roughness nodes and beyond, the azimuth's ends.
+std::vector<std::array<float, 5>> repr_edge_points(const repr::ReprGrid& grid, std::mt19937& rng) {
+    std::uniform_real_distribution<double> u(0, 1);
+    std::vector<std::array<float, 5>> p;
+    auto any_r = [&] { return float(1.1 * u(rng)); };
+    auto any_nv = [&] { return float(0.02 + 0.98 * u(rng)); };
+    auto any_phi = [&] { return float(2 * u(rng) - 1); };
+    for (int i = 0; i < 400; ++i) {
+        float v, l;
+        if (grid.weighting == ms::AoWeighting::cosine) {
+            v = float(0.25 + 0.25 * u(rng));
+            l = 1.0f - 2.0f * v;
+        } else {
+            const float c = float(std::uniform_int_distribution<int>(1449, 2047)(rng)) / 2048.0f;
+            v = 1.0f - c;
+            l = 2.0f * c * c - 1.0f;
+        }
+        if (i % 4 == 1) l = std::nextafter(l, 2.0f);
+        if (i % 4 == 2) l = std::nextafter(l, -2.0f);
+        if (i % 4 == 3) l += std::ldexp(1.0f, -21);
+        p.push_back({v, l, any_nv(), any_r(), any_phi()});
+    }
+    for (int i = 0; i < 64; ++i) {
+        p.push_back({1.0f, float(u(rng)), any_nv(), any_r(), any_phi()});
+        p.push_back({std::nextafter(1.0f, 0.0f), float(u(rng)), any_nv(), any_r(), any_phi()});
+        p.push_back({1.0f - float(1e-4 * u(rng)), float(0.05 * u(rng)), any_nv(), any_r(), any_phi()});
+    }
+    const std::vector<float> vs{0.0f, float(grid.visibility_start), 0.5f, 1.0f}, ls{0.0f, 1e-3f, 1.0f},
+        nvs{0.02f, float(std::max(grid.n_dot_v_start, 0.02)), 1.0f},
+        rs{0.0f, float(grid.roughness.front()), float(grid.roughness.back()), 1.1f}, phis{-1.0f, 1.0f, 0.3f};
+    for (float v : vs)
+        for (float l : ls)
+            for (float nv : nvs)
+                for (float r : rs)
+                    for (float cp : phis) p.push_back({v, l, nv, r, cp});
+    return p;
+}
+
 TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
     if (!have_glslang()) GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";
     const std::string dir = ::testing::TempDir() + "repr_shader";
@@ -142,19 +186,27 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
         tex.vk_format = 109;  // VK_FORMAT_R32G32B32A32_SFLOAT
         tex.texels.resize(rep->texels().size() * 4);
         std::memcpy(tex.texels.data(), rep->texels().data(), tex.texels.size());
-        // Points over the whole domain and beyond the roughness range (clamping), plus the azimuth ends.
-        const std::size_t n = 512;
+        // Points over the whole domain and beyond the roughness range (clamping), plus the azimuth ends,
+        // the domain's edges, v = 1 and the zero region's edge (repr_edge_points).
         std::vector<float> inputs;
         std::vector<double> expected;
-        for (std::size_t i = 0; i < n; ++i) {
-            const float v = float(u(rng)), l = float(u(rng) * 1.1 - 0.05), nv = float(0.02 + 0.98 * u(rng)), r = float(u(rng));
-            const float cos_phi = i % 16 == 0 ? 1.0f : i % 16 == 1 ? -1.0f : float(2 * u(rng) - 1);
+        std::size_t zero_region = 0;
+        auto add = [&](float v, float l, float nv, float r, float cos_phi) {
             inputs.insert(inputs.end(), {v, l, nv, r, cos_phi, 0, 0, 0});
             ms::approx::Inputs in;
             in.visibility = v, in.n_dot_l = l, in.n_dot_v = nv, in.roughness = r;
             in.relative_azimuth = std::acos(double(cos_phi));
             expected.push_back((*rep)(in));
+            zero_region += ms::lookup_zero_region(c.grid.weighting, v, l);
+        };
+        for (std::size_t i = 0; i < 512; ++i) {
+            const float v = float(u(rng)), l = float(u(rng) * 1.1 - 0.05), nv = float(0.02 + 0.98 * u(rng)), r = float(u(rng));
+            const float cos_phi = i % 16 == 0 ? 1.0f : i % 16 == 1 ? -1.0f : float(2 * u(rng) - 1);
+            add(v, l, nv, r, cos_phi);
         }
+        for (const auto& p : repr_edge_points(c.grid, rng)) add(p[0], p[1], p[2], p[3], p[4]);
+        const std::size_t n = expected.size();
+        EXPECT_GT(zero_region, 200u);
         for (int lang = 0; lang < 2; ++lang) {
             const auto run = ms::testing::run_compute(lang ? hlsl : glsl, tex, inputs, lang == 1);
             if (!run.skip.empty()) GTEST_SKIP() << run.skip;
@@ -244,12 +296,15 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
         tex.texels.resize(rep->texels().size() * 4);
         std::memcpy(tex.texels.data(), rep->texels().data(), tex.texels.size());
         // Surfaces over ratio 1-30 and alphas beyond the nodes (clamping), any azimuths, V or L along
-        // the normal now and then.
-        const std::size_t n = 512;
+        // the normal now and then; of the last 256, every eighth at v = 1, every eighth one float step
+        // below it (the harmonics kinds' full-visibility rule) and every eighth with alpha_x 1.
+        const std::size_t n = 768;
         std::vector<float> inputs;
         std::vector<double> expected;
         for (std::size_t i = 0; i < n; ++i) {
-            const float v = float(u(rng)), ax = float(0.005 + u(rng)), ay = float(i % 8 == 0 ? ax : ax / (1 + 29 * u(rng)));
+            const bool edge = i >= 512;
+            const float v = edge && i % 8 < 2 ? (i % 8 == 0 ? 1.0f : std::nextafter(1.0f, 0.0f)) : float(u(rng));
+            const float ax0 = float(0.005 + u(rng)), ax = edge && i % 8 == 2 ? 1.0f : ax0, ay = float(i % 8 == 0 ? ax : ax / (1 + 29 * u(rng)));
             auto dir3 = [&](double cos_theta, double phi, bool normal) {
                 if (normal) return std::array<float, 3>{0, 0, 1};
                 const double s = std::sqrt(1 - cos_theta * cos_theta);

@@ -1,8 +1,8 @@
 // Generated shaders: the GLSL and HLSL that `microshadow bake --shader-glsl/--shader-hlsl`
 // and `microshadow shader` write compile with glslangValidator, and run as compute shaders on a Vulkan
 // CPU device (Mesa lavapipe) over the bake's KTX2 texture they agree with the sweeps' `lut3d`
-// comparator (ms::LutLookup on the EXR): within 1e-5 for float textures, one 8-bit step for
-// RGBA8, exactly 0 in the zero region.
+// comparator (ms::LutLookup on the EXR) on every point, the zero region's edge included: within 1e-5
+// for float textures, one 8-bit step for RGBA8, exactly 0 wherever the lookup answers 0 by rule.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -127,7 +127,7 @@ TEST_F(ShaderTest, GeneratedGlslAndHlslCompile) {
         compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
         compile_spirv(hlsl_pixel_wrapper(read_text(base + ".hlsl"), three_d), base + "_ps.hlsl", "-D -e main -S frag");
         const std::string glsl = read_text(base + ".glsl");
-        EXPECT_NE(glsl.find(c.name == "uniform" ? "2.0 * cos_t * cos_t - 1.0" : "2.0 * visibility + n_dot_l <= 1.0"), std::string::npos);
+        EXPECT_NE(glsl.find(c.name == "uniform" ? "n_dot_l + 1.0 <= 2.0 * cos_t * cos_t" : "2.0 * visibility + n_dot_l <= 1.0"), std::string::npos);
         EXPECT_NE(glsl.find("(alpha_x * alpha_y)^(1/4)"), std::string::npos);
     }
     EXPECT_EQ(cli("shader " + path("missing.exr") + " --lang glsl").exit_code, 2);
@@ -142,8 +142,12 @@ TEST_F(ShaderTest, GeneratedGlslAndHlslCompile) {
     EXPECT_EQ(k.output, from_exr);
 }
 
-// Random points over (and beyond) every axis range, plus every texel centre/endpoint and the edges.
-std::vector<float> sample_points(const ms::LutFile& lut, std::size_t n) {
+// Random points over (and beyond) every axis range, plus every texel centre/endpoint, the domain's
+// edges (each axis's min and max, 0 and 1, beyond the roughness channels), v = 1, and the zero region's
+// edge: points exactly on it (where its float arithmetic is exact: 2 v + NdotL = 1 with v in [1/4, 1/2],
+// or 1 - v = k / 2048 for uniform AO) and one binary32 step either side of them, which only a lookup
+// that decides the early-out in binary32, as the shader does, answers alike.
+std::vector<float> sample_points(const ms::LutFile& lut, std::size_t n, bool cosine) {
     std::mt19937 rng(1234);
     std::uniform_real_distribution<float> u(0.0f, 1.0f), r(0.02f, 1.05f);
     std::vector<float> p;
@@ -157,9 +161,35 @@ std::vector<float> sample_points(const ms::LutFile& lut, std::size_t n) {
             p.insert(p.end(), {float(lut.visibility().value(i)), float(std::max(1e-3, lut.n_dot_l().value(j))), z,
                                float(lut.channels[j % lut.channels.size()].roughness)});
         }
-    for (float v : {0.0f, 1.0f})
-        for (float l : {1e-3f, 1.0f})
-            for (float z : {0.0f, 1.0f}) p.insert(p.end(), {v, l, z, 0.5f});
+    std::vector<float> vs{0.0f, 1.0f, float(lut.visibility().min), float(lut.visibility().max)};
+    std::vector<float> ls{1e-3f, 1.0f, float(std::max(1e-3, lut.n_dot_l().min)), float(lut.n_dot_l().max)};
+    std::vector<float> zs{0.0f, 1.0f, float(lut.n_dot_v().min), float(lut.n_dot_v().max)};
+    std::vector<float> rs{0.0f, 1.0f, 2.0f};
+    for (const auto& c : lut.channels) rs.push_back(float(c.roughness));
+    for (float v : vs)
+        for (float l : ls)
+            for (float z : zs)
+                for (float ro : rs) p.insert(p.end(), {v, l, z, ro});
+    // v = 1 at random NdotL, NdotV, roughness.
+    for (std::size_t i = 0; i < 200; ++i) p.insert(p.end(), {1.0f, std::max(1e-3f, u(rng)), u(rng), r(rng)});
+    // The zero region's edge, exactly, and one step either side.
+    for (std::size_t i = 0; i < 600; ++i) {
+        float v, l;
+        if (cosine) {
+            v = 0.25f + 0.25f * u(rng);
+            l = 1.0f - 2.0f * v;  // exact: 2 v in [1/2, 1]
+        } else {
+            const float c = float(std::uniform_int_distribution<int>(1449, 2047)(rng)) / 2048.0f;  // cos_t^2 > 1/2: edge above 0
+            v = 1.0f - c;
+            l = 2.0f * c * c - 1.0f;  // exact: c has 11 bits, 2 c^2 - 1 at most 23
+        }
+        // On the edge; one binary32 step above (inside in binary32 arithmetic: the sum rounds back onto
+        // the edge), one below; 2^-21 above (outside either way: the lookup reads texels there).
+        if (i % 4 == 1) l = std::nextafter(l, 2.0f);
+        if (i % 4 == 2) l = std::nextafter(l, -2.0f);
+        if (i % 4 == 3) l += std::ldexp(1.0f, -21);
+        p.insert(p.end(), {v, std::max(l, 1e-3f), u(rng), r(rng)});
+    }
     return p;
 }
 
@@ -168,26 +198,28 @@ struct Agreement {
     std::size_t compared = 0, zero_region = 0;
 };
 
+// Every point against the C++ lookup, early-out included: where the lookup answers 0 by rule the shader
+// must return exactly 0, elsewhere agree within `tolerance`.
 Agreement compare(const ms::LutLookup& lookup, const std::vector<float>& points, const std::vector<float>& got,
-                  double tolerance, bool cosine, const std::string& what) {
+                  double tolerance, const std::string& what) {
     Agreement a;
+    std::size_t reported = 0;
     for (std::size_t i = 0; i < got.size(); ++i) {
         const float v = points[4 * i], l = points[4 * i + 1], z = points[4 * i + 2], r = points[4 * i + 3];
-        const double zero_limit = cosine ? 1.0 - 2.0 * v : 2.0 * (1.0 - v) * (1.0 - v) - 1.0;
-        // Float rounding decides points within 1e-5 of the zero-region boundary either way; skip them.
-        if (std::abs(l - zero_limit) < 1e-5) continue;
-        if (l <= zero_limit) {
+        if (ms::lookup_zero_region(lookup.ao_weighting(), v, l)) {
             ++a.zero_region;
-            EXPECT_EQ(got[i], 0.0f) << what << ": zero region must early-out at " << v << " " << l;
+            EXPECT_EQ(lookup(v, l, z, r), 0.0) << what;
+            if (got[i] != 0.0f && reported++ < 3)
+                ADD_FAILURE() << what << ": zero region must early-out at v " << v << " NdotL " << l << ": shader " << got[i];
             continue;
         }
         const double want = lookup(v, l, z, r);
         const double d = std::abs(double(got[i]) - want);
         a.max_diff = std::max(a.max_diff, d);
         ++a.compared;
-        EXPECT_LE(d, tolerance) << what << " at v " << v << " NdotL " << l << " NdotV " << z << " r " << r << ": shader "
-                                << got[i] << " lut3d " << want;
-        if (d > tolerance) break;  // one report is enough
+        if (d > tolerance && reported++ < 3)
+            ADD_FAILURE() << what << " at v " << v << " NdotL " << l << " NdotV " << z << " r " << r << ": shader " << got[i]
+                          << " lut3d " << want;
     }
     return a;
 }
@@ -208,7 +240,7 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
         const auto glsl = compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
         const auto hlsl = compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
         ASSERT_FALSE(glsl.empty() || hlsl.empty()) << "the shaders did not compile";
-        const std::vector<float> points = sample_points(lookup.file(), 4000);
+        const std::vector<float> points = sample_points(lookup.file(), 4000, cosine);
         // Each texture is compared with the lut3d comparator on the values it stores (the EXR's texels
         // rounded as the encoding rounds them: Imath half, round(255 v) / 255) within 1e-5 (the
         // bar for float textures; float filtering and coordinate rounding are far below it), and with the
@@ -235,8 +267,8 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
                 const auto run = ms::testing::run_compute(use_hlsl ? hlsl : glsl, texture, points, use_hlsl);
                 if (!run.skip.empty()) GTEST_SKIP() << run.skip;
                 ASSERT_EQ(run.values.size(), points.size() / 4);
-                const Agreement a = compare(stored_lookup, points, run.values, enc.tolerance_stored, cosine, what);
-                const Agreement f = compare(lookup, points, run.values, enc.tolerance_exr, cosine, what + " vs float EXR");
+                const Agreement a = compare(stored_lookup, points, run.values, enc.tolerance_stored, what);
+                const Agreement f = compare(lookup, points, run.values, enc.tolerance_exr, what + " vs float EXR");
                 EXPECT_GT(a.compared, 2500u) << what;
                 EXPECT_GT(a.zero_region, 500u) << what;
                 std::cout << "[ figures  ] " << what << " on " << run.device << ": max |shader - lut3d| = " << a.max_diff

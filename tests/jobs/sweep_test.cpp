@@ -160,15 +160,19 @@ TEST(SweepLut, TrilinearBilinearAndRoughnessBlend) {
     const fs::path dir = fresh_dir("lut");
     for (auto texel : {TexelConvention::centres, TexelConvention::endpoints}) {
         const LutLookup lut3 = LutLookup::open(write_linear_lut(dir, texel, 3).string());
-        // Interior of the texel-centre range on every axis, and roughness between channels.
+        // Interior of the texel-centre range on every axis, and roughness between channels; in the zero
+        // region (2 v + NdotL <= 1) the lookup answers 0 before reading a texel, as the shader does.
         for (double v : {0.13, 0.5, 0.77})
             for (double l : {0.2, 0.61})
                 for (double z : {0.35, 0.64})
                     for (double r : {0.1, 0.25, 0.55, 0.7})
-                        EXPECT_NEAR(kLinearScale * lut3(v, l, z, r), v + 2 * l + 4 * z + 8 * r, 1e-5) << v << " " << l << " " << z << " " << r;
+                        EXPECT_NEAR(kLinearScale * lut3(v, l, z, r), 2 * v + l <= 1 ? 0.0 : v + 2 * l + 4 * z + 8 * r, 1e-5)
+                            << v << " " << l << " " << z << " " << r;
         // Clamp-to-edge: below the first texel centre a lookup returns the edge value; roughness clamps too.
-        const LutAxis vis{"visibility", 0, 1, 5, texel};
-        EXPECT_NEAR(kLinearScale * lut3(0.0, 0.5, 0.5, 0.05), vis.value(0) + 1 + 2 + 8 * 0.1, 1e-5);
+        const LutAxis vis{"visibility", 0, 1, 5, texel}, ndl{"n_dot_l", 0, 1, 4, texel};
+        // (v = 0.05 with NdotL 1, outside the zero region: the first texel's value at texel centres, v itself
+        // between the endpoints texels 0 and 0.25.)
+        EXPECT_NEAR(kLinearScale * lut3(0.05, 1.0, 0.5, 0.05), std::max(0.05, vis.value(0)) + 2 * ndl.value(3) + 2 + 8 * 0.1, 1e-5);
         EXPECT_NEAR(kLinearScale * lut3(0.5, 0.5, 0.5, 1.0), 0.5 + 1 + 2 + 8 * 0.7, 1e-5);
         // 2D LUT: one slice (stored for NdotV = 1) whatever NdotV is asked.
         const LutLookup lut2 = LutLookup::open(write_linear_lut(dir, texel, 1).string());

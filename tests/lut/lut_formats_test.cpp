@@ -106,15 +106,24 @@ void expect_error_budget(const nlohmann::json& meta, const LutFile& exr, PixelEn
     EXPECT_DOUBLE_EQ(b.at("sampling").get<double>(), exr.metadata.at("max_error").get<double>());
     EXPECT_DOUBLE_EQ(b.at("azimuth_quadrature").get<double>(), exr.metadata.value("azimuth_quadrature_error", 0.0));
     const double q = b.at("quantisation").get<double>();
-    if (e == PixelEncoding::unorm8) EXPECT_DOUBLE_EQ(q, 0.5 / 255);
-    if (e == PixelEncoding::unorm16) EXPECT_DOUBLE_EQ(q, 0.5 / 65535);
-    if (e == PixelEncoding::float32) EXPECT_EQ(q, 0.0);
+    // Every encoding's rounding adds the baked doubles' rounding to float32: half the float spacing at
+    // the largest value, 2^-25 for values in [0.5, 1) (the spacing 2^-24 above 1 - 2^-24 once one is 1).
+    double max_value = 0;
+    for (float v : exr.data) max_value = std::max(max_value, double(v));
+    const double float32 = max_value >= 1 ? std::ldexp(1.0, -24) : max_value >= 0.5 ? std::ldexp(1.0, -25) : 0.0;
+    if (max_value >= 0.5) EXPECT_DOUBLE_EQ(ms::lutfmt::float32_rounding_bound(exr.data), float32);
+    if (e == PixelEncoding::unorm8) EXPECT_DOUBLE_EQ(q, 0.5 / 255 + float32);
+    if (e == PixelEncoding::unorm16) EXPECT_DOUBLE_EQ(q, 0.5 / 65535 + float32);
+    if (e == PixelEncoding::float32) {
+        EXPECT_DOUBLE_EQ(q, float32);
+        EXPECT_GT(q, 0.0);
+    }
     if (e == PixelEncoding::float16) {  // measured: recompute with Imath's conversion
         double worst = 0;
         for (float v : exr.data) worst = std::max(worst, std::abs(double(float(Imath::half(v))) - v));
-        EXPECT_DOUBLE_EQ(q, worst);
+        EXPECT_DOUBLE_EQ(q, worst + float32);
         EXPECT_GT(q, 0.0);
-        EXPECT_LE(q, std::ldexp(1.0, -12));  // values <= 1: half a half-ulp of [0.5, 1)
+        EXPECT_LE(q, std::ldexp(1.0, -12) + float32);  // values <= 1: half a half-ulp of [0.5, 1)
     }
     EXPECT_NEAR(b.at("total").get<double>(), b.at("sampling").get<double>() + b.at("azimuth_quadrature").get<double>() + q, 1e-15);
     EXPECT_EQ(meta.at("max_total_error").get<double>(), b.at("total").get<double>());

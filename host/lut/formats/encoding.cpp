@@ -84,26 +84,38 @@ std::uint32_t to_unorm(float v, unsigned bits) {
     return std::uint32_t(std::lround(c * scale));  // round half away from zero: never a tie in practice
 }
 
+double float32_rounding_bound(const std::vector<float>& data) {
+    // A value computed in double and rounded to the nearest float v is within half the spacing of floats
+    // at v (the spacing above v, the larger one at a power of 2).
+    double worst = 0;
+    for (float v : data)
+        if (std::isfinite(v)) worst = std::max(worst, 0.5 * (double(std::nextafter(std::fabs(v), INFINITY)) - std::fabs(double(v))));
+    return worst;
+}
+
 double quantisation_error(const std::vector<float>& data, PixelEncoding encoding) {
+    // Every encoding stores values that were first rounded to float32; the narrower ones round again.
+    const double float32 = float32_rounding_bound(data);
     switch (encoding) {
-        case PixelEncoding::float32: return 0.0;
+        case PixelEncoding::float32: return float32;
         case PixelEncoding::float16: {
             double worst = 0;
             for (float v : data) worst = std::max(worst, std::abs(double(half_to_float(float_to_half(v))) - double(v)));
-            return worst;
+            return float32 + worst;
         }
-        case PixelEncoding::unorm8: return 0.5 / 255.0;
-        case PixelEncoding::unorm16: return 0.5 / 65535.0;
+        case PixelEncoding::unorm8: return float32 + 0.5 / 255.0;
+        case PixelEncoding::unorm16: return float32 + 0.5 / 65535.0;
     }
-    return 0.0;
+    return float32;
 }
 
 std::string quantisation_kind(PixelEncoding encoding) {
+    const std::string float32 = "the computed values' rounding to float32 (half the float spacing at the largest |value|)";
     switch (encoding) {
-        case PixelEncoding::float32: return "none: the baked float32 values are stored exactly";
-        case PixelEncoding::float16: return "float16 round to nearest even: measured max |half(v) - v| over the data";
-        case PixelEncoding::unorm8: return "unorm8 round(v * 255): bound 0.5 / 255";
-        case PixelEncoding::unorm16: return "unorm16 round(v * 65535): bound 0.5 / 65535";
+        case PixelEncoding::float32: return float32;
+        case PixelEncoding::float16: return float32 + " + float16 round to nearest even: measured max |half(v) - v| over the data";
+        case PixelEncoding::unorm8: return float32 + " + unorm8 round(v * 255): bound 0.5 / 255";
+        case PixelEncoding::unorm16: return float32 + " + unorm16 round(v * 65535): bound 0.5 / 65535";
     }
     return "?";
 }

@@ -6,7 +6,9 @@
 //   does); the error recorded is the measured max |half(v) - v| over the data.
 // - unorm8 / unorm16: q = round(v * (2^n - 1)) (v clamped to [0, 1] first); the recorded error is the
 //   bound 0.5 / (2^n - 1) (half a step), which the data attain wherever they are not on the grid.
-// - float32: the baked floats, stored exactly (error 0).
+// - float32: the baked floats, stored as they are.
+// Every recorded error adds the values' earlier rounding to float32 (they are computed in double): half
+// the float spacing at the largest |value| (float32_rounding_bound), 3e-8 for values up to 1.
 //
 // Error budget: every writer records in the metadata JSON
 //   "error_budget": { sampling, azimuth_quadrature, earlier_quantisation, quantisation, total = their sum, ... }
@@ -38,7 +40,9 @@ float half_to_float(std::uint16_t h);
 // round(v * (2^bits - 1)) with v clamped to [0, 1]; bits is 8 or 16.
 std::uint32_t to_unorm(float v, unsigned bits);
 
-// Quantisation error of storing `data` with `encoding` (see the header comment).
+// Half the float spacing at the largest |value| of `data`: the most a double rounded to them moved.
+double float32_rounding_bound(const std::vector<float>& data);
+// Quantisation error of storing `data` with `encoding`, float32 rounding included (see the header comment).
 double quantisation_error(const std::vector<float>& data, PixelEncoding encoding);
 std::string quantisation_kind(PixelEncoding encoding);
 

@@ -113,9 +113,10 @@ std::string generate_shader(const LutFile& lut, ShaderLanguage language, const s
         o << "// inside the zero region of cosine-weighted AO (cos_t = sqrt(1 - v)): NdotL <= 2 cos_t^2 - 1 = 1 - 2 v.\n"
           << "bool ms_zero_region(float visibility, float n_dot_l)\n{\n    return n_dot_l <= 0.0 || 2.0 * visibility + n_dot_l <= 1.0;\n}\n\n";
     else
-        o << "// inside the zero region of uniform-weighted AO (cos_t = 1 - v): NdotL <= 2 cos_t^2 - 1.\n"
+        o << "// inside the zero region of uniform-weighted AO (cos_t = 1 - v): NdotL <= 2 cos_t^2 - 1, compared as\n"
+          << "// NdotL + 1 <= 2 cos_t^2 so that no multiply-add can round it differently (host/lut/lookup.hpp).\n"
           << "bool ms_zero_region(float visibility, float n_dot_l)\n{\n    float cos_t = 1.0 - visibility;\n"
-          << "    return n_dot_l <= 0.0 || n_dot_l <= 2.0 * cos_t * cos_t - 1.0;\n}\n\n";
+          << "    return n_dot_l <= 0.0 || n_dot_l + 1.0 <= 2.0 * cos_t * cos_t;\n}\n\n";
 
     // The entry point.
     const std::string tex = glsl ? (three_d ? "sampler3D lut" : "sampler2D lut")

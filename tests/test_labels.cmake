@@ -91,6 +91,7 @@ set(microshadow_slow_tests
   "^ReprAnisotropicCorrectedTest\\.ThePresetMeetsItsMeasuredAccuracyAgainstTheExactTerm$"
   "^Distributed\\.CliSceneShardsMergeToOneProcess$"
   "^ExactTerm\\.AgreesWithTheScalarOracleOnAnisotropicAndUniformQueries$"
+  "^ExactBakeBounds\\."
   "^ExactKernel\\.(FloatKernelReachesItsMeasuredAccuracy|DoubleKernelAgreesWithTheEvaluatorOnAzimuthMeans)$"
   "^ExactJobsTest\\.VerifyAgainstTheExactMethodPassesARightBakeAndFailsAShiftedOne$"
   "^ClosedFormFit\\.RecoversTheCoefficientsThatGeneratedTheData$"

@@ -21,6 +21,7 @@
 #include "grid/atlas.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/eval.hpp"
+#include "jobs/verify.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "oracle/oracle.hpp"
 #include "sampling/point_set.hpp"
@@ -456,6 +457,34 @@ TEST(ExactBakeBounds, EveryTexelOfA24CubedBakeIsWithinItsRecordedEstimate) {
     const BoundCheck check = check_whole_bake(24, 1e-6);
     EXPECT_EQ(check.outside, 0u);
     EXPECT_GT(check.checked, 30000u);
+}
+
+}  // namespace
+
+namespace {
+
+// `bake --verify` on an exact bake recomputes texels as the exact mean they are (an exact bake has no
+// azimuth node rule): every texel of a 1e-4 bake passes, and every texel moved by 3 t of its recorded
+// error plus 1e-6 (so that the float value moves however small its error) fails.
+TEST(ExactBakeBounds, VerifyJudgesAnExactBakeAgainstTheExactMean) {
+    using namespace ms;
+    BakeSpec spec = default_bake_spec(LutLayout::seed_3d, 12);
+    spec.method = Method::exact;
+    spec.tolerance = 1e-4;
+    spec.oracle = true;
+    const BakeResult result = bake_lut(spec);
+    const BakeVerification right = verify_bake(spec, result, result.value.size(), 0, 2, Method::exact);
+    EXPECT_GT(right.checked, 4000u);
+    EXPECT_EQ(right.failed, 0u) << right.worst_texel;
+    EXPECT_LE(right.max_reference_error, 1e-9);
+    BakeResult shifted = result;
+    for (std::size_t i = 0; i < shifted.value.size(); ++i)
+        if (shifted.std_error[i] > 0) {
+            const double move = 3 * right.threshold * shifted.std_error[i] + 1e-6;
+            shifted.value[i] += float(shifted.value[i] > 0.5 ? -move : move);
+        }
+    const BakeVerification caught = verify_bake(spec, shifted, shifted.value.size(), 0, 2, Method::exact);
+    EXPECT_EQ(caught.failed, caught.checked);
 }
 
 }  // namespace

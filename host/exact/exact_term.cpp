@@ -146,8 +146,7 @@ public:
                     const std::complex<double> u = std::acos((mid_ - phi) / half_);
                     if (std::fabs(u.imag()) < 12) singular_u_.push_back({u.real(), std::fabs(u.imag())});
                 }
-        const Sample whole = sample(term, 0, kPi);
-        piece(term, 0, kPi, whole, 0);
+        piece(term, 0, kPi, nullptr, 0);
     }
 
 private:
@@ -190,14 +189,16 @@ private:
         return best < limit;
     }
 
+    // `known`: the high rule on [u0, u1] where the caller has it (a half of a piece that was checked).
     template <class Term>
-    void piece(const Term& term, double u0, double u1, const Sample& whole, int depth) {
+    void piece(const Term& term, double u0, double u1, const Sample* known, int depth) {
         double split = 0;
         if (depth < 40 && out_.pieces + depth < kMaxPieces && near_singularity(u0, u1, split)) {
-            piece(term, u0, split, sample(term, u0, split), depth + 1);
-            piece(term, split, u1, sample(term, split, u1), depth + 1);
+            piece(term, u0, split, nullptr, depth + 1);
+            piece(term, split, u1, nullptr, depth + 1);
             return;
         }
+        const Sample whole = known ? *known : sample(term, u0, u1);
         const double um = 0.5 * (u0 + u1);
         const Sample left = sample(term, u0, um), right = sample(term, um, u1);
         const double refined = left.value + right.value;
@@ -211,8 +212,8 @@ private:
         // reports what was not reached.
         if (estimate > tolerance_per_u_ * (u1 - u0) && estimate > floor && u1 - u0 > 1e-9 &&
             out_.pieces + depth < kMaxPieces) {
-            piece(term, u0, um, left, depth + 1);
-            piece(term, um, u1, right, depth + 1);
+            piece(term, u0, um, &left, depth + 1);
+            piece(term, um, u1, &right, depth + 1);
             return;
         }
         out_.integral += refined;

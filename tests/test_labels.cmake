@@ -94,6 +94,7 @@ set(microshadow_slow_tests
   "^ExactTerm\\.AgreesWithTheScalarOracleOnAnisotropicAndUniformQueries$"
   "^ExactKernel\\.(FloatKernelReachesItsMeasuredAccuracy|FloatKernelEstimateBoundsEveryValue|DoubleKernelAgreesWithTheEvaluatorOnAzimuthMeans)$"
   "^TermBars\\.FewRareSamplesInManyReplicatesKeepTheStatedCoverage$"
+  "^ExactBakeBounds\\."
   "^ExactJobsTest\\.VerifyAgainstTheExactMethodPassesARightBakeAndFailsAShiftedOne$"
   "^ClosedFormFit\\.RecoversTheCoefficientsThatGeneratedTheData$"
   "^IblReliability\\.(Sigterm|ARerunWithFewerMips)"

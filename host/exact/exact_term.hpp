@@ -29,17 +29,23 @@ inline constexpr double kDefaultTolerance = 1e-10;
 ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance = kDefaultTolerance);
 
 // The isotropic term as a LUT texel stores it by default: the mean over the relative azimuth phi in
-// [0, pi] of the term at (visibility, alpha, NdotV, NdotL, phi), a mean of ratios. Integrated by
-// Gauss-Legendre pieces between the azimuths where the term is not analytic (the cone round wo touching
-// the great circle normal to wi, the three circles meeting in a point, and the ends), each piece in a
-// cosine substitution that makes a square-root onset at either end analytic.
+// [0, pi] of the term at (visibility, alpha, NdotV, NdotL, phi), a mean of ratios. Integrated between the
+// azimuths where the term is not analytic (the cone round wo touching the great circle normal to wi, the
+// three circles meeting in a point, and the ends), each interval in a cosine substitution that makes a
+// square-root onset at either end analytic, by Gauss-Legendre pieces graded away from the same events'
+// complex solutions and bisected until the high rule on a piece agrees with the high rule on its two
+// halves to the piece's share of the tolerance. `error` sums, over the pieces, that difference (the whole
+// piece's error, which bounds the halves'), the values' own estimated errors and a rounding allowance.
 ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, double n_dot_l, AoWeighting weighting,
                               double tolerance = kDefaultTolerance);
 
-// The Gauss-Legendre pair on every azimuth piece of exact_azimuth_mean for a tolerance of the mean
-// (the OpenCL kernel takes the same).
+// The Gauss-Legendre rules on the azimuth pieces of a mean for a tolerance of the mean: the C++
+// evaluator takes `nodes` on each piece and on its two halves, pieces kept clear of complex singularities
+// by the Bernstein ellipse of parameter `rho`; the OpenCL kernel takes the nested pair (high, low).
 struct AzimuthRule {
     int high, low;
+    int nodes;
+    double rho;
 };
 AzimuthRule azimuth_rule_for(double tolerance);
 

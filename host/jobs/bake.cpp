@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "exact/cap_region.hpp"
+#include "exact/exact_term.hpp"
 #include "integrands/exact_term/exact_lut_integrand.hpp"
 #include "integrands/lut_slice/lut_slice_integrand.hpp"
 #include "lut/formats/lut_formats.hpp"
@@ -196,17 +197,23 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     if (spec.method == Method::exact) {
         const exact::ArcRule rule = exact::arc_rule_for(0.25 * r.exact_tolerance);
         m["azimuth"] = spec.azimuth_mean ? nlohmann::json("mean") : nlohmann::json(spec.azimuth_degrees);
-        if (spec.azimuth_mean)
-            m["azimuth_quadrature"] = "Gauss-Legendre pieces on [0, 180] degrees between the azimuths where the term "
-                                      "is not analytic, cosine-substituted, bisected to the tolerance";
+        if (spec.azimuth_mean) {
+            const exact::AzimuthRule azimuth = exact::azimuth_rule_for(r.exact_tolerance);
+            m["azimuth_quadrature"] = "Gauss-Legendre " + std::to_string(azimuth.nodes) +
+                                      " nodes on pieces of [0, 180] degrees between the azimuths where the term is not "
+                                      "analytic, cosine-substituted, graded from complex events (rho = " +
+                                      std::to_string(azimuth.rho).substr(0, 3) +
+                                      "), bisected until a piece agrees with its two halves to its share of the tolerance";
+        }
         m["rule"] = "boundary integral; arcs by Gauss-Legendre " + std::to_string(rule.high) + "/" +
                     std::to_string(rule.low) + " nodes, poles outside the Bernstein ellipse rho = " +
                     std::to_string(rule.rho).substr(0, 3);
         m["tolerance"] = r.exact_tolerance;
         m["tolerance_met"] = r.tolerance_met;
         m["max_error"] = r.max_std_error;
-        m["max_error_kind"] = "largest per-texel estimated error of the exact method (quadrature estimate plus the "
-                              "float texel's rounding)";
+        m["max_error_kind"] = "largest per-texel recorded error of the exact method (quadrature estimates: each piece "
+                              "against its halves, the terms' own estimates, plus the float texel's rounding); "
+                              "tolerance_met compares it with the tolerance";
         m["quadrature_pieces"] = r.exact_quadrature_pieces;
         m["form"] = to_string(spec.term.form);
         m["ao_weighting"] = to_string(spec.term.ao_weighting);

@@ -8,6 +8,7 @@
 
 #include "core/estimate.hpp"
 #include "exact/exact_term.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "integrands/term/term_integrand.hpp"
 #include "jobs/eval.hpp"
 #include "sampling/point_set.hpp"
@@ -91,6 +92,40 @@ BakeVerification verify_bake(const BakeSpec& spec, const BakeResult& result, std
     };
     v.threshold = student_t_quantile(1.0 - 0.001 / double(std::max<std::size_t>(k, 1)), int(spec.replicates) - 1);
 
+    if (reference == Method::exact && spec.method == Method::exact && spec.azimuth_mean) {
+        // An exact bake's texels are azimuth means by the exact method's own quadrature, not a node rule:
+        // the reference is the same mean at the evaluator's default tolerance.
+        std::vector<exact_term::ExactTexel> texels;
+        for (std::size_t i = 0; i < k; ++i) {
+            std::uint32_t c, iv, il, ivv;
+            texel_indices(candidates[i], c, iv, il, ivv);
+            const double r = spec.roughness.at(c);
+            texels.push_back({spec.visibility.value(iv), r * r, std::max(spec.n_dot_v.value(ivv), kMinNdotV),
+                              std::max(spec.n_dot_l.value(il), kMinNdotL)});
+        }
+        std::vector<exact::ExactValue> values;
+        exact_term::make_cpu_evaluator(std::max(1u, threads))
+            ->texels(texels, spec.term.ao_weighting, true, 0.0, exact::kDefaultTolerance, values);
+        for (std::size_t i = 0; i < k; ++i) {
+            const std::size_t at = candidates[i];
+            const double lut = result.value[at], se_lut = result.std_error[at];
+            const double diff = std::abs(lut - values[i].term);
+            const double slack = diff - values[i].error - storage_rounding(lut);
+            const double z = slack <= 0 ? 0.0 : se_lut > 0 ? slack / se_lut : HUGE_VAL;
+            ++v.checked;
+            if (z > v.threshold) ++v.failed;
+            v.worst_abs_diff = std::max(v.worst_abs_diff, diff);
+            v.max_reference_error = std::max(v.max_reference_error, values[i].error);
+            if (z >= v.worst_z) {
+                v.worst_z = z;
+                std::ostringstream s;
+                s << texel_name(result, at) << ": lut " << lut << " +- " << se_lut << ", exact mean " << values[i].term
+                  << " (error " << values[i].error << ")";
+                v.worst_texel = s.str();
+            }
+        }
+        return v;
+    }
     if (reference == Method::exact) {
         // Every (texel, rule, node) query through the exact method on oracle-backend threads.
         const std::vector<AzimuthRule> rules = bake_rules(spec, result);

@@ -6,15 +6,22 @@
 // estimated errors plus a rounding allowance of 64 ulps of 1.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
+#include <thread>
 #include <vector>
 
+#include "core/cone.hpp"
 #include "core/estimate.hpp"
 #include "core/types.hpp"
 #include "exact/exact_term.hpp"
+#include "exact/gauss_legendre.hpp"
+#include "grid/atlas.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/eval.hpp"
+#include "jobs/verify.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "oracle/oracle.hpp"
 #include "sampling/point_set.hpp"
@@ -268,3 +275,216 @@ TEST(ExactPlaces, CpuDevicesRunTheHostEvaluatorAndTheKernelOnRequest) {
     // The kernel is other code (its own rounding): some values differ in their last bits, or it did not run.
     EXPECT_GT(differ, 0u) << "--exact-kernel did not run the kernel";
 }
+
+// ---- Whole exact bakes against an independent reference ----
+// Every texel of whole exact bakes against an independent reference, within the texel's recorded
+// estimate: the recorded error of an exact LUT is a bound, not a typical size.
+//
+// The reference is the mean over the azimuth of the exact term at a tight tolerance, integrated by a
+// rule of its own: the azimuths where the term is not analytic found numerically (sign changes of the
+// event functions on a fine scan, refined by bisection), each interval in the cosine substitution that
+// makes a square-root onset analytic, and composite Gauss-Legendre there (4 panels of 12 nodes, checked
+// against 2 panels: the coarser rule's error, far above the finer's); the difference of the two plus the terms' own estimated errors is the reference's uncertainty, which the
+// check adds to the recorded estimate (and which must stay far below the tolerance, or the reference
+// proves nothing).
+namespace {
+
+using namespace ms;
+
+struct ReferenceMean {
+    double value = 0, uncertainty = 0;
+};
+
+// Roots in (0, pi) of g, from sign changes on `scan` steps, each refined by bisection to rounding.
+template <class F>
+void add_roots(const F& g, int scan, std::vector<double>& roots) {
+    double a = 0, ga = g(0.0);
+    for (int i = 1; i <= scan; ++i) {
+        const double b = kPi * i / scan, gb = g(b);
+        if ((ga < 0) != (gb < 0)) {
+            double lo = a, hi = b, glo = ga;
+            for (int k = 0; k < 60 && hi - lo > 1e-15; ++k) {
+                const double m = 0.5 * (lo + hi), gm = g(m);
+                if ((gm < 0) == (glo < 0)) lo = m, glo = gm;
+                else hi = m;
+            }
+            roots.push_back(0.5 * (lo + hi));
+        }
+        a = b;
+        ga = gb;
+    }
+}
+
+// Composite Gauss-Legendre with `panels` panels of `nodes` nodes over u in [0, pi] of
+// T(mid - half cos u) half sin u; `error` gathers the terms' weighted estimated errors.
+double composite_rule(double v, double alpha, double nv, double nl, double lo, double hi, int panels, int nodes,
+                      double& error) {
+    const exact::GaussRule& g = exact::gauss_legendre(nodes);
+    const double mid = 0.5 * (lo + hi), half = 0.5 * (hi - lo);
+    double sum = 0;
+    for (int p = 0; p < panels; ++p) {
+        const double u0 = kPi * p / panels, u1 = kPi * (p + 1) / panels;
+        for (int i = 0; i < nodes; ++i) {
+            const double u = 0.5 * (u0 + u1) + 0.5 * (u1 - u0) * g.nodes[i];
+            const double w = g.weights[i] * 0.5 * (u1 - u0) * half * std::sin(u);
+            const exact::ExactValue t =
+                exact::exact_term_at_azimuth(v, alpha, nv, nl, mid - half * std::cos(u), AoWeighting::cosine, 1e-11);
+            sum += w * t.term;
+            error += w * t.error;
+        }
+    }
+    return sum;
+}
+
+ReferenceMean reference_mean(double v, double alpha, double nv, double nl) {
+    const double c = cone_cos_theta(v, AoWeighting::cosine), s = std::sqrt(cone_sin2_theta(v, AoWeighting::cosine));
+    const Vec3 wi{std::sqrt(1 - nv * nv), 0, nv};
+    const double sl = std::sqrt(1 - nl * nl);
+    auto wo = [&](double phi) { return Vec3{sl * std::cos(phi), sl * std::sin(phi), nl}; };
+    auto dot3 = [](const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; };
+    std::vector<double> cuts{0.0, kPi};
+    // The cap round wo touches the great circle normal to wi.
+    add_roots([&](double phi) { return std::pow(dot3(wi, wo(phi)), 2) - s * s; }, 512, cuts);
+    // The circle round wo passes through a point where the circle round e_z meets that great circle:
+    // the solutions of m.z = c, m.wi = 0, |m| = 1 (wi lies in the xz plane).
+    const double mx = -c * nv / wi.x, my2 = 1 - c * c - mx * mx;
+    if (my2 > 0)
+        for (double sign : {-1.0, 1.0}) {
+            const Vec3 meet{mx, sign * std::sqrt(my2), c};
+            add_roots([&](double phi) { return dot3(meet, wo(phi)) - c; }, 512, cuts);
+        }
+    std::sort(cuts.begin(), cuts.end());
+    ReferenceMean out;
+    double value_error = 0;
+    for (std::size_t i = 0; i + 1 < cuts.size(); ++i) {
+        if (cuts[i + 1] - cuts[i] < 1e-14) continue;
+        const double fine = composite_rule(v, alpha, nv, nl, cuts[i], cuts[i + 1], 4, 12, value_error);
+        double unused = 0;
+        const double coarse = composite_rule(v, alpha, nv, nl, cuts[i], cuts[i + 1], 2, 12, unused);
+        out.value += fine;
+        out.uncertainty += std::fabs(fine - coarse);
+    }
+    out.value /= kPi;
+    out.uncertainty = (out.uncertainty + value_error) / kPi + 1e-14;
+    return out;
+}
+
+struct BoundCheck {
+    std::size_t checked = 0, outside = 0;
+    double worst_ratio = 0, worst_error = 0, worst_reference_uncertainty = 0;
+    // The same ratio over texels whose recorded error is mostly the quadrature's (above 4 half-ulps of
+    // the float value, 2^-23), where the ratio says how tight the estimate is rather than the rounding.
+    double worst_quadrature_ratio = 0;
+    std::size_t quadrature_dominated = 0;
+};
+
+// Every computed texel of an exact bake of the seed-3d layout at `size` against the reference.
+BoundCheck check_whole_bake(std::uint32_t size, double tolerance) {
+    BakeSpec spec = default_bake_spec(LutLayout::seed_3d, size);
+    spec.method = Method::exact;
+    spec.tolerance = tolerance;
+    spec.oracle = true;  // the C++ evaluator
+    const BakeResult bake = bake_lut(spec);
+    EXPECT_TRUE(bake.tolerance_met);
+    const std::uint32_t channels = std::uint32_t(spec.roughness.size());
+    const AtlasShape shape{spec.visibility.count, spec.n_dot_l.count, spec.n_dot_v.count, channels};
+    struct Texel {
+        std::size_t at;
+        double v, alpha, nv, nl;
+    };
+    std::vector<Texel> texels;
+    for (std::uint32_t ch = 0; ch < channels; ++ch)
+        for (std::uint32_t ivv = 0; ivv < spec.n_dot_v.count; ++ivv)
+            for (std::uint32_t il = 0; il < spec.n_dot_l.count; ++il)
+                for (std::uint32_t iv = 0; iv < spec.visibility.count; ++iv) {
+                    const double v = spec.visibility.value(iv), nl = std::max(spec.n_dot_l.value(il), kMinNdotL);
+                    const std::size_t at = shape.index(ch, iv, il, ivv);
+                    // Exact 0 and 1 are written by rule (checked elsewhere); the rest are quadratures.
+                    if (v >= 1 || in_zero_region(cone_cos_theta(v, AoWeighting::cosine), nl)) continue;
+                    const double r = spec.roughness[ch];
+                    texels.push_back({at, v, r * r, std::max(spec.n_dot_v.value(ivv), kMinNdotV), nl});
+                }
+    std::vector<ReferenceMean> reference(texels.size());
+    const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
+    std::vector<std::thread> pool;
+    for (unsigned t = 0; t < threads; ++t)
+        pool.emplace_back([&, t] {
+            for (std::size_t i = t; i < texels.size(); i += threads)
+                reference[i] = reference_mean(texels[i].v, texels[i].alpha, texels[i].nv, texels[i].nl);
+        });
+    for (auto& t : pool) t.join();
+    BoundCheck check;
+    for (std::size_t i = 0; i < texels.size(); ++i) {
+        const Texel& x = texels[i];
+        const double stored = bake.value[x.at], recorded = bake.std_error[x.at];
+        const double error = std::fabs(stored - reference[i].value);
+        ++check.checked;
+        check.worst_reference_uncertainty = std::max(check.worst_reference_uncertainty, reference[i].uncertainty);
+        check.worst_error = std::max(check.worst_error, error);
+        const double ratio = error > reference[i].uncertainty ? (error - reference[i].uncertainty) / recorded : 0.0;
+        check.worst_ratio = std::max(check.worst_ratio, ratio);
+        if (recorded > std::ldexp(1.0, -23)) {
+            ++check.quadrature_dominated;
+            check.worst_quadrature_ratio = std::max(check.worst_quadrature_ratio, ratio);
+        }
+        if (error > recorded + reference[i].uncertainty) {
+            if (++check.outside <= 10)
+                ADD_FAILURE() << "v " << x.v << " alpha " << x.alpha << " NdotV " << x.nv << " NdotL " << x.nl << ": stored "
+                              << stored << " +- " << recorded << ", reference " << reference[i].value << " +- "
+                              << reference[i].uncertainty;
+        }
+        EXPECT_LE(recorded, tolerance);
+    }
+    // The reference must resolve the tolerance, or the check is empty.
+    EXPECT_LT(check.worst_reference_uncertainty, 0.01 * tolerance);
+    std::printf("exact bake %u^3 x %u at %g: %zu texels, worst error %.3g, worst (error - reference uncertainty) / "
+                "recorded estimate %.3g (%.3g over the %zu texels whose estimate is mostly quadrature), reference "
+                "uncertainty <= %.2g\n",
+                size, channels, tolerance, check.checked, check.worst_error, check.worst_ratio,
+                check.worst_quadrature_ratio, check.quadrature_dominated, check.worst_reference_uncertainty);
+    return check;
+}
+
+TEST(ExactBakeBounds, EveryTexelOfA16CubedBakeIsWithinItsRecordedEstimate) {
+    if (ms::testing::kAsan) GTEST_SKIP() << "whole-bake accuracy runs in the optimised build";
+    const BoundCheck check = check_whole_bake(16, 1e-6);
+    EXPECT_EQ(check.outside, 0u);
+    EXPECT_GT(check.checked, 10000u);
+}
+
+TEST(ExactBakeBounds, EveryTexelOfA24CubedBakeIsWithinItsRecordedEstimate) {
+    if (ms::testing::kAsan) GTEST_SKIP() << "whole-bake accuracy runs in the optimised build";
+    const BoundCheck check = check_whole_bake(24, 1e-6);
+    EXPECT_EQ(check.outside, 0u);
+    EXPECT_GT(check.checked, 30000u);
+}
+
+}  // namespace
+
+namespace {
+
+// `bake --verify` on an exact bake recomputes texels as the exact mean they are (an exact bake has no
+// azimuth node rule): every texel of a 1e-4 bake passes, and every texel moved by 3 t of its recorded
+// error plus 1e-6 (so that the float value moves however small its error) fails.
+TEST(ExactBakeBounds, VerifyJudgesAnExactBakeAgainstTheExactMean) {
+    using namespace ms;
+    BakeSpec spec = default_bake_spec(LutLayout::seed_3d, 12);
+    spec.method = Method::exact;
+    spec.tolerance = 1e-4;
+    spec.oracle = true;
+    const BakeResult result = bake_lut(spec);
+    const BakeVerification right = verify_bake(spec, result, result.value.size(), 0, 2, Method::exact);
+    EXPECT_GT(right.checked, 4000u);
+    EXPECT_EQ(right.failed, 0u) << right.worst_texel;
+    EXPECT_LE(right.max_reference_error, 1e-9);
+    BakeResult shifted = result;
+    for (std::size_t i = 0; i < shifted.value.size(); ++i)
+        if (shifted.std_error[i] > 0) {
+            const double move = 3 * right.threshold * shifted.std_error[i] + 1e-6;
+            shifted.value[i] += float(shifted.value[i] > 0.5 ? -move : move);
+        }
+    const BakeVerification caught = verify_bake(spec, shifted, shifted.value.size(), 0, 2, Method::exact);
+    EXPECT_EQ(caught.failed, caught.checked);
+}
+
+}  // namespace

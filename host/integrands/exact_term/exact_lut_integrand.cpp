@@ -76,16 +76,23 @@ void ExactLutIntegrand::run_slice(Evaluator& evaluator, std::uint64_t slice) {
         }
     }
     std::vector<exact::ExactValue> out;
+    // The float texel's rounding (at most half an ulp of a value below 1, 2^-25) takes its part of the
+    // tolerance, so that the evaluator's estimate plus the rounding stays within it.
+    const double rounding = std::ldexp(1.0, -25);
+    const double evaluator_tolerance = config_.tolerance > 2 * rounding ? config_.tolerance - rounding : config_.tolerance;
     evaluator.texels(texels, spec_.term.ao_weighting, spec_.azimuth_mean, spec_.azimuth_degrees * kPi / 180.0,
-                     config_.tolerance, out);
+                     evaluator_tolerance, out);
     double max_error = 0;
     std::uint64_t pieces = 0;
     for (std::size_t k = 0; k < where.size(); ++k) {
         values_[where[k]] = float(out[k].term);
         // The float texel's rounding joins the estimate, so the recorded error is the stored value's.
         const double stored_error = out[k].error + std::fabs(double(float(out[k].term)) - out[k].term);
-        errors_[where[k]] = float(stored_error);
-        max_error = std::max(max_error, stored_error);
+        // Stored rounded up, so that the float error still bounds the float value's.
+        float recorded = float(stored_error);
+        if (double(recorded) < stored_error) recorded = std::nextafter(recorded, std::numeric_limits<float>::infinity());
+        errors_[where[k]] = recorded;
+        max_error = std::max(max_error, double(recorded));
         pieces += std::uint64_t(out[k].quadrature_pieces);
     }
     slice_max_error_[slice] = max_error;

@@ -17,6 +17,7 @@
 #include "jobs/eval.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
+#include "schedule/cache_key.hpp"
 
 namespace ms::repr {
 
@@ -57,5 +58,12 @@ std::unique_ptr<Representation> build_preset(const Preset& p, const AzimuthBake&
 // A preset baked once per process and name on this machine's CPU with the exact method (a few seconds;
 // the same texels every time), for the comparators that name one. Thread-safe.
 std::shared_ptr<const Representation> baked_preset(const std::string& name);
+
+// The cache key of a representation bake (schedule/cache_key.hpp): everything that decides its
+// texels (the grid, the azimuth nodes, the sampling plan, the term, the kernels' build, the kind of
+// device, the version), not the representation built from them; the fields left out, each with the
+// reason: repr_cache_key_exclusions(). Its chunk store holds one item per roughness node.
+schedule::CacheKey repr_cache_key(const AzimuthBakeSpec& spec, TermBackend& backend);
+const std::vector<std::string>& repr_cache_key_exclusions();
 
 }  // namespace ms::repr

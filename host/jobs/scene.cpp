@@ -27,6 +27,7 @@
 #include "io/atomic_file.hpp"
 #include "io/text.hpp"
 #include "jobs/bake.hpp"
+#include "jobs/cache_keys.hpp"
 #include "jobs/compare.hpp"
 #include "lut/formats/lut_formats.hpp"
 #include "lut/lookup.hpp"
@@ -1019,11 +1020,6 @@ struct WordDigest {
     }
 };
 
-std::string file_bytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path + ": cannot read it (" + std::strerror(errno) + ")");
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 }  // namespace
 
@@ -1032,13 +1028,12 @@ std::uint64_t scene_work_items(const SceneInputs& inputs) {
     return std::uint64_t(inputs.description().lights.size()) * ((n + tile - 1) / tile);
 }
 
-schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
+schedule::CacheKey scene_cache_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
     const SceneDescription& d = inputs.description();
+    schedule::CacheKey key("scene");
     // The description as written (lights, sampling, comparators, where the images are), and what the
     // images hold: every pixel's surface as the job reads it.
-    std::ostringstream key;
-    key.precision(17);
-    key << "description fnv1a " << hex16(fnv1a(file_bytes(d.source))) << "\n";
+    key.add_file("description", d.source);
     WordDigest pixels;
     for (std::size_t i = 0; i < inputs.pixels(); ++i) {
         const PixelSurface p = inputs.pixel(i);
@@ -1047,16 +1042,32 @@ schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOpti
             for (double x : {v->x, v->y, v->z}) pixels.add(x);
         for (double x : {p.visibility, p.alpha_x, p.alpha_y, p.roughness}) pixels.add(x);
     }
-    key << "size " << inputs.width() << " " << inputs.height() << " pixels " << hex16(pixels.h) << "\n";
-    key << "skip " << options.skip << " tolerance " << options.tolerance << " method " << options.method_given << " "
-        << to_string(options.method) << " seed_luts " << options.bake_seed_luts << "\n";
-    for (const auto& f : options.luts) key << "lut " << f << " fnv1a " << hex16(fnv1a(file_bytes(f))) << "\n";
-    for (const auto& f : d.comparators.luts) key << "description lut " << f << " fnv1a " << hex16(fnv1a(file_bytes(f))) << "\n";
-    const auto& build = backend.config().build;
-    key << "fast_math " << build.fast_math << " double " << build.double_precision << "\n";
-    for (const auto& [name, value] : build.defines) key << "define " << name << "=" << value << "\n";
-    key << "results " << backend.scheduler().results_label() << "\nversion " MICROSHADOW_VERSION "\n";
-    return {"scene", hex16(fnv1a(key.str())), scene_work_items(inputs)};
+    key.add("pixels", {inputs.width(), inputs.height(), hex16(pixels.h)});
+    key.add("skip", options.skip)
+        .add("tolerance", options.tolerance)
+        .add("method_given", options.method_given)
+        .add("method", to_string(options.method))
+        .add("bake_seed_luts", options.bake_seed_luts);
+    for (std::size_t i = 0; i < options.luts.size(); ++i) key.add_file("luts." + std::to_string(i), options.luts[i]);
+    for (std::size_t i = 0; i < d.comparators.luts.size(); ++i)
+        key.add_file("description.luts." + std::to_string(i), d.comparators.luts[i]);
+    add_build(key, backend.config().build);
+    add_results_place(key, backend.scheduler());
+    return key;
+}
+
+const std::vector<std::string>& scene_cache_key_exclusions() {
+    static const std::vector<std::string> excluded = {
+        "progress, check_outputs: callbacks, told of the work, not part of it",
+        "strict_domain: refuses a run before it computes, never changes an item",
+        "memory_limit: refuses a run before it computes, never changes an item",
+        "items: how the items are split and kept, not what they hold",
+    };
+    return excluded;
+}
+
+schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
+    return scene_cache_key(inputs, options, backend).store_key(scene_work_items(inputs));
 }
 
 SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const SceneRunOptions& options) {

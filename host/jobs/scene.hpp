@@ -48,6 +48,7 @@
 #include "core/lookup_domain.hpp"
 #include "jobs/eval.hpp"
 #include "scene/inputs.hpp"
+#include "schedule/cache_key.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::scene {
@@ -144,9 +145,12 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
 // images and statistics are assembled from the items in id order, so a run split into shards or MPI
 // ranks writes the same bytes as one process.
 std::uint64_t scene_work_items(const SceneInputs& inputs);
-// The chunk store key of a scene run: everything that decides its items' bits (the description file,
-// every pixel's surface, the options that reach the reference and the comparators, the bytes of the
-// comparator files, the kind of device, the version), not the output folder or the command line.
+// The cache key of a scene run (schedule/cache_key.hpp): everything that decides its items' bits (the
+// description file, every pixel's surface, the options that reach the reference and the comparators,
+// the bytes of the comparator files, the kernels' build, the kind of device, the version); the options
+// left out, each with the reason: scene_cache_key_exclusions(). scene_store_key: its chunk store's key.
+schedule::CacheKey scene_cache_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend);
+const std::vector<std::string>& scene_cache_key_exclusions();
 schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend);
 
 // The key of a query on the grid above, and the query at the key's grid point (tests use both).

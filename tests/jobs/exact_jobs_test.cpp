@@ -117,7 +117,6 @@ sweep::RunConfig sweep_config(const std::string& dir, const SamplingPlan& plan, 
     c.out_dir = dir;
     c.plan = plan;
     c.backend = &backend;
-    c.backend_label = "oracle";
     return c;
 }
 

@@ -231,32 +231,6 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
     auto backend = a.sampling.make_backend();
 
     Progress progress("repr bake", a.sampling.quiet || !rank0);
-    if (a.kind == "anisotropic-harmonics") {
-        // The anisotropic preset fits surfaces of every (dphi, rho) per pair of projected-roughness
-        // nodes, not azimuth nodes: its own bake, in one process.
-        if (distribution_given(a.distribution))
-            throw std::invalid_argument("--preset anisotropic bakes in one process: --shard, --merge, --store and --mpi "
-                                        "split the roughness nodes of the azimuth representations");
-        const repr::Preset p = repr::preset(a.preset, spec.term.ao_weighting);
-        repr::AnisotropicBakeSpec aspec;
-        aspec.grid = p.grid;
-        aspec.azimuth_configs = p.azimuth_configs;
-        aspec.correlation_configs = p.correlation_configs;
-        aspec.max_ratio = p.max_ratio;
-        aspec.plan = spec.plan;
-        aspec.term = spec.term;
-        aspec.command_line = spec.command_line;
-        const auto rep = repr::bake_anisotropic(aspec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); },
-                                                p.name, p.domain);
-        progress.finish();
-        const std::string name = std::filesystem::path(a.out).filename().string();
-        file->write(outputs, *rep, a.half);
-        if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
-        if (!a.shader_hlsl.empty()) outputs.stream(hlsl) << rep->shader(repr::ShaderLanguage::hlsl, name);
-        outputs.commit();
-        if (!a.sampling.quiet) std::cerr << "repr bake: " << rep->name() << "\n  " << cost_line(*rep) << "\n";
-        return;
-    }
     repr::AzimuthBake bake;
     if (!distribution_given(a.distribution)) {
         bake = repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); });

@@ -455,17 +455,6 @@ CorrectionFit fit_correction(const Representation& zero, const std::vector<Query
 
 std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
                                             const std::function<void(std::size_t, std::size_t)>& progress) {
-    if (p.kind == "anisotropic-harmonics") {
-        AnisotropicBakeSpec spec;
-        spec.grid = p.grid;
-        spec.azimuth_configs = p.azimuth_configs;
-        spec.correlation_configs = p.correlation_configs;
-        spec.max_ratio = p.max_ratio;
-        spec.plan.method = Method::exact;
-        spec.term.ao_weighting = p.grid.weighting;
-        spec.command_line = command_line;
-        return bake_anisotropic(spec, backend, progress, p.name, p.domain);
-    }
     AzimuthBakeSpec spec;
     spec.grid = p.grid;
     spec.azimuth_nodes = p.azimuth_nodes;

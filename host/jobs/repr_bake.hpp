@@ -30,7 +30,9 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
 // of projected-roughness nodes (view, light) the term of surfaces at every (dphi, rho) configuration
 // and texel, and the least-squares series fitted to them. The metadata records preset_name (when not
 // empty) and `domain` (without one: the nodes' roughness per axis, ratio <= spec.max_ratio).
-// std::invalid_argument for a spec out of range.
+// std::invalid_argument for a spec out of range. No command, preset or library call bakes this kind
+// (the anisotropic preset is anisotropic-corrected-harmonics, baked by bake_preset): it is kept with the
+// kind itself (repr/anisotropic.cpp), whose files still read and whose tests build them here.
 std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec, TermBackend& backend,
                                                  const std::function<void(std::size_t, std::size_t)>& progress = {},
                                                  const std::string& preset_name = "",

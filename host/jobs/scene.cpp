@@ -968,7 +968,7 @@ private:
         for (std::size_t g = 0; g < group_count; ++g) bucket_start[g + 1] += bucket_start[g];
         std::vector<float> scratch(bucket_start[group_count]);
         std::vector<std::size_t> fill(group_count);
-        light_.stats.assign(job_.comparators.size(), std::vector<PixelErrors>(group_count));
+        light_.stats.assign(job_.comparators.size(), std::vector<LitErrorSummary>(group_count));
         for (std::size_t k = 0; k < job_.comparators.size(); ++k) {
             std::copy(bucket_start.begin(), bucket_start.end() - 1, fill.begin());
             for (std::size_t i = 0; i < n; ++i) {
@@ -982,7 +982,7 @@ private:
                 if (!weighted_.at(k, g).count()) continue;
                 const auto first = scratch.begin() + std::ptrdiff_t(bucket_start[g]);
                 const float p99 = nearest_rank(first, scratch.begin() + std::ptrdiff_t(bucket_start[g + 1]), 0.99);
-                light_.stats[k][g] = PixelErrors::of(weighted_.at(k, g), term_.at(k, g), p99);
+                light_.stats[k][g] = LitErrorSummary::of(weighted_.at(k, g), term_.at(k, g), p99);
             }
         }
         result_.lights.push_back(std::move(light_));
@@ -1159,6 +1159,8 @@ json scene_report(const SceneResult& r) {
     for (std::size_t k = 0; k < r.comparators.size() && k < r.outside_domain.size(); ++k)
         j["comparator_domains"][r.comparators[k]] = compare::domain_report(r.domains[k], r.outside_domain[k]);
     j["groups"] = r.groups;
+    j["error_schema"] = kErrorSummarySchema;
+    j["error_weighting"] = kLitErrorWeighting;
     for (const auto& l : r.lights) {
         json lj;
         lj["name"] = l.light;
@@ -1166,9 +1168,7 @@ json scene_report(const SceneResult& r) {
         lj["seconds"] = l.seconds;
         for (std::size_t k = 0; k < r.comparators.size(); ++k)
             for (std::size_t g = 0; g < r.groups.size(); ++g) {
-                const PixelErrors& s = l.stats[k][g];
-                lj["errors"][r.comparators[k]][r.groups[g]] = {{"pixels", s.pixels}, {"max", s.max}, {"rms", s.rms},
-                                                               {"p99", s.p99}, {"max_term", s.max_term}, {"rms_term", s.rms_term}};
+                lj["errors"][r.comparators[k]][r.groups[g]] = l.stats[k][g];
             }
         j["lights"].push_back(lj);
     }
@@ -1205,18 +1205,18 @@ std::string markdown(const SceneResult& r) {
     for (const auto& l : r.lights) {
         m << "## light `" << l.light << "`\n\nReference: max error bound " << format_g(l.max_error_bound)
           << ". Errors weighted as shading sees them (|approximation - reference| x max(N.L, 0) x intensity), over lit pixels;"
-          << " `max term` is the unweighted max.\n\n";
-        m << "| comparator | max | RMS | p99 | max term | RMS term |";
-        for (std::size_t g = 1; g < r.groups.size(); ++g) m << " RMS " << r.groups[g] << " |";
+          << " the `term` columns are of |approximation - reference| unweighted.\n\n";
+        m << "| comparator | lit max | lit RMS | lit p99 | term max | term RMS |";
+        for (std::size_t g = 1; g < r.groups.size(); ++g) m << " lit RMS " << r.groups[g] << " |";
         m << "\n|---|---|---|---|---|---|";
         for (std::size_t g = 1; g < r.groups.size(); ++g) m << "---|";
         m << "\n";
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
-            const PixelErrors& s = l.stats[k][0];
-            m << "| " << r.comparators[k] << " | " << format_g(s.max) << " | " << format_g(s.rms) << " | " << format_g(s.p99) << " | "
-              << format_g(s.max_term) << " | " << format_g(s.rms_term) << " |";
+            const LitErrorSummary& s = l.stats[k][0];
+            m << "| " << r.comparators[k] << " | " << format_g(s.lit_max_abs) << " | " << format_g(s.lit_rms) << " | "
+              << format_g(s.lit_p99) << " | " << format_g(s.term_max_abs) << " | " << format_g(s.term_rms) << " |";
             for (std::size_t g = 1; g < r.groups.size(); ++g)
-                m << " " << (l.stats[k][g].pixels ? format_g(l.stats[k][g].rms) : std::string("-")) << " |";
+                m << " " << (l.stats[k][g].count ? format_g(l.stats[k][g].lit_rms) : std::string("-")) << " |";
             m << "\n";
         }
         m << "\n";
@@ -1373,7 +1373,7 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
                                     r.mask.data(), {"LIGHT " + to_upper(l.light) + ": THE GENERIC TERM BY VNDF SAMPLING"}));
         // Every comparator's weighted error on one shared scale.
         double shared = 0;
-        for (std::size_t k = 0; k < r.comparators.size(); ++k) shared = std::max(shared, l.stats[k][0].max);
+        for (std::size_t k = 0; k < r.comparators.size(); ++k) shared = std::max(shared, l.stats[k][0].lit_max_abs);
         std::vector<Panel> all;
         for (std::size_t k = 0; k < r.comparators.size(); ++k)
             all.push_back({to_upper(r.comparators[k]), l.error[k].data(), true, 0, 1, shared > 0 ? shared : 1});
@@ -1384,16 +1384,16 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
                                         {"LIGHT " + to_upper(l.light) + ": (APPROXIMATION - REFERENCE) X N.L X INTENSITY, ONE SCALE"}, 160));
         }
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
-            const PixelErrors& s = l.stats[k][0];
+            const LitErrorSummary& s = l.stats[k][0];
             const std::size_t png = out.add(path(l.light + "_" + r.comparators[k] + ".png"), true);
             write_png_rgb(out.temp_path(png),
                           render_panels(r.width, r.height,
                                         {{"REFERENCE", l.reference.data(), false, 0, 1, 1},
                                          {to_upper(r.comparators[k]), l.approximation[k].data(), false, 0, 1, 1},
-                                         {weighted, l.error[k].data(), true, 0, 1, s.max > 0 ? s.max : 1}},
+                                         {weighted, l.error[k].data(), true, 0, 1, s.lit_max_abs > 0 ? s.lit_max_abs : 1}},
                                         r.mask.data(),
                                         {"LIGHT " + to_upper(l.light) + ": " + to_upper(r.comparators[k]) + " AGAINST THE REFERENCE",
-                                         "WEIGHTED ERROR MAX " + format_g(s.max) + "  RMS " + format_g(s.rms) + "  P99 " + format_g(s.p99)}));
+                                         "WEIGHTED ERROR MAX " + format_g(s.lit_max_abs) + "  RMS " + format_g(s.lit_rms) + "  P99 " + format_g(s.lit_p99)}));
         }
     }
     out.stream(report_json) << dump_json(report, 2) << "\n";

@@ -87,24 +87,11 @@ struct SkipCounts {
     double skipped_fraction() const { return pixel_lights ? 1.0 - double(sampled) / double(pixel_lights) : 0; }
 };
 
-// What a scene reports of a comparator's error at a group's lit pixels (core/error_stats.hpp): the
-// statistics of the weighted error |approximation - reference| x N.L x intensity, its 99th percentile
-// nearest-rank, and those of the term's own error |approximation - reference|, unweighted.
-struct PixelErrors {
-    std::uint64_t pixels = 0;
-    double max = 0, rms = 0, p99 = 0;      // of |approximation - reference| x N.L x intensity
-    double max_term = 0, rms_term = 0;     // of |approximation - reference| (unweighted)
-    // From the statistics of the weighted and of the unweighted errors at the same points.
-    static PixelErrors of(const ErrorStats& weighted, const ErrorStats& term, double p99) {
-        return {weighted.count(), weighted.max_abs(), weighted.rms(), p99, term.max_abs(), term.rms()};
-    }
-};
-
 struct LightImages {
     std::string light;
     std::vector<float> reference, std_error, weight;       // weight = max(N.L, 0) x intensity
     std::vector<std::vector<float>> approximation, error;  // per comparator; error is weighted
-    std::vector<std::vector<PixelErrors>> stats;           // [comparator][group]
+    std::vector<std::vector<LitErrorSummary>> stats;       // [comparator][group], at its lit pixels
     double max_error_bound = 0;                            // t x std error, over the pixels
     double t = 5.408;                                      // the Student t factor used (student_t_999)
     double seconds = 0;

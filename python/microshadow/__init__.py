@@ -100,7 +100,7 @@ def _check_finite(name: str, a: np.ndarray) -> None:
     bad = ~np.isfinite(a)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: not a finite number")
+        raise ValueError(f"{name}{_index(i, a.shape)} = {float(a.flat[i])!r}: not a finite number")
 
 
 def _check_range(name: str, a: np.ndarray, lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> None:
@@ -112,7 +112,7 @@ def _check_range(name: str, a: np.ndarray, lo: float, hi: float, lo_open: bool =
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         interval = ("(" if lo_open else "[") + f"{lo:g}, {hi:g}" + (")" if hi_open else "]")
-        raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: outside {interval}")
+        raise ValueError(f"{name}{_index(i, a.shape)} = {float(a.flat[i])!r}: outside {interval}")
 
 
 def _scalar_or_vector(name: str, value: ArrayLike) -> np.ndarray:
@@ -244,7 +244,7 @@ def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
         bad = ~(a > 0)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: must be > 0")
+            raise ValueError(f"{name}{_index(i, a.shape)} = {float(a.flat[i])!r}: must be > 0")
     wi_a = _directions("wi", wi)
     wo_a = _directions("wo", wo)
     wi_rows = wi_a.reshape(-1, 3)
@@ -750,7 +750,7 @@ def repr_bake(
     _check_range("roughness", r, 0.0, 1.0, lo_open=True)
     if (np.diff(r) <= 0).any():
         i = int(np.flatnonzero(np.diff(r) <= 0)[0]) + 1
-        raise ValueError(f"roughness[{i}] = {r[i]!r}: the nodes must increase")
+        raise ValueError(f"roughness[{i}] = {float(r[i])!r}: the nodes must increase")
     tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
     native = _core.repr_bake(preset, kind, int(visibility_count), int(n_dot_l_count), int(n_dot_v_count), int(azimuth_nodes),
                              [float(x) for x in r], int(roughness_count), n_dot_v_warp, n_dot_l_warp, visibility_warp,

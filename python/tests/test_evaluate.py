@@ -180,7 +180,7 @@ def test_ctrl_c_stops_a_long_call_with_keyboard_interrupt():
     elapsed = time.monotonic() - start
     assert elapsed < 3.0, f"stopped only after {elapsed:.1f} s"
     term, _ = ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle")
-    assert term[0] > 0
+    assert term > 0  # scalars broadcast to a 0-d array, as a lookup gives
 
 
 def test_a_long_call_releases_the_gil():

@@ -176,14 +176,19 @@ TEST(LibraryApi, AnalyticTermsByNameAreThePart1Terms) {
     EXPECT_THROW(microshadow::analytic_term("naughty-cat", in), std::invalid_argument);
 }
 
-TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
+// A 4 x 3 x 2 LUT of one roughness channel (0.5), sampled on the oracle in well under a second.
+microshadow::Lut small_oracle_lut() {
     microshadow::BakeOptions b;
     b.layout = "custom";
     b.visibility_count = 4, b.n_dot_l_count = 3, b.n_dot_v_count = 2;
     b.roughness = {0.5};
     b.sampling.backend = microshadow::Backend::oracle;
     b.sampling.samples = 512;
-    const microshadow::Lut lut = microshadow::bake(b);
+    return microshadow::bake(b);
+}
+
+TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
+    const microshadow::Lut lut = small_oracle_lut();
     EXPECT_EQ(lut.axis_values("n_dot_l"), (std::vector<double>{1.0 / 6, 0.5, 5.0 / 6}));
     const std::vector<float> texels = lut.texels();
     ASSERT_EQ(texels.size(), 4u * 3 * 2);
@@ -247,13 +252,7 @@ TEST(LibraryApi, RoughnessIsItsOwnTypeAndEvaluateDefaultsToTheExactMethodAsEval)
 }
 
 TEST(LibraryApi, ALookupOfNotANumberIsAnInputErrorNamingIt) {
-    microshadow::BakeOptions b;
-    b.layout = "custom";
-    b.visibility_count = 4, b.n_dot_l_count = 3, b.n_dot_v_count = 2;
-    b.roughness = {0.5};
-    b.sampling.backend = microshadow::Backend::oracle;
-    b.sampling.samples = 512;
-    const microshadow::Lut lut = microshadow::bake(b);
+    const microshadow::Lut lut = small_oracle_lut();
     const double nan = std::numeric_limits<double>::quiet_NaN();
     const microshadow::Roughness half(0.5);
     auto message = [](const std::function<void()>& call) {

@@ -40,7 +40,6 @@ struct Fixture {
         c.plan.samples = 64;
         c.plan.replicates = 4;
         c.backend = backend.get();
-        c.backend_label = backend->scheduler().results_label();
         return c;
     }
     Fixture() {

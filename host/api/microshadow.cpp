@@ -69,6 +69,16 @@ std::unique_ptr<ms::TermBackend> make_backend(const SamplingOptions& o) {
     return detail::make_backend(o.backend, o.device, o.fast_math);
 }
 
+// A NaN input would make every filter and blend weight NaN, and the lookup would then report it as an
+// unbaked texel: refused here, by name, as bad input. (Infinities clamp like any value off the axes.)
+void check_lookup_inputs(double visibility, double n_dot_l, double n_dot_v, double roughness, double azimuth) {
+    const std::pair<const char*, double> inputs[] = {
+        {"visibility", visibility}, {"n_dot_l", n_dot_l}, {"n_dot_v", n_dot_v}, {"roughness", roughness},
+        {"relative_azimuth_degrees", azimuth}};
+    for (const auto& [name, value] : inputs)
+        if (std::isnan(value)) throw std::invalid_argument(std::string("lookup: ") + name + " = nan: not a number");
+}
+
 Lut make_lut(ms::LutFile file) {
     return Lut(std::make_shared<const Lut::Data>(Lut::Data{ms::LutLookup(std::move(file))}));
 }
@@ -107,7 +117,9 @@ std::vector<Estimate> evaluate(const std::vector<Query>& queries, const Sampling
     return out;
 }
 
-Query isotropic_query(double visibility, double roughness, double n_dot_v, double n_dot_l, double relative_azimuth_degrees) {
+Roughness Roughness::from_alpha(double alpha) { return Roughness(std::sqrt(alpha)); }
+
+Query isotropic_query(double visibility, double n_dot_l, double n_dot_v, Roughness roughness, double relative_azimuth_degrees) {
     // The sweeps' directions (jobs/sweep/points.cpp: to_query) with phi_i = 0, so that the same
     // parameters give the same query bits here and in a sweep.
     constexpr double kDegree = M_PI / 180.0;
@@ -117,7 +129,7 @@ Query isotropic_query(double visibility, double roughness, double n_dot_v, doubl
     };
     Query q;
     q.visibility = visibility;
-    q.alpha_x = q.alpha_y = roughness * roughness;
+    q.alpha_x = q.alpha_y = roughness.alpha();
     q.wi = direction(n_dot_v, 0.0);
     q.wo = direction(n_dot_l, relative_azimuth_degrees * kDegree);
     return q;
@@ -238,8 +250,9 @@ float Lut::texel(std::uint32_t channel, std::uint32_t visibility, std::uint32_t 
     return f.at(channel, visibility, n_dot_l, n_dot_v);
 }
 
-double Lut::lookup(double visibility, double n_dot_l, double n_dot_v, double roughness) const {
-    return data_->lookup(visibility, n_dot_l, n_dot_v, roughness);
+double Lut::lookup(double visibility, double n_dot_l, double n_dot_v, Roughness roughness) const {
+    check_lookup_inputs(visibility, n_dot_l, n_dot_v, roughness.value, 0);
+    return data_->lookup(visibility, n_dot_l, n_dot_v, roughness.value);
 }
 
 double Lut::max_total_error() const {
@@ -408,14 +421,15 @@ const Lut& LookupFile::lut() const {
     return *data_->lut;
 }
 
-double LookupFile::lookup(double visibility, double n_dot_l, double n_dot_v, double roughness,
+double LookupFile::lookup(double visibility, double n_dot_l, double n_dot_v, Roughness roughness,
                           double relative_azimuth_degrees) const {
+    check_lookup_inputs(visibility, n_dot_l, n_dot_v, roughness.value, relative_azimuth_degrees);
     if (data_->lut) return data_->lut->lookup(visibility, n_dot_l, n_dot_v, roughness);
     ms::approx::Inputs in;
     in.visibility = visibility;
     in.n_dot_l = n_dot_l;
     in.n_dot_v = n_dot_v;
-    in.roughness = roughness;
+    in.roughness = roughness.value;
     in.relative_azimuth = relative_azimuth_degrees * (M_PI / 180.0);
     return (*data_->representation)(in);
 }

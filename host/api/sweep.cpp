@@ -135,11 +135,9 @@ SweepTable run(ms::sweep::Spec spec, const SweepOptions& o, const Progress& prog
     config.plan = plan;
     config.defaults = detail::term_options(o.ao_weighting.value_or(AoWeighting::cosine),
                                            o.form.value_or(Form::height_correlated));
-    config.fast_math = o.fast_math;
     config.command_line = "microshadow::sweep (library " MICROSHADOW_VERSION ")";
     auto backend = detail::make_backend(o.backend, o.device, o.fast_math);
     config.backend = backend.get();
-    config.backend_label = backend->scheduler().results_label();
     const ms::sweep::RunResult result = detail::run_with_progress(progress, [&](const auto& report) {
         config.progress = [&](std::uint64_t done, std::uint64_t total) { report(done, total); };
         return ms::sweep::run_sweep(spec, config);

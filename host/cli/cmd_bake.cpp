@@ -219,9 +219,9 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--out", a->out, "output LUT file: .exr, .ktx2, .dds, .h/.hpp/.inc or .png (see --format)")->required();
     add_bake_output_options(cmd, a->outputs);
     cmd->add_option("--size", a->size, "texels on every axis")->transform(decimal_range(1, 4096))->capture_default_str();
-    cmd->add_option("--size-visibility", a->size_visibility, "texels on the visibility axis")->transform(decimal_range(1, 4096));
-    cmd->add_option("--size-n-dot-l", a->size_n_dot_l, "texels on the NdotL axis")->transform(decimal_range(1, 4096));
-    cmd->add_option("--size-n-dot-v", a->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
+    cmd->add_option("--size-visibility,--visibility-count", a->size_visibility, "texels on the visibility axis (--visibility-count: the name repr bake and the library use)")->transform(decimal_range(1, 4096));
+    cmd->add_option("--size-n-dot-l,--n-dot-l-count", a->size_n_dot_l, "texels on the NdotL axis")->transform(decimal_range(1, 4096));
+    cmd->add_option("--size-n-dot-v,--n-dot-v-count", a->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
     cmd->add_option("--texel", a->texel, "texel parameters: centres (i + 0.5) / n or endpoints i / (n - 1)")
         ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
         ->capture_default_str();

@@ -133,6 +133,7 @@ void run_design(DesignArgs args, MpiWorld* world) {
     spec.analytic = !args.no_analytic;
     spec.strict_domain = args.strict_domain;
     spec.backend_label = args.sampling.backend;
+    spec.build = args.sampling.build_config();
     spec.command_line = command_line();
     spec.check_sampling = check_sampling_size;
     // Every input checked before any work, the outputs too.

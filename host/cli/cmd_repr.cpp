@@ -13,7 +13,6 @@
 #include "cli/common.hpp"
 #include "cli/mpi_world.hpp"
 #include "cli/progress.hpp"
-#include "core/digest.hpp"
 #include "io/atomic_file.hpp"
 #include "io/text.hpp"
 #include "schedule/item_bytes.hpp"
@@ -37,27 +36,6 @@ struct ReprBakeArgs {
     CLI::App* cmd = nullptr;
     DistributionArgs distribution;  // --shard --store --merge --mpi (docs/cluster.md)
 };
-
-// The chunk store key of a representation bake: everything that decides its texels (the grid, the
-// azimuth nodes, the sampling, the term, the kind of device, the version), not the representation built
-// from them or the command line.
-schedule::StoreKey repr_store_key(const repr::AzimuthBakeSpec& spec, const schedule::Scheduler& scheduler) {
-    const auto& g = spec.grid;
-    std::ostringstream d;
-    d.precision(17);
-    d << "grid " << g.visibility << " " << g.n_dot_l << " " << g.n_dot_v << " warps " << int(g.warps.n_dot_v) << " "
-      << int(g.warps.n_dot_l) << " " << int(g.warps.visibility) << " weighting " << to_string(g.weighting) << " edge_width "
-      << g.edge_width << "\nroughness";
-    for (double r : g.roughness) d << " " << r;
-    const SamplingPlan& p = spec.plan;
-    d << "\nazimuth_nodes " << spec.azimuth_nodes << "\nmethod " << to_string(p.method) << " samples " << p.samples
-      << " replicates " << p.replicates << " seed " << p.seed << " sequence " << to_string(p.sequence) << " tolerance "
-      << p.tolerance << " single " << p.single_precision << " kernel_on_cpu " << p.kernel_on_cpu_devices << "\nform "
-      << to_string(spec.term.form) << " ao " << to_string(spec.term.ao_weighting) << "\nresults " << scheduler.results_label()
-      << "\nversion " MICROSHADOW_VERSION "\n";
-    if (p.method == Method::exact) d << exact_cache_key(p) << "\n";
-    return {"repr-bake", hex16(fnv1a(d.str())), g.roughness.size()};
-}
 
 // The representation bake split into work items, one per roughness node: item r bakes the grid of that
 // node alone (a texel's query, and so its value, is the same in either bake: every query is sampled on
@@ -253,39 +231,13 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
     auto backend = a.sampling.make_backend();
 
     Progress progress("repr bake", a.sampling.quiet || !rank0);
-    if (a.kind == "anisotropic-harmonics") {
-        // The anisotropic preset fits surfaces of every (dphi, rho) per pair of projected-roughness
-        // nodes, not azimuth nodes: its own bake, in one process.
-        if (distribution_given(a.distribution))
-            throw std::invalid_argument("--preset anisotropic bakes in one process: --shard, --merge, --store and --mpi "
-                                        "split the roughness nodes of the azimuth representations");
-        const repr::Preset p = repr::preset(a.preset, spec.term.ao_weighting);
-        repr::AnisotropicBakeSpec aspec;
-        aspec.grid = p.grid;
-        aspec.azimuth_configs = p.azimuth_configs;
-        aspec.correlation_configs = p.correlation_configs;
-        aspec.max_ratio = p.max_ratio;
-        aspec.plan = spec.plan;
-        aspec.term = spec.term;
-        aspec.command_line = spec.command_line;
-        const auto rep = repr::bake_anisotropic(aspec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); },
-                                                p.name, p.domain);
-        progress.finish();
-        const std::string name = std::filesystem::path(a.out).filename().string();
-        file->write(outputs, *rep, a.half);
-        if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
-        if (!a.shader_hlsl.empty()) outputs.stream(hlsl) << rep->shader(repr::ShaderLanguage::hlsl, name);
-        outputs.commit();
-        if (!a.sampling.quiet) std::cerr << "repr bake: " << rep->name() << "\n  " << cost_line(*rep) << "\n";
-        return;
-    }
     repr::AzimuthBake bake;
     if (!distribution_given(a.distribution)) {
         bake = repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { progress.update(done, total); });
     } else {
         // Beyond one process (docs/cluster.md): the roughness nodes are the work items.
         const schedule::Distribution distribution(
-            distribution_request(a.distribution, world), repr_store_key(spec, backend->scheduler()), a.out + ".chunks",
+            distribution_request(a.distribution, world), repr::repr_cache_key(spec, *backend).store_key(spec.grid.roughness.size()), a.out + ".chunks",
             [quiet = a.sampling.quiet](const std::string& w) {
                 if (!quiet) std::cerr << "\nrepr bake: warning: " << w << "; computed again\n";
             });

@@ -115,8 +115,8 @@ void run_scene_command(const SceneArgs& args, MpiWorld* world) {
         for (const auto& l : result.lights)
             for (std::size_t k = 0; k < result.comparators.size(); ++k) {
                 const auto& s = l.stats[k][0];
-                std::cerr << "scene: " << l.light << ": " << result.comparators[k] << ": weighted error max " << s.max
-                          << ", RMS " << s.rms << ", p99 " << s.p99 << "\n";
+                std::cerr << "scene: " << l.light << ": " << result.comparators[k] << ": weighted error max " << s.lit_max_abs
+                          << ", RMS " << s.lit_rms << ", p99 " << s.lit_p99 << "\n";
             }
         for (std::size_t k = 0; k < result.comparators.size() && k < result.outside_domain.size(); ++k)
             if (result.outside_domain[k].outside > 0)

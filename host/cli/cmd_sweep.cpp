@@ -80,7 +80,6 @@ void run_sweep_command(SweepArgs& args) {
     config.max_chunks = args.max_chunks;
     config.restart = args.restart;
     config.strict_domain = args.strict_domain;
-    config.fast_math = args.sampling.fast_math;
     config.command_line = command_line();
     // The MPI world before the devices: only rank 0 touches the output folder.
     std::unique_ptr<MpiWorld> world;
@@ -94,8 +93,6 @@ void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunCon
     if (world) config.transport = &world->transport();
     auto backend = args.sampling.make_backend();
     config.backend = backend.get();
-    // Bits depend on the kind of device, not on how many: a sweep begun on one device resumes on --device all.
-    config.backend_label = backend->scheduler().results_label();
     config.warn = [&](const std::string& w) { std::cerr << "\nsweep: warning: " << w << "\n"; };
     Progress progress("sweep", args.sampling.quiet || !rank0);
     config.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };

@@ -1,6 +1,8 @@
 #include "core/error_stats.hpp"
 
 #include <stdexcept>
+
+#include <nlohmann/json.hpp>
 #include <string>
 
 namespace ms {
@@ -61,6 +63,11 @@ void GroupedErrorStats::merge(const GroupedErrorStats& later) {
                                     std::to_string(later.groups_) + " statistics into " + std::to_string(columns_) +
                                     " x " + std::to_string(groups_));
     for (std::size_t i = 0; i < cells_.size(); ++i) cells_[i].merge(later.cells_[i]);
+}
+
+void to_json(nlohmann::json& j, const LitErrorSummary& s) {
+    j = {{"count", s.count},       {"lit_max_abs", s.lit_max_abs},   {"lit_rms", s.lit_rms},
+         {"lit_p99", s.lit_p99},   {"term_max_abs", s.term_max_abs}, {"term_rms", s.term_rms}};
 }
 
 }  // namespace ms

@@ -31,6 +31,8 @@
 #include <utility>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 namespace ms {
 
 class ErrorStats {
@@ -127,5 +129,31 @@ private:
     ErrorStats::Keep keep_ = ErrorStats::Keep::streaming;
     std::vector<ErrorStats> cells_;  // [column][group], column-major
 };
+
+// The summary the scene and scene-bake reports give of a comparator's error against the reference at
+// lit points, in one type with one JSON form (to_json), its weighting in its names:
+//   lit_*    of the lit error |approximation - reference| x max(N.L, 0) x intensity: each point's
+//            error multiplied by its light, every point counting once (the error a viewer sees in the
+//            lit image; not the weighted mean sqrt(sum w e^2 / sum w) that ErrorStats::weighted_rms is)
+//   term_*   of the term's own error |approximation - reference|, unweighted
+// p99: the nearest-rank 99th percentile of the lit errors.
+struct LitErrorSummary {
+    std::uint64_t count = 0;  // lit points (pixels x lights, or sampled lookups)
+    double lit_max_abs = 0, lit_rms = 0, lit_p99 = 0;
+    double term_max_abs = 0, term_rms = 0;
+    // From the statistics of the lit and of the unweighted errors at the same points.
+    static LitErrorSummary of(const ErrorStats& lit, const ErrorStats& term, double lit_p99) {
+        return {lit.count(), lit.max_abs(), lit.rms(), lit_p99, term.max_abs(), term.rms()};
+    }
+};
+// The version of the JSON form of LitErrorSummary, written beside the summaries as "error_schema", and
+// the sentence written as "error_weighting".
+inline constexpr int kErrorSummarySchema = 1;
+inline constexpr const char* kLitErrorWeighting =
+    "lit_*: of |approximation - reference| x max(N.L, 0) x intensity per point, each point counted once; "
+    "term_*: of |approximation - reference|, unweighted; p99: nearest rank";
+// {"count", "lit_max_abs", "lit_rms", "lit_p99", "term_max_abs", "term_rms"} (nlohmann's to_json, so
+// json(summary) writes it).
+void to_json(nlohmann::json& j, const LitErrorSummary& s);
 
 }  // namespace ms

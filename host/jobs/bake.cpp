@@ -3,6 +3,7 @@
 #include "jobs/bake.hpp"
 
 #include "core/digest.hpp"
+#include "jobs/cache_keys.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -163,31 +164,50 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
     return result;
 }
 
-schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Scheduler& scheduler) {
-    // Every field of the spec that reaches a texel (not the devices chosen, the thread count or the
-    // command line), the kind of device, and the version.
-    nlohmann::json axes = nlohmann::json::array();
+schedule::CacheKey bake_cache_key(const BakeSpec& spec, const schedule::Scheduler& scheduler) {
+    schedule::CacheKey key("bake");
     for (const Axis* a : {&spec.visibility, &spec.n_dot_l, &spec.n_dot_v})
-        axes.push_back({a->name, a->min, a->max, a->count, int(a->texel), int(a->spacing)});
-    std::uint64_t rows = 1469598103934665603ULL;  // FNV-1a of a partial bake's row flags
-    for (std::uint8_t f : spec.baked_rows) rows = (rows ^ f) * 1099511628211ULL;
-    const nlohmann::json decides = {
-        {"layout", to_string(spec.layout)}, {"axes", axes}, {"roughness", spec.roughness},
-        {"azimuth_mean", spec.azimuth_mean}, {"azimuth_degrees", spec.azimuth_degrees},
-        {"azimuth_intervals", spec.azimuth_intervals}, {"azimuth_min", spec.azimuth_min_intervals},
-        {"azimuth_max", spec.azimuth_max_intervals}, {"refine_threshold", spec.azimuth_refine_threshold},
-        {"refine_z", spec.azimuth_refine_z}, {"azimuth_quadrature", to_string(spec.azimuth_quadrature)},
-        {"azimuth_cells", spec.azimuth_cells}, {"form", to_string(spec.term.form)},
-        {"ao_weighting", to_string(spec.term.ao_weighting)}, {"sequence", to_string(spec.sequence)},
-        {"replicates", spec.replicates}, {"samples", spec.samples}, {"seed", spec.seed}, {"tolerance", spec.tolerance},
-        {"max_batches", spec.max_batches}, {"fast_math", spec.build.fast_math},
-        {"double_kernels", spec.build.double_precision}, {"defines", spec.build.defines},
-        {"method", to_string(spec.method)}, {"exact_single_precision", spec.exact_single_precision},
-        {"baked_rows", spec.baked_rows.size()}, {"baked_rows_fnv1a", rows}, {"oracle", spec.oracle},
-        {"results", scheduler.results_label()}, {"version", MICROSHADOW_VERSION}};
-    const std::string hex = hex16(fnv1a(decides.dump()));
-    std::uint64_t slices = std::uint64_t(spec.n_dot_v.count) * spec.roughness.size();
-    return {"bake", hex, slices};
+        key.add("axis." + a->name, {a->name, a->min, a->max, a->count, int(a->texel), int(a->spacing)});
+    key.add("layout", to_string(spec.layout))
+        .add("roughness", spec.roughness)
+        .add("azimuth_mean", spec.azimuth_mean)
+        .add("azimuth_degrees", spec.azimuth_degrees)
+        .add("azimuth_intervals", spec.azimuth_intervals)
+        .add("azimuth_min_intervals", spec.azimuth_min_intervals)
+        .add("azimuth_max_intervals", spec.azimuth_max_intervals)
+        .add("azimuth_refine_threshold", spec.azimuth_refine_threshold)
+        .add("azimuth_refine_z", spec.azimuth_refine_z)
+        .add("azimuth_quadrature", to_string(spec.azimuth_quadrature))
+        .add("azimuth_cells", spec.azimuth_cells)
+        .add("sequence", to_string(spec.sequence))
+        .add("replicates", spec.replicates)
+        .add("samples", spec.samples)
+        .add("seed", spec.seed)
+        .add("tolerance", spec.tolerance)
+        .add("max_batches", spec.max_batches)
+        .add("method", to_string(spec.method))
+        .add("exact_single_precision", spec.exact_single_precision)
+        .add("exact_kernel_on_cpu", spec.exact_kernel_on_cpu)
+        // A partial bake's row flags by their digest (one byte a row would make the key text long).
+        .add("baked_rows", {spec.baked_rows.size(), hex16(fnv1a(std::string(spec.baked_rows.begin(), spec.baked_rows.end())))})
+        .add("oracle", spec.oracle);
+    add_term_options(key, spec.term);
+    add_build(key, spec.build);
+    add_results_place(key, scheduler);
+    return key;
+}
+
+const std::vector<std::string>& bake_cache_key_exclusions() {
+    static const std::vector<std::string> excluded = {
+        "device: which devices of a kind run the bake; their kind is the key's `results`",
+        "oracle_threads: how many threads share the oracle's slices, not what a slice holds",
+        "command_line: provenance only, recorded in the file",
+    };
+    return excluded;
+}
+
+schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Scheduler& scheduler) {
+    return bake_cache_key(spec, scheduler).store_key(std::uint64_t(spec.n_dot_v.count) * spec.roughness.size());
 }
 
 nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {

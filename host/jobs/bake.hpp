@@ -14,6 +14,7 @@
 #include "core/types.hpp"
 #include "integrands/lut_slice/lut_slice_spec.hpp"
 #include "lut/exr_lut.hpp"
+#include "schedule/cache_key.hpp"
 #include "schedule/distributed.hpp"
 #include "schedule/scheduler.hpp"
 
@@ -97,8 +98,11 @@ BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const 
 // The same on a scheduler made from bake_backend(spec).
 BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks = {});
 
-// The chunk store key of a bake: everything that decides its slices' bits (the spec, the kind of device
-// of `scheduler`, the version), not where it runs or what the command line was.
+// The cache key of a bake (schedule/cache_key.hpp): every field of the spec that decides its slices'
+// bits, the kind of place of `scheduler` and the version; the fields left out, each with the reason:
+// bake_cache_key_exclusions(). bake_store_key: its chunk store's key.
+schedule::CacheKey bake_cache_key(const BakeSpec& spec, const schedule::Scheduler& scheduler);
+const std::vector<std::string>& bake_cache_key_exclusions();
 schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Scheduler& scheduler);
 
 // The metadata JSON recorded in the file for this spec and result.

@@ -160,8 +160,8 @@ std::string scene_bake_job_summary(const SceneBakeJobSpec& job, const SceneBakeJ
     if (result.bake.rerun_chunks)
         for (const auto& f : result.bake.failed_devices) s << "bake --scene: device failed, its chunks were rerun: " << f << "\n";
     for (const auto& e : result.errors)
-        s << "bake --scene: " << e.light << ": weighted error on " << e.scene_lut.lookups << " sampled lookups: scene LUT max "
-          << e.scene_lut.max << " RMS " << e.scene_lut.rms << ", default LUT max " << e.default_lut.max << " RMS " << e.default_lut.rms
+        s << "bake --scene: " << e.light << ": weighted error on " << e.scene_lut.count << " sampled lookups: scene LUT max "
+          << e.scene_lut.lit_max_abs << " RMS " << e.scene_lut.lit_rms << ", default LUT max " << e.default_lut.lit_max_abs << " RMS " << e.default_lut.lit_rms
           << " (reference bound " << e.reference_bound << ")\n";
     if (!result.errors.empty())
         s << "bake --scene: the default LUT " << (result.default_serves ? "serves" : "does not serve") << " this scene within "

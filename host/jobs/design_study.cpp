@@ -115,9 +115,11 @@ Candidate representation_candidate(const std::string& name, const std::string& f
 }
 
 ReferenceDefinition checked_definition(const std::string& spec, const std::string& backend_label,
-                                       const std::function<void(const SamplingPlan&)>& check_sampling) {
+                                       const std::function<void(const SamplingPlan&)>& check_sampling,
+                                       const ocl::BuildConfig& build) {
     ReferenceDefinition def = parse_reference_spec_file(spec);
     def.backend_label = backend_label;
+    def.build = build;
     try {
         if (def.plan.method == Method::sampled && check_sampling) check_sampling(def.plan);
         check_plan(def);
@@ -137,9 +139,9 @@ Study::Study(StudySpec spec) : spec_(std::move(spec)) {
             throw std::invalid_argument(n.fit_orders + ": " + std::to_string(order) + " (1 to " +
                                         std::to_string(fit::kMaxClosedFormOrder) + ")");
     // Both reference specs in full before any work (a bad fit spec must not wait for the evaluation set).
-    evaluation_ = checked_definition(spec_.reference, spec_.backend_label, spec_.check_sampling);
+    evaluation_ = checked_definition(spec_.reference, spec_.backend_label, spec_.check_sampling, spec_.build);
     if (has_fit) {
-        fit_ = checked_definition(spec_.fit_reference, spec_.backend_label, spec_.check_sampling);
+        fit_ = checked_definition(spec_.fit_reference, spec_.backend_label, spec_.check_sampling, spec_.build);
         if (fit_->options.ao_weighting != evaluation_.options.ao_weighting)
             throw std::invalid_argument(n.fit_reference + ": its AO weighting differs from " + n.reference + "'s");
     }

@@ -45,6 +45,7 @@ struct StudySpec {
     bool analytic = true;                          // part 1's terms as candidates
     bool strict_domain = false;                    // refuse a candidate looked up outside its domain
     std::string backend_label = "opencl";          // where missing references are computed (in their hash)
+    ocl::BuildConfig build;                        // the kernels' build they are computed with (in their hash)
     std::string command_line;                      // provenance of the fits and design.json
     OptionNames names;
     // The caller's own check of a sampled reference's plan (the command's limit on samples per replicate).
@@ -63,7 +64,8 @@ Candidate representation_candidate(const std::string& name, const std::string& f
 // A reference spec parsed and its sampling checked in full (check_sampling: the caller's own check of a
 // sampled plan, may be empty).
 ReferenceDefinition checked_definition(const std::string& spec, const std::string& backend_label,
-                                       const std::function<void(const SamplingPlan&)>& check_sampling = {});
+                                       const std::function<void(const SamplingPlan&)>& check_sampling = {},
+                                       const ocl::BuildConfig& build = {});
 
 // What the study found: per candidate (in candidate order) its metrics, its points outside its domain
 // and its errors per roughness band; the Pareto front, the chosen candidate and the table's order.

@@ -60,17 +60,6 @@ nlohmann::json exact_provenance(const SamplingPlan& plan) {
                       "difference plus a rounding floor), not a standard deviation"}};
 }
 
-std::string exact_cache_key(const SamplingPlan& plan) {
-    if (plan.method != Method::exact) return "";
-    const double tolerance = plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
-    const exact::ArcRule rule = exact::arc_rule_for(tolerance);
-    char text[160];
-    // %.17g: two tolerances that differ in any bit are two keys.
-    std::snprintf(text, sizeof text, "method=exact tolerance=%.17g rule=gauss-legendre-%d-%d rho=%.17g precision=%s",
-                  tolerance, rule.high, rule.low, rule.rho, plan.single_precision ? "float" : "auto");
-    return text;
-}
-
 namespace {
 
 // Runs queries in fixed batches of `per_item` through an integrand with the term integrands' Source/Sink

@@ -67,11 +67,7 @@ std::vector<Estimate> evaluate_each(TermBackend& backend, const std::vector<Quer
                                const std::function<void(std::size_t, std::size_t)>& progress = {});
 
 // The provenance of the exact method under `plan` (method, rule, tolerance, what the error column holds),
-// recorded by every output it made.
+// recorded by every output it made. (What decides its bits, for cache keys: jobs/cache_keys.hpp.)
 nlohmann::json exact_provenance(const SamplingPlan& plan);
-// The exact method's parameters that decide its bits (tolerance, rule, kernel precision) as one line of
-// text, for the hash keys of caches and resumable outputs: an exact result is never reused for a sampled
-// one, nor for one of another tolerance. Empty for the sampled method (whose keys name its samples).
-std::string exact_cache_key(const SamplingPlan& plan);
 
 }  // namespace ms

@@ -1,6 +1,7 @@
 #include "jobs/reference_set.hpp"
 
 #include "core/digest.hpp"
+#include "jobs/cache_keys.hpp"
 
 #include <toml++/toml.h>
 
@@ -247,38 +248,36 @@ private:
 
 }  // namespace
 
-std::string ReferenceDefinition::canonical_text() const {
-    std::ostringstream s;
-    s << "microshadow reference set format " << kCacheFormat << "\n";
-    if (points_csv.empty()) {
-        s << "region visibility " << format_number(visibility.lo) << " " << format_number(visibility.hi)
-          << " roughness " << format_number(roughness.lo) << " " << format_number(roughness.hi) << " n_dot_v "
-          << format_number(n_dot_v.lo) << " " << format_number(n_dot_v.hi) << " n_dot_l " << format_number(n_dot_l.lo)
-          << " " << format_number(n_dot_l.hi) << " azimuth_deg " << format_number(azimuth_deg.lo) << " "
-          << format_number(azimuth_deg.hi) << "\ncount " << count << " point_seed " << point_seed << "\n";
-    } else {
-        // The points themselves, not the file's name: renaming a file keeps its cache, editing it does not.
-        std::string all;
-        for (const auto& p : csv_points) all += row_text(p, Estimate{});
-        s << "points " << csv_points.size() << " fnv1a " << fnv1a(all) << "\n";
-    }
-    // The exact method's tolerance and rule decide its values, the sampled method's point set decides
-    // its: a set made by one method is never the cache of the other. (The sampled line is the one
-    // earlier sets were keyed by, so their caches stay valid.)
-    if (plan.method == Method::exact) s << exact_cache_key(plan);
-    else
-        s << "samples " << plan.samples << " replicates " << plan.replicates << " seed " << plan.seed << " sequence "
-          << to_string(plan.sequence);
-    s << "\nform " << to_string(options.form) << " ao_weighting "
-      << to_string(options.ao_weighting) << " backend " << backend_label << "\n";
-    return s.str();
+schedule::CacheKey ReferenceDefinition::cache_key() const {
+    schedule::CacheKey key("design-reference");
+    key.constant("cache_format", kCacheFormat);
+    for (const auto& [name, range] : {std::pair<const char*, const Interval*>{"visibility", &visibility},
+                                      {"roughness", &roughness}, {"n_dot_v", &n_dot_v}, {"n_dot_l", &n_dot_l},
+                                      {"azimuth_deg", &azimuth_deg}})
+        key.add(name, {range->lo, range->hi});
+    key.add("count", count).add("point_seed", point_seed);
+    // The points themselves, not the file's name: renaming a file keeps its cache, editing it does not.
+    std::string all;
+    for (const auto& p : csv_points) all += row_text(p, Estimate{});
+    key.add("csv_points", {csv_points.size(), hex16(fnv1a(all))});
+    add_sampling_plan(key, plan);
+    add_term_options(key, options);
+    add_build(key, build);
+    key.add("results", backend_label);
+    return key;
 }
 
-std::string ReferenceDefinition::hash() const {
-    char text[17];
-    std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(fnv1a(canonical_text())));
-    return text;
+const std::vector<std::string>& ReferenceDefinition::cache_key_exclusions() {
+    static const std::vector<std::string> excluded = {
+        "name: the set's label in reports",
+        "points_csv: the file's path; its points are keyed (csv_points)",
+    };
+    return excluded;
 }
+
+std::string ReferenceDefinition::canonical_text() const { return cache_key().canonical_text(); }
+
+std::string ReferenceDefinition::hash() const { return cache_key().hash(); }
 
 std::vector<ReferencePoint> read_reference_points_csv(const std::string& path) {
     const NumericCsv csv = read_numeric_csv(path, kPointColumns);

@@ -31,6 +31,7 @@
 
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
+#include "schedule/cache_key.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::design {
@@ -58,10 +59,14 @@ struct ReferenceDefinition {
     SamplingPlan plan;
     TermOptions options;
     std::string backend_label = "opencl";  // other backends give other bits: part of the hash
+    ocl::BuildConfig build;                // the kernels' build (--fast-math, --double-kernels): part of the hash
 
-    // Everything that decides the cached bits, as text (the CSV's points by their exact values).
+    // The set's cache key (schedule/cache_key.hpp): every field above that decides the cached values
+    // (the CSV's points by their exact values); the fields left out, each with the reason:
+    // cache_key_exclusions(). hash(): the key's 16 hex digits, which name the cached file.
+    schedule::CacheKey cache_key() const;
+    static const std::vector<std::string>& cache_key_exclusions();
     std::string canonical_text() const;
-    // 16 hex digits of FNV-1a 64 of canonical_text().
     std::string hash() const;
 };
 

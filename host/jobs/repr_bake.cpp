@@ -9,6 +9,8 @@
 #include <random>
 #include <stdexcept>
 
+#include "jobs/cache_keys.hpp"
+
 namespace ms::repr {
 
 namespace {
@@ -453,17 +455,6 @@ CorrectionFit fit_correction(const Representation& zero, const std::vector<Query
 
 std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,
                                             const std::function<void(std::size_t, std::size_t)>& progress) {
-    if (p.kind == "anisotropic-harmonics") {
-        AnisotropicBakeSpec spec;
-        spec.grid = p.grid;
-        spec.azimuth_configs = p.azimuth_configs;
-        spec.correlation_configs = p.correlation_configs;
-        spec.max_ratio = p.max_ratio;
-        spec.plan.method = Method::exact;
-        spec.term.ao_weighting = p.grid.weighting;
-        spec.command_line = command_line;
-        return bake_anisotropic(spec, backend, progress, p.name, p.domain);
-    }
     AzimuthBakeSpec spec;
     spec.grid = p.grid;
     spec.azimuth_nodes = p.azimuth_nodes;
@@ -508,6 +499,39 @@ std::shared_ptr<const Representation> baked_preset(const std::string& name) {
         slot = bake_preset(preset(name), *backend, "preset " + name);
     }
     return slot;
+}
+
+schedule::CacheKey repr_cache_key(const AzimuthBakeSpec& spec, TermBackend& backend) {
+    const ReprGrid& g = spec.grid;
+    schedule::CacheKey key("repr-bake");
+    key.add("grid.visibility", g.visibility)
+        .add("grid.n_dot_l", g.n_dot_l)
+        .add("grid.n_dot_v", g.n_dot_v)
+        .add("grid.roughness", g.roughness)
+        .add("grid.warps", {to_string(g.warps.n_dot_v), to_string(g.warps.n_dot_l), to_string(g.warps.visibility)})
+        .add("grid.weighting", to_string(g.weighting))
+        .add("grid.edge_width", g.edge_width)
+        .add("grid.placement", to_string(g.placement))
+        .add("grid.n_dot_v_start", g.n_dot_v_start)
+        .add("grid.azimuth_warp", g.azimuth_warp)
+        .add("grid.visibility_start", g.visibility_start)
+        .add("grid.visibility_edge_share", g.visibility_edge_share)
+        .add("grid.visibility_edge_width", g.visibility_edge_width)
+        .add("grid.visibility_edge_view", g.visibility_edge_view)
+        .add("grid.n_dot_l_edge_view", g.n_dot_l_edge_view)
+        .add("azimuth_nodes", spec.azimuth_nodes);
+    add_sampling_plan(key, spec.plan);
+    add_term_options(key, spec.term);
+    add_build(key, backend.config().build);
+    add_results_place(key, backend.scheduler());
+    return key;
+}
+
+const std::vector<std::string>& repr_cache_key_exclusions() {
+    static const std::vector<std::string> excluded = {
+        "command_line: provenance only, recorded in the file",
+    };
+    return excluded;
 }
 
 }  // namespace ms::repr

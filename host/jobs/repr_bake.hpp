@@ -17,6 +17,7 @@
 #include "jobs/eval.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
+#include "schedule/cache_key.hpp"
 
 namespace ms::repr {
 
@@ -29,7 +30,9 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
 // of projected-roughness nodes (view, light) the term of surfaces at every (dphi, rho) configuration
 // and texel, and the least-squares series fitted to them. The metadata records preset_name (when not
 // empty) and `domain` (without one: the nodes' roughness per axis, ratio <= spec.max_ratio).
-// std::invalid_argument for a spec out of range.
+// std::invalid_argument for a spec out of range. No command, preset or library call bakes this kind
+// (the anisotropic preset is anisotropic-corrected-harmonics, baked by bake_preset): it is kept with the
+// kind itself (repr/anisotropic.cpp), whose files still read and whose tests build them here.
 std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec, TermBackend& backend,
                                                  const std::function<void(std::size_t, std::size_t)>& progress = {},
                                                  const std::string& preset_name = "",
@@ -57,5 +60,12 @@ std::unique_ptr<Representation> build_preset(const Preset& p, const AzimuthBake&
 // A preset baked once per process and name on this machine's CPU with the exact method (a few seconds;
 // the same texels every time), for the comparators that name one. Thread-safe.
 std::shared_ptr<const Representation> baked_preset(const std::string& name);
+
+// The cache key of a representation bake (schedule/cache_key.hpp): everything that decides its
+// texels (the grid, the azimuth nodes, the sampling plan, the term, the kernels' build, the kind of
+// device, the version), not the representation built from them; the fields left out, each with the
+// reason: repr_cache_key_exclusions(). Its chunk store holds one item per roughness node.
+schedule::CacheKey repr_cache_key(const AzimuthBakeSpec& spec, TermBackend& backend);
+const std::vector<std::string>& repr_cache_key_exclusions();
 
 }  // namespace ms::repr

@@ -27,6 +27,7 @@
 #include "io/atomic_file.hpp"
 #include "io/text.hpp"
 #include "jobs/bake.hpp"
+#include "jobs/cache_keys.hpp"
 #include "jobs/compare.hpp"
 #include "lut/formats/lut_formats.hpp"
 #include "lut/lookup.hpp"
@@ -967,7 +968,7 @@ private:
         for (std::size_t g = 0; g < group_count; ++g) bucket_start[g + 1] += bucket_start[g];
         std::vector<float> scratch(bucket_start[group_count]);
         std::vector<std::size_t> fill(group_count);
-        light_.stats.assign(job_.comparators.size(), std::vector<PixelErrors>(group_count));
+        light_.stats.assign(job_.comparators.size(), std::vector<LitErrorSummary>(group_count));
         for (std::size_t k = 0; k < job_.comparators.size(); ++k) {
             std::copy(bucket_start.begin(), bucket_start.end() - 1, fill.begin());
             for (std::size_t i = 0; i < n; ++i) {
@@ -981,7 +982,7 @@ private:
                 if (!weighted_.at(k, g).count()) continue;
                 const auto first = scratch.begin() + std::ptrdiff_t(bucket_start[g]);
                 const float p99 = nearest_rank(first, scratch.begin() + std::ptrdiff_t(bucket_start[g + 1]), 0.99);
-                light_.stats[k][g] = PixelErrors::of(weighted_.at(k, g), term_.at(k, g), p99);
+                light_.stats[k][g] = LitErrorSummary::of(weighted_.at(k, g), term_.at(k, g), p99);
             }
         }
         result_.lights.push_back(std::move(light_));
@@ -1019,11 +1020,6 @@ struct WordDigest {
     }
 };
 
-std::string file_bytes(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    if (!in) throw SceneError(path + ": cannot read it (" + std::strerror(errno) + ")");
-    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
 
 }  // namespace
 
@@ -1032,13 +1028,12 @@ std::uint64_t scene_work_items(const SceneInputs& inputs) {
     return std::uint64_t(inputs.description().lights.size()) * ((n + tile - 1) / tile);
 }
 
-schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
+schedule::CacheKey scene_cache_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
     const SceneDescription& d = inputs.description();
+    schedule::CacheKey key("scene");
     // The description as written (lights, sampling, comparators, where the images are), and what the
     // images hold: every pixel's surface as the job reads it.
-    std::ostringstream key;
-    key.precision(17);
-    key << "description fnv1a " << hex16(fnv1a(file_bytes(d.source))) << "\n";
+    key.add_file("description", d.source);
     WordDigest pixels;
     for (std::size_t i = 0; i < inputs.pixels(); ++i) {
         const PixelSurface p = inputs.pixel(i);
@@ -1047,16 +1042,32 @@ schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOpti
             for (double x : {v->x, v->y, v->z}) pixels.add(x);
         for (double x : {p.visibility, p.alpha_x, p.alpha_y, p.roughness}) pixels.add(x);
     }
-    key << "size " << inputs.width() << " " << inputs.height() << " pixels " << hex16(pixels.h) << "\n";
-    key << "skip " << options.skip << " tolerance " << options.tolerance << " method " << options.method_given << " "
-        << to_string(options.method) << " seed_luts " << options.bake_seed_luts << "\n";
-    for (const auto& f : options.luts) key << "lut " << f << " fnv1a " << hex16(fnv1a(file_bytes(f))) << "\n";
-    for (const auto& f : d.comparators.luts) key << "description lut " << f << " fnv1a " << hex16(fnv1a(file_bytes(f))) << "\n";
-    const auto& build = backend.config().build;
-    key << "fast_math " << build.fast_math << " double " << build.double_precision << "\n";
-    for (const auto& [name, value] : build.defines) key << "define " << name << "=" << value << "\n";
-    key << "results " << backend.scheduler().results_label() << "\nversion " MICROSHADOW_VERSION "\n";
-    return {"scene", hex16(fnv1a(key.str())), scene_work_items(inputs)};
+    key.add("pixels", {inputs.width(), inputs.height(), hex16(pixels.h)});
+    key.add("skip", options.skip)
+        .add("tolerance", options.tolerance)
+        .add("method_given", options.method_given)
+        .add("method", to_string(options.method))
+        .add("bake_seed_luts", options.bake_seed_luts);
+    for (std::size_t i = 0; i < options.luts.size(); ++i) key.add_file("luts." + std::to_string(i), options.luts[i]);
+    for (std::size_t i = 0; i < d.comparators.luts.size(); ++i)
+        key.add_file("description.luts." + std::to_string(i), d.comparators.luts[i]);
+    add_build(key, backend.config().build);
+    add_results_place(key, backend.scheduler());
+    return key;
+}
+
+const std::vector<std::string>& scene_cache_key_exclusions() {
+    static const std::vector<std::string> excluded = {
+        "progress, check_outputs: callbacks, told of the work, not part of it",
+        "strict_domain: refuses a run before it computes, never changes an item",
+        "memory_limit: refuses a run before it computes, never changes an item",
+        "items: how the items are split and kept, not what they hold",
+    };
+    return excluded;
+}
+
+schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend) {
+    return scene_cache_key(inputs, options, backend).store_key(scene_work_items(inputs));
 }
 
 SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const SceneRunOptions& options) {
@@ -1148,6 +1159,8 @@ json scene_report(const SceneResult& r) {
     for (std::size_t k = 0; k < r.comparators.size() && k < r.outside_domain.size(); ++k)
         j["comparator_domains"][r.comparators[k]] = compare::domain_report(r.domains[k], r.outside_domain[k]);
     j["groups"] = r.groups;
+    j["error_schema"] = kErrorSummarySchema;
+    j["error_weighting"] = kLitErrorWeighting;
     for (const auto& l : r.lights) {
         json lj;
         lj["name"] = l.light;
@@ -1155,9 +1168,7 @@ json scene_report(const SceneResult& r) {
         lj["seconds"] = l.seconds;
         for (std::size_t k = 0; k < r.comparators.size(); ++k)
             for (std::size_t g = 0; g < r.groups.size(); ++g) {
-                const PixelErrors& s = l.stats[k][g];
-                lj["errors"][r.comparators[k]][r.groups[g]] = {{"pixels", s.pixels}, {"max", s.max}, {"rms", s.rms},
-                                                               {"p99", s.p99}, {"max_term", s.max_term}, {"rms_term", s.rms_term}};
+                lj["errors"][r.comparators[k]][r.groups[g]] = l.stats[k][g];
             }
         j["lights"].push_back(lj);
     }
@@ -1194,18 +1205,18 @@ std::string markdown(const SceneResult& r) {
     for (const auto& l : r.lights) {
         m << "## light `" << l.light << "`\n\nReference: max error bound " << format_g(l.max_error_bound)
           << ". Errors weighted as shading sees them (|approximation - reference| x max(N.L, 0) x intensity), over lit pixels;"
-          << " `max term` is the unweighted max.\n\n";
-        m << "| comparator | max | RMS | p99 | max term | RMS term |";
-        for (std::size_t g = 1; g < r.groups.size(); ++g) m << " RMS " << r.groups[g] << " |";
+          << " the `term` columns are of |approximation - reference| unweighted.\n\n";
+        m << "| comparator | lit max | lit RMS | lit p99 | term max | term RMS |";
+        for (std::size_t g = 1; g < r.groups.size(); ++g) m << " lit RMS " << r.groups[g] << " |";
         m << "\n|---|---|---|---|---|---|";
         for (std::size_t g = 1; g < r.groups.size(); ++g) m << "---|";
         m << "\n";
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
-            const PixelErrors& s = l.stats[k][0];
-            m << "| " << r.comparators[k] << " | " << format_g(s.max) << " | " << format_g(s.rms) << " | " << format_g(s.p99) << " | "
-              << format_g(s.max_term) << " | " << format_g(s.rms_term) << " |";
+            const LitErrorSummary& s = l.stats[k][0];
+            m << "| " << r.comparators[k] << " | " << format_g(s.lit_max_abs) << " | " << format_g(s.lit_rms) << " | "
+              << format_g(s.lit_p99) << " | " << format_g(s.term_max_abs) << " | " << format_g(s.term_rms) << " |";
             for (std::size_t g = 1; g < r.groups.size(); ++g)
-                m << " " << (l.stats[k][g].pixels ? format_g(l.stats[k][g].rms) : std::string("-")) << " |";
+                m << " " << (l.stats[k][g].count ? format_g(l.stats[k][g].lit_rms) : std::string("-")) << " |";
             m << "\n";
         }
         m << "\n";
@@ -1362,7 +1373,7 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
                                     r.mask.data(), {"LIGHT " + to_upper(l.light) + ": THE GENERIC TERM BY VNDF SAMPLING"}));
         // Every comparator's weighted error on one shared scale.
         double shared = 0;
-        for (std::size_t k = 0; k < r.comparators.size(); ++k) shared = std::max(shared, l.stats[k][0].max);
+        for (std::size_t k = 0; k < r.comparators.size(); ++k) shared = std::max(shared, l.stats[k][0].lit_max_abs);
         std::vector<Panel> all;
         for (std::size_t k = 0; k < r.comparators.size(); ++k)
             all.push_back({to_upper(r.comparators[k]), l.error[k].data(), true, 0, 1, shared > 0 ? shared : 1});
@@ -1373,16 +1384,16 @@ void write_scene_files(const SceneResult& r, const std::string& dir, const json&
                                         {"LIGHT " + to_upper(l.light) + ": (APPROXIMATION - REFERENCE) X N.L X INTENSITY, ONE SCALE"}, 160));
         }
         for (std::size_t k = 0; k < r.comparators.size(); ++k) {
-            const PixelErrors& s = l.stats[k][0];
+            const LitErrorSummary& s = l.stats[k][0];
             const std::size_t png = out.add(path(l.light + "_" + r.comparators[k] + ".png"), true);
             write_png_rgb(out.temp_path(png),
                           render_panels(r.width, r.height,
                                         {{"REFERENCE", l.reference.data(), false, 0, 1, 1},
                                          {to_upper(r.comparators[k]), l.approximation[k].data(), false, 0, 1, 1},
-                                         {weighted, l.error[k].data(), true, 0, 1, s.max > 0 ? s.max : 1}},
+                                         {weighted, l.error[k].data(), true, 0, 1, s.lit_max_abs > 0 ? s.lit_max_abs : 1}},
                                         r.mask.data(),
                                         {"LIGHT " + to_upper(l.light) + ": " + to_upper(r.comparators[k]) + " AGAINST THE REFERENCE",
-                                         "WEIGHTED ERROR MAX " + format_g(s.max) + "  RMS " + format_g(s.rms) + "  P99 " + format_g(s.p99)}));
+                                         "WEIGHTED ERROR MAX " + format_g(s.lit_max_abs) + "  RMS " + format_g(s.lit_rms) + "  P99 " + format_g(s.lit_p99)}));
         }
     }
     out.stream(report_json) << dump_json(report, 2) << "\n";

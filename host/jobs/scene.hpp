@@ -48,6 +48,7 @@
 #include "core/lookup_domain.hpp"
 #include "jobs/eval.hpp"
 #include "scene/inputs.hpp"
+#include "schedule/cache_key.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::scene {
@@ -86,24 +87,11 @@ struct SkipCounts {
     double skipped_fraction() const { return pixel_lights ? 1.0 - double(sampled) / double(pixel_lights) : 0; }
 };
 
-// What a scene reports of a comparator's error at a group's lit pixels (core/error_stats.hpp): the
-// statistics of the weighted error |approximation - reference| x N.L x intensity, its 99th percentile
-// nearest-rank, and those of the term's own error |approximation - reference|, unweighted.
-struct PixelErrors {
-    std::uint64_t pixels = 0;
-    double max = 0, rms = 0, p99 = 0;      // of |approximation - reference| x N.L x intensity
-    double max_term = 0, rms_term = 0;     // of |approximation - reference| (unweighted)
-    // From the statistics of the weighted and of the unweighted errors at the same points.
-    static PixelErrors of(const ErrorStats& weighted, const ErrorStats& term, double p99) {
-        return {weighted.count(), weighted.max_abs(), weighted.rms(), p99, term.max_abs(), term.rms()};
-    }
-};
-
 struct LightImages {
     std::string light;
     std::vector<float> reference, std_error, weight;       // weight = max(N.L, 0) x intensity
     std::vector<std::vector<float>> approximation, error;  // per comparator; error is weighted
-    std::vector<std::vector<PixelErrors>> stats;           // [comparator][group]
+    std::vector<std::vector<LitErrorSummary>> stats;       // [comparator][group], at its lit pixels
     double max_error_bound = 0;                            // t x std error, over the pixels
     double t = 5.408;                                      // the Student t factor used (student_t_999)
     double seconds = 0;
@@ -144,9 +132,12 @@ SceneResult run_scene(const SceneInputs& inputs, TermBackend& backend, const Sce
 // images and statistics are assembled from the items in id order, so a run split into shards or MPI
 // ranks writes the same bytes as one process.
 std::uint64_t scene_work_items(const SceneInputs& inputs);
-// The chunk store key of a scene run: everything that decides its items' bits (the description file,
-// every pixel's surface, the options that reach the reference and the comparators, the bytes of the
-// comparator files, the kind of device, the version), not the output folder or the command line.
+// The cache key of a scene run (schedule/cache_key.hpp): everything that decides its items' bits (the
+// description file, every pixel's surface, the options that reach the reference and the comparators,
+// the bytes of the comparator files, the kernels' build, the kind of device, the version); the options
+// left out, each with the reason: scene_cache_key_exclusions(). scene_store_key: its chunk store's key.
+schedule::CacheKey scene_cache_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend);
+const std::vector<std::string>& scene_cache_key_exclusions();
 schedule::StoreKey scene_store_key(const SceneInputs& inputs, const SceneRunOptions& options, TermBackend& backend);
 
 // The key of a query on the grid above, and the query at the key's grid point (tests use both).

@@ -73,11 +73,6 @@ Axis fitted_axis(const Axis& base, double lo, double hi) {
     return a;
 }
 
-json stats_json(const LutErrorStats& s) {
-    return {{"lookups", s.lookups}, {"weighted_max", s.max}, {"weighted_rms", s.rms}, {"weighted_p99", s.p99},
-            {"max", s.max_term}, {"rms", s.rms_term}};
-}
-
 std::string file_name(const std::string& light) {
     std::string s = light;
     for (char& c : s)
@@ -379,8 +374,8 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
             td.add(b);
             wd.add(std::fabs(b) * l.weight);
         }
-        e.scene_lut = LutErrorStats::of(ws, ts);
-        e.default_lut = LutErrorStats::of(wd, td);
+        e.scene_lut = LitErrorSummary::of(ws, ts, ws.nearest_rank(0.99));
+        e.default_lut = LitErrorSummary::of(wd, td, wd.nearest_rank(0.99));
         if (options.azimuth_floor_samples) {
             // The term of each isotropic sampled lookup at the trapezoid nodes of the azimuth (wi = (sin_v,
             // 0, cos_v) in the pixel's frame, inputs.hpp; wo turned about the normal), and its mean.
@@ -420,9 +415,9 @@ SceneBakeResult run_scene_bake(const SceneInputs& inputs, const std::vector<Ligh
                 tf.add(d);
                 wf.add(d * l.weight);
             }
-            e.azimuth_floor = LutErrorStats::of(wf, tf);
+            e.azimuth_floor = LitErrorSummary::of(wf, tf, wf.nearest_rank(0.99));
         }
-        if (e.default_lut.max + e.reference_bound > options.serve_error) r.default_serves = false;
+        if (e.default_lut.lit_max_abs + e.reference_bound > options.serve_error) r.default_serves = false;
         r.errors.push_back(e);
     }
     r.reference_seconds = since(ref_start);
@@ -453,15 +448,17 @@ json scene_bake_report(const SceneBakeResult& r, const std::vector<LightDomain>&
         json l = {{"light", json_safe(domain[i].light)}, {"shaded_pixels", domain[i].shaded}, {"lookups", domain[i].lookups.size()}};
         if (i < r.errors.size()) {
             const auto& e = r.errors[i];
-            l["errors"] = {{"scene_lut", stats_json(e.scene_lut)},
-                           {"default_lut", stats_json(e.default_lut)},
-                           {"azimuth_mean_floor", stats_json(e.azimuth_floor)},
+            l["errors"] = {{"scene_lut", json(e.scene_lut)},
+                           {"default_lut", json(e.default_lut)},
+                           {"azimuth_mean_floor", json(e.azimuth_floor)},
                            {"azimuth_mean_floor_bound", e.azimuth_floor_bound},
                            {"reference_bound", e.reference_bound},
-                           {"weighting", "|LUT - reference| x max(N.L, 0) x intensity, on an evenly strided sample of the lookups"}};
+                           {"sample", "an evenly strided sample of the lookups"}};
         }
         lights.push_back(l);
     }
+    j["error_schema"] = kErrorSummarySchema;
+    j["error_weighting"] = kLitErrorWeighting;
     j["lights"] = lights;
     if (!r.errors.empty())
         j["verdict"] = {{"default_serves", r.default_serves},
@@ -499,18 +496,19 @@ std::string scene_bake_markdown(const SceneBakeResult& r, const std::vector<Ligh
           << r.bake.batches << " of " << r.full_batches << " (slice batches).\n\n";
     if (!r.errors.empty()) {
         m << "## Error on the scene (|LUT - reference| x N.L x intensity, sampled lookups)\n\n";
-        m << "| light | LUT | lookups | weighted max | weighted RMS | weighted p99 | max | RMS | reference bound |\n";
+        m << "| light | LUT | lookups | lit max | lit RMS | lit p99 | term max | term RMS | reference bound |\n";
         m << "|---|---|---|---|---|---|---|---|---|\n";
         for (const auto& e : r.errors)
-            for (const auto& [name, s] : {std::pair<std::string, const LutErrorStats&>{"scene", e.scene_lut},
-                                          std::pair<std::string, const LutErrorStats&>{"default seed-3d-" + std::to_string(r.default_size), e.default_lut}})
-                m << "| " << e.light << " | " << name << " | " << s.lookups << " | " << format_g(s.max) << " | " << format_g(s.rms) << " | "
-                  << format_g(s.p99) << " | " << format_g(s.max_term) << " | " << format_g(s.rms_term) << " | " << format_g(e.reference_bound) << " |\n";
+            for (const auto& [name, s] : {std::pair<std::string, const LitErrorSummary&>{"scene", e.scene_lut},
+                                          std::pair<std::string, const LitErrorSummary&>{"default seed-3d-" + std::to_string(r.default_size), e.default_lut}})
+                m << "| " << e.light << " | " << name << " | " << s.count << " | " << format_g(s.lit_max_abs) << " | " << format_g(s.lit_rms) << " | "
+                  << format_g(s.lit_p99) << " | " << format_g(s.term_max_abs) << " | " << format_g(s.term_rms) << " | " << format_g(e.reference_bound) << " |\n";
         for (const auto& e : r.errors)
-            if (e.azimuth_floor.lookups)
-                m << "| " << e.light << " | azimuth-mean floor (any LUT of the azimuth mean) | " << e.azimuth_floor.lookups << " | "
-                  << format_g(e.azimuth_floor.max) << " | " << format_g(e.azimuth_floor.rms) << " | " << format_g(e.azimuth_floor.p99) << " | "
-                  << format_g(e.azimuth_floor.max_term) << " | " << format_g(e.azimuth_floor.rms_term) << " | " << format_g(e.azimuth_floor_bound)
+            if (e.azimuth_floor.count)
+                m << "| " << e.light << " | azimuth-mean floor (any LUT of the azimuth mean) | " << e.azimuth_floor.count << " | "
+                  << format_g(e.azimuth_floor.lit_max_abs) << " | " << format_g(e.azimuth_floor.lit_rms) << " | "
+                  << format_g(e.azimuth_floor.lit_p99) << " | " << format_g(e.azimuth_floor.term_max_abs) << " | "
+                  << format_g(e.azimuth_floor.term_rms) << " | " << format_g(e.azimuth_floor_bound)
                   << " (mean) |\n";
         m << "\n**Verdict:** the default LUT " << (r.default_serves ? "serves" : "does not serve") << " this scene within "
           << format_g(r.serve_error) << " (its largest weighted error on the sampled lookups plus the reference's bound).\n\n";

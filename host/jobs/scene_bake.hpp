@@ -93,19 +93,6 @@ nlohmann::json coverage_record(const SceneBakePlan& plan);
 // the "domain" record.
 nlohmann::json scene_lut_metadata(const SceneBakePlan& plan, const BakeResult& bake);
 
-// What the scene bake reports of a LUT's error at the sampled lookups (core/error_stats.hpp): the
-// statistics of the weighted error |LUT - reference| x N.L x intensity, its 99th percentile nearest-rank,
-// and those of |LUT - reference|, unweighted.
-struct LutErrorStats {
-    std::uint64_t lookups = 0;
-    double max = 0, rms = 0, p99 = 0;       // |LUT - reference| x N.L x intensity
-    double max_term = 0, rms_term = 0;      // unweighted
-    // From the statistics of the weighted errors (their values kept) and of the unweighted ones.
-    static LutErrorStats of(const ErrorStats& weighted, const ErrorStats& term) {
-        return {weighted.count(), weighted.max_abs(), weighted.rms(), weighted.nearest_rank(0.99), term.max_abs(), term.rms()};
-    }
-};
-
 struct SceneBakeOptions {
     bool fit = true;
     bool compare = true;                    // full bake, default LUT and reference on a sample
@@ -134,14 +121,14 @@ struct SceneBakeResult {
     // and the reference's own bound there (Student t at 99.9 % x its std error, max).
     struct LightErrors {
         std::string light;
-        LutErrorStats scene_lut, default_lut;
+        LitErrorSummary scene_lut, default_lut;
         double reference_bound = 0;
         // The azimuth-mean floor: |mean over the azimuth of the term - the term at the pixel's azimuth|,
         // at the same (v, alpha, NdotV, NdotL), on the isotropic sampled lookups: the error of a perfect
         // LUT that stores the azimuth mean (as every LUT here does), whatever its resolution. The mean is
         // the trapezoid rule on kAzimuthFloorNodes nodes over [0, 180] degrees, each node sampled with
         // azimuth_floor_samples; its bound is the largest t x (weighted sum of the nodes' std errors).
-        LutErrorStats azimuth_floor;
+        LitErrorSummary azimuth_floor;
         double azimuth_floor_bound = 0;
     };
     std::vector<LightErrors> errors;

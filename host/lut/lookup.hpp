@@ -1,4 +1,4 @@
-// LUT lookups as a renderer does them, used as sweep comparators: a baked LUT (io/exr_lut.hpp) read
+// LUT lookups as a renderer does them, used as sweep comparators: a baked LUT (lut/exr_lut.hpp) read
 // once, then sampled with linear filtering and clamp-to-edge addressing.
 //
 // Per axis (visibility, NdotL, NdotV) the parameter p maps to a continuous texel coordinate
@@ -42,7 +42,7 @@ bool lookup_zero_region(AoWeighting weighting, double visibility, double n_dot_l
 class LutLookup {
 public:
     explicit LutLookup(LutFile lut);
-    // Reads the file (io/exr_lut.hpp's read_lut) and checks it can be sampled. Throws std::runtime_error.
+    // Reads the file (lut/exr_lut.hpp's read_lut) and checks it can be sampled. Throws std::runtime_error.
     static LutLookup open(const std::string& path);
 
     // Throws std::domain_error where the lookup touches a texel a partial bake left unbaked (NaN), or

@@ -100,7 +100,7 @@ double smith_lambda_anisotropic(const Vec3& w, double alpha_x, double alpha_y) {
 }
 
 double smith_g1(const Vec3& w, const Vec3& wm, double alpha_x, double alpha_y) {
-    // DESIGN.md: 0 for w at or below the horizon; checked before Lambda so no inf/inf can appear.
+    // docs/method.md: 0 for w at or below the horizon; checked before Lambda so no inf/inf can appear.
     if (!(w.z > 0)) return 0.0;
     return heaviside(dot(w, wm)) / (1.0 + smith_lambda(w, alpha_x, alpha_y));
 }

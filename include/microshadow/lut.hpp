@@ -41,8 +41,9 @@ public:
     std::vector<float> texels() const;
     // The stored texel of channel c at indices (visibility, NdotL, NdotV).
     float texel(std::uint32_t channel, std::uint32_t visibility, std::uint32_t n_dot_l, std::uint32_t n_dot_v) const;
-    // The renderer's lookup. Throws std::domain_error where a partial bake left the texels unbaked.
-    double lookup(double visibility, double n_dot_l, double n_dot_v, double roughness) const;
+    // The renderer's lookup. Throws std::invalid_argument naming the input when one is not a number
+    // (NaN), std::domain_error where a partial bake left the texels unbaked.
+    double lookup(double visibility, double n_dot_l, double n_dot_v, Roughness roughness) const;
     // The bound on |texel - term| the file records (sampling + azimuth quadrature + quantisation).
     double max_total_error() const;
     // How the LUT was made, as JSON (the file's "microshadow" metadata).
@@ -79,10 +80,10 @@ public:
     // "lut", or the representation's kind ("azimuth-axis", "azimuth-harmonics").
     std::string kind() const;
     bool keeps_azimuth() const;  // a representation: lookup reads the relative azimuth
-    // The renderer's lookup at the relative azimuth in degrees in [0, 180] (a LUT ignores it).
-    // roughness is the perceptual roughness (alpha = roughness^2). Throws std::domain_error where a
-    // partial bake left the LUT unbaked.
-    double lookup(double visibility, double n_dot_l, double n_dot_v, double roughness,
+    // The renderer's lookup at the relative azimuth in degrees in [0, 180] (a LUT ignores it). Throws
+    // std::invalid_argument naming the input when one is not a number (NaN), std::domain_error where
+    // a partial bake left the LUT unbaked.
+    double lookup(double visibility, double n_dot_l, double n_dot_v, Roughness roughness,
                   double relative_azimuth_degrees = 0) const;
     // The file's "microshadow" metadata as JSON.
     std::string metadata_json() const;

@@ -25,6 +25,19 @@ enum class Backend { opencl, oracle };
 // independent uniform random points.
 enum class Sequence { sobol, random };
 
+// Perceptual roughness r in (0, 1], GGX alpha = r^2: what the LUTs, the representations and the
+// analytic terms are indexed by. A type of its own so that an alpha can never be passed where a
+// roughness is meant (alpha 0.3 is roughness 0.548): write Roughness(0.5), or Roughness::from_alpha(a).
+// Every isotropic call takes its parameters in one order: visibility, NdotL, NdotV, roughness and then
+// the relative azimuth (the LUT's axes, then its channels).
+struct Roughness {
+    constexpr explicit Roughness(double perceptual) : value(perceptual) {}
+    // The roughness of a GGX alpha: sqrt(alpha).
+    static Roughness from_alpha(double alpha);
+    constexpr double alpha() const { return value * value; }
+    double value;
+};
+
 struct Direction {
     double x = 0, y = 0, z = 1;
 };
@@ -43,9 +56,11 @@ struct Estimate {
     double std_error = 0;
 };
 
-// Where and how to sample; shared by evaluate() and bake().
+// Where and how to sample; shared by evaluate() and bake(). The method defaults to each call's command:
+// exact for evaluate() (as `microshadow eval`), sampled for bake() and area_evaluate() (BakeOptions and
+// AreaOptions set it), exact for repr_bake().
 struct SamplingOptions {
-    Method method = Method::sampled;
+    Method method = Method::exact;
     Backend backend = Backend::opencl;
     std::string device = "default";  // OpenCL: "default", "all", an index or a name fragment
     std::uint64_t samples = 65536;   // per query (evaluate) or per batch and LUT slice (bake); rounded up
@@ -65,7 +80,8 @@ struct SamplingOptions {
 
 // Told of a long call's progress: (done, total) in the call's own units (queries, slices, texels,
 // chunks). Return false to stop the call: it then throws Cancelled and returns nothing. Called from the
-// thread that made the call or from a worker thread; keep it short.
+// thread that made the call or from one of the call's worker threads (so it must be safe to call from
+// another thread than yours); keep it short.
 using Progress = std::function<bool(std::uint64_t done, std::uint64_t total)>;
 
 // Thrown by a call whose Progress asked it to stop. Nothing was written.

@@ -29,6 +29,7 @@ import json
 import os
 import sys
 import time
+import warnings
 from typing import Callable, Dict, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -99,7 +100,7 @@ def _check_finite(name: str, a: np.ndarray) -> None:
     bad = ~np.isfinite(a)
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
-        raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: not a finite number")
+        raise ValueError(f"{name}{_index(i, a.shape)} = {float(a.flat[i])!r}: not a finite number")
 
 
 def _check_range(name: str, a: np.ndarray, lo: float, hi: float, lo_open: bool = False, hi_open: bool = False) -> None:
@@ -111,7 +112,7 @@ def _check_range(name: str, a: np.ndarray, lo: float, hi: float, lo_open: bool =
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         interval = ("(" if lo_open else "[") + f"{lo:g}, {hi:g}" + (")" if hi_open else "]")
-        raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: outside {interval}")
+        raise ValueError(f"{name}{_index(i, a.shape)} = {float(a.flat[i])!r}: outside {interval}")
 
 
 def _scalar_or_vector(name: str, value: ArrayLike) -> np.ndarray:
@@ -243,7 +244,7 @@ def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
         bad = ~(a > 0)
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
-            raise ValueError(f"{name}{_index(i, a.shape)} = {a.flat[i]!r}: must be > 0")
+            raise ValueError(f"{name}{_index(i, a.shape)} = {float(a.flat[i])!r}: must be > 0")
     wi_a = _directions("wi", wi)
     wo_a = _directions("wo", wo)
     wi_rows = wi_a.reshape(-1, 3)
@@ -337,53 +338,52 @@ def _evaluate_rows(rows, method, tolerance, samples, replicates, seed, sequence,
 
 def evaluate_iso(
     visibility: ArrayLike,
-    roughness: ArrayLike,
-    n_dot_v: ArrayLike,
     n_dot_l: ArrayLike,
+    n_dot_v: ArrayLike,
+    *,
+    roughness: ArrayLike,
     relative_azimuth: ArrayLike = 0.0,
     **options,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """The term of an isotropic surface in the LUTs' parameters: :func:`evaluate` on its query.
 
+    The parameters come in the order of every isotropic call (:meth:`Lut.lookup`, :func:`analytic`, the
+    C++ isotropic_query): visibility, n_dot_l, n_dot_v, then roughness and relative_azimuth as keywords
+    (so that an alpha is never passed for the roughness by position).
+
     Args:
         visibility: in [0, 1].
-        roughness: perceptual roughness in (0, 1] (alpha_x = alpha_y = roughness^2).
-        n_dot_v: cosine of the view in (0, 1]; wi = (sqrt(1 - n_dot_v^2), 0, n_dot_v).
         n_dot_l: cosine of the light in [-1, 1] (below 0 the term is 0).
+        n_dot_v: cosine of the view in (0, 1]; wi = (sqrt(1 - n_dot_v^2), 0, n_dot_v).
+        roughness: perceptual roughness in (0, 1] (alpha_x = alpha_y = roughness^2).
         relative_azimuth: the light's azimuth from the view's, in degrees (0: on the view's side,
             180: opposite); wo = (s cos phi, s sin phi, n_dot_l) with s = sqrt(1 - n_dot_l^2): the
             directions of a sweep point with phi_i = 0 and delta_phi = relative_azimuth.
         **options: :func:`evaluate`'s keyword options (method, tolerance, samples, ...).
 
-    All arguments broadcast against each other (numbers or (N,) arrays). Returns (term, std_error).
+    All arguments broadcast against each other (any shapes, as :meth:`Lut.lookup`). Returns (term,
+    std_error), float64 of the broadcast shape.
     """
     for key in options:
         if key not in _EVALUATE_OPTIONS:
             raise TypeError(f"evaluate_iso() got an unexpected keyword argument {key!r}")
-    v = _scalar_or_vector("visibility", visibility)
-    r = _scalar_or_vector("roughness", roughness)
-    nv = _scalar_or_vector("n_dot_v", n_dot_v)
-    nl = _scalar_or_vector("n_dot_l", n_dot_l)
-    az = _scalar_or_vector("relative_azimuth", relative_azimuth)
-    _check_range("visibility", v, 0.0, 1.0)
-    _check_range("roughness", r, 0.0, 1.0, lo_open=True)
-    _check_range("n_dot_v", nv, 0.0, 1.0, lo_open=True)
-    _check_range("n_dot_l", nl, -1.0, 1.0)
-    _check_finite("relative_azimuth", az)
-    n = _broadcast({"visibility": v, "roughness": r, "n_dot_v": nv, "n_dot_l": nl, "relative_azimuth": az})
-    params = np.empty((n, 4))
-    params[:, 0] = _column(v, n)
-    params[:, 1] = _column(r, n)
-    params[:, 2] = _column(nv, n)
-    params[:, 3] = _column(nl, n)
-    rows = _core.isotropic_rows(params, np.ascontiguousarray(_column(az, n)))
+    # Each argument checked as given (the message indexes it in its own shape), then broadcast.
+    _check_range("visibility", _array("visibility", visibility), 0.0, 1.0)
+    _check_range("n_dot_l", _array("n_dot_l", n_dot_l), -1.0, 1.0)
+    _check_range("n_dot_v", _array("n_dot_v", n_dot_v), 0.0, 1.0, lo_open=True)
+    _check_range("roughness", _array("roughness", roughness), 0.0, 1.0, lo_open=True)
+    _check_finite("relative_azimuth", _array("relative_azimuth", relative_azimuth))
+    rows, shape = _lookup_rows("evaluate_iso", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
+    queries = _core.isotropic_rows(np.ascontiguousarray(rows)) if rows.shape[0] else np.empty((0, 9))
     merged = dict(_EVALUATE_DEFAULTS)
     merged.update(options)
     tolerance = _sampling(merged["method"], merged["tolerance"], merged["samples"], merged["replicates"], merged["seed"],
                           merged["sequence"], merged["form"], merged["ao_weighting"], merged["backend"], merged["device"])
-    return _evaluate_rows(rows, merged["method"], tolerance, merged["samples"], merged["replicates"], merged["seed"],
-                          merged["sequence"], merged["form"], merged["ao_weighting"], merged["backend"],
-                          merged["device"], merged["fast_math"], merged["exact_float"], merged["progress"])
+    term, error = _evaluate_rows(queries, merged["method"], tolerance, merged["samples"], merged["replicates"],
+                                 merged["seed"], merged["sequence"], merged["form"], merged["ao_weighting"],
+                                 merged["backend"], merged["device"], merged["fast_math"], merged["exact_float"],
+                                 merged["progress"])
+    return term.reshape(shape), error.reshape(shape)
 
 
 def lookup_inputs(
@@ -474,12 +474,13 @@ class Lut:
     kind = "lut"
     keeps_azimuth = False
 
-    def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, roughness: ArrayLike,
+    def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, *, roughness: ArrayLike,
                relative_azimuth: Optional[ArrayLike] = None) -> np.ndarray:
         """The renderer's lookup: linear filtering, clamp to edge, linear blend between roughness channels.
 
-        The arguments broadcast against each other (any shapes); roughness is the perceptual roughness
-        (an anisotropic surface uses (alpha_x alpha_y)^(1/4)). A LUT stores the azimuth's mean, so
+        The arguments broadcast against each other (any shapes); roughness (keyword only, so that an
+        alpha is never passed for it by position) is the perceptual roughness, alpha = roughness^2 (an
+        anisotropic surface uses (alpha_x alpha_y)^(1/4)). A LUT stores the azimuth's mean, so
         relative_azimuth is accepted and ignored. Returns float64 of the broadcast shape.
         """
         rows, shape = _lookup_rows("Lut.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
@@ -525,11 +526,12 @@ class Representation:
             raise ValueError(f"path = {p!r}: a representation is written as .exr, .ktx2 or .dds")
         self._native.save(p, bool(half))
 
-    def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, roughness: ArrayLike,
+    def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, *, roughness: ArrayLike,
                relative_azimuth: Optional[ArrayLike] = None) -> np.ndarray:
         """The renderer's lookup (the generated shader's arithmetic, in double) at the relative azimuth in
-        degrees (0: light on the view's side, 180: opposite). The arguments broadcast; relative_azimuth is
-        required (this file keeps the azimuth)."""
+        degrees (0: light on the view's side, 180: opposite). The arguments broadcast; roughness (the
+        perceptual roughness) and relative_azimuth are keywords, relative_azimuth required (this file
+        keeps the azimuth)."""
         if relative_azimuth is None:
             raise ValueError(f"relative_azimuth: required by a {self.kind} representation (it keeps the azimuth)")
         rows, shape = _lookup_rows("Representation.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
@@ -559,9 +561,9 @@ def bake(
     *,
     layout: str = "seed-3d",
     size: int = 32,
-    size_visibility: int = 0,
-    size_n_dot_l: int = 0,
-    size_n_dot_v: int = 0,
+    visibility_count: int = 0,
+    n_dot_l_count: int = 0,
+    n_dot_v_count: int = 0,
     roughness: Optional[Sequence[float]] = None,
     visibility_range: Optional[Tuple[float, float]] = None,
     n_dot_l_range: Optional[Tuple[float, float]] = None,
@@ -582,13 +584,18 @@ def bake(
     fast_math: bool = False,
     exact_float: bool = False,
     progress: ProgressArg = None,
+    size_visibility: Optional[int] = None,
+    size_n_dot_l: Optional[int] = None,
+    size_n_dot_v: Optional[int] = None,
 ) -> Lut:
     """Bakes a LUT: ``microshadow bake`` without its file outputs (call ``.save(path)``).
 
     Args:
         layout: "seed-3d" (visibility x NdotL x NdotV, roughness 0.1, 0.4, 0.7, 1 in RGBA), "seed-2d" (the
             NdotV = 1 slice) or "custom" (roughness and ranges from here).
-        size: texels on every axis; size_visibility, size_n_dot_l, size_n_dot_v: one axis's own (0: size).
+        size: texels on every axis; visibility_count, n_dot_l_count, n_dot_v_count: one axis's own (0:
+            size), the names :func:`repr_bake` and the C++ BakeOptions use (size_visibility, size_n_dot_l,
+            size_n_dot_v: the same, deprecated).
         roughness: custom layout: 1 to 4 values in (0, 1]. *_range: custom layout: (min, max) of an axis.
         texel: "centres" ((i + 0.5) / n) or "endpoints" (i / (n - 1)).
         azimuth: "mean" (the mean over [0, 180] degrees) or a fixed relative azimuth in degrees.
@@ -601,8 +608,17 @@ def bake(
     """
     _choice("layout", layout, _LAYOUTS)
     _choice("texel", texel, ("centres", "centers", "endpoints"))
+    counts = {"visibility_count": visibility_count, "n_dot_l_count": n_dot_l_count, "n_dot_v_count": n_dot_v_count}
+    for old, new, value in (("size_visibility", "visibility_count", size_visibility),
+                            ("size_n_dot_l", "n_dot_l_count", size_n_dot_l), ("size_n_dot_v", "n_dot_v_count", size_n_dot_v)):
+        if value is None:
+            continue
+        warnings.warn(f"bake({old}=) is deprecated: use {new}=", DeprecationWarning, stacklevel=2)
+        if counts[new]:
+            raise TypeError(f"bake() got both {old}= and {new}= (the same count; give {new}= only)")
+        counts[new] = value
     _count("size", size, 1, 4096)
-    for name, value in (("size_visibility", size_visibility), ("size_n_dot_l", size_n_dot_l), ("size_n_dot_v", size_n_dot_v)):
+    for name, value in counts.items():
         _count(name, value, 0, 4096)
     _count("max_batches", max_batches, 1, 4096)
     if samples != 0:
@@ -645,7 +661,8 @@ def bake(
         if not (np.isfinite(a) and 0 <= a <= 180):
             raise ValueError(f"azimuth = {azimuth!r}: 'mean' or degrees in [0, 180]")
         azimuth_text = repr(a)
-    native = _core.bake(layout, int(size), int(size_visibility), int(size_n_dot_l), int(size_n_dot_v), rough,
+    native = _core.bake(layout, int(size), int(counts["visibility_count"]), int(counts["n_dot_l_count"]),
+                        int(counts["n_dot_v_count"]), rough,
                         ranges["visibility_range"], ranges["n_dot_l_range"], ranges["n_dot_v_range"], texel,
                         azimuth_text, tolerance, int(max_batches), method, int(samples), int(replicates), int(seed),
                         sequence, form, ao_weighting, backend, device, bool(fast_math), bool(exact_float),
@@ -733,7 +750,7 @@ def repr_bake(
     _check_range("roughness", r, 0.0, 1.0, lo_open=True)
     if (np.diff(r) <= 0).any():
         i = int(np.flatnonzero(np.diff(r) <= 0)[0]) + 1
-        raise ValueError(f"roughness[{i}] = {r[i]!r}: the nodes must increase")
+        raise ValueError(f"roughness[{i}] = {float(r[i])!r}: the nodes must increase")
     tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
     native = _core.repr_bake(preset, kind, int(visibility_count), int(n_dot_l_count), int(n_dot_v_count), int(azimuth_nodes),
                              [float(x) for x in r], int(roughness_count), n_dot_v_warp, n_dot_l_warp, visibility_warp,
@@ -750,14 +767,14 @@ def analytic(
     visibility: ArrayLike,
     n_dot_l: ArrayLike,
     n_dot_v: ArrayLike = 1.0,
-    roughness: ArrayLike = 0.5,
     *,
+    roughness: ArrayLike = 0.5,
     ao_weighting: str = "cosine",
 ) -> np.ndarray:
     """Part 1's analytic term `name` (one of :data:`ANALYTIC_TERMS`), as ``eval --compare NAME`` and the
     sweeps evaluate it.
 
-    roughness is the perceptual roughness (alpha = roughness^2; "activision-adjusted" converts it to
+    roughness (keyword only) is the perceptual roughness (alpha = roughness^2; "activision-adjusted" converts it to
     Activision's own roughness of that alpha, the other terms ignore it); n_dot_v is read by
     "naughty-dog-ao-fresnel" and "activision-adjusted". The arguments broadcast (any shapes); returns
     float64 of the broadcast shape.

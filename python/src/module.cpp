@@ -222,24 +222,23 @@ py::array_t<double> lookup_input_rows(const Doubles& rows) {
     return to_array(flat, {py::ssize_t(n), 5});
 }
 
-// (N, 4) rows of visibility, roughness, n_dot_v, n_dot_l and (N,) relative azimuths in degrees ->
-// (N, 9) query rows, by isotropic_query.
-py::array_t<double> isotropic_rows(const Doubles& params, const Doubles& azimuth) {
-    if (params.ndim() != 2 || params.shape(1) != 4) throw std::invalid_argument("params must be an (N, 4) array");
+// (N, 5) rows of visibility, n_dot_l, n_dot_v, roughness, relative azimuth (degrees), the order of
+// every isotropic call (and of lookup_rows) -> (N, 9) query rows, by isotropic_query.
+py::array_t<double> isotropic_rows(const Doubles& params) {
+    if (params.ndim() != 2 || params.shape(1) != 5) throw std::invalid_argument("params must be an (N, 5) array");
     const std::size_t n = std::size_t(params.shape(0));
-    if (azimuth.ndim() != 1 || std::size_t(azimuth.shape(0)) != n) throw std::invalid_argument("azimuth must be (N,)");
     std::vector<double> flat(9 * n);
     const double* p = params.data();
-    for (std::size_t i = 0; i < n; ++i, p += 4) {
-        const Query q = isotropic_query(p[0], p[1], p[2], p[3], azimuth.data()[i]);
+    for (std::size_t i = 0; i < n; ++i, p += 5) {
+        const Query q = isotropic_query(p[0], p[1], p[2], Roughness(p[3]), p[4]);
         const double row[9] = {q.visibility, q.alpha_x, q.alpha_y, q.wi.x, q.wi.y, q.wi.z, q.wo.x, q.wo.y, q.wo.z};
         std::memcpy(&flat[9 * i], row, sizeof row);
     }
     return to_array(flat, {py::ssize_t(n), 9});
 }
 
-double lookup_one(const LookupFile& f, const double* r) { return f.lookup(r[0], r[1], r[2], r[3], r[4]); }
-double lookup_one(const Lut& f, const double* r) { return f.lookup(r[0], r[1], r[2], r[3]); }
+double lookup_one(const LookupFile& f, const double* r) { return f.lookup(r[0], r[1], r[2], Roughness(r[3]), r[4]); }
+double lookup_one(const Lut& f, const double* r) { return f.lookup(r[0], r[1], r[2], Roughness(r[3])); }
 
 // (N, 5) rows of visibility, n_dot_l, n_dot_v, roughness, relative azimuth (degrees) -> (N,) lookups
 // (a LUT ignores the azimuth).
@@ -344,7 +343,7 @@ PYBIND11_MODULE(_microshadow, m) {
         },
         "rows"_a, "method"_a, "tolerance"_a, "samples"_a, "replicates"_a, "seed"_a, "sequence"_a, "form"_a, "ao_weighting"_a,
         "backend"_a, "device"_a, "fast_math"_a, "exact_float"_a, "progress"_a);
-    m.def("isotropic_rows", &isotropic_rows, "params"_a, "azimuth"_a);
+    m.def("isotropic_rows", &isotropic_rows, "params"_a);
     m.def("lookup_input_rows", &lookup_input_rows, "rows"_a);
 
     py::class_<LookupFile>(m, "LookupFile")

@@ -73,7 +73,7 @@ def test_evaluate_iso_is_evaluate_on_the_sweeps_directions():
     v = np.array([0.4, 0.7, 0.9])
     r = np.array([0.3, 0.6, 1.0])
     nv, nl, phi = 0.7, np.array([0.2, 0.5, 0.9]), np.array([0.0, 90.0, 180.0])
-    term, err = ms.evaluate_iso(v, r, nv, nl, phi, backend="oracle", tolerance=1e-8)
+    term, err = ms.evaluate_iso(v, nl, nv, roughness=r, relative_azimuth=phi, backend="oracle", tolerance=1e-8)
     s_v, s_l = np.sqrt(1 - nv * nv), np.sqrt(1 - nl * nl)
     rad = np.radians(phi)
     wi = np.tile([s_v, 0.0, nv], (3, 1))
@@ -81,7 +81,20 @@ def test_evaluate_iso_is_evaluate_on_the_sweeps_directions():
     want, _ = ms.evaluate(v, r * r, r * r, wi, wo, backend="oracle", tolerance=1e-8)
     np.testing.assert_allclose(term, want, rtol=0, atol=1e-12)
     with pytest.raises(TypeError, match="samplez"):
-        ms.evaluate_iso(0.5, 0.5, 0.5, 0.5, samplez=3)
+        ms.evaluate_iso(0.5, 0.5, 0.5, roughness=0.5, samplez=3)
+
+
+def test_evaluate_iso_takes_the_lookups_order_and_broadcasts_like_it():
+    # visibility, n_dot_l, n_dot_v, then roughness by name only: a number in its place by position
+    # (an alpha, say) is refused, not read as a roughness.
+    with pytest.raises(TypeError):
+        ms.evaluate_iso(0.5, 0.5, 0.5, 0.3)
+    v, nl = np.linspace(0.2, 0.9, 4)[:, None], np.linspace(0.1, 1.0, 3)[None, :]
+    grid, err = ms.evaluate_iso(v, nl, 0.7, roughness=0.5, backend="oracle", tolerance=1e-8)
+    assert grid.shape == err.shape == (4, 3)
+    flat, _ = ms.evaluate_iso(np.repeat(v[:, 0], 3), np.tile(nl[0], 4), 0.7, roughness=0.5, backend="oracle",
+                              tolerance=1e-8)
+    np.testing.assert_array_equal(grid.reshape(-1), flat)
 
 
 @pytest.mark.parametrize(
@@ -103,10 +116,10 @@ def test_evaluate_iso_is_evaluate_on_the_sweeps_directions():
         (lambda: ms.evaluate(0.5, 0.3, 0.3, [0, 0, 1], [0, 0, 1], replicates=1), r"replicates = 1"),
         (lambda: ms.evaluate(0.5, 0.3, 0.3, [0, 0, 1], [0, 0, 1], tolerance=1e-20), r"tolerance = 1e-20"),
         (lambda: ms.evaluate(0.5, 0.3, 0.3, [0, 0, 1], [0, 0, 1], device=3), r"device = 3"),
-        (lambda: ms.evaluate_iso(0.5, [0.5, 0.0], 0.5, 0.5), r"roughness\[1\] = 0.0: outside \(0, 1\]"),
-        (lambda: ms.evaluate_iso(0.5, 0.5, [1.0, 0.0], 0.5), r"n_dot_v\[1\] = 0.0: outside \(0, 1\]"),
-        (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, [0.2, 1.2]), r"n_dot_l\[1\] = 1.2: outside \[-1, 1\]"),
-        (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, 0.5, [0.0, np.nan]), r"relative_azimuth\[1\] = nan"),
+        (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, roughness=[0.5, 0.0]), r"roughness\[1\] = 0.0: outside \(0, 1\]"),
+        (lambda: ms.evaluate_iso(0.5, 0.5, [1.0, 0.0], roughness=0.5), r"n_dot_v\[1\] = 0.0: outside \(0, 1\]"),
+        (lambda: ms.evaluate_iso(0.5, [0.2, 1.2], 0.5, roughness=0.5), r"n_dot_l\[1\] = 1.2: outside \[-1, 1\]"),
+        (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, roughness=0.5, relative_azimuth=[0.0, np.nan]), r"relative_azimuth\[1\] = nan"),
     ],
 )
 def test_bad_input_is_a_value_error_naming_the_argument_and_index(call, message):
@@ -160,14 +173,14 @@ def test_ctrl_c_stops_a_long_call_with_keyboard_interrupt():
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            ms.evaluate_iso(0.6, 0.5, 0.7, nl, 60.0, backend="oracle")
+            ms.evaluate_iso(0.6, nl, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle")
     finally:
         timer.cancel()
         signal.signal(signal.SIGINT, previous)
     elapsed = time.monotonic() - start
     assert elapsed < 3.0, f"stopped only after {elapsed:.1f} s"
-    term, _ = ms.evaluate_iso(0.6, 0.5, 0.7, 0.5, 60.0, backend="oracle")
-    assert term[0] > 0
+    term, _ = ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle")
+    assert term > 0  # scalars broadcast to a 0-d array, as a lookup gives
 
 
 def test_a_long_call_releases_the_gil():
@@ -183,7 +196,8 @@ def test_a_long_call_releases_the_gil():
         reports.append(done)
 
     def work():
-        ms.evaluate_iso(0.6, 0.5, 0.7, nl, 60.0, backend="oracle", tolerance=1e-8, progress=progress)
+        ms.evaluate_iso(0.6, nl, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle", tolerance=1e-8,
+                        progress=progress)
         state["done"] = True
 
     worker = threading.Thread(target=work)

@@ -6,7 +6,7 @@ import pytest
 import microshadow as ms
 from conftest import random_queries, read_csv_columns, write_queries
 
-BAKE = dict(layout="custom", size=4, size_n_dot_v=3, roughness=[0.3, 0.8], backend="oracle", samples=256, seed=5)
+BAKE = dict(layout="custom", size=4, n_dot_v_count=3, roughness=[0.3, 0.8], backend="oracle", samples=256, seed=5)
 BAKE_CLI = ["--layout", "custom", "--size", "4", "--size-n-dot-v", "3", "--roughness", "0.3,0.8", "--backend", "oracle",
             "--samples", "256", "--seed", "5", "-q"]
 
@@ -50,14 +50,16 @@ def test_lookup_is_the_clis_compare_column(cli, lut, tmp_path):
 
 
 def test_lookup_broadcasts_and_refuses_nan(lut):
-    grid = lut.lookup(np.linspace(0, 1, 5)[:, None], np.linspace(0, 1, 3)[None, :], 0.8, 0.5)
+    grid = lut.lookup(np.linspace(0, 1, 5)[:, None], np.linspace(0, 1, 3)[None, :], 0.8, roughness=0.5)
     assert grid.shape == (5, 3)
-    assert grid[0, 0] == lut.lookup(0.0, 0.0, 0.8, 0.5)
-    assert lut.lookup(0.5, 0.5, 0.5, 0.5, relative_azimuth=30.0) == lut.lookup(0.5, 0.5, 0.5, 0.5)
+    assert grid[0, 0] == lut.lookup(0.0, 0.0, 0.8, roughness=0.5)
+    assert lut.lookup(0.5, 0.5, 0.5, roughness=0.5, relative_azimuth=30.0) == lut.lookup(0.5, 0.5, 0.5, roughness=0.5)
     with pytest.raises(ValueError, match=r"n_dot_v\[2\] = nan"):
-        lut.lookup(0.5, 0.5, [0.5, 0.6, np.nan], 0.5)
+        lut.lookup(0.5, 0.5, [0.5, 0.6, np.nan], roughness=0.5)
     with pytest.raises(ValueError, match="do not broadcast"):
-        lut.lookup([0.5, 0.6], [0.5, 0.6, 0.7], 0.5, 0.5)
+        lut.lookup([0.5, 0.6], [0.5, 0.6, 0.7], 0.5, roughness=0.5)
+    with pytest.raises(TypeError):
+        lut.lookup(0.5, 0.5, 0.5, 0.5)  # roughness by name only
 
 
 def test_bake_refuses_bad_options():
@@ -78,7 +80,7 @@ def test_bake_refuses_bad_options():
 
 
 def test_a_fixed_azimuth_bake_gives_the_clis_texels(cli, tmp_path):
-    got = ms.bake(layout="custom", size=3, size_n_dot_v=2, roughness=[0.6], azimuth=45.0, method="exact",
+    got = ms.bake(layout="custom", size=3, n_dot_v_count=2, roughness=[0.6], azimuth=45.0, method="exact",
                   tolerance=1e-5, backend="oracle")
     cli("bake", "--out", tmp_path / "a.exr", "--layout", "custom", "--size", "3", "--size-n-dot-v", "2", "--roughness",
         "0.6", "--azimuth", "45", "--method", "exact", "--tolerance", "1e-5", "--backend", "oracle", "-q")

@@ -56,7 +56,7 @@ def test_representation_lookup_is_the_clis_compare_column(cli, representation, t
     # The CLI reads the azimuth in radians from atan2; here it goes through degrees and back.
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
     with pytest.raises(ValueError, match="relative_azimuth: required"):
-        representation.lookup(0.5, 0.5, 0.5, 0.5)
+        representation.lookup(0.5, 0.5, 0.5, roughness=0.5)
 
 
 def test_repr_formats_and_bad_options(representation, tmp_path):
@@ -94,7 +94,7 @@ def test_analytic_terms_are_the_clis_compare_columns(cli, tmp_path):
     v, nl, nv, r = inputs["visibility"], inputs["n_dot_l"], inputs["n_dot_v"], inputs["roughness"]
     for name in ms.ANALYTIC_TERMS:
         want = np.array([float(x) for x in cols[name]])
-        np.testing.assert_array_equal(ms.analytic(name, v, nl, nv, r), want, err_msg=name)
+        np.testing.assert_array_equal(ms.analytic(name, v, nl, nv, roughness=r), want, err_msg=name)
 
 
 def test_analytic_terms_broadcast_and_refuse_bad_input():

@@ -10,6 +10,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
+#include <limits>
+#include <type_traits>
 
 #include "analytic/part1_terms.hpp"
 #include "core/cancel.hpp"
@@ -22,6 +25,7 @@ namespace {
 
 TEST(LibraryApi, EvaluateGivesTheEvalJobsNumbersForTheSameOptions) {
     microshadow::SamplingOptions o;
+    o.method = microshadow::Method::sampled;
     o.backend = microshadow::Backend::oracle;
     o.samples = 2048;
     o.replicates = 4;
@@ -79,7 +83,7 @@ TEST(LibraryApi, BakeGivesTheBakeJobsTexelsAndSavedFilesOpenAgain) {
         lut.save(path);
         const microshadow::Lut back = microshadow::open_lut(path);
         for (std::uint32_t x = 0; x < 5; ++x) EXPECT_EQ(back.texel(1, x, 2, 1), lut.texel(1, x, 2, 1)) << name;
-        EXPECT_EQ(back.lookup(0.4, 0.7, 0.6, 0.5), lut.lookup(0.4, 0.7, 0.6, 0.5)) << name;
+        EXPECT_EQ(back.lookup(0.4, 0.7, 0.6, microshadow::Roughness(0.5)), lut.lookup(0.4, 0.7, 0.6, microshadow::Roughness(0.5))) << name;
     }
     lut.save((dir / "l8.png").string());  // unorm8 by default
     EXPECT_NEAR(microshadow::open_lut((dir / "l8.png").string()).texel(0, 2, 1, 0), lut.texel(0, 2, 1, 0), 0.5 / 255 + 1e-7);
@@ -107,6 +111,7 @@ TEST(LibraryApi, BadOptionsAreRefusedWithTheFieldNamed) {
     EXPECT_GT(values[0].value, 0.0);
     EXPECT_LE(values[0].std_error, 1e-9);
     microshadow::SamplingOptions one;
+    one.method = microshadow::Method::sampled;
     one.replicates = 1;
     one.backend = microshadow::Backend::oracle;
     EXPECT_THROW(microshadow::evaluate({microshadow::Query{}}, one), std::invalid_argument);
@@ -125,7 +130,7 @@ TEST(LibraryApi, AProgressThatReturnsFalseStopsTheCallWithCancelledAndTheNextCal
     o.method = microshadow::Method::exact;
     o.backend = microshadow::Backend::oracle;
     o.tolerance = 1e-6;
-    std::vector<microshadow::Query> queries(64, microshadow::isotropic_query(0.5, 0.6, 0.7, 0.4, 90));
+    std::vector<microshadow::Query> queries(64, microshadow::isotropic_query(0.5, 0.4, 0.7, microshadow::Roughness(0.6), 90));
     std::uint64_t reports = 0;
     EXPECT_THROW(microshadow::evaluate(queries, o,
                                        [&](std::uint64_t, std::uint64_t) {
@@ -147,7 +152,7 @@ TEST(LibraryApi, AProgressThatReturnsFalseStopsTheCallWithCancelledAndTheNextCal
 }
 
 TEST(LibraryApi, IsotropicQueryHasTheSweepsDirections) {
-    const microshadow::Query q = microshadow::isotropic_query(0.3, 0.5, 0.8, 0.6, 90);
+    const microshadow::Query q = microshadow::isotropic_query(0.3, 0.6, 0.8, microshadow::Roughness(0.5), 90);
     EXPECT_EQ(q.visibility, 0.3);
     EXPECT_EQ(q.alpha_x, 0.25);
     EXPECT_EQ(q.alpha_y, 0.25);
@@ -173,14 +178,19 @@ TEST(LibraryApi, AnalyticTermsByNameAreThePart1Terms) {
     EXPECT_THROW(microshadow::analytic_term("naughty-cat", in), std::invalid_argument);
 }
 
-TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
+// A 4 x 3 x 2 LUT of one roughness channel (0.5), sampled on the oracle in well under a second.
+microshadow::Lut small_oracle_lut() {
     microshadow::BakeOptions b;
     b.layout = "custom";
     b.visibility_count = 4, b.n_dot_l_count = 3, b.n_dot_v_count = 2;
     b.roughness = {0.5};
     b.sampling.backend = microshadow::Backend::oracle;
     b.sampling.samples = 512;
-    const microshadow::Lut lut = microshadow::bake(b);
+    return microshadow::bake(b);
+}
+
+TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
+    const microshadow::Lut lut = small_oracle_lut();
     EXPECT_EQ(lut.axis_values("n_dot_l"), (std::vector<double>{1.0 / 6, 0.5, 5.0 / 6}));
     const std::vector<float> texels = lut.texels();
     ASSERT_EQ(texels.size(), 4u * 3 * 2);
@@ -190,7 +200,7 @@ TEST(LibraryApi, OpenFileOpensALutAndRefusesOtherFiles) {
     const microshadow::LookupFile file = microshadow::open_file(path.string());
     EXPECT_EQ(file.kind(), "lut");
     EXPECT_FALSE(file.keeps_azimuth());
-    EXPECT_EQ(file.lookup(0.4, 0.5, 0.6, 0.5, 120), lut.lookup(0.4, 0.5, 0.6, 0.5));
+    EXPECT_EQ(file.lookup(0.4, 0.5, 0.6, microshadow::Roughness(0.5), 120), lut.lookup(0.4, 0.5, 0.6, microshadow::Roughness(0.5)));
     EXPECT_NE(file.metadata_json().find("\"layout\""), std::string::npos);
     std::filesystem::remove(path);
     EXPECT_THROW(microshadow::open_file(path.string()), std::runtime_error);
@@ -219,3 +229,44 @@ TEST(LibraryApi, ARepresentationPresetRefusesALayoutBesideItAndUnknownNames) {
 }
 
 }  // namespace
+
+// One order and one type for isotropic parameters: a double never converts to a Roughness (so an
+// alpha is never taken for a roughness by position), and from_alpha is the roughness of an alpha.
+static_assert(!std::is_convertible_v<double, microshadow::Roughness>, "roughness is never an implicit double");
+
+TEST(LibraryApi, RoughnessIsItsOwnTypeAndEvaluateDefaultsToTheExactMethodAsEval) {
+    const microshadow::Roughness r = microshadow::Roughness::from_alpha(0.3);
+    EXPECT_DOUBLE_EQ(r.alpha(), 0.3);
+    const microshadow::Query q = microshadow::isotropic_query(0.5, 0.4, 0.8, r, 180);
+    EXPECT_DOUBLE_EQ(q.alpha_x, 0.3);
+    EXPECT_EQ(q.wo.z, 0.4);
+    EXPECT_EQ(q.wi.z, 0.8);
+    // `microshadow eval` defaults to the exact method; so does evaluate() with default options.
+    microshadow::SamplingOptions defaults;
+    defaults.backend = microshadow::Backend::oracle;
+    microshadow::SamplingOptions exact = defaults;
+    exact.method = microshadow::Method::exact;
+    const auto got = microshadow::evaluate({q}, defaults);
+    const auto want = microshadow::evaluate({q}, exact);
+    EXPECT_EQ(got[0].value, want[0].value);
+    EXPECT_EQ(got[0].std_error, want[0].std_error);
+    EXPECT_LE(got[0].std_error, 1e-9);
+}
+
+TEST(LibraryApi, ALookupOfNotANumberIsAnInputErrorNamingIt) {
+    const microshadow::Lut lut = small_oracle_lut();
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const microshadow::Roughness half(0.5);
+    auto message = [](const std::function<void()>& call) {
+        try {
+            call();
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("no std::invalid_argument");
+    };
+    EXPECT_EQ(message([&] { lut.lookup(nan, 0.5, 0.5, half); }), "lookup: visibility = nan: not a number");
+    EXPECT_EQ(message([&] { lut.lookup(0.5, 0.5, nan, half); }), "lookup: n_dot_v = nan: not a number");
+    EXPECT_EQ(message([&] { lut.lookup(0.5, 0.5, 0.5, microshadow::Roughness(nan)); }), "lookup: roughness = nan: not a number");
+    EXPECT_TRUE(std::isfinite(lut.lookup(0.5, 0.5, 0.5, half)));
+}

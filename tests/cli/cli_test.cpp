@@ -51,7 +51,7 @@ TEST_F(CliTest, EvalWritesInputColumnsPlusTermAndError) {
             return c;
         }());
         ASSERT_EQ(table.rows.size(), 3u);
-        // DESIGN.md quotes about 0.90 for this query; 2 digits => within 0.005 plus 5 standard errors.
+        // docs/method.md quotes about 0.90 for this query (its known answer); 2 digits => within 0.005 plus 5 standard errors.
         EXPECT_NEAR(table.rows[0][9], 0.90, 0.005 + 5 * table.rows[0][10]);
         EXPECT_EQ(table.rows[1][9], 0.0);
         EXPECT_EQ(table.rows[2][9], 1.0);

@@ -132,7 +132,6 @@ TEST_F(DomainTest, SweepsReportPointsOutsideAComparatorFilesDomainAndStrictRefus
     ms::sweep::RunConfig config;
     config.plan.method = ms::Method::exact;
     config.backend = backend.get();
-    config.backend_label = backend->name();
     config.out_dir = path("strict");
     config.strict_domain = true;
     try {

@@ -117,7 +117,6 @@ sweep::RunConfig sweep_config(const std::string& dir, const SamplingPlan& plan, 
     c.out_dir = dir;
     c.plan = plan;
     c.backend = &backend;
-    c.backend_label = "oracle";
     return c;
 }
 
@@ -247,7 +246,7 @@ TEST_F(ExactJobsTest, ReferenceSetExactAgreesWithSampledAndIsAnotherCache) {
     const auto meta = nlohmann::json::parse(slurp_file(fs::path(exact.file).replace_extension(".json")));
     EXPECT_EQ(meta.at("method"), "exact");
     EXPECT_EQ(meta.at("exact").at("tolerance"), 1e-10);
-    EXPECT_NE(meta.at("definition").get<std::string>().find("method=exact"), std::string::npos);
+    EXPECT_NE(meta.at("definition").get<std::string>().find("\"plan.method\":\"exact\""), std::string::npos);
     EXPECT_EQ(nlohmann::json::parse(slurp_file(fs::path(sampled.file).replace_extension(".json"))).at("method"), "sampled");
     // Loaded again, each from its own file, bit for bit.
     design::CacheReport third;

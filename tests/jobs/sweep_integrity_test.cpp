@@ -52,7 +52,6 @@ RunConfig config(const fs::path& out, TermBackend& backend) {
     c.plan.replicates = 4;
     c.plan.seed = 3;
     c.backend = &backend;
-    c.backend_label = backend.scheduler().results_label();
     return c;
 }
 

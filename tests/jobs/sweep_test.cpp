@@ -189,7 +189,6 @@ RunConfig oracle_config(const fs::path& out, TermBackend& backend) {
     c.plan.replicates = 4;
     c.plan.seed = 11;
     c.backend = &backend;
-    c.backend_label = backend.name();
     return c;
 }
 

@@ -1,4 +1,4 @@
-// Tests of the scalar double-precision oracle (host/oracle/): every fact DESIGN.md states about the
+// Tests of the scalar double-precision oracle (host/oracle/): every fact docs/method.md states about the
 // generic VNDF-based micro-shadowing term, checked on the oracle alone.
 //
 // Tolerances: Monte Carlo estimates are compared with t * std_error, t the two-sided 99.9% Student-t
@@ -534,7 +534,7 @@ Estimate azimuth_estimate(double n_dot_v, double azimuth_deg, const PointSet& ps
 }
 
 TEST(OracleTerm, IsotropicTermDependsOnAzimuthBetweenViewAndLight) {
-    // DESIGN.md: NdotV 0.2, v 0.5, NdotL 0.8, alpha 0.16 gives about 0.90 / 0.74 / 0.59 at 0 / 90 /
+    // docs/method.md (a known answer): NdotV 0.2, v 0.5, NdotL 0.8, alpha 0.16 gives about 0.90 / 0.74 / 0.59 at 0 / 90 /
     // 180 degrees. The quoted values are rounded to 2 digits (+-0.005); add the estimate's error bar.
     const std::uint32_t replicates = 8;
     const PointSet ps = points(1 << 18, replicates, 12);

@@ -93,7 +93,6 @@ TEST_F(ReprSweepTest, RepresentationColumnsEqualEvalCompareAndResumeRefusesAChan
     config.plan.samples = 64;
     config.plan.replicates = 2;
     config.backend = backend.get();
-    config.backend_label = backend->name();
     const auto result = ms::sweep::run_sweep(spec, config);
     ASSERT_TRUE(result.assembled);
 

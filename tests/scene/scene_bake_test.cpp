@@ -173,10 +173,10 @@ TEST_F(SceneBakeTest, AzimuthMeanFloorVanishesWhenTheViewIsAlongTheNormal) {
     const auto r = scene::run_scene_bake(inputs, domain, base, *backend, options);
     ASSERT_EQ(r.errors.size(), 1u);
     const auto& e = r.errors[0];
-    ASSERT_EQ(e.azimuth_floor.lookups, 1u);
+    ASSERT_EQ(e.azimuth_floor.count, 1u);
     EXPECT_GT(e.azimuth_floor_bound, 0.0);
-    EXPECT_LE(e.azimuth_floor.max_term, e.azimuth_floor_bound + e.reference_bound)
-        << "floor " << e.azimuth_floor.max_term << ", bounds " << e.azimuth_floor_bound << " + " << e.reference_bound;
+    EXPECT_LE(e.azimuth_floor.term_max_abs, e.azimuth_floor_bound + e.reference_bound)
+        << "floor " << e.azimuth_floor.term_max_abs << ", bounds " << e.azimuth_floor_bound << " + " << e.reference_bound;
 }
 
 TEST_F(SceneBakeTest, CommandLineBakesTheExampleSceneWithItsReport) {
@@ -199,7 +199,7 @@ TEST_F(SceneBakeTest, CommandLineBakesTheExampleSceneWithItsReport) {
     // On the example the azimuth matters (V is 50 degrees off the plane's normal): the floor is far above
     // its error bounds (measured 0.080 against 0.006 + 0.003).
     const auto& errors = j["lights"][0]["errors"];
-    EXPECT_GT(errors["azimuth_mean_floor"]["max"].get<double>(),
+    EXPECT_GT(errors["azimuth_mean_floor"]["term_max_abs"].get<double>(),
               errors["azimuth_mean_floor_bound"].get<double>() + errors["reference_bound"].get<double>());
     // The LUT reads back (with or without a coverage record) and serves every lookup of the scene.
     EXPECT_NO_THROW(read_lut(path("lut.exr")));

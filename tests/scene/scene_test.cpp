@@ -545,9 +545,9 @@ tolerance = 0.005
     ASSERT_EQ(a.groups.size(), 7u);  // all, 4 roughness bands, 2 materials
     EXPECT_EQ(a.groups[5], "material plaster");
     EXPECT_EQ(a.groups[6], "material metal");
-    EXPECT_EQ(a.lights[0].stats[0][5].pixels, std::uint64_t(2 * h));
-    EXPECT_EQ(a.lights[0].stats[0][6].pixels, std::uint64_t(4 * h));
-    EXPECT_EQ(a.lights[0].stats[0][0].pixels, std::uint64_t(w * h));
+    EXPECT_EQ(a.lights[0].stats[0][5].count, std::uint64_t(2 * h));
+    EXPECT_EQ(a.lights[0].stats[0][6].count, std::uint64_t(4 * h));
+    EXPECT_EQ(a.lights[0].stats[0][0].count, std::uint64_t(w * h));
 }
 
 TEST_F(SceneTest, ViewVectorsAndMaskKinds) {
@@ -882,7 +882,7 @@ radius = 0.5
     // The centre comparators: a point lookup where the light is (its centre), which the taps beat on the
     // 0.4-radius bulb (half-angles 14 - 16 degrees) in RMS.
     const auto& bulb = r.lights[0].stats;
-    EXPECT_LT(bulb[2][0].rms_term, bulb[1][0].rms_term);
+    EXPECT_LT(bulb[2][0].term_rms, bulb[1][0].term_rms);
 }
 
 TEST_F(SceneTest, ATinySphereLightIsItsCentresPointTerm) {

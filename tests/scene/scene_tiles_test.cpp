@@ -52,8 +52,8 @@ TEST_F(SceneTilesTest, TilesChangeNoPixelAndPredictedCountsKeepTheBound) {
     EXPECT_EQ(whole.counts.pixel_lights, tiled.counts.pixel_lights);
     EXPECT_EQ(whole.counts.sampled + whole.counts.duplicates, tiled.counts.sampled + tiled.counts.duplicates);
     for (std::size_t k = 0; k < whole.comparators.size(); ++k) {
-        EXPECT_EQ(a.stats[k][0].max, b.stats[k][0].max) << whole.comparators[k];
-        EXPECT_EQ(a.stats[k][0].p99, b.stats[k][0].p99) << whole.comparators[k];
+        EXPECT_EQ(a.stats[k][0].lit_max_abs, b.stats[k][0].lit_max_abs) << whole.comparators[k];
+        EXPECT_EQ(a.stats[k][0].lit_p99, b.stats[k][0].lit_p99) << whole.comparators[k];
     }
     // Predicted counts: the stopping rule is unchanged, so every pixel's bound stays within the tolerance.
     const auto predicted = run("predict_stride = 8");

@@ -29,6 +29,7 @@
 #include "io/csv.hpp"
 #include "io/input_file.hpp"
 #include "io/text.hpp"
+#include "jobs/cache_keys.hpp"
 #include "jobs/compare.hpp"
 #include "lut/lookup.hpp"
 #include "jobs/sweep/points.hpp"
@@ -156,25 +157,6 @@ void write_json(const std::string& path, const json& j) {
     AtomicFile f(path);
     f.stream() << dump_json(j, 1) << "\n";  // paths may hold bytes that are not UTF-8
     f.commit();
-}
-
-// Every input that decides the bits of the rows: the spec's values, the sampling plan, the
-// defaults, the backend and the comparator files' bytes (a re-baked LUT or representation must not
-// resume old chunks).
-std::string compute_spec_hash(const Spec& spec, const RunConfig& c) {
-    std::ostringstream s;
-    s << canonical_text(spec) << "samples=" << c.plan.samples << "\nreplicates=" << c.plan.replicates
-      << "\nseed=" << c.plan.seed << "\nsequence=" << to_string(c.plan.sequence)
-      << "\ndefault_form=" << to_string(c.defaults.form) << "\ndefault_ao=" << to_string(c.defaults.ao_weighting)
-      << "\nbackend=" << c.backend_label << "\nfast_math=" << c.fast_math << "\n";
-    // The exact method's tolerance and rule decide its bits; a sampled sweep's text is unchanged, so its
-    // earlier runs still resume, and an exact run never resumes sampled chunks (nor the reverse).
-    if (c.plan.method == Method::exact) s << exact_cache_key(c.plan) << "\n";
-    std::uint64_t h = fnv1a(s.str());
-    // A file by its bytes; a preset by its name and this program's version (its bake is deterministic:
-    // the exact method, fixed grid).
-    for (const auto& l : spec.luts) h = fnv1a(l.preset.empty() ? read_all(l.file) : "preset " + l.preset + " " MICROSHADOW_VERSION, h);
-    return hex16(h);
 }
 
 // The [[comparators.lut]] files opened: a part 2 LUT or a representation (host/repr/):
@@ -461,7 +443,7 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     result.shard_chunks = result.chunks > config.shard.index
                               ? (result.chunks - config.shard.index + config.shard.count - 1) / config.shard.count
                               : 0;
-    result.spec_hash = compute_spec_hash(spec, config);
+    result.spec_hash = sweep_cache_key(spec, config).hash();
 
     const fs::path dir(config.out_dir);
     fs::create_directories(dir / "chunks");
@@ -516,8 +498,9 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
                      {"chunks", result.chunks},
                      {"shard", {{"index", config.shard.index}, {"count", config.shard.count}}},
                      {"sampling", sampling_provenance(config.plan)},
-                     {"backend", config.backend_label},
-                     {"fast_math", config.fast_math},
+                     {"backend", config.backend->scheduler().results_label()},
+                     {"fast_math", config.backend->config().build.fast_math},
+                     {"double_kernels", config.backend->config().build.double_precision},
                      {"command_line", config.command_line},
                      {"comparator_files", computer.file_provenance()},
                      {"complete", false},
@@ -817,6 +800,55 @@ std::string summary_csv(const Summary& s) {
         for (const auto& [r, g] : s.roughness_groups) row(format_number(r), s.errors.at(k, g));
     }
     return o.str();
+}
+
+schedule::CacheKey sweep_cache_key(const Spec& spec, const RunConfig& config) {
+    schedule::CacheKey key("sweep");
+    key.add("visibility", spec.visibility)
+        .add("n_dot_l", spec.n_dot_l)
+        .add("n_dot_v", spec.n_dot_v)
+        .add("by_roughness", spec.by_roughness)
+        .add("roughness", spec.roughness)
+        .add("alpha_x", spec.alpha_x)
+        .add("alpha_y", spec.alpha_y)
+        .add("phi_i", spec.phi_i)
+        .add("relative_azimuth", spec.relative_azimuth)
+        .add("phi_o_or_delta", spec.phi_o_or_delta);
+    std::vector<std::string> forms, weightings, analytic;
+    for (Form f : spec.forms) forms.push_back(to_string(f));
+    for (AoWeighting w : spec.weightings) weightings.push_back(to_string(w));
+    for (const auto& a : spec.analytic) analytic.push_back(analytic::to_string(a));
+    key.add("forms", forms).add("weightings", weightings).add("analytic", analytic);
+    // A comparator file by its bytes (a re-baked LUT must not resume old chunks); a preset by its name
+    // (its bake is deterministic: the exact method, a fixed grid, and the key holds the version).
+    for (std::size_t i = 0; i < spec.luts.size(); ++i) {
+        const auto& l = spec.luts[i];
+        const std::string name = "luts." + std::to_string(i);
+        key.add(name + ".name", l.name);
+        if (l.preset.empty()) key.add_file(name + ".file", l.file);
+        else key.add(name + ".preset", l.preset);
+    }
+    // The chunk size decides which points a chunk file holds (the manifests name chunks by number).
+    key.add("chunk_size", spec.chunk_size);
+    add_sampling_plan(key, config.plan);
+    add_term_options(key, config.defaults);
+    add_build(key, config.backend->config().build);
+    add_results_place(key, config.backend->scheduler());
+    return key;
+}
+
+const std::vector<std::string>& sweep_cache_key_exclusions() {
+    static const std::vector<std::string> excluded = {
+        "Spec::name, Spec::source: recorded in the outputs; the file's values are keyed, not its name or path",
+        "Spec::max_points: a limit that refuses a sweep before it runs, never changes a point",
+        "Spec::samples, seed, replicates, sequence, method, tolerance: defaults the front end resolves into "
+        "RunConfig::plan, which is keyed",
+        "RunConfig::out_dir, command_line: where the outputs go and their provenance",
+        "RunConfig::shard, max_chunks, restart, transport: how the chunks are split and run, not what they hold",
+        "RunConfig::strict_domain: refuses a sweep before it writes a chunk, never changes a point",
+        "RunConfig::warn, progress: callbacks, told of the work, not part of it",
+    };
+    return excluded;
 }
 
 }  // namespace ms::sweep

@@ -28,6 +28,7 @@
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
 #include "jobs/sweep/spec.hpp"
+#include "schedule/cache_key.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::sweep {
@@ -41,9 +42,9 @@ struct RunConfig {
     std::string out_dir;
     SamplingPlan plan;
     TermOptions defaults;  // form and weighting for specs that do not sweep them
+    // Where the points are evaluated; its kind of place and its kernels' build are recorded and keyed
+    // (other backends, --fast-math, --double-kernels give other bits).
     TermBackend* backend = nullptr;
-    std::string backend_label;  // recorded and hashed: other backends give other bits
-    bool fast_math = false;
     Shard shard;
     std::uint64_t max_chunks = 0;  // > 0: compute at most this many chunks in this run, then stop (resumable)
     bool restart = false;          // discard a previous run's manifest and chunks of another spec
@@ -79,6 +80,14 @@ void check_comparator_files(const Spec& spec);
 // Runs (or resumes) the sweep. Throws ms::Cancelled when ms::cancel_requested() is set (finished
 // chunks stay on disk), std::invalid_argument for a spec/out-dir mismatch, std::runtime_error on I/O.
 RunResult run_sweep(const Spec& spec, const RunConfig& config);
+
+// The sweep's cache key (schedule/cache_key.hpp), recorded in its manifests as spec_hash: every value
+// of the spec and the run that decides a chunk's bits (the points, the comparators and their files'
+// bytes, the chunk size, the sampling plan, the default term options, the backend's kind of place and
+// kernel build, the version); the fields left out, each with the reason: sweep_cache_key_exclusions().
+// A run whose key differs from a manifest's in its folder is refused (or, with restart, starts over).
+schedule::CacheKey sweep_cache_key(const Spec& spec, const RunConfig& config);
+const std::vector<std::string>& sweep_cache_key_exclusions();
 
 // Merges the shard outputs (directories holding manifest.shard-I-of-N.json files and their chunks)
 // into out_dir/sweep.csv plus summary; byte-identical to an unsharded run. Throws std::invalid_argument

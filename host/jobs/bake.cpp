@@ -168,8 +168,8 @@ schedule::StoreKey bake_store_key(const BakeSpec& spec, const schedule::Schedule
     nlohmann::json axes = nlohmann::json::array();
     for (const Axis* a : {&spec.visibility, &spec.n_dot_l, &spec.n_dot_v})
         axes.push_back({a->name, a->min, a->max, a->count, int(a->texel), int(a->spacing)});
-    std::uint64_t rows = 1469598103934665603ULL;  // FNV-1a of a partial bake's row flags
-    for (std::uint8_t f : spec.baked_rows) rows = (rows ^ f) * 1099511628211ULL;
+    std::uint64_t rows = kFnv1aOffset;  // FNV-1a of a partial bake's row flags
+    for (std::uint8_t f : spec.baked_rows) rows = (rows ^ f) * kFnv1aPrime;
     const nlohmann::json decides = {
         {"layout", to_string(spec.layout)}, {"axes", axes}, {"roughness", spec.roughness},
         {"azimuth_mean", spec.azimuth_mean}, {"azimuth_degrees", spec.azimuth_degrees},

@@ -54,6 +54,7 @@ set(microshadow_cli_tests
   "^Reliability\\.FifosAreRefusedAtOnceByEveryReader$"
   "^Reliability\\.LutReadersRefuseClaimsTheBytesContradict$"
   "^Reliability\\.StoreItemsAreCheckedLikeInputsAndADamagedOneHeals$"
+  "^Reliability\\.TheExactMethodRefusesQueriesBeyondItsDomainInsteadOfAnsweringWrongly$"
   "^Reliability\\.ABadSidecarPathFailsBeforeComputingAndKeepsTheCsv$"
   "^Reliability\\.AnInterruptedSweepSaysWhatItKeptAndNothingElse$"
   "^Reliability\\.AnOutputNameTooLongForItsTemporariesFailsUpFront$"

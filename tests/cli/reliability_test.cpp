@@ -785,6 +785,38 @@ TEST_F(Reliability, StoreItemsAreCheckedLikeInputsAndADamagedOneHeals) {
     EXPECT_CONTAINS(r.output, "splits this job into 2 shards");
 }
 
+TEST_F(Reliability, TheExactMethodRefusesQueriesBeyondItsDomainInsteadOfAnsweringWrongly) {
+    // Measured: alpha_x 1e-9 / alpha_y 0.25 gave 0.37 (the term is ~0.74) and an isotropic 1e-160 gave
+    // NaN, both with exit 0. Each is refused, and the sampled method still answers them.
+    const std::string header = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n";
+    write("aniso.csv", header + "0.5,0.6,0.6,0.6,0,0.8,0,0.6,0.8\n0.5,1e-9,0.25,0.6,0,0.8,0,0.6,0.8\n");
+    write("tiny.csv", header + "0.5,1e-160,1e-160,0.6,0,0.8,0,0.6,0.8\n");
+    auto r = run("eval -q --in aniso.csv --out a.csv");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "query 2: alpha_x / alpha_y = 4e-09: the exact method holds up to an anisotropy of 1e+07");
+    EXPECT_CONTAINS(r.output, "use --method sampled");
+    r = run("eval -q --in tiny.csv --out t.csv");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "alpha 1e-160 is below the exact method's smallest alpha 1e-140");
+    EXPECT_FALSE(fs::exists(dir_ / "a.csv") || fs::exists(dir_ / "t.csv"));
+    ASSERT_EQ(run("eval -q --method sampled --backend oracle --samples 256 --in aniso.csv --out a.csv").exit_code, 0);
+    // Just inside the limits the exact method answers, and agrees with itself at the limit.
+    write("edge.csv", header + "0.5,1e-150,1e-150,0.6,0,0.8,0,0.6,0.8\n0.5,1e-7,1,0.6,0,0.8,0,0.6,0.8\n");
+    r = run("eval -q --in edge.csv --out e.csv");
+    ASSERT_EQ(r.exit_code, 2) << "1e-150 is below the margin: " << r.output;
+    write("edge.csv", header + "0.5,1e-140,1e-140,0.6,0,0.8,0,0.6,0.8\n0.5,1e-7,1,0.6,0,0.8,0,0.6,0.8\n");
+    r = run("eval -q --in edge.csv --out e.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    // Isotropic 1e-140: a mirror, nothing shadowed, the term 1 (to the method's 1e-12).
+    const std::string rows = slurp_file(dir_ / "e.csv");
+    const std::size_t first = rows.find("\n0.5,1e-140,");
+    ASSERT_NE(first, std::string::npos) << rows;
+    std::istringstream line(rows.substr(first + 1, rows.find('\n', first + 1) - first - 1));
+    std::string field;
+    for (int k = 0; k < 10; ++k) std::getline(line, field, ',');  // the 10th field: term
+    EXPECT_NEAR(std::stod(field), 1.0, 1e-12) << rows;
+}
+
 TEST(ReliabilityDigest, Fnv1aIsTheStandardOne) {
     // FNV-1a 64's published test vectors: "" gives the offset basis, "a" and "foobar" their digests.
     EXPECT_EQ(ms::fnv1a(""), 0xcbf29ce484222325ULL);

@@ -203,8 +203,8 @@ LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::strin
         a.texel = parse_texel_convention(axes[i].at("texel").get<std::string>());
         // Every axis is a cosine or a visibility: a range outside [0, 1], or reversed, is a corrupt file.
         if (a.min < 0 || a.max > 1 || a.min > a.max || (a.min == a.max && a.count > 1))
-            throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + std::to_string(a.min) + ", " +
-                                     std::to_string(a.max) + "] must satisfy 0 <= min < max <= 1");
+            throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + format_g(a.min, 9) + ", " +
+                                     format_g(a.max, 9) + "] must satisfy 0 <= min < max <= 1");
         lut.axes.push_back(a);
     }
     const auto& channels = lut.metadata.at("channels");
@@ -219,7 +219,7 @@ LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::strin
         ch.alpha_x = finite_number(c.at("alpha_x"), f + ".alpha_x");
         ch.alpha_y = finite_number(c.at("alpha_y"), f + ".alpha_y");
         if (!(ch.roughness > 0 && ch.roughness <= 1))
-            throw std::runtime_error("metadata " + f + ".roughness = " + std::to_string(ch.roughness) + " is outside (0, 1]");
+            throw std::runtime_error("metadata " + f + ".roughness = " + format_g(ch.roughness, 9) + " is outside (0, 1]");
         if (!(ch.alpha_x > 0) || !(ch.alpha_y > 0))
             throw std::runtime_error("metadata " + f + ".alpha_x/alpha_y must be > 0");
         if (ch.name != kChannelNames[i]) throw std::runtime_error("metadata " + f + ".name must be " + kChannelNames[i]);
@@ -269,13 +269,13 @@ void check_lut_texels(const LutFile& lut) {
         if (!baked.empty() && !baked[(y / rows * nc + c) * rows + y % rows]) {
             if (!std::isnan(v))
                 throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) +
-                                         ") of channel " + lut_channel_label(lut, c) + " is " + std::to_string(v) +
+                                         ") of channel " + lut_channel_label(lut, c) + " is " + format_g(v, 9) +
                                          " where the coverage record says unbaked (must be NaN)");
             continue;
         }
         if (!(v >= 0.0f && v <= 1.0f))
             throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) + ") of channel " +
-                                     lut_channel_label(lut, c) + " is " + std::to_string(v) + ", not in [0, 1]");
+                                     lut_channel_label(lut, c) + " is " + format_g(v, 9) + ", not in [0, 1]");
     }
 }
 

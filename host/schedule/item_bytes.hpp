@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -89,6 +90,12 @@ private:
 // store's payload is an input like any other, and anyone can recompute its digest. Texels of a row
 // that was computed must be finite fractions in [0, 1] with a finite, non-negative standard error; rows
 // left out (a partial bake) hold NaN in both. Returns "" or "values: ..." (ItemCheck's "tag: reason").
+inline std::string short_number(double v) {  // %.9g: never DBL_MAX's 309 digits in a message
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    return buf;
+}
+
 template <class RowComputed>
 std::string check_fraction_texels(const std::vector<float>& value, const std::vector<float>& error, std::uint32_t rows,
                                   std::uint32_t columns, const RowComputed& row_computed) {
@@ -102,8 +109,8 @@ std::string check_fraction_texels(const std::vector<float>& value, const std::ve
                 if (v == v || e == e) return "values: " + at + " of a row this job leaves out holds a number, not NaN";
                 continue;
             }
-            if (!(v >= 0.0f && v <= 1.0f)) return "values: " + at + " holds " + std::to_string(v) + ", not a fraction in [0, 1]";
-            if (!(e >= 0.0f && e <= 1.0f)) return "values: " + at + " has standard error " + std::to_string(e) + ", not in [0, 1]";
+            if (!(v >= 0.0f && v <= 1.0f)) return "values: " + at + " holds " + short_number(v) + ", not a fraction in [0, 1]";
+            if (!(e >= 0.0f && e <= 1.0f)) return "values: " + at + " has standard error " + short_number(e) + ", not in [0, 1]";
         }
     }
     return "";

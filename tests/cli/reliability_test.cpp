@@ -720,6 +720,16 @@ TEST_F(Reliability, LutReadersRefuseClaimsTheBytesContradict) {
     EXPECT_NE(r.exit_code, 0) << r.output;
     EXPECT_CONTAINS(r.output, "the metadata names 3 channel(s) but the file holds more data");
 
+    // A range error names the number briefly (DBL_MAX was printed with its 309 digits).
+    ASSERT_EQ(run(kTinyBake + " --layout seed-3d --out u.dds").exit_code, 0);
+    meta = nlohmann::json::parse(bytes_of(dir_ / "u.dds.json"));
+    meta["axes"][0]["max"] = 1.7976931348623157e308;
+    put_bytes(dir_ / "u.dds.json", meta.dump());
+    r = run("lut info u.dds");
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "range [0, 1.79769313e+308] must satisfy");
+    EXPECT_LT(r.output.size(), 300u) << r.output;
+
     // Metadata a lookup or a shader refuses is refused by every reader, so `lut export` cannot pass it on.
     ASSERT_EQ(run(kTinyBake + " --layout seed-3d --out t.dds").exit_code, 0);
     meta = nlohmann::json::parse(bytes_of(dir_ / "t.dds.json"));

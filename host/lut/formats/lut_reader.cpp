@@ -59,8 +59,8 @@ void check_padding(std::size_t texels, std::size_t data_channels, const Componen
             const auto last = component(i, data_channels - 1), pad = component(i, c);
             if (!(pad == last) && !(pad != pad && last != last))  // equal, or both NaN (unbaked texels)
                 throw std::runtime_error("component " + std::to_string(c) + " of texel " + std::to_string(i) + " holds " +
-                                         std::to_string(double(pad)) + ", not the padding (a copy of component " +
-                                         std::to_string(data_channels - 1) + ", " + std::to_string(double(last)) +
+                                         format_g(double(pad), 9) + ", not the padding (a copy of component " +
+                                         std::to_string(data_channels - 1) + ", " + format_g(double(last), 9) +
                                          "): the metadata names " + std::to_string(data_channels) +
                                          " channel(s) but the file holds more data (metadata of another file?)");
         }

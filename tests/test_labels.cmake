@@ -48,6 +48,7 @@ set(microshadow_cli_tests
   "^LutReaderTest\\.RepresentationDdsOpensLikeItsExr$"
   "^PreviewTest\\."
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
+  "^Reliability\\.AnXyzEnvironmentIsRefusedNotReadAsGrey$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"

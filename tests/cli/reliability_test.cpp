@@ -35,6 +35,7 @@
 #include "io/atomic_file.hpp"
 #include "io/bounded_json.hpp"
 #include "io/csv.hpp"
+#include "io/exr_file.hpp"
 #include "io/input_file.hpp"
 #include "io/input_guard.hpp"
 #include "io/text.hpp"
@@ -825,6 +826,20 @@ TEST_F(Reliability, TheExactMethodRefusesQueriesBeyondItsDomainInsteadOfAnswerin
     std::string field;
     for (int k = 0; k < 10; ++k) std::getline(line, field, ',');  // the 10th field: term
     EXPECT_NEAR(std::stod(field), 1.0, 1e-12) << rows;
+}
+
+TEST_F(Reliability, AnXyzEnvironmentIsRefusedNotReadAsGrey) {
+    // "R, G and B, or Y alone": Y beside X and Z is CIE XYZ; its Y as a grey image was a wrong answer.
+    const std::vector<float> pixels(8 * 4 * 3, 0.5f);
+    ms::exr::write_interleaved(path("xyz.exr"), ms::exr::image_header(8, 4, {"X", "Y", "Z"}, false), {"X", "Y", "Z"}, pixels, 3, false);
+    auto r = run("ibl sh xyz.exr --out sh.json -q");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "are not RGB (CIE XYZ or luminance/chroma)");
+    EXPECT_FALSE(fs::exists(dir_ / "sh.json"));
+    const std::vector<float> grey(8 * 4, 0.5f);
+    ms::exr::write_interleaved(path("y.exr"), ms::exr::image_header(8, 4, {"Y"}, false), {"Y"}, grey, 1, false);
+    r = run("ibl sh y.exr --out sh.json -q");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
 TEST(ReliabilityDigest, Fnv1aIsTheStandardOne) {

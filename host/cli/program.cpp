@@ -4,6 +4,7 @@
 
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
+#include "io/input_guard.hpp"
 
 namespace ms::cli {
 
@@ -32,6 +33,8 @@ int run_program(int argc, char** argv) {
     CLI::App app;
     build_app(app);
     install_interrupt_handlers();
+    // No output of the command may replace one of its inputs (io/input_guard.hpp).
+    const InputGuard inputs;
     try {
         app.parse(argc, argv);
     } catch (const CLI::CallForHelp& e) {

@@ -9,11 +9,13 @@
 
 namespace ms {
 
-inline constexpr std::uint64_t kFnv1aOffset = 1469598103934665603ULL;
+// FNV-1a 64's offset basis and prime (Fowler, Noll, Vo: 14695981039346656037 = 0xcbf29ce484222325).
+inline constexpr std::uint64_t kFnv1aOffset = 14695981039346656037ULL;
+inline constexpr std::uint64_t kFnv1aPrime = 1099511628211ULL;
 
 // The digest of `bytes`, continued from `h` (so several strings digest as their concatenation).
 inline std::uint64_t fnv1a(const std::string& bytes, std::uint64_t h = kFnv1aOffset) {
-    for (unsigned char c : bytes) h = (h ^ c) * 1099511628211ULL;
+    for (unsigned char c : bytes) h = (h ^ c) * kFnv1aPrime;
     return h;
 }
 

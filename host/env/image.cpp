@@ -28,8 +28,10 @@
 #include <cerrno>
 
 #include "io/atomic_file.hpp"
+#include "io/bounded_json.hpp"
 #include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
+#include "io/input_guard.hpp"
 
 namespace ms::env {
 
@@ -76,6 +78,7 @@ int open_regular_file(const std::string& path, std::uint64_t& size) {
         throw EnvironmentError("environment " + path + ": is " + kind + ", not a regular file");
     }
     size = std::uint64_t(st.st_size);
+    note_input(path);
     return fd;
 }
 
@@ -166,7 +169,7 @@ Image read_exr_rgb(const std::string& path, nlohmann::json* metadata) {
         const Imf::Header& header = file.header();
         if (metadata) {
             const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
-            *metadata = attr ? nlohmann::json::parse(attr->value()) : nlohmann::json::object();
+            *metadata = attr ? parse_bounded_json(attr->value(), "the \"microshadow\" attribute") : nlohmann::json::object();
         }
         const Imath::Box2i dw = header.dataWindow();
         const std::size_t w = std::size_t(dw.max.x - dw.min.x + 1), h = std::size_t(dw.max.y - dw.min.y + 1);
@@ -176,7 +179,13 @@ Image read_exr_rgb(const std::string& path, nlohmann::json* metadata) {
         for (auto it = header.channels().begin(); it != header.channels().end(); ++it) present.push_back(it.name());
         const auto has = [&](const char* n) { return header.channels().findChannel(n) != nullptr; };
         const bool rgb = has("R") && has("G") && has("B");
-        const bool grey = !has("R") && !has("G") && !has("B") && has("Y");
+        // "Y alone": Y beside X and Z is CIE XYZ, beside RY and BY luminance/chroma; its grey would be wrong.
+        const bool other_colour = has("X") || has("Z") || has("RY") || has("BY");
+        if (!rgb && has("Y") && other_colour)
+            throw EnvironmentError("environment " + path + ": channels " + join_names(present) +
+                                   " are not RGB (CIE XYZ or luminance/chroma); an environment is read from channels named "
+                                   "exactly R, G and B, or Y alone: convert the image to RGB");
+        const bool grey = !has("R") && !has("G") && !has("B") && has("Y") && !other_colour;
         if (!rgb && !grey) {
             std::string missing;
             for (const char* n : {"R", "G", "B"})

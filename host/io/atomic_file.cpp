@@ -15,6 +15,8 @@
 #include <mutex>
 #include <set>
 
+#include "io/input_guard.hpp"
+
 namespace ms {
 
 namespace fs = std::filesystem;
@@ -253,6 +255,7 @@ OutputTarget prepare_output(const std::string& named, bool allow_stdout) {
                           " bytes; at most " + std::to_string(name_max - long(kTempNameOverhead)) +
                           " fit (NAME_MAX " + std::to_string(name_max) + " less " + std::to_string(kTempNameOverhead) +
                           " for the temporary name ." + "NAME.tmp.PID)");
+    refuse_if_input(t.path, named);
     remove_stale_temporaries(t.path);
     return t;
 }
@@ -260,6 +263,11 @@ OutputTarget prepare_output(const std::string& named, bool allow_stdout) {
 void check_writable_destination(const std::string& path) { prepare_output(path, false); }
 
 // --- OutputSet -----------------------------------------------------------------------------------
+
+namespace {
+void publish_pending(const std::vector<OutputGroup::Pending>& pending);
+thread_local OutputGroup* current_group = nullptr;
+}  // namespace
 
 OutputSet::~OutputSet() {
     if (!committed_) discard();
@@ -347,52 +355,135 @@ void OutputSet::commit() {
         }
         if (::close(fd) != 0) fail("cannot write " + e.target.named + ": close of " + e.temp + " failed: " + sys_error(errno));
     }
-    // 2. Standard output (cannot be taken back): only once every file is ready.
+    // 2. Inside an OutputGroup: the group renames these with the other writers' files.
+    if (OutputGroup* group = OutputGroup::current()) {
+        for (auto& e : entries_) {
+            OutputGroup::Pending p;
+            p.to_stdout = e->target.to_stdout;
+            if (p.to_stdout) p.data = e->memory.str();
+            else p.temp = e->temp, p.path = e->target.path, p.named = e->target.named;
+            try {
+                group->hand_over(std::move(p));
+            } catch (...) {
+                discard();
+                throw;
+            }
+            e->temp.clear();  // the group removes it if it is not committed
+        }
+        committed_ = true;
+        return;
+    }
+    std::vector<OutputGroup::Pending> pending;
     for (auto& e : entries_) {
-        if (!e->target.to_stdout) continue;
+        OutputGroup::Pending p;
+        p.to_stdout = e->target.to_stdout;
+        if (p.to_stdout) p.data = e->memory.str();
+        else p.temp = e->temp, p.path = e->target.path, p.named = e->target.named;
+        pending.push_back(std::move(p));
+    }
+    try {
+        publish_pending(pending);
+    } catch (...) {
+        discard();
+        throw;
+    }
+    for (auto& e : entries_) e->temp.clear();
+    committed_ = true;
+}
+
+namespace {
+
+// Standard output first (it cannot be taken back, so only once every file is ready), then the renames,
+// with a hard-linked backup of each previous file so a failure part-way puts every output back as it
+// was (all files or none). The caller removes the temporaries when this throws.
+void publish_pending(const std::vector<OutputGroup::Pending>& pending) {
+    // An input read after its output was checked (io/input_guard.hpp): refused before anything changes.
+    for (const auto& p : pending)
+        if (!p.to_stdout) refuse_if_input(p.path, p.named);
+    for (const auto& p : pending) {
+        if (!p.to_stdout) continue;
         std::fflush(stdout);
         int err = 0;
-        if (!write_all(STDOUT_FILENO, e->memory.str(), err)) fail("cannot write to standard output: " + sys_error(err));
+        if (!write_all(STDOUT_FILENO, p.data, err)) throw std::runtime_error("cannot write to standard output: " + sys_error(err));
     }
-    // 3. Renames, with a hard-linked backup of each previous file so a failure part-way puts every
-    //    output back as it was (both files or neither).
-    std::vector<std::string> backups(entries_.size());
-    std::vector<bool> existed(entries_.size(), false);
+    std::vector<std::string> backups(pending.size());
+    std::vector<bool> existed(pending.size(), false);
     std::set<std::string> dirs;
-    for (std::size_t i = 0; i < entries_.size(); ++i) {
-        Entry& e = *entries_[i];
-        if (e.target.to_stdout) continue;
+    for (std::size_t i = 0; i < pending.size(); ++i) {
+        const OutputGroup::Pending& e = pending[i];
+        if (e.to_stdout) continue;
         struct stat st {};
-        if (::lstat(e.target.path.c_str(), &st) == 0) {
+        if (::lstat(e.path.c_str(), &st) == 0) {
             existed[i] = true;
-            const std::string bak = temp_name(e.target.path, "bak");
+            const std::string bak = temp_name(e.path, "bak");
             ::unlink(bak.c_str());
-            if (S_ISREG(st.st_mode) && ::link(e.target.path.c_str(), bak.c_str()) == 0) backups[i] = bak;
+            if (S_ISREG(st.st_mode) && ::link(e.path.c_str(), bak.c_str()) == 0) backups[i] = bak;
         }
-        if (std::rename(e.temp.c_str(), e.target.path.c_str()) != 0) {
+        if (std::rename(e.temp.c_str(), e.path.c_str()) != 0) {
             const int err = errno;
             std::string lost;
             for (std::size_t j = 0; j < i; ++j) {
-                const Entry& done = *entries_[j];
-                if (done.target.to_stdout) continue;
-                if (!backups[j].empty()) std::rename(backups[j].c_str(), done.target.path.c_str());
-                else if (!existed[j]) ::unlink(done.target.path.c_str());
-                else lost += " " + done.target.named;  // no hard link possible here: cannot be put back
+                const OutputGroup::Pending& done = pending[j];
+                if (done.to_stdout) continue;
+                if (!backups[j].empty()) std::rename(backups[j].c_str(), done.path.c_str());
+                else if (!existed[j]) ::unlink(done.path.c_str());
+                else lost += " " + done.named;  // no hard link possible here: cannot be put back
             }
             if (!backups[i].empty()) ::unlink(backups[i].c_str());
-            discard();
-            throw std::runtime_error("cannot rename " + e.temp + " to " + e.target.path + ": " + sys_error(err) +
+            throw std::runtime_error("cannot rename " + e.temp + " to " + e.path + ": " + sys_error(err) +
                                      (lost.empty() ? "; no output was changed"
                                                    : "; already replaced (the file system refused a backup link):" + lost));
         }
-        dirs.insert(parent_dir(e.target.path));
+        dirs.insert(parent_dir(e.path));
     }
     for (const auto& b : backups)
         if (!b.empty()) ::unlink(b.c_str());
-    for (auto& e : entries_) e->temp.clear();
-    committed_ = true;
     // Make the renames durable.
     for (const auto& d : dirs) fsync_dir(d);
+}
+
+}  // namespace
+
+// --- OutputGroup ---------------------------------------------------------------------------------
+
+OutputGroup::OutputGroup() : outer_(current_group) {
+    if (!outer_) current_group = this;
+}
+
+OutputGroup::~OutputGroup() {
+    if (outer_) return;  // joined: the outer group owns the files
+    current_group = nullptr;
+    if (!committed_)
+        for (const auto& p : pending_)
+            if (!p.to_stdout) ::unlink(p.temp.c_str());
+}
+
+OutputGroup* OutputGroup::current() { return current_group; }
+
+void OutputGroup::hand_over(Pending p) {
+    if (!p.to_stdout)
+        for (const auto& q : pending_) {
+            std::error_code e1, e2;
+            if (!q.to_stdout && fs::weakly_canonical(q.path, e1) == fs::weakly_canonical(p.path, e2)) {
+                ::unlink(p.temp.c_str());
+                throw OutputError("outputs " + q.named + " and " + p.named + " name the same file");
+            }
+        }
+    pending_.push_back(std::move(p));
+}
+
+void OutputGroup::commit() {
+    if (outer_ || committed_) return;
+    current_group = nullptr;  // the renames are this group's own
+    try {
+        publish_pending(pending_);
+    } catch (...) {
+        for (const auto& p : pending_)
+            if (!p.to_stdout) ::unlink(p.temp.c_str());
+        pending_.clear();
+        throw;
+    }
+    committed_ = true;
 }
 
 AtomicFile::AtomicFile(std::string path, bool binary) { set_.add(path, binary); }

@@ -81,6 +81,38 @@ private:
     bool committed_ = false;
 };
 
+// Several writers' outputs made one set. Writers that commit their own files (an AtomicFile, an
+// AtomicPath, an OutputSet: a preview, a shader, a LUT in its format) do so in turn; while an
+// OutputGroup is open on this thread, each of those commits completes and syncs its temporaries (so a
+// full disk, ENOSPC, is found there) and hands them to the group instead of renaming them. The
+// group's commit() then renames all of them as one set (putting every previous file back if a rename
+// fails); a group destroyed uncommitted (an exception, a cancel) removes them and changes nothing.
+// A group opened inside another joins it: the outermost one commits.
+class OutputGroup {
+public:
+    OutputGroup();
+    ~OutputGroup();
+    OutputGroup(const OutputGroup&) = delete;
+    OutputGroup& operator=(const OutputGroup&) = delete;
+    // Throws std::runtime_error as OutputSet::commit() does.
+    void commit();
+
+    // Internal (OutputSet::commit): a completed temporary to rename at the group's commit, or data for
+    // standard output. Throws OutputError when the group already holds an output to the same file.
+    struct Pending {
+        std::string temp, path, named;
+        bool to_stdout = false;
+        std::string data;
+    };
+    static OutputGroup* current();
+    void hand_over(Pending pending);
+
+private:
+    OutputGroup* outer_ = nullptr;  // the group this one joined, if any
+    std::vector<Pending> pending_;
+    bool committed_ = false;
+};
+
 // One output, for callers that write a single file.
 class AtomicFile {
 public:

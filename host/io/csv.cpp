@@ -8,6 +8,7 @@
 
 #include "core/query.hpp"
 #include "io/input_file.hpp"
+#include "io/input_guard.hpp"
 #include "io/text.hpp"
 
 namespace ms {
@@ -91,6 +92,7 @@ std::size_t check_bytes(const std::string& path, const std::string& data) {
 NumericCsv read_numeric_csv(const std::string& path, const std::vector<std::string>& expected) {
     std::string data;
     try {
+        note_input(path);
         data = read_input_file(path, kMaxCsvBytes, "CSV");
     } catch (const InputError& e) {
         throw CsvError(e.what());

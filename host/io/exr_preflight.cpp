@@ -5,6 +5,9 @@
 #include <fstream>
 #include <limits>
 
+#include "io/input_file.hpp"
+#include "io/input_guard.hpp"
+
 namespace ms::exr {
 namespace {
 
@@ -169,6 +172,8 @@ void check_layout(const std::string& attribute, const std::string& type, const s
 }  // namespace
 
 FileSummary preflight(const std::string& path) {
+    require_regular_file(path, "OpenEXR image");  // a FIFO would block the open below beyond the reach of signals
+    note_input(path);
     std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) throw std::runtime_error(path + ": cannot open for reading");
     const std::streamoff end = in.tellg();

@@ -19,6 +19,19 @@ std::string describe_limit(std::uint64_t bytes) {
 
 }  // namespace
 
+void require_regular_file(const std::string& path, const std::string& what) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) throw InputError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
+    if (S_ISREG(st.st_mode)) return;
+    const char* kind = S_ISDIR(st.st_mode)    ? "a directory"
+                       : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)"
+                       : S_ISCHR(st.st_mode)  ? "a character device"
+                       : S_ISBLK(st.st_mode)  ? "a block device"
+                       : S_ISSOCK(st.st_mode) ? "a socket"
+                                              : "not a regular file";
+    throw InputError(path + ": is " + kind + ", not a regular file (a " + what + " is read from a file)");
+}
+
 std::string read_input_file(const std::string& path, std::uint64_t max_bytes, const std::string& what) {
     // Opened first, then checked with fstat: the same file is checked and read (no race with a rename),
     // and O_NONBLOCK keeps open() of a FIFO without a writer from hanging before the check.

@@ -25,4 +25,11 @@ inline constexpr std::uint64_t kMaxSpecBytes = std::uint64_t(16) << 20;
 // "PATH: is a character device, not a regular file", "PATH: is N bytes, more than the limit of ...".
 std::string read_input_file(const std::string& path, std::uint64_t max_bytes, const std::string& what);
 
+// For inputs read by position (LUTs, representations, images, sidecars): only a regular file (or a
+// symlink to one). Checked with stat, never open: opening a FIFO without a writer blocks, where no
+// SIGINT or SIGTERM reaches the reader. Throws InputError "PATH: is a FIFO (named pipe), not a regular
+// file (WHAT is read from a file)" (also for a directory, a device, a socket) or "PATH: cannot open
+// for reading (...)".
+void require_regular_file(const std::string& path, const std::string& what);
+
 }  // namespace ms

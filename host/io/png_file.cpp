@@ -2,7 +2,9 @@
 
 #include <png.h>
 
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <stdexcept>
 #include <string>
 
@@ -11,11 +13,15 @@ namespace ms {
 namespace {
 
 // libpng's message goes into the exception (its default handler prints it raw on stderr).
+// libpng's own "Write Error" does not say why: the errno of the failed fwrite (ENOSPC on a full disk)
+// is kept with it.
 struct PngWriteMessage {
     char text[256] = {};
+    int err = 0;
 };
 void png_write_error(png_structp png, png_const_charp message) {
     auto* m = static_cast<PngWriteMessage*>(png_get_error_ptr(png));
+    m->err = errno;
     std::snprintf(m->text, sizeof m->text, "%s", message ? message : "unknown error");
     png_longjmp(png, 1);
 }
@@ -44,7 +50,8 @@ void write_png(const std::string& path, const PngImage& image, const std::string
     if (setjmp(png_jmpbuf(png))) {
         png_destroy_write_struct(&png, &info);
         std::fclose(f);
-        throw std::runtime_error("cannot write " + path + " (libpng: " + std::string(message.text) + ")");
+        throw std::runtime_error("cannot write " + path + " (libpng: " + std::string(message.text) +
+                                 (message.err ? std::string(": ") + std::strerror(message.err) : std::string()) + ")");
     }
     png_init_io(png, f);
     png_set_IHDR(png, info, image.width, image.height, image.bits,
@@ -62,7 +69,7 @@ void write_png(const std::string& path, const PngImage& image, const std::string
         png_write_row(png, const_cast<png_bytep>(image.pixels + std::size_t(y) * row_bytes));
     png_write_end(png, info);
     png_destroy_write_struct(&png, &info);
-    if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + path);
+    if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + path + ": " + std::strerror(errno));
 }
 
 }  // namespace ms

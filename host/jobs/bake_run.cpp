@@ -74,11 +74,14 @@ BakeJobResult run_bake_job(const BakeJobSpec& job, const std::function<void(cons
         throw_if_failed(*r.verification);
     }
     control.checkpoint();
-    // Preview first, LUT last: each is atomic, and the LUT appearing means the whole job finished.
+    // The preview, the LUT and whatever write_lut adds (shaders) are one set: each is written and synced
+    // to its temporary, then all are renamed together; a failure (a full disk) leaves every old file.
+    OutputGroup outputs;
     if (!job.preview.empty())
         write_lut_preview(job.preview, {result.width, spec.n_dot_l.count, spec.n_dot_v.count, result.channels, result.value.data(),
                                         {spec.visibility, spec.n_dot_l, spec.n_dot_v}, spec.roughness});
     write_lut(bake_lut_file(spec, result, r.metadata));
+    outputs.commit();
     r.written = true;
     return r;
 }

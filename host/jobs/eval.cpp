@@ -144,7 +144,14 @@ std::vector<Estimate> evaluate_each(TermBackend& backend, const std::vector<Quer
                                const std::function<void(std::size_t, std::size_t)>& progress) {
     const auto start = std::chrono::steady_clock::now();
     if (options.size() != queries.size()) throw std::invalid_argument("evaluate: one option set per query");
-    for (const Query& q : queries) validate_query(q);  // every query before any work
+    // Every query before any work (the exact method's own domain too), named by its position.
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        try {
+            plan.method == Method::exact ? validate_exact_query(queries[i]) : validate_query(queries[i]);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument("query " + std::to_string(i + 1) + ": " + e.what());
+        }
+    }
     if (plan.method == Method::exact) return evaluate_exact(backend, queries, options, plan, stats, progress, start);
     std::vector<Estimate> results = evaluate_sampled(backend, queries, options, plan, stats, progress, start);
     if (!(plan.tolerance > 0)) return results;

@@ -45,7 +45,7 @@ namespace {
 
 struct KeyHash {
     std::size_t operator()(const DedupKey& k) const {
-        std::uint64_t h = 1469598103934665603ULL;
+        std::uint64_t h = kFnv1aOffset;
         for (std::int64_t v : {k.ax, k.ay, k.cone, k.tv, k.tl, k.pv, k.pl}) {
             h ^= std::uint64_t(v) + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2);
             h *= 1099511628211ULL;

@@ -16,9 +16,12 @@
 #include <cstdio>
 #include <stdexcept>
 
+#include "core/lookup_domain.hpp"
 #include "io/atomic_file.hpp"
+#include "io/bounded_json.hpp"
 #include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
+#include "io/text.hpp"
 #include "lut/formats/encoding.hpp"
 
 namespace ms {
@@ -200,8 +203,8 @@ LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::strin
         a.texel = parse_texel_convention(axes[i].at("texel").get<std::string>());
         // Every axis is a cosine or a visibility: a range outside [0, 1], or reversed, is a corrupt file.
         if (a.min < 0 || a.max > 1 || a.min > a.max || (a.min == a.max && a.count > 1))
-            throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + std::to_string(a.min) + ", " +
-                                     std::to_string(a.max) + "] must satisfy 0 <= min < max <= 1");
+            throw std::runtime_error("metadata " + f + " (" + a.name + ") range [" + format_g(a.min, 9) + ", " +
+                                     format_g(a.max, 9) + "] must satisfy 0 <= min < max <= 1");
         lut.axes.push_back(a);
     }
     const auto& channels = lut.metadata.at("channels");
@@ -216,7 +219,7 @@ LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::strin
         ch.alpha_x = finite_number(c.at("alpha_x"), f + ".alpha_x");
         ch.alpha_y = finite_number(c.at("alpha_y"), f + ".alpha_y");
         if (!(ch.roughness > 0 && ch.roughness <= 1))
-            throw std::runtime_error("metadata " + f + ".roughness = " + std::to_string(ch.roughness) + " is outside (0, 1]");
+            throw std::runtime_error("metadata " + f + ".roughness = " + format_g(ch.roughness, 9) + " is outside (0, 1]");
         if (!(ch.alpha_x > 0) || !(ch.alpha_y > 0))
             throw std::runtime_error("metadata " + f + ".alpha_x/alpha_y must be > 0");
         if (ch.name != kChannelNames[i]) throw std::runtime_error("metadata " + f + ".name must be " + kChannelNames[i]);
@@ -225,6 +228,20 @@ LutFile lut_from_metadata(const nlohmann::json& metadata, std::vector<std::strin
         if (exr_names) exr_names->push_back(c.contains("exr_channel") ? c.at("exr_channel").get<std::string>() : ch.name);
         lut.channels.push_back(ch);
     }
+    // What every command that uses a LUT (lookups, shaders, exports) relies on, checked once here so
+    // that no command writes a file another one refuses: distinct roughness channels, a known AO
+    // weighting, a lookup domain that parses.
+    for (std::size_t i = 0; i < lut.channels.size(); ++i)
+        for (std::size_t k = 0; k < i; ++k)
+            if (lut.channels[i].roughness == lut.channels[k].roughness)
+                throw std::runtime_error("metadata channels[" + std::to_string(k) + "] and channels[" + std::to_string(i) +
+                                         "] hold the same roughness " + format_g(lut.channels[i].roughness, 9));
+    if (lut.metadata.contains("ao_weighting")) {
+        const auto& w = lut.metadata.at("ao_weighting");
+        if (!w.is_string() || (w != "cosine" && w != "uniform"))
+            throw std::runtime_error("metadata ao_weighting " + w.dump() + " is neither \"cosine\" nor \"uniform\"");
+    }
+    if (lut.metadata.contains("domain")) LookupDomain::from_json(lut.metadata.at("domain"), "LUT metadata");
     const std::uint64_t want_w = lut.axes[0].count, want_h = std::uint64_t(lut.axes[1].count) * lut.axes[2].count;
     if (want_w * want_h * lut.channels.size() > kMaxValues)
         throw std::runtime_error("metadata axes claim " + std::to_string(want_w * want_h) + " texels x " +
@@ -252,13 +269,13 @@ void check_lut_texels(const LutFile& lut) {
         if (!baked.empty() && !baked[(y / rows * nc + c) * rows + y % rows]) {
             if (!std::isnan(v))
                 throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) +
-                                         ") of channel " + lut_channel_label(lut, c) + " is " + std::to_string(v) +
+                                         ") of channel " + lut_channel_label(lut, c) + " is " + format_g(v, 9) +
                                          " where the coverage record says unbaked (must be NaN)");
             continue;
         }
         if (!(v >= 0.0f && v <= 1.0f))
             throw std::runtime_error("texel (x " + std::to_string(texel % lut.width) + ", y " + std::to_string(y) + ") of channel " +
-                                     lut_channel_label(lut, c) + " is " + std::to_string(v) + ", not in [0, 1]");
+                                     lut_channel_label(lut, c) + " is " + format_g(v, 9) + ", not in [0, 1]");
     }
 }
 
@@ -285,17 +302,45 @@ LutFile read_exr_lut(const std::string& path) {
         const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
         if (!attr) throw WrongFileKind("no \"microshadow\" header attribute: not a microshadow LUT");
         std::vector<std::string> exr_names;
-        lut = lut_from_metadata(nlohmann::json::parse(attr->value()), &exr_names);
+        lut = lut_from_metadata(parse_bounded_json(attr->value(), "the \"microshadow\" attribute"), &exr_names);
         const Imath::Box2i dw = header.dataWindow();
         const std::int64_t w = std::int64_t(dw.max.x) - dw.min.x + 1, h = std::int64_t(dw.max.y) - dw.min.y + 1;
         if (w != std::int64_t(lut.width) || h != std::int64_t(lut.height))
             throw std::runtime_error("image size " + std::to_string(w) + "x" + std::to_string(h) + " does not match the axes (" +
                                      std::to_string(lut.width) + "x" + std::to_string(lut.height) + ")");
         const std::size_t nc = lut.channels.size();
+        // Every channel in one type, HALF or FLOAT, as the writer stores them: a channel whose type was
+        // changed in the header alone (HALF relabelled FLOAT) makes OpenEXR read past its decoded data.
         for (std::size_t c = 0; c < nc; ++c) {
             const Imf::Channel* ch = header.channels().findChannel(exr_names[c]);
             if (!ch) throw std::runtime_error("missing channel " + exr_names[c] + " (channels[" + std::to_string(c) + "])");
+            if (ch->type != Imf::HALF && ch->type != Imf::FLOAT)
+                throw std::runtime_error("channel " + exr_names[c] + " is UINT; a LUT's channels are HALF or FLOAT");
+            if (ch->xSampling != 1 || ch->ySampling != 1)
+                throw std::runtime_error("channel " + exr_names[c] + " is subsampled; a LUT's channels are full resolution");
             if (c == 0) lut.half = ch->type == Imf::HALF;
+            else if ((ch->type == Imf::HALF) != lut.half)
+                throw std::runtime_error("channel " + exr_names[c] + " is " + (lut.half ? "FLOAT" : "HALF") + " but channel " +
+                                         exr_names[0] + " is " + (lut.half ? "HALF" : "FLOAT") +
+                                         "; a LUT stores every channel in one type (a damaged or edited header)");
+        }
+        for (auto it = header.channels().begin(); it != header.channels().end(); ++it)
+            if (std::find(exr_names.begin(), exr_names.end(), std::string(it.name())) == exr_names.end())
+                throw std::runtime_error("channel " + std::string(it.name()) + " is not named in the metadata's channels");
+        // The metadata's encoding (recorded by the writer) must be the texels' type.
+        const std::string stored = lut.half ? "float16" : "float32";
+        if (lut.metadata.contains("encoding") && lut.metadata.at("encoding") != stored)
+            throw std::runtime_error("the metadata says encoding " + lut.metadata.at("encoding").dump() + " but the channels are " +
+                                     (lut.half ? "HALF" : "FLOAT"));
+        // The typed copies of the axes (for exrheader readers) must agree with the JSON the reader uses.
+        for (std::size_t i = 0; i < 3; ++i) {
+            const std::string p = std::string("microshadow.axis.") + kAxisNames[i] + ".";
+            const auto* lo = header.findTypedAttribute<Imf::DoubleAttribute>(p + "min");
+            const auto* hi = header.findTypedAttribute<Imf::DoubleAttribute>(p + "max");
+            const auto* n = header.findTypedAttribute<Imf::IntAttribute>(p + "count");
+            if ((lo && lo->value() != lut.axes[i].min) || (hi && hi->value() != lut.axes[i].max) ||
+                (n && std::int64_t(n->value()) != std::int64_t(lut.axes[i].count)))
+                throw std::runtime_error("header attributes " + p + "min/max/count contradict the metadata's axis " + kAxisNames[i]);
         }
         lut.data.assign(std::size_t(lut.width) * lut.height * nc, 0.0f);
         Imf::FrameBuffer fb;

@@ -8,6 +8,7 @@
 #include <ImfStringAttribute.h>
 
 #include <Imath/half.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,9 +19,11 @@
 #include <optional>
 #include <stdexcept>
 
+#include "io/bounded_json.hpp"
 #include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
 #include "io/input_file.hpp"
+#include "io/input_guard.hpp"
 #include "lut/formats/lut_reader.hpp"
 #include "lut/formats/texture_reader.hpp"
 #include "repr/presets.hpp"
@@ -136,7 +139,7 @@ namespace {
 std::optional<nlohmann::json> representation_metadata(const Imf::Header& header) {
     const auto* attr = header.findTypedAttribute<Imf::StringAttribute>("microshadow");
     if (!attr) return std::nullopt;
-    nlohmann::json meta = nlohmann::json::parse(attr->value(), nullptr, false);
+    const nlohmann::json meta = parse_bounded_json(attr->value(), "the \"microshadow\" attribute");
     if (!meta.is_object() || meta.value("kind", std::string()) != "representation") return std::nullopt;
     return meta;
 }
@@ -202,7 +205,7 @@ Ktx2Representation read_ktx2_representation(const std::string& path) {
         if (nul != std::string::npos && entry.compare(0, nul, "microshadow") == 0) {
             std::string value = entry.substr(nul + 1);
             if (!value.empty() && value.back() == '\0') value.pop_back();
-            meta = nlohmann::json::parse(value, nullptr, false);
+            meta = parse_bounded_json(value, "the \"microshadow\" key/value entry");
         }
         at += 4 + (n + 3) / 4 * 4;  // entries are padded to 4 bytes
     }
@@ -311,6 +314,8 @@ void refuse_lut(const std::string& path) {
 }  // namespace
 
 bool is_representation_file(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;  // a FIFO would block open()
     if (lutfmt::has_dds_magic(path)) {
         try {
             read_dds_representation(path);
@@ -339,6 +344,8 @@ bool is_representation_file(const std::string& path) {
 
 std::unique_ptr<Representation> open_representation(const std::string& path) {
     try {
+        require_regular_file(path, "representation");  // a FIFO would block open() beyond the reach of signals
+        note_input(path);
         refuse_lut(path);
         if (lutfmt::has_dds_magic(path)) {
             Ktx2Representation d = read_dds_representation(path);

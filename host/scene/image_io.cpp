@@ -2,6 +2,7 @@
 
 #include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
+#include "io/input_guard.hpp"
 #include "io/png_file.hpp"
 
 #include <ImfChannelList.h>
@@ -229,7 +230,7 @@ void require_regular_file(const std::string& path) {
     // stat, not open: opening a FIFO blocks until a writer appears, beyond the reach of SIGINT/SIGTERM.
     struct stat st {};
     if (::stat(path.c_str(), &st) != 0) throw SceneError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
-    if (S_ISREG(st.st_mode)) return;
+    if (S_ISREG(st.st_mode)) return note_input(path);
     const char* kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)"
                        : S_ISCHR(st.st_mode) ? "a character device" : S_ISBLK(st.st_mode) ? "a block device"
                        : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";

@@ -190,8 +190,11 @@ ItemRunReport run_items(Scheduler& scheduler, Integrand& integrand, const ItemPl
     if ((plan.store || plan.transport) && !integrand.distributable())
         throw std::invalid_argument(integrand.name() + " cannot be split into shards or MPI ranks");
     auto accept = [&](std::uint64_t id, const std::string& payload) { integrand.load_item(id, payload); };
+    // What the store gives back is checked like any input; a damaged item is set aside (a merge then
+    // names its shard to rerun, a resume computes it again).
+    const ItemCheck check = [&](std::uint64_t id, const std::string& payload) { return integrand.check_item(id, payload); };
     if (plan.merge_only) {
-        merge_items(plan, total, accept, report);
+        merge_items(plan, total, accept, report, check);
         return report;
     }
     if (plan.transport && !plan.transport->coordinator()) {
@@ -206,7 +209,7 @@ ItemRunReport run_items(Scheduler& scheduler, Integrand& integrand, const ItemPl
     }
     // Items already finished (a rerun after a kill, or an MPI job resumed): load them instead of computing.
     const Shard shard = plan.transport ? Shard{} : plan.shard;
-    std::vector<char> done = resume_items(plan, shard, total, accept, report);
+    std::vector<char> done = resume_items(plan, shard, total, accept, report, check);
     if (plan.transport) {
         coordinate_items(plan, total, done, accept, callbacks, report);
         return report;
@@ -292,7 +295,14 @@ Distribution::Distribution(const DistributionRequest& request, const StoreKey& k
     const bool sharded = shard_.count > 1;
     const bool rank0 = !request.transport || request.transport->coordinator();
     // Only rank 0 keeps the store (the other ranks send it their items).
-    const std::string dir = !rank0 ? "" : !request.store.empty() ? request.store : (sharded || request.merge) ? default_store : "";
+    // --shard 0/1 beside an existing store opens it, so that a store split another way is refused
+    // instead of ignored.
+    std::error_code exists_error;
+    const bool existing_store = request.shard_given && std::filesystem::exists(default_store, exists_error);
+    const std::string dir = !rank0                  ? ""
+                            : !request.store.empty() ? request.store
+                            : (sharded || request.merge || existing_store) ? default_store
+                                                                           : "";
     if (request.merge) {
         store_.emplace(ItemStore::open_for_merge(dir, key));
         plan_.merge_only = true;

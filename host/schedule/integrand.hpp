@@ -49,6 +49,10 @@ public:
     virtual bool distributable() const { return false; }
     virtual std::string save_item(std::uint64_t) const { throw std::logic_error(name() + " cannot be distributed"); }
     virtual void load_item(std::uint64_t, const std::string&) { throw std::logic_error(name() + " cannot be distributed"); }
+    // A stored item's bytes checked like any input before load_item (its values' range, finiteness and
+    // counts): "" when sound, else "tag: reason"; the store then sets the item aside and it is computed
+    // again. The default trusts load_item's own checks.
+    virtual std::string check_item(std::uint64_t, const std::string&) const { return ""; }
 };
 
 }  // namespace ms::schedule

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 #include <string>
@@ -84,5 +85,35 @@ private:
     std::string what_;
     std::size_t at_ = 0;
 };
+
+// The values of an item that holds texels of a table of fractions (a LUT slice: rows x columns): a
+// store's payload is an input like any other, and anyone can recompute its digest. Texels of a row
+// that was computed must be finite fractions in [0, 1] with a finite, non-negative standard error; rows
+// left out (a partial bake) hold NaN in both. Returns "" or "values: ..." (ItemCheck's "tag: reason").
+inline std::string short_number(double v) {  // %.9g: never DBL_MAX's 309 digits in a message
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    return buf;
+}
+
+template <class RowComputed>
+std::string check_fraction_texels(const std::vector<float>& value, const std::vector<float>& error, std::uint32_t rows,
+                                  std::uint32_t columns, const RowComputed& row_computed) {
+    for (std::uint32_t r = 0; r < rows; ++r) {
+        const bool computed = row_computed(r);
+        for (std::uint32_t c = 0; c < columns; ++c) {
+            const std::size_t k = std::size_t(r) * columns + c;
+            const float v = value[k], e = error[k];
+            const std::string at = "texel (row " + std::to_string(r) + ", column " + std::to_string(c) + ")";
+            if (!computed) {
+                if (v == v || e == e) return "values: " + at + " of a row this job leaves out holds a number, not NaN";
+                continue;
+            }
+            if (!(v >= 0.0f && v <= 1.0f)) return "values: " + at + " holds " + short_number(v) + ", not a fraction in [0, 1]";
+            if (!(e >= 0.0f && e <= 1.0f)) return "values: " + at + " has standard error " + short_number(e) + ", not in [0, 1]";
+        }
+    }
+    return "";
+}
 
 }  // namespace ms::schedule

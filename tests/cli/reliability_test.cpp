@@ -20,16 +20,24 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <thread>
 
 #include "cli_runner.hpp"
+#include "core/digest.hpp"
 #include "io/atomic_file.hpp"
+#include "io/bounded_json.hpp"
 #include "io/csv.hpp"
+#include "io/exr_file.hpp"
+#include "io/input_file.hpp"
+#include "io/input_guard.hpp"
 #include "io/text.hpp"
 #include "test_files.hpp"
 #include "sanitizers.hpp"
@@ -516,6 +524,457 @@ TEST_F(Reliability, AnInterruptedSweepSaysWhatItKeptAndNothingElse) {
     EXPECT_EQ(WEXITSTATUS(status), 130) << log;
     EXPECT_CONTAINS(log, "interrupted; the finished chunks are kept in o - rerun the same command to resume");
     EXPECT_FALSE(contains(log, "nothing was written")) << log;
+}
+
+// --- round 4: full disks, inputs named as outputs, forged files and stores -------------------------
+
+std::string bytes_of(const fs::path& p) { return slurp_file(p); }
+void put_bytes(const fs::path& p, const std::string& b) { std::ofstream(p, std::ios::binary | std::ios::trunc) << b; }
+std::uint32_t get_u32(const std::string& b, std::size_t at) {
+    std::uint32_t v;
+    std::memcpy(&v, b.data() + at, 4);
+    return v;
+}
+void set_u32(std::string& b, std::size_t at, std::uint32_t v) { std::memcpy(&b[at], &v, 4); }
+void set_u64(std::string& b, std::size_t at, std::uint64_t v) { std::memcpy(&b[at], &v, 8); }
+
+const std::string kTinyBake = "bake --size 8 --samples 256 --backend oracle -q";
+
+TEST_F(Reliability, AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten) {
+    // A file size limit of 24 KiB (EFBIG, its signal ignored): the GLSL (~3 KB) and the preview (~20 KB)
+    // fit, the C header (~29 KB) does not. Every old file must stay, none of the new ones appear.
+    ASSERT_EQ(run(kTinyBake + " --out lut.h --preview lut.png --shader-glsl lut.glsl").exit_code, 0);
+    const std::string h = bytes_of(dir_ / "lut.h"), png = bytes_of(dir_ / "lut.png"), glsl = bytes_of(dir_ / "lut.glsl");
+    ASSERT_GT(h.size(), 24u << 10);
+    ASSERT_LT(png.size(), 24u << 10);
+    auto r = run("bake --size 8 --samples 512 --backend oracle -q --out lut.h --preview lut.png --shader-glsl lut.glsl",
+                 "trap '' XFSZ; ulimit -f 24;");
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_CONTAINS(r.output, "File too large");
+    EXPECT_EQ(bytes_of(dir_ / "lut.png"), png) << "the preview was replaced without its LUT";
+    EXPECT_EQ(bytes_of(dir_ / "lut.glsl"), glsl) << "the shader was replaced without its LUT";
+    EXPECT_EQ(bytes_of(dir_ / "lut.h"), h);
+    EXPECT_EQ(entries(), (std::vector<std::string>{"lut.glsl", "lut.h", "lut.png"})) << "temporaries left";
+
+    // A DDS and its sidecar: `lut export B --out x.dds` over an older pair whose texels cannot be
+    // replaced must not leave B's metadata over the old texels.
+    ASSERT_EQ(run(kTinyBake + " --out x.dds").exit_code, 0);
+    ASSERT_EQ(run("bake --size 8 --samples 512 --backend oracle -q --out b.exr").exit_code, 0);
+    const std::string dds = bytes_of(dir_ / "x.dds"), sidecar = bytes_of(dir_ / "x.dds.json");
+    ASSERT_GT(dds.size(), 6u << 10);
+    ASSERT_LT(sidecar.size(), 6u << 10);
+    r = run("lut export b.exr --out x.dds", "trap '' XFSZ; ulimit -f 6;");
+    EXPECT_EQ(r.exit_code, 1) << r.output;
+    EXPECT_EQ(bytes_of(dir_ / "x.dds.json"), sidecar) << "the sidecar was replaced without its texels";
+    EXPECT_EQ(bytes_of(dir_ / "x.dds"), dds);
+    EXPECT_EQ(run("lut info x.dds").exit_code, 0);
+}
+
+TEST_F(Reliability, AFullDiskLeavesEveryOutputAsItWasAndSaysSo) {
+    // A real ENOSPC: a 256 KiB tmpfs in a private mount namespace (an unprivileged user namespace; where
+    // the system forbids one, the EFBIG test above covers the commit, not the message).
+    if (run_shell("unshare -rm true 2>&1").exit_code != 0) GTEST_SKIP() << "no unprivileged user and mount namespaces here";
+    fs::create_directory(dir_ / "t");
+    write("full.sh",
+          "M=\"$1\"; cd t && mount -t tmpfs -o size=256k tmpfs . 2>/dev/null || exit 9\n"
+          "cd \"$PWD\" && $M " + kTinyBake + " --out lut.h --preview lut.png --shader-glsl lut.glsl || exit 8\n"
+          "md5sum lut.* > ../before.md5\n"
+          "for free in 4 12 20 40; do\n"
+          "  avail=$(df -k . | tail -1 | awk '{print $4}'); dd if=/dev/zero of=fill bs=1k count=$((avail - free)) 2>/dev/null\n"
+          "  $M bake --size 8 --samples 512 --backend oracle -q --out lut.h --preview lut.png --shader-glsl lut.glsl\n"
+          "  echo \"exit $?\"; md5sum -c ../before.md5 >/dev/null && echo unchanged; ls -A | tr '\\n' ' '; echo; rm -f fill\n"
+          "done\n");
+    const auto r = run_shell("cd " + sq(dir_.string()) + " && unshare -rm sh full.sh " + sq(cli()) + " 2>&1");
+    if (r.exit_code == 9) GTEST_SKIP() << "tmpfs cannot be mounted here";
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    std::istringstream lines(r.output);
+    int runs = 0;
+    for (std::string line; std::getline(lines, line);) {
+        if (line.rfind("exit ", 0) != 0) continue;
+        ++runs;
+        EXPECT_EQ(line, "exit 1") << r.output;
+        std::string unchanged, listing;
+        std::getline(lines, unchanged);
+        std::getline(lines, listing);
+        EXPECT_EQ(unchanged, "unchanged") << r.output;
+        EXPECT_EQ(listing, "fill lut.glsl lut.h lut.png ") << "temporaries left:\n" << r.output;
+    }
+    EXPECT_EQ(runs, 4) << r.output;
+    EXPECT_CONTAINS(r.output, "No space left on device");
+}
+
+TEST_F(Reliability, AnOutputThatIsAnInputIsRefusedAndTheInputKept) {
+    write("q.csv", slurp_file(kQueries));
+    const std::string queries = bytes_of(dir_ / "q.csv");
+    fs::create_directory(dir_ / "d");
+    fs::create_symlink("q.csv", dir_ / "alias.csv");
+    for (const std::string out : {"q.csv", "d/../q.csv", "alias.csv", "./q.csv"}) {
+        const auto r = run("eval --method sampled --backend oracle --samples 64 -q --in q.csv --out " + out);
+        EXPECT_EQ(r.exit_code, 2) << out << ": " << r.output;
+        EXPECT_CONTAINS(r.output, "it is the input q.csv");
+        EXPECT_EQ(bytes_of(dir_ / "q.csv"), queries) << out;
+    }
+    // A Radiance environment (4 x 8 grey texels) and its SH.
+    put_bytes(dir_ / "env.hdr", "#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 8\n" + std::string(32 * 4, '\x80'));
+    const std::string env = bytes_of(dir_ / "env.hdr");
+    auto r = run("ibl sh env.hdr --out env.hdr -q");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "it is the input env.hdr");
+    EXPECT_EQ(bytes_of(dir_ / "env.hdr"), env);
+    EXPECT_EQ(run("ibl sh env.hdr --out sh.json -q").exit_code, 0);
+    // LUTs and representations exported onto themselves.
+    ASSERT_EQ(run(kTinyBake + " --out a.exr").exit_code, 0);
+    const std::string lut = bytes_of(dir_ / "a.exr");
+    r = run("lut export a.exr --out a.exr");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_EQ(bytes_of(dir_ / "a.exr"), lut);
+    ASSERT_EQ(run("repr bake --kind azimuth-axis --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2 --azimuth-nodes 2 "
+                  "--roughness 0.5 0.9 --out r.exr -q").exit_code, 0);
+    ASSERT_EQ(run("repr export r.exr --out r.ktx2").exit_code, 0);
+    for (const std::string f : {"r.exr", "r.ktx2"}) {
+        const std::string before = bytes_of(dir_ / f);
+        r = run("repr export " + f + " --out " + f);
+        EXPECT_EQ(r.exit_code, 2) << r.output;
+        EXPECT_CONTAINS(r.output, "it is the input " + f);
+        EXPECT_EQ(bytes_of(dir_ / f), before);
+    }
+}
+
+TEST_F(Reliability, FifosAreRefusedAtOnceByEveryReader) {
+    ASSERT_EQ(::mkfifo((dir_ / "f.exr").c_str(), 0600), 0);
+    write("q.csv", slurp_file(kQueries));
+    for (const std::string args : {"lut info f.exr", "lut export f.exr --out x.ktx2", "shader f.exr --out s.glsl", "repr info f.exr",
+                                   "eval --method sampled --backend oracle --samples 16 -q --in q.csv --out r.csv --compare f.exr"}) {
+        // `timeout 120` in run(): a reader blocked in open() would end in 124 after two minutes.
+        const auto r = run(args);
+        EXPECT_EQ(r.exit_code, 2) << args << ": " << r.output;
+        EXPECT_CONTAINS(r.output, "is a FIFO (named pipe), not a regular file");
+    }
+}
+
+TEST_F(Reliability, DeeplyNestedMetadataIsRefusedNotACrash) {
+    ASSERT_EQ(run(kTinyBake + " --out a.dds").exit_code, 0);
+    put_bytes(dir_ / "a.dds.json", "{\"x\":" + std::string(100000, '[') + std::string(100000, ']') + "}");
+    for (const std::string args : {"lut info a.dds", "lut export a.dds --out b.exr", "shader a.dds --out s.glsl"}) {
+        const auto r = run(args);
+        EXPECT_NE(r.exit_code, 0) << args << ": " << r.output;
+        EXPECT_LT(r.exit_code, 128) << args << ": killed by a signal:\n" << r.output;
+        EXPECT_CONTAINS(r.output, "nests 100001 levels deep, more than the limit of 64");
+    }
+    // A sidecar above the limit is named as such, not taken for a missing one.
+    put_bytes(dir_ / "a.dds.json", std::string((16u << 20) + 1, ' '));
+    const auto r = run("lut info a.dds");
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_CONTAINS(r.output, "more than the limit of 16 MiB");
+    EXPECT_FALSE(contains(r.output, "no metadata sidecar")) << r.output;
+}
+
+TEST_F(Reliability, LutReadersRefuseClaimsTheBytesContradict) {
+    // EXR: one HALF channel relabelled FLOAT in the channel list (type 1 -> 2).
+    ASSERT_EQ(run(kTinyBake + " --layout seed-3d --half --out h.exr").exit_code, 0);
+    std::string exr = bytes_of(dir_ / "h.exr");
+    const std::size_t chlist = exr.find(std::string("channels\0chlist\0", 16));
+    ASSERT_NE(chlist, std::string::npos);
+    const std::size_t first_name = chlist + 16 + 4, type_at = exr.find('\0', first_name) + 1;
+    ASSERT_EQ(get_u32(exr, type_at), 1u) << "not a HALF channel";
+    set_u32(exr, type_at, 2);
+    put_bytes(dir_ / "relabelled.exr", exr);
+    auto r = run("lut export relabelled.exr --out x.exr");
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "a LUT stores every channel in one type");
+    EXPECT_FALSE(fs::exists(dir_ / "x.exr"));
+
+    // KTX2: the base level's offset pointed into the key/value data.
+    ASSERT_EQ(run(kTinyBake + " --layout seed-3d --out k.ktx2").exit_code, 0);
+    const std::string ktx2 = bytes_of(dir_ / "k.ktx2");
+    const auto refused_ktx2 = [&](const std::string& bytes, const std::string& message) {
+        put_bytes(dir_ / "forged.ktx2", bytes);
+        const auto result = run("lut info forged.ktx2");
+        EXPECT_NE(result.exit_code, 0) << result.output;
+        EXPECT_CONTAINS(result.output, message);
+    };
+    std::string shifted = ktx2;
+    set_u64(shifted, 80, get_u32(ktx2, 56) + 16);
+    refused_ktx2(shifted, "inside the header, descriptor or key/value data");
+    // KTX2: a descriptor length that disagrees with the descriptor.
+    std::string dfd = ktx2;
+    set_u32(dfd, 52, get_u32(ktx2, 52) + 4);
+    refused_ktx2(dfd, "dfdByteLength");
+
+    // C header: a #define that contradicts the data and the metadata.
+    ASSERT_EQ(run(kTinyBake + " --out c.h").exit_code, 0);
+    std::string header = bytes_of(dir_ / "c.h");
+    const std::size_t width = header.find("_WIDTH 8u");
+    ASSERT_NE(width, std::string::npos);
+    header.replace(width, 9, "_WIDTH 9u");
+    put_bytes(dir_ / "c.h", header);
+    r = run("lut info c.h");
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "contradicts the metadata");
+
+    // DDS: metadata naming 3 channels over RGBA data (A would be dropped).
+    ASSERT_EQ(run(kTinyBake + " --layout seed-3d --out s.dds").exit_code, 0);
+    auto meta = nlohmann::json::parse(bytes_of(dir_ / "s.dds.json"));
+    meta["channels"].erase(3);
+    put_bytes(dir_ / "s.dds.json", meta.dump());
+    r = run("lut info s.dds");
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "the metadata names 3 channel(s) but the file holds more data");
+
+    // A range error names the number briefly (DBL_MAX was printed with its 309 digits).
+    ASSERT_EQ(run(kTinyBake + " --layout seed-3d --out u.dds").exit_code, 0);
+    meta = nlohmann::json::parse(bytes_of(dir_ / "u.dds.json"));
+    meta["axes"][0]["max"] = 1.7976931348623157e308;
+    put_bytes(dir_ / "u.dds.json", meta.dump());
+    r = run("lut info u.dds");
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "range [0, 1.79769313e+308] must satisfy");
+    EXPECT_LT(r.output.size(), 300u) << r.output;
+
+    // Metadata a lookup or a shader refuses is refused by every reader, so `lut export` cannot pass it on.
+    ASSERT_EQ(run(kTinyBake + " --layout seed-3d --out t.dds").exit_code, 0);
+    meta = nlohmann::json::parse(bytes_of(dir_ / "t.dds.json"));
+    meta["ao_weighting"] = "sideways";
+    put_bytes(dir_ / "t.dds.json", meta.dump());
+    r = run("lut export t.dds --out t.ktx2");
+    EXPECT_NE(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "neither \"cosine\" nor \"uniform\"");
+    EXPECT_FALSE(fs::exists(dir_ / "t.ktx2"));
+}
+
+// A header-sealed store item (chunk_store.hpp) rewritten with `payload`, its digest recomputed: what
+// anyone can do, so the digest proves nothing about the values.
+void forge_item(const fs::path& item, const std::function<void(std::string&)>& edit) {
+    const std::string text = slurp_file(item);
+    std::size_t at = 0;
+    std::vector<std::string> lines;
+    for (int i = 0; i < 5; ++i) {
+        const std::size_t end = text.find('\n', at);
+        lines.push_back(text.substr(at, end - at));
+        at = end + 1;
+    }
+    std::string payload = text.substr(at);
+    edit(payload);
+    put_bytes(item, lines[0] + "\n" + lines[1] + "\n" + lines[2] + "\n" + std::to_string(payload.size()) + "\n" +
+                        ms::hex16(ms::fnv1a(payload)) + "\n" + payload);
+}
+
+TEST_F(Reliability, StoreItemsAreCheckedLikeInputsAndADamagedOneHeals) {
+    const std::string bake = kTinyBake + " --layout seed-2d --out m.exr";
+    ASSERT_EQ(run(bake + " --shard 0/2").exit_code, 0);
+    ASSERT_EQ(run(bake + " --shard 1/2").exit_code, 0);
+    const fs::path item = dir_ / "m.exr.chunks" / "items" / "item-0000000000.bin";
+    ASSERT_TRUE(fs::exists(item));
+    // The first texel of slice 0 made 5.0 (the value vector: a 64-bit count, then floats).
+    forge_item(item, [](std::string& payload) {
+        const float five = 5.0f;
+        std::memcpy(&payload[8], &five, 4);
+    });
+    auto r = run(bake + " --merge");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "shard 0/2 lacks 1 item(s)");
+    EXPECT_FALSE(fs::exists(dir_ / "m.exr"));
+    EXPECT_FALSE(fs::exists(item)) << "the damaged item was not set aside";
+    EXPECT_TRUE(fs::exists(dir_ / "m.exr.chunks" / "items" / "rejected" / "item-0000000000.bin.values")) << "not set aside for its values";
+    // Without -q the warning names the value.
+    forge_item(dir_ / "m.exr.chunks" / "items" / "item-0000000001.bin", [](std::string& payload) {
+        const float nan = std::numeric_limits<float>::quiet_NaN();
+        std::memcpy(&payload[12], &nan, 4);
+    });
+    r = run(bake.substr(0, bake.find(" -q")) + bake.substr(bake.find(" -q") + 3) + " --merge");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "values: texel (row 0, column 1) holds nan, not a fraction in [0, 1]");
+    // Rerunning the shards computes the items again; the merge then succeeds and the LUT reads back.
+    ASSERT_EQ(run(bake + " --shard 0/2").exit_code, 0);
+    ASSERT_EQ(run(bake + " --shard 1/2").exit_code, 0);
+    r = run(bake + " --merge");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(run("lut info m.exr").exit_code, 0);
+    // --shard 0/1 beside a store split 2 ways is refused, not run past the store.
+    r = run(bake + " --shard 0/1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "splits this job into 2 shards");
+}
+
+TEST_F(Reliability, TheExactMethodRefusesQueriesBeyondItsDomainInsteadOfAnsweringWrongly) {
+    // Measured: alpha_x 1e-9 / alpha_y 0.25 gave 0.37 (the term is ~0.74) and an isotropic 1e-160 gave
+    // NaN, both with exit 0. Each is refused, and the sampled method still answers them.
+    const std::string header = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n";
+    write("aniso.csv", header + "0.5,0.6,0.6,0.6,0,0.8,0,0.6,0.8\n0.5,1e-9,0.25,0.6,0,0.8,0,0.6,0.8\n");
+    write("tiny.csv", header + "0.5,1e-160,1e-160,0.6,0,0.8,0,0.6,0.8\n");
+    auto r = run("eval -q --in aniso.csv --out a.csv");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "query 2: alpha_x / alpha_y = 4e-09: the exact method holds up to an anisotropy of 1e+07");
+    EXPECT_CONTAINS(r.output, "use --method sampled");
+    r = run("eval -q --in tiny.csv --out t.csv");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "alpha 1e-160 is below the exact method's smallest alpha 1e-140");
+    EXPECT_FALSE(fs::exists(dir_ / "a.csv") || fs::exists(dir_ / "t.csv"));
+    ASSERT_EQ(run("eval -q --method sampled --backend oracle --samples 256 --in aniso.csv --out a.csv").exit_code, 0);
+    // Just inside the limits the exact method answers, and agrees with itself at the limit.
+    write("edge.csv", header + "0.5,1e-150,1e-150,0.6,0,0.8,0,0.6,0.8\n0.5,1e-7,1,0.6,0,0.8,0,0.6,0.8\n");
+    r = run("eval -q --in edge.csv --out e.csv");
+    ASSERT_EQ(r.exit_code, 2) << "1e-150 is below the margin: " << r.output;
+    write("edge.csv", header + "0.5,1e-140,1e-140,0.6,0,0.8,0,0.6,0.8\n0.5,1e-7,1,0.6,0,0.8,0,0.6,0.8\n");
+    r = run("eval -q --in edge.csv --out e.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    // Isotropic 1e-140: a mirror, nothing shadowed, the term 1 (to the method's 1e-12).
+    const std::string rows = slurp_file(dir_ / "e.csv");
+    const std::size_t first = rows.find("\n0.5,1e-140,");
+    ASSERT_NE(first, std::string::npos) << rows;
+    std::istringstream line(rows.substr(first + 1, rows.find('\n', first + 1) - first - 1));
+    std::string field;
+    for (int k = 0; k < 10; ++k) std::getline(line, field, ',');  // the 10th field: term
+    EXPECT_NEAR(std::stod(field), 1.0, 1e-12) << rows;
+}
+
+TEST_F(Reliability, AnXyzEnvironmentIsRefusedNotReadAsGrey) {
+    // "R, G and B, or Y alone": Y beside X and Z is CIE XYZ; its Y as a grey image was a wrong answer.
+    const std::vector<float> pixels(8 * 4 * 3, 0.5f);
+    ms::exr::write_interleaved(path("xyz.exr"), ms::exr::image_header(8, 4, {"X", "Y", "Z"}, false), {"X", "Y", "Z"}, pixels, 3, false);
+    auto r = run("ibl sh xyz.exr --out sh.json -q");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "are not RGB (CIE XYZ or luminance/chroma)");
+    EXPECT_FALSE(fs::exists(dir_ / "sh.json"));
+    const std::vector<float> grey(8 * 4, 0.5f);
+    ms::exr::write_interleaved(path("y.exr"), ms::exr::image_header(8, 4, {"Y"}, false), {"Y"}, grey, 1, false);
+    r = run("ibl sh y.exr --out sh.json -q");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+TEST(ReliabilityDigest, Fnv1aIsTheStandardOne) {
+    // FNV-1a 64's published test vectors: "" gives the offset basis, "a" and "foobar" their digests.
+    EXPECT_EQ(ms::fnv1a(""), 0xcbf29ce484222325ULL);
+    EXPECT_EQ(ms::fnv1a("a"), 0xaf63dc4c8601ec8cULL);
+    EXPECT_EQ(ms::fnv1a("foobar"), 0x85944171f73967e8ULL);
+}
+
+// --- round 4, the io helpers directly: groups of writers, inputs named as outputs, bounded JSON ---
+
+class OutputGuard : public ScratchDirTest {
+protected:
+    OutputGuard() : ScratchDirTest("output_guard") {}
+    void put(const std::string& name, const std::string& text) const { std::ofstream(dir_ / name, std::ios::binary) << text; }
+    std::size_t count_entries() const { return std::size_t(std::distance(fs::directory_iterator(dir_), fs::directory_iterator())); }
+};
+
+TEST_F(OutputGuard, WritersInAGroupAppearTogetherOrNotAtAll) {
+    put("a.txt", "old a\n");
+    put("b.txt", "old b\n");
+    {
+        ms::OutputGroup group;
+        ms::AtomicFile a(path("a.txt"));
+        a.stream() << "new a\n";
+        a.commit();  // handed to the group: not renamed yet
+        EXPECT_EQ(slurp_file(dir_ / "a.txt"), "old a\n");
+        ms::AtomicFile b(path("b.txt"));
+        b.stream() << "new b\n";
+        // The writer of b fails before its commit: the group is abandoned.
+    }
+    EXPECT_EQ(slurp_file(dir_ / "a.txt"), "old a\n") << "a was replaced although its set failed";
+    EXPECT_EQ(slurp_file(dir_ / "b.txt"), "old b\n");
+    EXPECT_EQ(count_entries(), 2u) << "temporaries left";
+    {
+        ms::OutputGroup group;
+        for (const char* name : {"a.txt", "b.txt"}) {
+            ms::AtomicFile f(path(name));
+            f.stream() << "new " << name[0] << "\n";
+            f.commit();
+        }
+        {
+            ms::OutputGroup inner;  // joins the outer group: its commit renames nothing
+            ms::AtomicFile c(path("c.txt"));
+            c.stream() << "c\n";
+            c.commit();
+            inner.commit();
+            EXPECT_FALSE(fs::exists(dir_ / "c.txt"));
+        }
+        group.commit();
+    }
+    EXPECT_EQ(slurp_file(dir_ / "a.txt"), "new a\n");
+    EXPECT_EQ(slurp_file(dir_ / "b.txt"), "new b\n");
+    EXPECT_EQ(slurp_file(dir_ / "c.txt"), "c\n");
+    EXPECT_EQ(count_entries(), 3u);
+    // Two writers of one group naming the same file are refused (the second would hide the first).
+    ms::OutputGroup group;
+    ms::AtomicFile first(path("a.txt"));
+    first.commit();
+    ms::AtomicFile second(path("./a.txt"));
+    EXPECT_THROW(second.commit(), ms::OutputError);
+}
+
+TEST_F(OutputGuard, AGroupPutsThePreviousFilesBackWhenARenameFails) {
+    put("a.txt", "old a\n");
+    put("b.txt", "old b\n");
+    {
+        ms::OutputGroup group;
+        ms::AtomicFile a(path("a.txt")), b(path("b.txt"));
+        a.stream() << "new a\n";
+        b.stream() << "new b\n";
+        a.commit();
+        b.commit();
+        fs::remove(dir_ / "b.txt");
+        fs::create_directories(dir_ / "b.txt" / "x");  // b's rename now fails
+        EXPECT_THROW(group.commit(), std::runtime_error);
+    }
+    EXPECT_EQ(slurp_file(dir_ / "a.txt"), "old a\n");
+    EXPECT_EQ(count_entries(), 2u) << "temporaries or backups left";
+}
+
+TEST_F(OutputGuard, AnOutputThatIsAnInputIsRefusedOnlyInsideAGuard) {
+    put("in.exr", "input");
+    fs::create_directory(dir_ / "d");
+    fs::create_symlink("in.exr", dir_ / "link.exr");
+    // No guard (library callers, tests): nothing is recorded.
+    ms::note_input(path("in.exr"));
+    EXPECT_NO_THROW(ms::prepare_output(path("in.exr")));
+    {
+        const ms::InputGuard guard;
+        ms::note_input(path("in.exr"));
+        for (const std::string spelling : {"in.exr", "d/../in.exr", "link.exr", "./in.exr"})
+            EXPECT_THROW(ms::prepare_output(path(spelling)), ms::OutputError) << spelling;
+        EXPECT_NO_THROW(ms::prepare_output(path("other.exr")));
+        // An input noted after its output was checked: refused by the commit, before any rename.
+        put("late.csv", "late input");
+        ms::OutputSet set;
+        const auto out = set.add(path("late.csv"));
+        set.stream(out) << "output";
+        ms::note_input(path("late.csv"));
+        EXPECT_THROW(set.commit(), ms::OutputError);
+        EXPECT_EQ(slurp_file(dir_ / "late.csv"), "late input");
+    }
+    EXPECT_NO_THROW(ms::prepare_output(path("in.exr"))) << "the record outlived its guard";
+}
+
+TEST(BoundedJson, DepthAndSizeAreCheckedBeforeParsing) {
+    EXPECT_EQ(ms::json_nesting_depth("{\"a\": [1, {\"b\": \"[[[[\"}]}"), 3u);
+    EXPECT_EQ(ms::parse_bounded_json("{\"a\": [[1]]}", "x")["a"][0][0], 1);
+    const std::string deep = std::string(100000, '[') + std::string(100000, ']');
+    try {
+        ms::parse_bounded_json(deep, "the sidecar");
+        FAIL() << "accepted";
+    } catch (const ms::JsonLimitError& e) {
+        EXPECT_STREQ(e.what(), "the sidecar nests 100000 levels deep, more than the limit of 64");
+    }
+    EXPECT_THROW(ms::parse_bounded_json(std::string(65, '[') + std::string(65, ']'), "x"), ms::JsonLimitError);
+    EXPECT_NO_THROW(ms::parse_bounded_json(std::string(64, '[') + std::string(64, ']'), "x"));
+    EXPECT_THROW(ms::parse_bounded_json("[1,", "x"), std::runtime_error);
+    EXPECT_THROW(ms::parse_bounded_json("\"" + std::string(100, 'x') + "\"", "x", 64, 50), ms::JsonLimitError);
+}
+
+TEST_F(OutputGuard, NonRegularInputsAreRefusedWithoutOpening) {
+    ASSERT_EQ(::mkfifo(path("fifo").c_str(), 0600), 0);
+    try {
+        ms::require_regular_file(path("fifo"), "LUT");  // open() would block here: no writer
+        FAIL() << "accepted a FIFO";
+    } catch (const ms::InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("is a FIFO (named pipe), not a regular file (a LUT is read from a file)"), std::string::npos)
+            << e.what();
+    }
+    EXPECT_THROW(ms::require_regular_file(dir_.string(), "LUT"), ms::InputError);
+    EXPECT_THROW(ms::require_regular_file(path("missing"), "LUT"), ms::InputError);
+    put("file", "x");
+    EXPECT_NO_THROW(ms::require_regular_file(path("file"), "LUT"));
 }
 
 }  // namespace

@@ -136,6 +136,10 @@ void ExactLutIntegrand::load_item(std::uint64_t slice, const std::string& bytes)
     const double max_error = r.get<double>();
     const std::uint64_t pieces = r.get<std::uint64_t>();
     r.finish();
+    if (const std::string problem = schedule::check_fraction_texels(value, error, spec_.n_dot_l.count, spec_.visibility.count,
+                                                                    [&](std::uint32_t il) { return spec_.row_baked(slice, il); });
+        !problem.empty())
+        throw std::runtime_error("exact LUT slice " + std::to_string(slice) + ": " + problem);
     std::size_t k = 0;
     for (std::uint32_t il = 0; il < spec_.n_dot_l.count; ++il)
         for (std::uint32_t iv = 0; iv < spec_.visibility.count; ++iv, ++k) {
@@ -144,6 +148,27 @@ void ExactLutIntegrand::load_item(std::uint64_t slice, const std::string& bytes)
         }
     slice_max_error_[slice] = max_error;
     slice_pieces_[slice] = pieces;
+}
+
+}  // namespace ms::exact_term
+
+namespace ms::exact_term {
+
+std::string ExactLutIntegrand::check_item(std::uint64_t slice, const std::string& bytes) const {
+    if (slice >= work_items()) return "index: no slice " + std::to_string(slice);
+    try {
+        schedule::ItemReader r(bytes, "exact LUT slice " + std::to_string(slice));
+        const std::uint64_t texels = std::uint64_t(spec_.n_dot_l.count) * spec_.visibility.count;
+        const std::vector<float> value = r.get_vector<float>(texels), error = r.get_vector<float>(texels);
+        const double max_error = r.get<double>();
+        r.get<std::uint64_t>();
+        r.finish();
+        if (!(max_error >= 0) && !std::isnan(max_error)) return "values: the slice's largest error is " + std::to_string(max_error);
+        return schedule::check_fraction_texels(value, error, spec_.n_dot_l.count, spec_.visibility.count,
+                                               [&](std::uint32_t il) { return spec_.row_baked(slice, il); });
+    } catch (const std::exception& e) {
+        return std::string("payload: ") + e.what();
+    }
 }
 
 }  // namespace ms::exact_term

@@ -26,6 +26,7 @@ public:
     bool distributable() const override { return true; }
     std::string save_item(std::uint64_t id) const override;
     void load_item(std::uint64_t id, const std::string& bytes) override;
+    std::string check_item(std::uint64_t id, const std::string& bytes) const override;
 
     // Atlas order (grid/atlas.hpp), float: value and estimated error per texel and channel.
     const std::vector<float>& values() const { return values_; }

@@ -162,7 +162,7 @@ std::vector<Estimate> ExactTermIntegrand::evaluate(Evaluator& evaluator, const t
     weighting.reserve(batch.queries.size());
     std::uint64_t zero = 0, one = 0;
     for (std::size_t i = 0; i < batch.queries.size(); ++i) {
-        validate_query(batch.queries[i]);
+        validate_exact_query(batch.queries[i]);
         const Query q = normalised(batch.queries[i]);
         const AoWeighting w = batch.options[i].ao_weighting;
         if (in_zero_region(cone_cos_theta(q.visibility, w), q.wo.z)) ++zero;

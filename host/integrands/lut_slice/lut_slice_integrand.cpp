@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <stdexcept>
@@ -427,6 +428,10 @@ void LutSliceIntegrand::load_item(std::uint64_t id, const std::string& bytes) {
     // bake leaves out, records none.
     report.row_intervals = r.get_vector<int>(plan_.cells ? 0 : plan_.nl, true);
     r.finish();
+    if (const std::string problem = schedule::check_fraction_texels(value, error, plan_.nl, plan_.nv,
+                                                                    [&](std::uint32_t il) { return plan_.spec.row_baked(id, il); });
+        !problem.empty())
+        throw std::runtime_error("LUT slice " + std::to_string(id) + ": " + problem);
     for (std::uint32_t il = 0; il < plan_.nl; ++il)
         for (std::uint32_t iv = 0; iv < plan_.nv; ++iv) {
             const std::size_t at = plan_.atlas().index(channel, iv, il, ivv);
@@ -435,6 +440,28 @@ void LutSliceIntegrand::load_item(std::uint64_t id, const std::string& bytes) {
         }
     report.done = true;
     reports_[id] = std::move(report);
+}
+
+}  // namespace ms::lut_slice
+
+namespace ms::lut_slice {
+
+std::string LutSliceIntegrand::check_item(std::uint64_t id, const std::string& bytes) const {
+    if (id >= work_items()) return "index: no slice " + std::to_string(id);
+    try {
+        schedule::ItemReader r(bytes, "LUT slice " + std::to_string(id));
+        const std::uint64_t texels = std::uint64_t(plan_.nl) * plan_.nv;
+        const std::vector<float> value = r.get_vector<float>(texels), error = r.get_vector<float>(texels);
+        for (int k = 0; k < 6; ++k)
+            if (const double d = r.get<double>(); d < 0 || std::isinf(d)) return "values: a report figure is " + std::to_string(d);
+        r.get<std::uint32_t>();
+        r.get<std::uint64_t>();
+        r.get_vector<int>(plan_.cells ? 0 : plan_.nl, true);
+        r.finish();
+        return schedule::check_fraction_texels(value, error, plan_.nl, plan_.nv, [&](std::uint32_t il) { return plan_.spec.row_baked(id, il); });
+    } catch (const std::exception& e) {
+        return std::string("payload: ") + e.what();
+    }
 }
 
 }  // namespace ms::lut_slice

@@ -68,6 +68,7 @@ public:
     bool distributable() const override { return true; }
     std::string save_item(std::uint64_t id) const override;
     void load_item(std::uint64_t id, const std::string& bytes) override;
+    std::string check_item(std::uint64_t id, const std::string& bytes) const override;
 
     const SlicePlan& plan() const { return plan_; }
     // In the atlas layout of grid/atlas.hpp (plan().atlas()).

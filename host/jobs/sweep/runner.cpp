@@ -10,6 +10,7 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -66,6 +67,29 @@ json digest_json(const schedule::ItemDigest& d) { return {{"rows", d.rows}, {"fn
 // Checks a chunk's rows: exactly the rows of points [first, last), each with `fields` fields and its
 // point index first. Returns "" when they are, else the reason (a short tag first: "rows", "index",
 // "fields").
+// A stored row's numbers, checked like any input (anyone can recompute a chunk's digest): the query's
+// parameters finite, the term a fraction in [0, 1], its standard error finite and >= 0. The columns are
+// csv_header's: point, form, ao_weighting, then the numbers from roughness to visibility, term, std_error.
+std::string check_row_values(const std::string& line) {
+    constexpr std::size_t kFirstNumber = 3, kTerm = 12, kStdError = 13;
+    std::size_t begin = 0;
+    for (std::size_t field = 0; field <= kStdError; ++field) {
+        const std::size_t end = line.find(',', begin);
+        if (end == std::string::npos && field < kStdError) return "";  // fewer fields: the field count check says so
+        if (field >= kFirstNumber) {
+            const std::string text = line.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
+            char* stop = nullptr;
+            const double v = std::strtod(text.c_str(), &stop);
+            if (text.empty() || *stop != '\0' || !std::isfinite(v)) return "field " + std::to_string(field + 1) + " '" + text + "' is not a finite number";
+            if (field == kTerm && !(v >= 0 && v <= 1)) return "term " + text + " is not a fraction in [0, 1]";
+            if (field == kStdError && !(v >= 0 && v <= 1)) return "std_error " + text + " is not in [0, 1]";
+        }
+        if (end == std::string::npos) break;
+        begin = end + 1;
+    }
+    return "";
+}
+
 std::string check_chunk_text(const std::string& text, std::uint64_t first, std::uint64_t last, std::size_t fields) {
     std::uint64_t expect = first;
     std::size_t line_start = 0;
@@ -81,6 +105,8 @@ std::string check_chunk_text(const std::string& text, std::uint64_t first, std::
                    std::to_string(fields);
         if (line.compare(0, line.find(','), std::to_string(expect)) != 0)
             return "index: expected point " + std::to_string(expect) + ", found '" + line.substr(0, line.find(',')) + "'";
+        if (const std::string problem = check_row_values(line); !problem.empty())
+            return "values: row of point " + std::to_string(expect) + ": " + problem;
         ++expect;
     }
     if (expect != last) return "rows: " + std::to_string(expect - first) + " rows, not " + std::to_string(last - first);
@@ -328,8 +354,9 @@ std::string domain_markdown(const json& provenance) {
 void assemble(const std::string& out_dir, const std::string& header, std::uint64_t chunks,
               const std::function<std::string(std::uint64_t)>& chunk_file,
               const std::function<std::string(std::uint64_t)>& check, json provenance) {
+    // A damaged chunk is bad input (exit status 2), as a damaged item of any other store is.
     for (std::uint64_t c = 0; c < chunks; ++c)
-        if (const std::string problem = check(c); !problem.empty()) throw std::runtime_error(problem);
+        if (const std::string problem = check(c); !problem.empty()) throw std::invalid_argument(problem);
     // The four outputs appear together or not at all (one OutputSet): sweep.csv is written to its
     // temporary, summarised from there, and renamed with the summaries and the provenance.
     OutputSet outputs;

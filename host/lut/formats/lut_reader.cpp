@@ -11,10 +11,15 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <map>
+#include <sstream>
 #include <stdexcept>
 
+#include "io/bounded_json.hpp"
 #include "io/exr_preflight.hpp"
 #include "io/input_file.hpp"
+#include "io/input_guard.hpp"
+#include "io/text.hpp"
 #include "lut/formats/texture_reader.hpp"
 
 namespace ms::lutfmt {
@@ -29,6 +34,8 @@ constexpr std::uint64_t kMaxTextBytes = kMaxLutValues * 16 + (std::uint64_t(16) 
 const char kTextOpening[] = "/* microshadow LUT";
 
 std::string first_bytes(const std::string& path, std::size_t n) {
+    require_regular_file(path, "LUT");  // a FIFO would block open() beyond the reach of signals
+    note_input(path);
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) throw std::runtime_error(path + ": cannot open for reading (" + std::strerror(errno) + ")");
     std::string head(n, '\0');
@@ -39,6 +46,24 @@ std::string first_bytes(const std::string& path, std::size_t n) {
 
 bool begins(const std::string& s, const unsigned char* magic, std::size_t n) {
     return s.size() >= n && std::memcmp(s.data(), magic, n) == 0;
+}
+
+// Every format stores 4 components a texel; the metadata says how many are data, and the writer fills
+// the rest with the last data channel (lut_formats.hpp). A component that differs from it is data the
+// metadata does not name (metadata naming 3 channels over RGBA data would drop A): refused, not dropped.
+// component(i, c): component c of texel i as stored.
+template <class Component>
+void check_padding(std::size_t texels, std::size_t data_channels, const Component& component) {
+    for (std::size_t i = 0; i < texels; ++i)
+        for (std::size_t c = data_channels; c < 4; ++c) {
+            const auto last = component(i, data_channels - 1), pad = component(i, c);
+            if (!(pad == last) && !(pad != pad && last != last))  // equal, or both NaN (unbaked texels)
+                throw std::runtime_error("component " + std::to_string(c) + " of texel " + std::to_string(i) + " holds " +
+                                         format_g(double(pad), 9) + ", not the padding (a copy of component " +
+                                         std::to_string(data_channels - 1) + ", " + format_g(double(last), 9) +
+                                         "): the metadata names " + std::to_string(data_channels) +
+                                         " channel(s) but the file holds more data (metadata of another file?)");
+        }
 }
 
 // --- texture files (KTX2, DDS): one 2D or 3D level of RGBA, the LUT's atlas with NdotV along z -------
@@ -63,6 +88,7 @@ LutFile lut_from_texture(TextureFile f, const char* container) {
     // x = visibility, y = NdotL, z = NdotV: texel (x, y, z) is the atlas's (x, z * nNdotL + y), so the
     // level is the atlas row by row already; only the RGBA padding goes.
     const std::size_t nc = lut.channels.size(), texels = std::size_t(lut.width) * lut.height;
+    check_padding(texels, nc, [&](std::size_t i, std::size_t c) { return t.levels[0][i * 4 + c]; });
     lut.data.resize(texels * nc);
     for (std::size_t i = 0; i < texels; ++i)
         for (std::size_t c = 0; c < nc; ++c) lut.data[i * nc + c] = t.levels[0][i * 4 + c];
@@ -147,8 +173,7 @@ LutFile read_png_lut(const std::string& path, PixelEncoding& encoding) {
     std::fclose(f);
     if (!ok) throw std::runtime_error(std::string("not a readable PNG LUT atlas: ") + px.error);
     if (px.text.empty()) throw WrongFileKind("no \"microshadow\" text chunk: not a microshadow LUT atlas");
-    nlohmann::json meta = nlohmann::json::parse(px.text, nullptr, false);
-    if (meta.is_discarded()) throw std::runtime_error("the \"microshadow\" text chunk is not JSON");
+    const nlohmann::json meta = parse_bounded_json(px.text, "the \"microshadow\" text chunk");
     LutFile lut = lut_from_metadata(meta);
     if (px.width != lut.width || px.height != lut.height)
         throw std::runtime_error("the image is " + std::to_string(px.width) + " x " + std::to_string(px.height) +
@@ -156,6 +181,10 @@ LutFile read_png_lut(const std::string& path, PixelEncoding& encoding) {
     encoding = px.bits == 8 ? PixelEncoding::unorm8 : PixelEncoding::unorm16;
     const double scale = px.bits == 8 ? 255.0 : 65535.0;
     const std::size_t nc = lut.channels.size(), texels = std::size_t(lut.width) * lut.height;
+    check_padding(texels, nc, [&](std::size_t i, std::size_t c) {
+        const std::size_t s = i * 4 + c;
+        return px.bits == 8 ? unsigned(px.rows[s]) : unsigned(px.rows[2 * s]) << 8 | px.rows[2 * s + 1];
+    });
     lut.data.resize(texels * nc);
     for (std::size_t i = 0; i < texels; ++i)
         for (std::size_t c = 0; c < nc; ++c) {
@@ -236,6 +265,73 @@ std::vector<float> c_values(const std::string& text, std::size_t begin, std::siz
     return out;
 }
 
+// A C header's #defines and the declared type of its data array repeat what the metadata string says,
+// for a compiler; a program uses them, not the JSON, so they must say the same (a header whose defines
+// were edited would size or sample the texture wrongly in the renderer and pass here).
+void check_header_defines(const std::string& text, std::size_t metadata_at, const LutFile& lut, PixelEncoding encoding) {
+    // The identifier before "_metadata[] =": "static const char <id>_metadata[] =".
+    std::size_t id_begin = metadata_at;
+    while (id_begin > 0 && (std::isalnum(static_cast<unsigned char>(text[id_begin - 1])) || text[id_begin - 1] == '_')) --id_begin;
+    const std::string id = text.substr(id_begin, metadata_at - id_begin), ID = to_upper(id);
+    if (id.empty()) throw std::runtime_error("no identifier before _metadata[]");
+    std::map<std::string, std::string> defines;
+    for (std::size_t at = text.find("#define "); at != std::string::npos; at = text.find("#define ", at + 1)) {
+        if (at > 0 && text[at - 1] != '\n') continue;
+        std::istringstream line(text.substr(at + 8, text.find('\n', at) - at - 8));
+        std::string name, value;
+        line >> name >> value;
+        if (name.compare(0, ID.size() + 1, ID + "_") == 0) defines[name.substr(ID.size() + 1)] = value;
+    }
+    const auto check = [&](const std::string& key, const std::string& want, bool required) {
+        const auto it = defines.find(key);
+        if (it == defines.end()) {
+            if (required) throw std::runtime_error("#define " + ID + "_" + key + " is missing (the metadata says " + want + ")");
+            return;
+        }
+        std::string got = it->second;
+        if (!got.empty() && (got.back() == 'u' || got.back() == 'U')) got.pop_back();
+        bool same = got == want;
+        if (!same) {  // numbers: the same value in another spelling
+            char* end = nullptr;
+            const double g = std::strtod(got.c_str(), &end);
+            same = end && *end == '\0' && !got.empty() && g == std::strtod(want.c_str(), nullptr);
+        }
+        if (!same)
+            throw std::runtime_error("#define " + ID + "_" + key + " " + it->second + " contradicts the metadata (" + want +
+                                     "): the header's defines and its data disagree");
+    };
+    const auto number = [](double v) {
+        char buf[40];
+        std::snprintf(buf, sizeof buf, "%.17g", v);
+        return std::string(buf);
+    };
+    check("WIDTH", std::to_string(lut.visibility().count), true);
+    check("HEIGHT", std::to_string(lut.n_dot_l().count), true);
+    check("DEPTH", std::to_string(lut.n_dot_v().count), true);
+    check("COMPONENTS", "4", true);
+    check("ROUGHNESS_CHANNELS", std::to_string(lut.channels.size()), true);
+    const char* axis_ids[3] = {"VISIBILITY", "N_DOT_L", "N_DOT_V"};
+    for (std::size_t i = 0; i < 3; ++i) {
+        check(std::string(axis_ids[i]) + "_MIN", number(lut.axes[i].min), false);
+        check(std::string(axis_ids[i]) + "_MAX", number(lut.axes[i].max), false);
+        check(std::string(axis_ids[i]) + "_TEXEL_CENTRES", lut.axes[i].texel == TexelConvention::centres ? "1" : "0", false);
+    }
+    const char* names[4] = {"R", "G", "B", "A"};
+    for (std::size_t c = 0; c < lut.channels.size(); ++c) check(std::string("ROUGHNESS_") + names[c], number(lut.channels[c].roughness), false);
+    if (lut.metadata.contains("ao_weighting") && lut.metadata.at("ao_weighting").is_string())
+        check("COSINE_AO", lut.metadata.at("ao_weighting") == "cosine" ? "1" : "0", false);
+    // The array's element type.
+    const std::string data_decl = id + "_data[";
+    const std::size_t d = text.find(data_decl);
+    const std::size_t line_start = d == std::string::npos ? d : text.rfind('\n', d);
+    if (d != std::string::npos) {
+        const std::string decl = text.substr(line_start == std::string::npos ? 0 : line_start + 1, d - (line_start == std::string::npos ? 0 : line_start + 1));
+        const std::string want = encoding == PixelEncoding::float32 ? "float" : encoding == PixelEncoding::unorm8 ? "uint8_t" : "uint16_t";
+        if (decl.find(" " + want + " ") == std::string::npos)
+            throw std::runtime_error("the data array is declared '" + decl + "', not " + want + " for the metadata's encoding " + to_string(encoding));
+    }
+}
+
 LutFile read_text_lut(const std::string& path, LutFormat format, PixelEncoding& encoding) {
     const std::string text = read_input_file(path, kMaxTextBytes, "LUT source file");
     nlohmann::json meta;
@@ -244,7 +340,7 @@ LutFile read_text_lut(const std::string& path, LutFormat format, PixelEncoding& 
         const std::size_t m = text.find("_metadata[] =");
         if (m == std::string::npos) throw std::runtime_error("no <prefix>_metadata[] string");
         std::size_t literal_end = 0;
-        meta = nlohmann::json::parse(c_string_value(text, m, &literal_end), nullptr, false);
+        meta = parse_bounded_json(c_string_value(text, m, &literal_end), "the <prefix>_metadata[] string");
         const std::size_t d = text.find("_data[", literal_end);
         const std::size_t open = d == std::string::npos ? d : text.find('{', d);
         const std::size_t close = open == std::string::npos ? open : text.find('}', open);
@@ -258,7 +354,7 @@ LutFile read_text_lut(const std::string& path, LutFormat format, PixelEncoding& 
                                      "export it again from the bake's OpenEXR");
         const std::size_t close = text.find(" */", m);
         if (close == std::string::npos) throw std::runtime_error("the metadata comment is not closed");
-        meta = nlohmann::json::parse(text.substr(m + key.size(), close - m - key.size()), nullptr, false);
+        meta = parse_bounded_json(text.substr(m + key.size(), close - m - key.size()), "the metadata comment");
         values_begin = close + 3;
     }
     if (meta.is_discarded() || !meta.is_object()) throw std::runtime_error("the recorded metadata is not a JSON object");
@@ -266,10 +362,12 @@ LutFile read_text_lut(const std::string& path, LutFormat format, PixelEncoding& 
     if (!meta.contains("encoding") || !meta.at("encoding").is_string())
         throw std::runtime_error("the metadata has no \"encoding\" (float32, float16, unorm8 or unorm16)");
     encoding = parse_pixel_encoding(meta.at("encoding").get<std::string>());
+    if (format == LutFormat::header) check_header_defines(text, text.find("_metadata[] ="), lut, encoding);
     const std::vector<float> rgba = c_values(text, values_begin, values_end, encoding);
     const std::size_t nc = lut.channels.size(), texels = std::size_t(lut.width) * lut.height;
     if (rgba.size() != texels * 4)
         throw std::runtime_error(std::to_string(rgba.size()) + " values; the axes need " + std::to_string(texels) + " texels x 4 components");
+    check_padding(texels, nc, [&](std::size_t i, std::size_t c) { return rgba[i * 4 + c]; });
     lut.data.resize(texels * nc);
     for (std::size_t i = 0; i < texels; ++i)
         for (std::size_t c = 0; c < nc; ++c) lut.data[i * nc + c] = rgba[i * 4 + c];
@@ -315,7 +413,7 @@ nlohmann::json read_file_metadata(const std::string& path) {
                 Imf::InputFile file(path.c_str());
                 const auto* attr = file.header().findTypedAttribute<Imf::StringAttribute>("microshadow");
                 if (!attr) return nullptr;
-                const nlohmann::json j = nlohmann::json::parse(attr->value(), nullptr, false);
+                const nlohmann::json j = parse_bounded_json(attr->value(), "the \"microshadow\" attribute");
                 return j.is_object() ? j : nlohmann::json();
             }
             case LutFormat::ktx2: return read_ktx2_metadata(path);
@@ -327,7 +425,8 @@ nlohmann::json read_file_metadata(const std::string& path) {
                 const bool ok = decode_png(f, px);
                 std::fclose(f);
                 if (!ok) throw std::runtime_error(px.error);
-                const nlohmann::json j = nlohmann::json::parse(px.text, nullptr, false);
+                if (px.text.empty()) return nullptr;
+                const nlohmann::json j = parse_bounded_json(px.text, "the \"microshadow\" text chunk");
                 return j.is_object() ? j : nlohmann::json();
             }
             case LutFormat::header:

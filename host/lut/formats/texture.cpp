@@ -5,6 +5,7 @@
 #include <numeric>
 #include <stdexcept>
 
+#include "io/atomic_file.hpp"
 #include "lut/formats/binary_writer.hpp"
 #include "lut/formats/dds.hpp"
 #include "lut/formats/ktx2.hpp"
@@ -13,8 +14,9 @@ namespace ms::lutfmt {
 
 namespace {
 
-// The basic DFD (with its leading dfdTotalSize) of an RGBA format with 4 equal components.
-std::vector<std::uint8_t> rgba_dfd(PixelEncoding e, std::uint32_t components) {
+}  // namespace
+
+std::vector<std::uint8_t> ktx2_basic_dfd(PixelEncoding e, std::uint32_t components) {
     const std::uint32_t comp_bytes = bytes_per_component(e), bits = comp_bytes * 8;
     const bool is_float = e == PixelEncoding::float32 || e == PixelEncoding::float16;
     const std::uint32_t block_size = 24 + 16 * components;
@@ -45,6 +47,8 @@ std::vector<std::uint8_t> rgba_dfd(PixelEncoding e, std::uint32_t components) {
     }
     return w.bytes;
 }
+
+namespace {
 
 std::size_t level_texels(const TextureData& t, std::size_t p) {
     const auto q = std::uint32_t(p);
@@ -111,7 +115,7 @@ std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncodin
     for (std::uint32_t p = 0; p < levels; ++p) w.u64(0), w.u64(0), w.u64(0);  // base level first: patched below
 
     const std::size_t dfd_at = w.size();
-    const std::vector<std::uint8_t> dfd = rgba_dfd(encoding, t.stored_components);
+    const std::vector<std::uint8_t> dfd = ktx2_basic_dfd(encoding, t.stored_components);
     w.raw(dfd.data(), dfd.size());
 
     // Key/value data, sorted by key as the specification requires (std::map orders bytewise).
@@ -210,8 +214,13 @@ nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding) {
 
 void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
     const std::vector<std::uint8_t> bytes = encode_dds_texture(t, encoding);
-    write_text_atomically(path + ".json", dds_sidecar_json(t, encoding).dump(2) + "\n");
-    write_file_atomically(path, bytes);
+    // The texels and their sidecar are one set: a failure between the two renames (a full disk) must
+    // not leave a new sidecar describing old texels, which every reader would accept.
+    OutputSet outputs;
+    const std::size_t sidecar = outputs.add(path + ".json", true), texels = outputs.add(path, true);
+    outputs.stream(sidecar) << dds_sidecar_json(t, encoding).dump(2) << "\n";
+    outputs.stream(texels).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    outputs.commit();
 }
 
 }  // namespace ms::lutfmt

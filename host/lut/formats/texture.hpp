@@ -66,6 +66,10 @@ std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncodin
 std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding encoding);
 nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding);
 
+// The basic data format descriptor (with its leading dfdTotalSize) the KTX2 writer stores for
+// `components` equal components (RGBA: 4, RG: 2) in `encoding`; the reader requires these bytes.
+std::vector<std::uint8_t> ktx2_basic_dfd(PixelEncoding encoding, std::uint32_t components);
+
 // Write atomically. std::invalid_argument (bad texture) or std::runtime_error (I/O), naming the file.
 void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);
 void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);

@@ -1,11 +1,16 @@
 #include "lut/formats/texture_reader.hpp"
 
+#include <sys/stat.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstring>
 #include <stdexcept>
 
+#include "io/bounded_json.hpp"
 #include "io/input_file.hpp"
+#include "io/input_guard.hpp"
 #include "lut/formats/dds.hpp"
 #include "lut/formats/ktx2.hpp"
 
@@ -19,6 +24,8 @@ constexpr std::uint32_t kDdsMagicWord = 0x20534444u, kFourCcDx10 = 0x30315844u;
 constexpr std::uint64_t kMaxSidecarBytes = std::uint64_t(16) << 20;
 
 bool starts_with(const std::string& path, const unsigned char* magic, std::size_t n) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;  // a FIFO would block open()
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) return false;
     unsigned char head[16] = {};
@@ -93,8 +100,8 @@ void check_dimensions(const TextureData& t, std::uint32_t levels, std::uint64_t 
 }
 
 nlohmann::json parse_metadata(const std::string& text, const std::string& where) {
-    nlohmann::json j = nlohmann::json::parse(text, nullptr, false);
-    if (j.is_discarded() || !j.is_object()) throw std::runtime_error(where + " is not a JSON object");
+    const nlohmann::json j = parse_bounded_json(text, where);
+    if (!j.is_object()) throw std::runtime_error(where + " is not a JSON object");
     return j;
 }
 
@@ -118,9 +125,62 @@ nlohmann::json ktx2_metadata(const std::string& b) {
     return nullptr;
 }
 
+// Every region the KTX2 header claims, against the bytes (the KTX 2.0 "File Structure"): the DFD right
+// after the level index and exactly the one this tool writes for the format, the key/value data right
+// after it, no supercompression global data, and each level inside the file, after the key/value data
+// and apart from every other level. A level offset pointing into the key/value data read the metadata's
+// bytes as texels.
+void check_ktx2_regions(const Bytes& r, PixelEncoding encoding, std::uint32_t levels) {
+    const std::uint64_t index_end = 80 + 24 * std::uint64_t(levels);
+    r.need(0, index_end, "the level index");
+    const std::uint64_t dfd_offset = r.u32(48), dfd_length = r.u32(52), kvd_offset = r.u32(56), kvd_length = r.u32(60);
+    const std::uint64_t sgd_offset = r.u64(64), sgd_length = r.u64(72);
+    if (dfd_offset != index_end)
+        throw std::runtime_error("dfdByteOffset " + std::to_string(dfd_offset) + ": the data format descriptor follows the level index, at byte " +
+                                 std::to_string(index_end));
+    const std::vector<std::uint8_t> dfd = ktx2_basic_dfd(encoding, 4);
+    if (dfd_length != dfd.size())
+        throw std::runtime_error("dfdByteLength " + std::to_string(dfd_length) + ": the " + to_string(encoding) +
+                                 " RGBA descriptor is " + std::to_string(dfd.size()) + " bytes");
+    r.need(dfd_offset, dfd_length, "the data format descriptor");
+    if (std::memcmp(r.b.data() + dfd_offset, dfd.data(), dfd.size()) != 0)
+        throw std::runtime_error("the data format descriptor does not describe vkFormat " + std::to_string(r.u32(12)) +
+                                 " (its channels, bit widths or total size disagree with the header)");
+    const std::uint64_t dfd_end = dfd_offset + dfd_length;
+    if (kvd_length > 0 && kvd_offset != dfd_end)
+        throw std::runtime_error("kvdByteOffset " + std::to_string(kvd_offset) + ": the key/value data follow the descriptor, at byte " +
+                                 std::to_string(dfd_end));
+    if (kvd_length == 0 && kvd_offset != 0 && kvd_offset != dfd_end)
+        throw std::runtime_error("kvdByteOffset " + std::to_string(kvd_offset) + " with no key/value data");
+    r.need(kvd_offset, kvd_length, "the key/value data");
+    if (sgd_offset != 0 || sgd_length != 0)
+        throw std::runtime_error("supercompression global data (sgdByteOffset " + std::to_string(sgd_offset) + ", sgdByteLength " +
+                                 std::to_string(sgd_length) + ") in a file that is not supercompressed");
+    const std::uint64_t data_start = std::max(dfd_end, kvd_offset + kvd_length);
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> spans;
+    for (std::uint32_t p = 0; p < levels; ++p) {
+        const std::uint64_t offset = r.u64(80 + 24 * std::uint64_t(p)), length = r.u64(88 + 24 * std::uint64_t(p));
+        const std::uint64_t uncompressed = r.u64(96 + 24 * std::uint64_t(p));
+        const std::string level = "level " + std::to_string(p);
+        if (uncompressed != length)
+            throw std::runtime_error(level + ": uncompressedByteLength " + std::to_string(uncompressed) + " differs from byteLength " +
+                                     std::to_string(length) + " in a file that is not supercompressed");
+        if (offset < data_start)
+            throw std::runtime_error(level + " starts at byte " + std::to_string(offset) + ", inside the header, descriptor or key/value data (which end at byte " +
+                                     std::to_string(data_start) + ")");
+        r.need(offset, length, level.c_str());
+        spans.emplace_back(offset, offset + length);
+    }
+    std::sort(spans.begin(), spans.end());
+    for (std::size_t i = 1; i < spans.size(); ++i)
+        if (spans[i].first < spans[i - 1].second) throw std::runtime_error("two mip levels overlap in the file");
+}
+
 std::string read_whole(const std::string& path, std::uint64_t max_texels) {
     // RGBA32F is 16 bytes a texel; a full mip chain adds at most a third (2D) or a seventh (3D).
     const std::uint64_t max_bytes = max_texels * 16 * 2 + (std::uint64_t(1) << 20);
+    require_regular_file(path, "texture");
+    note_input(path);
     return read_input_file(path, max_bytes, "texture file");
 }
 
@@ -134,6 +194,7 @@ bool has_dds_magic(const std::string& path) {
 }
 
 nlohmann::json read_ktx2_metadata(const std::string& path) {
+    require_regular_file(path, "texture");
     const std::string b = read_input_file(path, std::uint64_t(1) << 32, "texture file");
     if (b.size() < 80 || std::memcmp(b.data(), kKtx2Identifier, 12) != 0) throw std::runtime_error("not a KTX2 file");
     return ktx2_metadata(b);
@@ -162,6 +223,7 @@ TextureFile read_ktx2_texture(const std::string& path, std::uint64_t max_texels)
     if (t.faces != 1 && t.faces != 6) throw std::runtime_error("faceCount " + std::to_string(t.faces) + " (1 or 6)");
     if (r.u32(44) != 0) throw std::runtime_error("supercompressed (scheme " + std::to_string(r.u32(44)) + ")");
     check_dimensions(t, levels, max_texels);
+    check_ktx2_regions(r, out.encoding, levels);
     t.channels = 4;
     t.metadata = ktx2_metadata(b);
     if (!t.metadata.is_object()) t.metadata = nlohmann::json::object();
@@ -182,12 +244,13 @@ TextureFile read_ktx2_texture(const std::string& path, std::uint64_t max_texels)
 
 nlohmann::json read_dds_metadata(const std::string& path) {
     const std::string sidecar = path + ".json";
-    std::string text;
-    try {
-        text = read_input_file(sidecar, kMaxSidecarBytes, "DDS metadata sidecar");
-    } catch (const std::exception&) {
-        return nullptr;  // no sidecar: the caller says what that means for it
-    }
+    // No sidecar: the caller says what that means for it. One that exists but cannot be read (a FIFO,
+    // a directory, more than the limit) is refused with its reason, not taken for a missing one.
+    struct stat st {};
+    if (::lstat(sidecar.c_str(), &st) != 0 && errno == ENOENT) return nullptr;
+    require_regular_file(sidecar, "DDS metadata sidecar");
+    note_input(sidecar);
+    const std::string text = read_input_file(sidecar, kMaxSidecarBytes, "DDS metadata sidecar");
     return parse_metadata(text, "the metadata sidecar " + sidecar);
 }
 

@@ -17,6 +17,7 @@
 #include "lut/lookup.hpp"
 #include "lut/shader/compose.hpp"
 #include "repr/representation.hpp"
+#include "test_files.hpp"
 #include "vulkan_compute.hpp"
 
 namespace {
@@ -27,12 +28,7 @@ using ms::testing::compile_spirv;
 using ms::testing::have_glslang;
 using ms::testing::RunResult;
 
-std::string file_text(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
+std::string file_text(const std::string& path) { return ms::testing::slurp_file(path); }
 
 // The engine's point term the taps call (taps_point_term: the taps file's prefix), a smooth stand-in.
 double combined_stub(const ms::Vec3& wi, const ms::Vec3& wo) { return 0.5 + 0.3 * wo.z - 0.2 * wo.x * wo.y + 0.1 * wi.x * wo.x; }

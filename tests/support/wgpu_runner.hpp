@@ -40,8 +40,10 @@ inline std::string wgpu_python(std::string* why) {
     const std::string venv = std::filesystem::path(MICROSHADOW_CLI).parent_path() / "wgpu-venv";
     const std::string python = venv + "/bin/python";
     if (run_shell(python + " -c 'import wgpu' 2>/dev/null").exit_code == 0) return python;
-    const RunResult made = run_shell("python3 -m venv --system-site-packages " + venv + " 2>&1 && " + python +
-                                     " -m pip install -q --disable-pip-version-check wgpu==0.32.0 2>&1");
+    // Under a lock: ctest runs the WGSL tests in parallel, and the first ones would make it together.
+    const RunResult made = run_shell("flock " + venv + ".lock sh -c '" + python + " -c \"import wgpu\" 2>/dev/null || (python3 -m venv " +
+                                     "--system-site-packages " + venv + " && " + python +
+                                     " -m pip install -q --disable-pip-version-check wgpu==0.32.0)' 2>&1");
     if (made.exit_code != 0 || run_shell(python + " -c 'import wgpu' 2>/dev/null").exit_code != 0) {
         *why = "no Python with the wgpu package (set MICROSHADOW_WGPU_PYTHON, or let the test make " + venv + "): " +
                made.output.substr(0, 400);

@@ -326,16 +326,20 @@ private:
         pending_comments_.clear();
     }
 
-    // An if body or a for body: braces always (WGSL requires them).
-    void body(int indent) {
+    // An if, else or for body: braces always (WGSL requires them); no newline after the closing brace.
+    void braced_body(int indent) {
         if (peek().text == "{") {
             block(indent);
-            finish_line();
             return;
         }
         out_ += "{\n";
         statement(indent + 1);
-        out_ += pad(indent) + "}\n";
+        out_ += pad(indent) + "}";
+    }
+
+    void body(int indent) {
+        braced_body(indent);
+        finish_line();
     }
 
     void if_statement(int indent) {
@@ -345,13 +349,7 @@ private:
         expect(")");
         out_ += "if (" + cond + ") ";
         // The body, then an else (or else if) on the closing brace's line.
-        if (peek().text == "{") {
-            block(indent);
-        } else {
-            out_ += "{\n";
-            statement(indent + 1);
-            out_ += pad(indent) + "}";
-        }
+        braced_body(indent);
         if (peek().kind == Token::ident && peek().text == "else") {
             next();
             out_ += " else ";
@@ -359,13 +357,7 @@ private:
                 if_statement(indent);
                 return;
             }
-            if (peek().text == "{") {
-                block(indent);
-            } else {
-                out_ += "{\n";
-                statement(indent + 1);
-                out_ += pad(indent) + "}";
-            }
+            braced_body(indent);
         }
         finish_line();
     }

@@ -6,9 +6,10 @@
 # CI runs them all. A new test is unit until it is listed here: list it under cli when it runs the
 # program, under slow when it takes a second or more (measured one at a time on the 2-core CI machine).
 set(microshadow_gpu_tests
-  "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader)\\."
+  "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader|CombinedShaderTest)\\."
   "^AreaShaderTest\\.(Rect)?TapsShaderMatchesTheCppTapsOnLavapipe$")
 set(microshadow_cli_tests
+  "^CombinedShaderTest\\."
   "^AreaCommandCli\\."
   "^AreaLightCli\\."
   "^AreaShaderTest\\.CliWritesBothLanguages$"
@@ -101,6 +102,7 @@ set(microshadow_slow_tests
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"
   "^Reliability\\.LutReadersRefuseClaimsTheBytesContradict$"
+  "^CombinedShaderTest\\."
   "^ReprPresetMax\\."
   "^StoredBoundTest\\.ExactDfgFilesHoldEveryTexelWithinTheirRecordedBound$"
   "^ReprAnisotropicCorrectedTest\\.ThePresetMeetsItsMeasuredAccuracyAgainstTheExactTerm$"

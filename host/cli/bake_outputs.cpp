@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <stdexcept>
 
+#include "cli/common.hpp"
 #include "lut/shader/shader_gen.hpp"
 
 namespace ms::cli {
@@ -45,6 +46,8 @@ void add_bake_output_options(CLI::App* cmd, BakeOutputArgs& a) {
         ->check(CLI::IsMember({"float32", "float16", "unorm8", "unorm16", "float", "half", "rgba8", "rgba16"}));
     cmd->add_option("--shader-glsl", a.shader_glsl, "also write GLSL that samples this LUT (F.glsl)");
     cmd->add_option("--shader-hlsl", a.shader_hlsl, "also write HLSL that samples this LUT (F.hlsl)");
+    cmd->add_option("--shader-wgsl", a.shader_wgsl, "also write WGSL that samples this LUT (F.wgsl)");
+    add_shader_prefix_option(cmd, a.shader_prefix);
 }
 
 lutfmt::LutOutput check_bake_outputs(const BakeOutputArgs& a, const std::string& out, const std::string& preview, bool half) {
@@ -56,6 +59,7 @@ lutfmt::LutOutput check_bake_outputs(const BakeOutputArgs& a, const std::string&
     }
     check_shader_path(a.shader_glsl, "--shader-glsl", {".glsl", ".comp", ".frag"}, out, preview);
     check_shader_path(a.shader_hlsl, "--shader-hlsl", {".hlsl", ".hlsli"}, out, preview);
+    check_shader_path(a.shader_wgsl, "--shader-wgsl", {".wgsl"}, out, preview);
     if (!a.shader_glsl.empty() && !a.shader_hlsl.empty() && same_file(a.shader_glsl, a.shader_hlsl))
         throw std::invalid_argument("--shader-glsl and --shader-hlsl are the same file");
     return output;
@@ -64,8 +68,9 @@ lutfmt::LutOutput check_bake_outputs(const BakeOutputArgs& a, const std::string&
 void write_bake_outputs(const BakeOutputArgs& a, const lutfmt::LutOutput& output, const std::string& out, const LutFile& lut) {
     // Shaders first, the LUT last: the LUT appearing still means the whole job finished.
     const std::string source = std::filesystem::path(out).filename().string();
-    if (!a.shader_glsl.empty()) lutshader::write_shader(a.shader_glsl, lut, lutshader::ShaderLanguage::glsl, source);
-    if (!a.shader_hlsl.empty()) lutshader::write_shader(a.shader_hlsl, lut, lutshader::ShaderLanguage::hlsl, source);
+    if (!a.shader_glsl.empty()) lutshader::write_shader(a.shader_glsl, lut, lutshader::ShaderLanguage::glsl, source, a.shader_prefix);
+    if (!a.shader_hlsl.empty()) lutshader::write_shader(a.shader_hlsl, lut, lutshader::ShaderLanguage::hlsl, source, a.shader_prefix);
+    if (!a.shader_wgsl.empty()) lutshader::write_shader(a.shader_wgsl, lut, lutshader::ShaderLanguage::wgsl, source, a.shader_prefix);
     lutfmt::write_lut_output(out, lut, output);
 }
 

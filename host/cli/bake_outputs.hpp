@@ -13,7 +13,7 @@
 namespace ms::cli {
 
 struct BakeOutputArgs {
-    std::string format, encoding, shader_glsl, shader_hlsl;
+    std::string format, encoding, shader_glsl, shader_hlsl, shader_wgsl, shader_prefix;
 };
 
 void add_bake_output_options(CLI::App* cmd, BakeOutputArgs& args);

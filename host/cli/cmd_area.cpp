@@ -12,6 +12,7 @@
 #include "io/text.hpp"
 #include "jobs/area.hpp"
 #include "jobs/area_shader.hpp"
+#include "lut/shader/compose.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 
 namespace ms::cli {
@@ -245,14 +246,18 @@ void add_area_command(CLI::App& app) {
 
     auto lang = std::make_shared<std::string>("glsl");
     auto shader_out = std::make_shared<std::string>("-");
+    auto shader_prefix = std::make_shared<std::string>();
     auto* sh = area_cmd->add_subcommand("shader", "GLSL or HLSL of the tap approximations (sphere lights 7 taps, rectangles 9; "
-                                                  "they call the engine's float ms_point_term(wi, wo), defined before them)");
-    sh->add_option("--lang", *lang, "glsl | hlsl")->check(CLI::IsMember({"glsl", "hlsl"}));
+                                                  "they call the engine's float PREFIX_point_term(wi, wo), defined before them)");
+    sh->add_option("--lang", *lang, "glsl | hlsl | wgsl")->check(CLI::IsMember({"glsl", "hlsl", "wgsl"}));
     sh->add_option("--out", *shader_out, "output file ('-': standard output, the default)");
-    sh->callback([lang, shader_out] {
+    add_shader_prefix_option(sh, *shader_prefix);
+    sh->callback([lang, shader_out, shader_prefix] {
         OutputSet outputs;
         const std::size_t i = outputs.add(*shader_out, false, /*allow_stdout=*/true);
-        outputs.stream(i) << area::taps_shader(*lang == "glsl" ? area::ShaderLanguage::glsl : area::ShaderLanguage::hlsl);
+        const auto language = lutshader::parse_shader_language(*lang);
+        outputs.stream(i) << lutshader::compose(area::taps_shader(language), language,
+                                                shader_prefix->empty() ? lutshader::default_prefix(*shader_out) : *shader_prefix);
         outputs.commit();
     });
 }

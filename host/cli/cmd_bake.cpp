@@ -134,7 +134,8 @@ BakeSpec make_spec(const BakeArgs& a) {
 
 // --- bake --scene (the scene's domain decides the bake; jobs/bake_run.hpp) ---
 void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
-    for (const char* o : {"--preview", "--verify", "--verify-method", "--half", "--format", "--encoding", "--shader-glsl", "--shader-hlsl", "--ao-weighting", "--form"})
+    for (const char* o : {"--preview", "--verify", "--verify-method", "--half", "--format", "--encoding", "--shader-glsl", "--shader-hlsl", "--shader-wgsl",
+                          "--shader-prefix", "--ao-weighting", "--form"})
         if (args.cmd->get_option(o)->count() > 0) throw std::invalid_argument(std::string(o) + " does not apply to --scene");
     if (args.out.size() < 4 || args.out.substr(args.out.size() - 4) != ".exr")
         throw std::invalid_argument("--scene writes an OpenEXR LUT (its coverage record is in the metadata): --out must end in .exr");

@@ -254,7 +254,8 @@ void add_ibl_command(CLI::App& app) {
     add_verify_option(pf, p->job.verify, "compare K random texels with the brute-force oracle; fail (exit 1, nothing written) when one is outside its bars (Bonferroni)");
     pf->add_flag("--verify-report", p->job.verify_report, "with --verify: record the comparison in ibl.json but never fail (benchmarks of estimators whose bars are not honest)");
     add_cubemap_format_options(pf, p->job.format, p->job.encoding,
-                               "specular chain: exr (DIR/specular_m<m>.exr crosses), ktx2 or dds (DIR/specular.<format>: one cubemap with every mip, RGBA, A = 1)",
+                               "specular chain: ktx2 or dds (DIR/specular.<format>: one cubemap with every mip, RGBA, A = 1; what engines load) "
+                               "or exr (DIR/specular_m<m>.exr crosses, one per mip)",
                                "ktx2 / dds texels: float16 (RGBA16F) or float32");
     pf->add_option("--irradiance-size", p->job.irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
     pf->add_option("--dfg-size", p->job.dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (exr, ktx2 or dds)")

@@ -9,8 +9,10 @@
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <tuple>
 
 #include "cli/common.hpp"
+#include "lut/shader/compose.hpp"
 #include "cli/mpi_world.hpp"
 #include "cli/progress.hpp"
 #include "io/atomic_file.hpp"
@@ -25,13 +27,13 @@ namespace ms::cli {
 namespace {
 
 struct ReprBakeArgs {
-    std::string preset, kind, out, shader_glsl, shader_hlsl;
+    std::string preset, kind, out, shader_glsl, shader_hlsl, shader_wgsl, shader_prefix;
     double edge_width = 2.0;
     std::vector<double> domain_visibility{0, 1}, domain_n_dot_v{0, 1};
     std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16, azimuth_nodes = 9, roughness_count = 0;
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
     std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear", visibility_warp = "linear";
-    bool half = false;
+    bool half = false, float32 = false;
     SamplingOptions sampling;
     CLI::App* cmd = nullptr;
     DistributionArgs distribution;  // --shard --store --merge --mpi (docs/cluster.md)
@@ -126,10 +128,14 @@ struct ReprOutput {
         file = outputs.add(out, true);
         if (format == ReprFormat::dds) sidecar = outputs.add(out + ".json");
     }
-    // Writes the file into its temporary; all appear together at outputs.commit().
-    void write(OutputSet& outputs, const repr::Representation& r, bool half) const {
+    // Writes the file into its temporary; all appear together at outputs.commit(). The archive (EXR)
+    // is FLOAT unless `half`; the engine-facing textures (KTX2, DDS) are RGBA16F, what an engine uploads
+    // and what the representations' memory figures count, unless `float32`.
+    void write(OutputSet& outputs, const repr::Representation& r, bool half, bool float32) const {
         const std::string temp = outputs.temp_path(file);
+        if (half && float32) throw std::invalid_argument("--half and --float contradict each other");
         if (format == ReprFormat::exr) return r.write(temp, half);
+        half = !float32;
         if (format == ReprFormat::ktx2) return r.write_ktx2(temp, half);
         // The DDS writer puts the metadata beside its path: moved into the set's own `<out>.json`.
         try {
@@ -163,6 +169,17 @@ const char* const kLayoutOptions[] = {"--kind", "--visibility-count", "--n-dot-l
 void check_range(const char* option, const std::vector<double>& v) {
     if (v.size() != 2 || !(v[0] >= 0 && v[0] < v[1] && v[1] <= 1))
         throw std::invalid_argument(std::string(option) + " must be LO,HI with 0 <= LO < HI <= 1");
+}
+
+// The bake's --shader-glsl / --shader-hlsl files, composable (lut/shader/compose.hpp).
+void write_repr_shaders(OutputSet& outputs, const ReprBakeArgs& a, const repr::Representation& rep, const std::string& name,
+                        std::size_t glsl, std::size_t hlsl, std::size_t wgsl) {
+    for (const auto& [path, index, language] : {std::tuple{a.shader_glsl, glsl, lutshader::ShaderLanguage::glsl},
+                                                std::tuple{a.shader_hlsl, hlsl, lutshader::ShaderLanguage::hlsl},
+                                                std::tuple{a.shader_wgsl, wgsl, lutshader::ShaderLanguage::wgsl}})
+        if (!path.empty())
+            outputs.stream(index) << lutshader::compose(rep.shader(language, name), language,
+                                                        a.shader_prefix.empty() ? lutshader::default_prefix(path) : a.shader_prefix);
 }
 
 void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
@@ -222,11 +239,12 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
     // Every output checked before the bake (only rank 0 of an MPI world writes); all appear together or none.
     OutputSet outputs;
     std::optional<ReprOutput> file;
-    std::size_t glsl = 0, hlsl = 0;
+    std::size_t glsl = 0, hlsl = 0, wgsl = 0;
     if (rank0) {
         file.emplace(outputs, a.out);
         glsl = a.shader_glsl.empty() ? 0 : outputs.add(a.shader_glsl);
         hlsl = a.shader_hlsl.empty() ? 0 : outputs.add(a.shader_hlsl);
+        wgsl = a.shader_wgsl.empty() ? 0 : outputs.add(a.shader_wgsl);
     }
     auto backend = a.sampling.make_backend();
 
@@ -273,9 +291,8 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
     const auto rep = a.preset.empty() ? repr::build_representation(a.kind, bake)
                                       : repr::build_preset(repr::preset(a.preset, spec.term.ao_weighting), bake, *backend);
     const std::string name = std::filesystem::path(a.out).filename().string();
-    file->write(outputs, *rep, a.half);
-    if (!a.shader_glsl.empty()) outputs.stream(glsl) << rep->shader(repr::ShaderLanguage::glsl, name);
-    if (!a.shader_hlsl.empty()) outputs.stream(hlsl) << rep->shader(repr::ShaderLanguage::hlsl, name);
+    file->write(outputs, *rep, a.half, a.float32);
+    write_repr_shaders(outputs, a, *rep, name, glsl, hlsl, wgsl);
     outputs.commit();
     if (!a.sampling.quiet)
         std::cerr << "repr bake: " << rep->name() << "\n  " << cost_line(*rep) << "\n  " << bake.metadata.value("queries", 0)
@@ -286,8 +303,8 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
 }
 
 struct ReprFileArgs {
-    std::string file, lang = "glsl", out;
-    bool half = false;
+    std::string file, lang = "glsl", out, prefix;
+    bool half = false, float32 = false;
 };
 
 std::unique_ptr<repr::Representation> open_or_bad_input(const std::string& path) {
@@ -341,9 +358,12 @@ void add_repr_command(CLI::App& app) {
         ->delimiter(',')->expected(2)->capture_default_str();
     bake->add_option("--visibility-warp", a->visibility_warp, "linear or sqrt-top (u = 1 - sqrt(1 - v): texels dense near v = 1)")
         ->check(CLI::IsMember({"linear", "sqrt-top"}))->capture_default_str();
-    bake->add_flag("--half", a->half, "store HALF channels (what an engine uploads)");
+    bake->add_flag("--half", a->half, "EXR: store HALF channels (KTX2 and DDS are RGBA16F already)");
+    bake->add_flag("--float", a->float32, "KTX2, DDS: RGBA32F in place of the default RGBA16F");
     bake->add_option("--shader-glsl", a->shader_glsl, "also write the GLSL sampling code");
     bake->add_option("--shader-hlsl", a->shader_hlsl, "also write the HLSL sampling code");
+    bake->add_option("--shader-wgsl", a->shader_wgsl, "also write the WGSL sampling code");
+    add_shader_prefix_option(bake, a->shader_prefix);
     // Measured on the project's 2-core CPU: ~10 us a texel x node query per core for the exact method at
     // 1e-10, ~45 us for the sampled default's 65536 samples at ~5e-4.
     a->sampling.method = "exact";
@@ -357,12 +377,14 @@ void add_repr_command(CLI::App& app) {
     auto s = std::make_shared<ReprFileArgs>();
     auto* shader = repr_cmd->add_subcommand("shader", "write the GLSL or HLSL that samples a representation file");
     shader->add_option("file", s->file, "a file written by `microshadow repr bake`")->required();
-    shader->add_option("--lang", s->lang, "glsl or hlsl")->check(CLI::IsMember({"glsl", "hlsl"}))->capture_default_str();
+    shader->add_option("--lang", s->lang, "glsl, hlsl or wgsl")->check(CLI::IsMember({"glsl", "hlsl", "wgsl"}))->capture_default_str();
     shader->add_option("--out", s->out, "output file (default: standard output)");
+    add_shader_prefix_option(shader, s->prefix);
     shader->callback([s] {
         const auto rep = open_or_bad_input(s->file);
-        const auto text = rep->shader(s->lang == "glsl" ? repr::ShaderLanguage::glsl : repr::ShaderLanguage::hlsl,
-                                      std::filesystem::path(s->file).filename().string());
+        const auto language = lutshader::parse_shader_language(s->lang);
+        const auto text = lutshader::compose(rep->shader(language, std::filesystem::path(s->file).filename().string()), language,
+                                             s->prefix.empty() ? lutshader::default_prefix(s->out) : s->prefix);
         if (s->out.empty()) {
             std::cout << text;
             return;
@@ -376,12 +398,13 @@ void add_repr_command(CLI::App& app) {
     auto* exp = repr_cmd->add_subcommand("export", "write a representation file's 3D texture as KTX2 or DDS (or EXR)");
     exp->add_option("file", x->file, "a file written by `microshadow repr bake`")->required();
     exp->add_option("--out", x->out, ".ktx2, .dds (+ .dds.json metadata) or .exr")->required();
-    exp->add_flag("--half", x->half, "RGBA16F (what an engine uploads); default RGBA32F");
+    exp->add_flag("--half", x->half, "EXR: HALF channels (KTX2 and DDS are RGBA16F, what an engine uploads, by default)");
+    exp->add_flag("--float", x->float32, "KTX2, DDS: RGBA32F in place of the default RGBA16F");
     exp->callback([x] {
         const auto rep = open_or_bad_input(x->file);
         OutputSet outputs;
         const ReprOutput file(outputs, x->out);
-        file.write(outputs, *rep, x->half);
+        file.write(outputs, *rep, x->half, x->float32);
         outputs.commit();
     });
 

@@ -5,6 +5,7 @@
 
 #include "cli/common.hpp"
 #include "lut/exr_lut.hpp"
+#include "lut/shader/compose.hpp"
 #include "lut/shader/shader_gen.hpp"
 
 namespace ms::cli {
@@ -12,7 +13,7 @@ namespace ms::cli {
 namespace {
 
 struct ShaderArgs {
-    std::string lut, lang = "glsl", out;
+    std::string lut, lang = "glsl", out, prefix;
 };
 
 void run_shader(const ShaderArgs& a) {
@@ -25,8 +26,9 @@ void run_shader(const ShaderArgs& a) {
         throw std::invalid_argument(e.what());
     }
     const std::string name = std::filesystem::path(a.lut).filename().string();
-    if (a.out.empty()) std::cout << lutshader::generate_shader(lut, language, name);
-    else lutshader::write_shader(a.out, lut, language, name);
+    if (a.out.empty()) std::cout << lutshader::compose(lutshader::generate_shader(lut, language, name), language,
+                                                       a.prefix.empty() ? lutshader::default_prefix("") : a.prefix);
+    else lutshader::write_shader(a.out, lut, language, name, a.prefix);
 }
 
 }  // namespace
@@ -35,8 +37,9 @@ void add_shader_command(CLI::App& app) {
     auto a = std::make_shared<ShaderArgs>();
     auto* cmd = app.add_subcommand("shader", "write GLSL or HLSL that samples a baked LUT as a renderer should");
     cmd->add_option("lut", a->lut, "a LUT written by `microshadow bake` (.exr, .ktx2, .dds, .h, .inc or .png)")->required();
-    cmd->add_option("--lang", a->lang, "glsl or hlsl")->check(CLI::IsMember({"glsl", "hlsl"}))->capture_default_str();
+    cmd->add_option("--lang", a->lang, "glsl, hlsl or wgsl")->check(CLI::IsMember({"glsl", "hlsl", "wgsl"}))->capture_default_str();
     cmd->add_option("--out", a->out, "output file (default: standard output)");
+    add_shader_prefix_option(cmd, a->prefix);
     cmd->callback([a] { run_shader(*a); });
 }
 

@@ -14,6 +14,7 @@
 #include <limits>
 
 #include "cli/progress.hpp"
+#include "lut/shader/compose.hpp"
 #include "core/cancel.hpp"
 #include "io/csv.hpp"
 #include "io/text.hpp"
@@ -169,6 +170,20 @@ CLI::Validator real_range(double min, double max) {
             return {};
         },
         format_g(min) + ".." + format_g(max));
+}
+
+void add_shader_prefix_option(CLI::App* app, std::string& prefix) {
+    app->add_option("--shader-prefix", prefix,
+                    "prefix of the names the generated shaders define (PREFIX_micro_shadowing, ...), so that several "
+                    "generated files combine in one shader (default: each shader file's name; standard output: ms)")
+        ->check([](const std::string& p) {
+            try {
+                lutshader::check_prefix(p);
+            } catch (const std::invalid_argument& e) {
+                return std::string(e.what());
+            }
+            return std::string();
+        });
 }
 
 void add_tolerance_option(CLI::App* app, SamplingOptions& o) {

@@ -96,6 +96,9 @@ void add_threads_option(CLI::App* app, unsigned& threads, const std::string& hel
 void add_verify_option(CLI::App* app, std::uint32_t& k, const std::string& help);
 // -q / --quiet.
 void add_quiet_flag(CLI::App* app, bool& quiet, const std::string& help = "no progress or summary on stderr");
+// --shader-prefix: the prefix of every name a generated shader defines (lut/shader/compose.hpp); empty
+// keeps the default, each output file's name.
+void add_shader_prefix_option(CLI::App* app, std::string& prefix);
 
 // MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
 // its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.

@@ -57,6 +57,7 @@ void write_png(const std::string& path, const PngImage& image, const std::string
     png_set_IHDR(png, info, image.width, image.height, image.bits,
                  image.channels == 4 ? PNG_COLOR_TYPE_RGB_ALPHA : PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+    if (image.linear_data) png_set_gAMA_fixed(png, info, PNG_GAMMA_LINEAR);  // gamma 1.0: samples are linear
     if (!text_key.empty()) {
         chunk.compression = PNG_ITXT_COMPRESSION_NONE;
         chunk.key = const_cast<char*>(text_key.c_str());

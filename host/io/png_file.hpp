@@ -11,6 +11,9 @@ struct PngImage {
     int channels = 3;  // 3 (RGB) or 4 (RGBA)
     int bits = 8;      // 8, or 16 with big-endian samples (PNG's byte order)
     const std::uint8_t* pixels = nullptr;  // rows top to bottom, width * channels * bits / 8 bytes each
+    // Data, not colour (LUT atlases): a gAMA chunk of 1.0 and no sRGB chunk, so that importers
+    // (OpenImageIO, engines' texture importers) read the samples as linear values instead of sRGB.
+    bool linear_data = false;
 };
 
 // Writes `image` to `path` as it is (callers pass an atomic output's temporary), with an optional

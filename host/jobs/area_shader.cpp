@@ -1,32 +1,20 @@
 #include "jobs/area_shader.hpp"
 
+#include "lut/shader/compose.hpp"
+#include "lut/shader/wgsl.hpp"
+
 namespace ms::area {
 
 namespace {
 
 // Written once in GLSL spelling; HLSL differs only in the vector type names and atan2 / rsqrt-free
 // spellings below, substituted textually.
+// The taps; the helpers they call (ms_area_angle, ms_area_lobe_weight, ms_rect_gauss_node/weight) are
+// the shared ones (lut/shader/compose.hpp), put in front by taps_shader.
 const char* kTaps = R"(// microshadow: the tap micro-shadowing of sphere lights (7 taps) and rectangle lights (9), docs/area-lights.md.
 // T_taps = sum_k w_k W(wo_k) T(wo_k) / sum_k w_k W(wo_k): Radon's degree-5 disc rule on a tap cone
 // (equal-area map), W = f cos of the lobe (Lambert 1/pi; GGX D G2 / (4 NdotV NdotL), height-correlated
 // Smith, F = 1), T = ms_point_term(wi, wo), which the engine defines before this code.
-float ms_area_angle(vec3 a, vec3 b) { return atan(length(cross(a, b)), dot(a, b)); }
-
-float ms_area_lambda(vec3 w, float ax, float ay) {
-    float a = (ax * ax * w.x * w.x + ay * ay * w.y * w.y) / (w.z * w.z);
-    return a / (2.0 * (1.0 + sqrt(1.0 + a)));
-}
-
-float ms_area_lobe_weight(vec3 wi, vec3 wo, float ax, float ay, int lobe) {
-    if (wo.z <= 0.0) return 0.0;
-    if (lobe == 0) return wo.z * 0.31830988618;
-    vec3 h = normalize(wi + wo);
-    float ex = h.x / ax, ey = h.y / ay;
-    float s = ex * ex + ey * ey + h.z * h.z;
-    float d = 1.0 / (3.14159265359 * ax * ay * s * s);
-    return d / (4.0 * wi.z * (1.0 + ms_area_lambda(wi, ax, ay) + ms_area_lambda(wo, ax, ay)));
-}
-
 float ms_area_light_taps(vec3 wi, vec3 centre, float half_angle, float alpha_x, float alpha_y, int lobe) {
     vec3 c = normalize(centre);
     // The tap cone: the light itself, or for a GGX lobe narrower than the light (radius 2 atan(2 alpha),
@@ -73,9 +61,6 @@ float ms_area_light_taps(vec3 wi, vec3 centre, float half_angle, float alpha_x, 
 // The 9-tap micro-shadowing of a rectangle light with corners p0, p0 + e1, p0 + e1 + e2, p0 + e2 (positions
 // relative to the shaded point, tangent frame, any unit): the 3 x 3 Gauss-Legendre rule on a tap rectangle,
 // each node weighted by the rule, the solid angle per unit area |n.wo| / d^2 and W = f cos.
-float ms_rect_gauss_node(int a) { return a == 0 ? 0.11270166538 : (a == 1 ? 0.5 : 0.88729833462); }
-float ms_rect_gauss_weight(int a) { return a == 1 ? 0.44444444444 : 0.27777777778; }
-
 float ms_rect_light_taps(vec3 wi, vec3 p0, vec3 e1, vec3 e2, float alpha_x, float alpha_y, int lobe) {
     vec3 n = normalize(cross(e1, e2));
     float d = dot(n, p0);
@@ -133,7 +118,13 @@ void replace_all(std::string& s, const std::string& from, const std::string& to)
 }  // namespace
 
 std::string taps_shader(ShaderLanguage language) {
+    if (language == ShaderLanguage::wgsl) return lutshader::glsl_to_wgsl(taps_shader(ShaderLanguage::glsl));
     std::string s = kTaps;
+    const std::size_t body = s.find("\nfloat ms_area_light_taps") + 1;
+    std::string helpers;
+    for (const char* name : {"ms_area_angle", "ms_area_lambda", "ms_area_lobe_weight", "ms_rect_gauss_node", "ms_rect_gauss_weight"})
+        helpers += lutshader::shared_helper(name, lutshader::ShaderLanguage::glsl) + "\n";
+    s.insert(body, helpers);
     if (language == ShaderLanguage::hlsl) {
         replace_all(s, "vec3", "float3");
         replace_all(s, "atan(", "atan2(");

@@ -11,9 +11,11 @@
 
 #include <string>
 
+#include "lut/shader/language.hpp"
+
 namespace ms::area {
 
-enum class ShaderLanguage { glsl, hlsl };
+using ShaderLanguage = lutshader::ShaderLanguage;
 std::string taps_shader(ShaderLanguage language);
 
 }  // namespace ms::area

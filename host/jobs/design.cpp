@@ -17,6 +17,7 @@
 #include "io/csv.hpp"
 #include "io/text.hpp"
 #include "approx/lut.hpp"
+#include "lut/shader/compose.hpp"
 #include "lut/shader/shader_gen.hpp"
 
 namespace ms::design {
@@ -236,8 +237,9 @@ Candidate lut_candidate(const std::string& name, const std::string& file) {
         bytes << in.rdbuf();
         outputs.stream(outputs.add(prefix + ".exr", true)) << bytes.str();
         const std::string source = std::filesystem::path(prefix + ".exr").filename().string();
-        outputs.stream(outputs.add(prefix + ".glsl")) << lutshader::generate_shader(lut->file(), lutshader::ShaderLanguage::glsl, source);
-        outputs.stream(outputs.add(prefix + ".hlsl")) << lutshader::generate_shader(lut->file(), lutshader::ShaderLanguage::hlsl, source);
+        for (const auto language : {lutshader::ShaderLanguage::glsl, lutshader::ShaderLanguage::hlsl})
+            outputs.stream(outputs.add(prefix + "." + lutshader::to_string(language)))
+                << lutshader::compose(lutshader::generate_shader(lut->file(), language, source), language, lutshader::default_prefix(prefix + ".glsl"));
     };
     return c;
 }

@@ -14,6 +14,7 @@
 #include "jobs/design_closed_form.hpp"
 #include "jobs/eval.hpp"
 #include "jobs/repr_bake.hpp"
+#include "lut/shader/compose.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 
@@ -108,8 +109,9 @@ Candidate representation_candidate(const std::string& name, const std::string& f
     c.bake = [r](OutputSet& outputs, const std::string& prefix) {
         const std::string source = fs::path(prefix + ".exr").filename().string();
         r->write(outputs.temp_path(outputs.add(prefix + ".exr", true)), /*half=*/true);
-        outputs.stream(outputs.add(prefix + ".glsl")) << r->shader(repr::ShaderLanguage::glsl, source);
-        outputs.stream(outputs.add(prefix + ".hlsl")) << r->shader(repr::ShaderLanguage::hlsl, source);
+        for (const auto language : {lutshader::ShaderLanguage::glsl, lutshader::ShaderLanguage::hlsl})
+            outputs.stream(outputs.add(prefix + "." + lutshader::to_string(language)))
+                << lutshader::compose(r->shader(language, source), language, lutshader::default_prefix(prefix + ".glsl"));
     };
     return c;
 }

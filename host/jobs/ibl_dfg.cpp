@@ -399,6 +399,7 @@ void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeRe
         image.channels = png_channels;
         image.bits = 16;
         image.pixels = pixels.data();
+        image.linear_data = true;  // DFG data, not sRGB colour
         write_png(outputs.temp_path(files.lut), image, "microshadow", meta.dump());
         return;
     }

@@ -95,7 +95,9 @@ struct PrefilterJobSpec {
     EnvironmentFiles environment;
     std::uint32_t size = 0;           // base face size, a power of two (0: the source's)
     std::string out;                  // the output folder (created)
-    std::string format = "exr", encoding = "float16";  // the specular chain's and the irradiance's files
+    // The specular chain's and the irradiance's files: by default one KTX2 cubemap with every mip (what
+    // engines load, as cmgen writes it); "exr" for one cross per mip.
+    std::string format = "ktx2", encoding = "float16";
     std::uint32_t verify = 0;         // texels verify_prefilter checks; outside their bars fails the run ...
     bool verify_report = false;       // ... unless the comparison is only to be recorded
     std::uint32_t irradiance_size = 32;

@@ -95,10 +95,11 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
     if (width == 0 || height == 0 || data.size() != width * height * channels.size())
         throw std::invalid_argument("write_lut: data size does not match the axes");
 
-    // Each roughness is its own named channel (exr_channel_name), not R/G/B/A: image tools take "A" for
-    // premultiplied alpha and divide the other channels by it when they convert the file. The metadata
-    // keeps "name" = R/G/B/A (the channel's place in RGBA texture formats) and adds "exr_channel".
-    const std::vector<std::string> exr_names = exr_channel_names(channels);
+    // The channels are R, G, B, A: what engines' EXR importers read as one RGBA texture. The roughness of
+    // each is in the metadata ("channels") and in the typed attributes microshadow.roughness.<R|G|B|A>;
+    // "oiio:UnassociatedAlpha" below keeps image tools from taking A for premultiplied alpha.
+    std::vector<std::string> exr_names;
+    for (const auto& ch : channels) exr_names.push_back(ch.name);
     nlohmann::json meta = metadata;
     meta["axes"] = nlohmann::json::array();
     for (const auto& a : axes) meta["axes"].push_back(axis_json(a));

@@ -1,10 +1,11 @@
 // The LUT file: a single-part scanline OpenEXR slice atlas with the bake's metadata.
 //
 // Contract (the bake writes it, sweeps and tests read it):
-// - one FLOAT (or HALF) channel per roughness, 1 to 4 of them, named exr_channel_name(roughness)
-//   ("roughness_0p1", ...: never "A", which image tools treat as premultiplied alpha); the metadata lists
-//   them in order with "name" R, G, B, A (their place in RGBA texture formats) and "exr_channel".
-//   Files written before that named the channels R, G, B, A; read_lut reads both;
+// - one FLOAT (or HALF) channel per roughness, 1 to 4 of them, named R, G, B, A (what engines' EXR
+//   importers read); the metadata lists them in order with "name" R, G, B, A, "exr_channel" (the EXR
+//   channel's name) and "roughness", and the header holds oiio:UnassociatedAlpha = 1 (A is data, not
+//   premultiplied alpha). Files that named their channels by roughness (exr_channel_name:
+//   "roughness_0p1", ...) read too: the reader follows "exr_channel";
 // - width = visibility count (x = visibility, increasing left to right); height = nNdotL * nNdotV;
 //   NdotV slice k occupies rows [k * nNdotL, (k + 1) * nNdotL), row j of a slice is NdotL index j
 //   (increasing top to bottom); a 2D LUT has nNdotV = 1;

@@ -27,10 +27,11 @@
 #include "core/lookup_domain.hpp"
 #include "core/types.hpp"
 #include "approx/approximation.hpp"
+#include "lut/shader/language.hpp"
 
 namespace ms::repr {
 
-enum class ShaderLanguage { glsl, hlsl };
+using ShaderLanguage = lutshader::ShaderLanguage;  // glsl, hlsl
 
 // Axis warps: the texture coordinate of a parameter. Texel i of an n-texel axis sits at warped
 // coordinate u = (i + 0.5) / n (texel centres over [0, 1]).

@@ -22,6 +22,8 @@
 #include "lut/formats/texture.hpp"
 #include "lut/lookup.hpp"
 #include "lut/shader/alu_count.hpp"
+#include "lut/shader/compose.hpp"
+#include "lut/shader/wgsl.hpp"
 
 namespace ms::repr {
 
@@ -243,8 +245,7 @@ std::string TextureRepresentation::shader_common(const std::string& source_name)
           << "    // Compared as NdotL + 1 <= 2 cos_t^2: no multiply-add can round it differently (host/lut/lookup.hpp).\n"
           << "    float cos_t = 1.0 - visibility;\n    return n_dot_l <= 0.0 || n_dot_l + 1.0 <= 2.0 * cos_t * cos_t;\n}\n\n";
     if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness || grid_.azimuth_warp > 0)
-        o << "// asinh(x) written out, odd so that it keeps its precision for x << 0 (HLSL has no asinh).\n"
-          << "float ms_asinh(float x)\n{\n    float a = abs(x);\n    return sign(x) * log(a + sqrt(a * a + 1.0));\n}\n\n";
+        o << lutshader::shared_helper("ms_asinh", lutshader::ShaderLanguage::glsl) << "\n";  // the same in HLSL
     if (grid_.warps.n_dot_l == NdotLWarp::edge_roughness) {
         o << "// The NdotL texel of one roughness slab: the distance to the shadow edge c in units of the slab's\n"
           << "// width w, through asinh, from g(l0) (the zero region's edge) to g(1); clamped to [0, n - 1].\n"
@@ -335,6 +336,7 @@ std::string TextureRepresentation::shader_coordinates() const {
 }
 
 std::string TextureRepresentation::finish_shader(const std::string& body, ShaderLanguage language) const {
+    if (language == ShaderLanguage::wgsl) return lutshader::glsl_to_wgsl(finish_shader(body, ShaderLanguage::glsl));
     const bool glsl = language == ShaderLanguage::glsl;
     std::string s = body;
     auto replace_all = [&](const std::string& from, const std::string& to) {

@@ -45,7 +45,7 @@ def _without_run(meta):
 
 
 def test_prefilter_matches_cli(cli, environment, tmp_path):
-    cli("ibl", "prefilter", environment, "--out", tmp_path / "cli", "--samples", "64", "--irradiance-size", "4", "-q")
+    cli("ibl", "prefilter", environment, "--out", tmp_path / "cli", "--samples", "64", "--irradiance-size", "4", "--format", "exr", "-q")
     env = ms.ibl_prefilter(environment, samples=64, irradiance_size=4)
     assert [m.shape for m in env.mips] == [(6, 8, 8, 3), (6, 4, 4, 3)]
     assert env.roughness.tolist() == [0.0, 1.0]

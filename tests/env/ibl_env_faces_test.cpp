@@ -48,7 +48,7 @@ protected:
 
 TEST_F(IblEnvFaces, SixFacesCutFromACrossPrefilterLikeTheCross) {
     write_cross_and_faces(16);
-    const std::string common = " --samples 64 --irradiance-size 4 --threads 2 --quiet";
+    const std::string common = " --samples 64 --irradiance-size 4 --threads 2 --quiet --format exr";
     const std::string cli = std::string(MICROSHADOW_CLI) + " ibl prefilter ";
     auto a = ms::testing::run_shell(cli + path("cross.exr") + " --out " + path("a") + common + " 2>&1");
     ASSERT_EQ(a.exit_code, 0) << a.output;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include "cli_runner.hpp"
@@ -13,6 +14,8 @@
 #include "jobs/area_shader.hpp"
 #include "vulkan_compute.hpp"
 #include "glslang.hpp"
+#include "lut/shader/compose.hpp"
+#include "wgpu_runner.hpp"
 
 namespace {
 
@@ -24,6 +27,29 @@ using ms::testing::run_shell;
 const char* kStubGlsl = "float ms_point_term(vec3 wi, vec3 wo) { return 0.5 + 0.3 * wo.z - 0.2 * wo.x * wo.y + 0.1 * wi.x * wo.x; }\n";
 const char* kStubHlsl = "float ms_point_term(float3 wi, float3 wo) { return 0.5 + 0.3 * wo.z - 0.2 * wo.x * wo.y + 0.1 * wi.x * wo.x; }\n";
 double stub(const ms::Vec3& wi, const ms::Vec3& wo) { return 0.5 + 0.3 * wo.z - 0.2 * wo.x * wo.y + 0.1 * wi.x * wo.x; }
+
+// The WGSL taps (prefix "taps": they call taps_point_term, the stub) through wgpu: `per` input vec4 per
+// query, `call` of the vec4s a, b, c, d = inputs[per i + 0..3]; the largest difference from `expected`.
+double wgsl_taps_worst(const std::vector<float>& inputs, unsigned per, const std::string& call, const std::vector<double>& expected,
+                       const std::string& dir, std::string* skip) {
+    const std::string taps = ms::lutshader::compose(ms::area::taps_shader(ms::area::ShaderLanguage::wgsl), ms::area::ShaderLanguage::wgsl, "taps");
+    std::string fetch;
+    for (unsigned k = 0; k < per; ++k)
+        fetch += std::string("    let ") + char('a' + k) + " = g_inputs[" + std::to_string(per) + "u * id.x + " + std::to_string(k) + "u];\n";
+    const std::string wgsl =
+        "@group(0) @binding(0) var<storage, read> g_inputs: array<vec4<f32>>;\n"
+        "@group(0) @binding(1) var<storage, read_write> g_outputs: array<f32>;\n"
+        "fn taps_point_term(wi: vec3<f32>, wo: vec3<f32>) -> f32 { return 0.5 + 0.3 * wo.z - 0.2 * wo.x * wo.y + 0.1 * wi.x * wo.x; }\n" +
+        taps + "@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3<u32>) {\n"
+               "    if (id.x >= arrayLength(&g_outputs)) { return; }\n" + fetch + "    g_outputs[id.x] = " + call + ";\n}\n";
+    const auto run = ms::testing::run_wgpu({{wgsl, {}, inputs, expected.size()}}, dir);
+    *skip = run.skip;
+    if (!run.skip.empty() || run.outputs.size() != 1 || run.outputs[0].size() != expected.size()) return std::numeric_limits<double>::infinity();
+    double worst = 0;
+    for (std::size_t i = 0; i < expected.size(); ++i) worst = std::max(worst, std::abs(run.outputs[0][i] - expected[i]));
+    std::cout << "[ figures  ] taps WGSL on " << run.device << ": max |shader - C++| = " << worst << "\n";
+    return worst;
+}
 
 // Three input vec4 per query: (wi, lobe), (centre, half_angle), (alpha_x, alpha_y, 0, 0).
 std::string glsl_wrapper() {
@@ -103,7 +129,12 @@ TEST(AreaShaderTest, TapsShaderMatchesTheCppTapsOnLavapipe) {
         EXPECT_LT(worst, 1e-4) << (lang ? "HLSL" : "GLSL") << " on " << run.device << ", query " << where << ": "
                                << run.values[where] << " against " << expected[where];
     }
+    // The WGSL, through wgpu, to the same bound.
+    std::string skip;
+    const double wgsl_worst = wgsl_taps_worst(inputs, 3, "taps_area_light_taps(a.xyz, b.xyz, b.w, c.x, c.y, i32(a.w))", expected, dir, &skip);
     std::filesystem::remove_all(dir);
+    if (!skip.empty()) GTEST_SKIP() << skip;
+    EXPECT_LT(wgsl_worst, 1e-4) << "WGSL";
 }
 
 // Four input vec4 per query: (wi, lobe), (p0, alpha_x), (e1, alpha_y), (e2, 0).
@@ -179,7 +210,12 @@ TEST(AreaShaderTest, RectTapsShaderMatchesTheCppTapsOnLavapipe) {
         EXPECT_LT(worst, 1e-4) << (lang ? "HLSL" : "GLSL") << " on " << run.device << ", query " << where << ": "
                                << run.values[where] << " against " << expected[where];
     }
+    std::string skip;
+    const double wgsl_worst =
+        wgsl_taps_worst(inputs, 4, "taps_rect_light_taps(a.xyz, b.xyz, c.xyz, d.xyz, b.w, c.w, i32(a.w))", expected, dir, &skip);
     std::filesystem::remove_all(dir);
+    if (!skip.empty()) GTEST_SKIP() << skip;
+    EXPECT_LT(wgsl_worst, 1e-4) << "WGSL";
 }
 
 TEST(AreaShaderTest, CliWritesBothLanguages) {
@@ -192,6 +228,9 @@ TEST(AreaShaderTest, CliWritesBothLanguages) {
     EXPECT_NE(h.output.find("float ms_area_light_taps(float3 wi"), std::string::npos);
     EXPECT_NE(h.output.find("float ms_rect_light_taps(float3 wi, float3 p0"), std::string::npos);
     EXPECT_EQ(h.output.find("vec3"), std::string::npos);
+    const auto w = run_shell(cli + " area shader --lang wgsl");
+    ASSERT_EQ(w.exit_code, 0);
+    EXPECT_NE(w.output.find("fn ms_area_light_taps(wi: vec3<f32>"), std::string::npos) << w.output;
     EXPECT_EQ(run_shell(cli + " area shader --lang msl 2>&1").exit_code, 2);
 }
 

@@ -30,6 +30,8 @@
 #include "repr/representation.hpp"
 #include "vulkan_compute.hpp"
 #include "glslang.hpp"
+#include "lut/shader/compose.hpp"
+#include "wgpu_runner.hpp"
 
 namespace {
 
@@ -59,6 +61,19 @@ std::string hlsl_wrapper(const std::string& generated) {
            "    uint n, stride; g_inputs.GetDimensions(n, stride);\n    if (2 * id.x + 1 >= n) return;\n"
            "    float4 p = g_inputs[2 * id.x];\n    float4 q = g_inputs[2 * id.x + 1];\n"
            "    g_outputs[id.x] = ms_micro_shadowing(g_lut, g_linear_clamp, p.x, p.y, p.z, p.w, q.x);\n}\n";
+}
+
+// WGSL: the texture and its sampler at bindings 0 and 1, `per` input vec4 per lookup, the call `call`
+// (of the vec4s p = inputs[per i], inputs[per i + k]).
+std::string repr_wgsl_wrapper(const std::string& generated, unsigned per, const std::string& call) {
+    return "@group(0) @binding(0) var g_lut: texture_3d<f32>;\n@group(0) @binding(1) var g_sampler: sampler;\n"
+           "@group(0) @binding(2) var<storage, read> g_inputs: array<vec4<f32>>;\n"
+           "@group(0) @binding(3) var<storage, read_write> g_outputs: array<f32>;\n" +
+           generated +
+           "@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3<u32>) {\n"
+           "    let i = id.x;\n    if (i >= arrayLength(&g_outputs)) { return; }\n"
+           "    let p = g_inputs[" + std::to_string(per) + "u * i];\n"
+           "    g_outputs[i] = " + call + ";\n}\n";
 }
 
 // A bake of random values in [0, 1] on `grid` (no sampling: the shader test needs texels, not the term).
@@ -174,6 +189,10 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
     std::filesystem::create_directories(dir);
     std::mt19937 rng(7);
     std::uniform_real_distribution<double> u(0, 1);
+    // The WGSL of every case, run through wgpu in one process after the loop.
+    std::vector<ms::testing::WgpuJob> wgsl_jobs;
+    std::vector<std::vector<double>> wgsl_expected;
+    std::vector<double> wgsl_tolerance;
     for (const auto& c : cases()) {
         SCOPED_TRACE(c.name);
         const auto rep = repr::build_representation(c.kind, synthetic_bake(c.grid, c.nodes, 11));
@@ -216,6 +235,22 @@ TEST(ReprShaderTest, GeneratedShadersMatchTheCppLookupOnLavapipe) {
             const double acos_bound = c.kind == "azimuth-axis" ? (c.nodes - 1) / M_PI * 4096 * std::ldexp(1.0, -22) : 0.0;
             EXPECT_LT(worst, 2e-5 + acos_bound) << (lang ? "HLSL" : "GLSL") << " on " << run.device;
         }
+        const std::string wgsl = ms::lutshader::compose(rep->shader(repr::ShaderLanguage::wgsl, c.name), repr::ShaderLanguage::wgsl, c.name);
+        wgsl_jobs.push_back({repr_wgsl_wrapper(wgsl, 2, c.name + "_micro_shadowing(g_lut, g_sampler, p.x, p.y, p.z, p.w, g_inputs[2u * i + 1u].x)"),
+                             {tex}, inputs, n});
+        wgsl_expected.push_back(expected);
+        wgsl_tolerance.push_back(2e-5 + (c.kind == "azimuth-axis" ? (c.nodes - 1) / M_PI * 4096 * std::ldexp(1.0, -22) : 0.0));
+    }
+    const auto run = ms::testing::run_wgpu(wgsl_jobs, dir);
+    if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+    ASSERT_EQ(run.outputs.size(), wgsl_jobs.size());
+    const auto all = cases();
+    for (std::size_t j = 0; j < wgsl_jobs.size(); ++j) {
+        ASSERT_EQ(run.outputs[j].size(), wgsl_expected[j].size());
+        double worst = 0;
+        for (std::size_t i = 0; i < wgsl_expected[j].size(); ++i) worst = std::max(worst, std::abs(run.outputs[j][i] - wgsl_expected[j][i]));
+        EXPECT_LT(worst, wgsl_tolerance[j]) << all[j].name << " WGSL on " << run.device;
+        std::cout << "[ figures  ] " << all[j].name << " WGSL on " << run.device << ": max |shader - C++| = " << worst << "\n";
     }
 }
 
@@ -261,6 +296,9 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
     if (!have_glslang()) GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools)";
     const std::string dir = ::testing::TempDir() + "repr_shader_aniso";
     std::filesystem::create_directories(dir);
+    std::vector<ms::testing::WgpuJob> wgsl_jobs;
+    std::vector<std::vector<double>> wgsl_expected;
+    std::vector<std::string> wgsl_names;
     // 0: anisotropic-harmonics, 1: anisotropic-mapped-harmonics, 2: anisotropic-corrected-harmonics.
     for (const int kind : {0, 1, 2})
     for (const auto weighting : {ms::AoWeighting::cosine, ms::AoWeighting::uniform}) {
@@ -328,6 +366,23 @@ TEST(ReprShaderTest, AnisotropicShadersMatchTheCppLookupOnLavapipe) {
                 if (std::abs(run.values[i] - expected[i]) > worst) worst = std::abs(run.values[i] - expected[i]), at = i;
             EXPECT_LT(worst, 1e-4) << (lang ? "HLSL" : "GLSL") << " on " << run.device << ", lookup " << at;
         }
+        const std::string wgsl = ms::lutshader::compose(rep->shader(repr::ShaderLanguage::wgsl, name), repr::ShaderLanguage::wgsl, name);
+        wgsl_jobs.push_back({repr_wgsl_wrapper(wgsl, 3, name + "_micro_shadowing(g_lut, g_sampler, p.x, g_inputs[3u * i + 1u].xyz, "
+                                                             "g_inputs[3u * i + 2u].xyz, p.y, p.z)"),
+                             {tex}, inputs, n});
+        wgsl_expected.push_back(expected);
+        wgsl_names.push_back(name);
+    }
+    // The WGSL of each, through wgpu, to the same bound.
+    const auto run = ms::testing::run_wgpu(wgsl_jobs, dir);
+    if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+    ASSERT_EQ(run.outputs.size(), wgsl_jobs.size());
+    for (std::size_t j = 0; j < wgsl_jobs.size(); ++j) {
+        ASSERT_EQ(run.outputs[j].size(), wgsl_expected[j].size());
+        double worst = 0;
+        for (std::size_t i = 0; i < wgsl_expected[j].size(); ++i) worst = std::max(worst, std::abs(run.outputs[j][i] - wgsl_expected[j][i]));
+        EXPECT_LT(worst, 1e-4) << wgsl_names[j] << " WGSL on " << run.device;
+        std::cout << "[ figures  ] " << wgsl_names[j] << " WGSL on " << run.device << ": max |shader - C++| = " << worst << "\n";
     }
 }
 
@@ -495,7 +550,8 @@ TEST_F(ReprExportCliTest, BakeAndExportWriteKtx2AndDdsAndRefuseOtherExtensions) 
     const auto c = cases()[3];  // harmonics, linear grid
     const auto rep = repr::build_representation(c.kind, synthetic_bake(c.grid, c.nodes, 11));
     rep->write(path("h.exr"), false);
-    auto r = run_shell(cli + " repr export " + path("h.exr") + " --half --out " + path("h.ktx2") + " 2>&1");
+    // KTX2 and DDS are RGBA16F by default (what an engine uploads, and what the memory figures count).
+    auto r = run_shell(cli + " repr export " + path("h.exr") + " --out " + path("h.ktx2") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     const auto half = repr::open_representation(path("h.exr"));
     const auto k = read_ktx2(path("h.ktx2"));
@@ -503,10 +559,19 @@ TEST_F(ReprExportCliTest, BakeAndExportWriteKtx2AndDdsAndRefuseOtherExtensions) 
     const auto texels = decode_level(k);
     ASSERT_EQ(texels.size(), rep->texels().size());
     for (std::size_t i = 0; i < texels.size(); ++i) ASSERT_EQ(texels[i], float(Imath::half(rep->texels()[i]))) << i;
+    EXPECT_EQ(k.level0.size(), rep->texels().size() * 2);
+    // --float: RGBA32F, the texels as they are.
+    r = run_shell(cli + " repr export " + path("h.exr") + " --float --out " + path("f.ktx2") + " 2>&1");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(read_ktx2(path("f.ktx2")).vk_format, 109u);
+    EXPECT_EQ(decode_level(read_ktx2(path("f.ktx2"))), rep->texels());
+    r = run_shell(cli + " repr export " + path("h.exr") + " --float --half --out " + path("x.ktx2") + " 2>&1");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    std::filesystem::remove(path("f.ktx2"));
     // DDS: the texture and its metadata beside it, together.
     r = run_shell(cli + " repr export " + path("h.exr") + " --out " + path("h.dds") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    EXPECT_EQ(std::filesystem::file_size(path("h.dds")), 4 + 124 + 20 + rep->texels().size() * 4);
+    EXPECT_EQ(std::filesystem::file_size(path("h.dds")), 4 + 124 + 20 + rep->texels().size() * 2);
     std::ifstream sidecar(path("h.dds.json"));
     const auto meta = nlohmann::json::parse(sidecar);
     EXPECT_EQ(meta.at("file_format"), "dds");
@@ -519,12 +584,13 @@ TEST_F(ReprExportCliTest, BakeAndExportWriteKtx2AndDdsAndRefuseOtherExtensions) 
     EXPECT_FALSE(std::filesystem::exists(path("h.png")));
     // repr bake --out X.ktx2 writes the texture directly (a tiny bake).
     r = run_shell(cli + " repr bake -q --kind azimuth-axis --visibility-count 2 --n-dot-l-count 2 --n-dot-v-count 2 "
-                        "--azimuth-nodes 3 --roughness 0.5 --samples 256 --half --out " + path("b.ktx2") + " 2>&1");
+                        "--azimuth-nodes 3 --roughness 0.5 --samples 256 --out " + path("b.ktx2") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     const auto b = read_ktx2(path("b.ktx2"));
     EXPECT_EQ(b.width, 2u * 3);  // 3 azimuth slots of 2 visibility texels
     EXPECT_EQ(b.height, 2u);
     EXPECT_EQ(b.depth, 2u);
+    EXPECT_EQ(b.vk_format, 97u);  // RGBA16F by default
     EXPECT_NE(nlohmann::json::parse(b.kv.at("microshadow")).at("command_line").get<std::string>().find("b.ktx2"), std::string::npos);
 }
 

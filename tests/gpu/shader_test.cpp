@@ -17,9 +17,11 @@
 #include <functional>
 
 #include "cli_runner.hpp"
+#include "lut/exr_lut.hpp"
 #include "lut/lookup.hpp"
 #include "vulkan_compute.hpp"
 #include "glslang.hpp"
+#include "wgpu_runner.hpp"
 
 namespace {
 
@@ -41,53 +43,36 @@ using ms::testing::have_glslang;
 using ms::testing::compile_spirv;
 
 // GLSL compute wrapper: one lookup per input vec4 (visibility, NdotL, NdotV, roughness).
-std::string glsl_wrapper(const std::string& generated, bool three_d) {
+std::string glsl_wrapper(const std::string& generated, bool three_d, const std::string& prefix) {
     return std::string("#version 450\nlayout(local_size_x = 64) in;\n") +
            "layout(set = 0, binding = 0) uniform " + (three_d ? "sampler3D" : "sampler2D") + " lut;\n"
            "layout(std430, set = 0, binding = 1) readonly buffer Inputs { vec4 inputs[]; };\n"
            "layout(std430, set = 0, binding = 2) writeonly buffer Outputs { float outputs[]; };\n" +
            generated +
            "void main() {\n    uint i = gl_GlobalInvocationID.x;\n    vec4 p = inputs[i];\n"
-           "    outputs[i] = ms_micro_shadowing(lut, p.x, p.y, p.z, p.w);\n}\n";
+           "    outputs[i] = " + prefix + "_micro_shadowing(lut, p.x, p.y, p.z, p.w);\n}\n";
 }
 
 // HLSL compute wrapper (separate texture and sampler, as D3D binds them).
-std::string hlsl_wrapper(const std::string& generated, bool three_d) {
+std::string hlsl_wrapper(const std::string& generated, bool three_d, const std::string& prefix) {
     return generated + "[[vk::binding(0)]] " + (three_d ? "Texture3D<float4>" : "Texture2D<float4>") + " g_lut;\n"
            "[[vk::binding(1)]] SamplerState g_linear_clamp;\n"
            "[[vk::binding(2)]] StructuredBuffer<float4> g_inputs;\n"
            "[[vk::binding(3)]] RWStructuredBuffer<float> g_outputs;\n"
            "[numthreads(64, 1, 1)] void main(uint3 id : SV_DispatchThreadID) {\n"
            "    float4 p = g_inputs[id.x];\n"
-           "    g_outputs[id.x] = ms_micro_shadowing(g_lut, g_linear_clamp, p.x, p.y, p.z, p.w);\n}\n";
+           "    g_outputs[id.x] = " + prefix + "_micro_shadowing(g_lut, g_linear_clamp, p.x, p.y, p.z, p.w);\n}\n";
 }
 
 // A pixel-shader use of the HLSL (the form most engines have): must compile too.
-std::string hlsl_pixel_wrapper(const std::string& generated, bool three_d) {
+std::string hlsl_pixel_wrapper(const std::string& generated, bool three_d, const std::string& prefix) {
     return generated + (three_d ? "Texture3D<float4>" : "Texture2D<float4>") + std::string(" g_lut : register(t0);\n") +
            "SamplerState g_linear_clamp : register(s0);\n"
            "float4 main(float4 p : TEXCOORD0) : SV_Target {\n"
-           "    return ms_micro_shadowing(g_lut, g_linear_clamp, p.x, p.y, p.z, p.w).xxxx;\n}\n";
+           "    return " + prefix + "_micro_shadowing(g_lut, g_linear_clamp, p.x, p.y, p.z, p.w).xxxx;\n}\n";
 }
 
-// Compiles with glslangValidator to SPIR-V; returns the words, or fails the test with the log.
-// The one level of a KTX2 file as a texture (the header fields are checked in lut_formats_test).
-ms::testing::ComputeTexture ktx2_texture(const std::string& path) {
-    std::ifstream in(path, std::ios::binary);
-    std::vector<std::uint8_t> b{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    auto u32 = [&](std::size_t at) {
-        return std::uint32_t(b.at(at)) | std::uint32_t(b.at(at + 1)) << 8 | std::uint32_t(b.at(at + 2)) << 16 | std::uint32_t(b.at(at + 3)) << 24;
-    };
-    ms::testing::ComputeTexture t;
-    t.vk_format = u32(12);
-    t.width = u32(20);
-    t.height = u32(24);
-    t.depth = std::max(1u, u32(28));
-    t.three_d = u32(28) > 0;
-    const std::size_t offset = u32(80), length = u32(88);
-    t.texels.assign(b.begin() + offset, b.begin() + offset + length);
-    return t;
-}
+using ms::testing::ktx2_texture;
 
 struct LutShaderCase {
     std::string name, bake_args;
@@ -117,15 +102,16 @@ TEST_F(ShaderTest, GeneratedGlslAndHlslCompile) {
         const RunResult r = cli("bake -q " + c.bake_args + " --out " + base + ".exr --shader-glsl " + base + ".glsl --shader-hlsl " + base + ".hlsl");
         ASSERT_EQ(r.exit_code, 0) << r.output;
         const bool three_d = c.name != "seed2d";
-        // `microshadow shader` writes the same code from the EXR.
-        const RunResult g = cli("shader " + base + ".exr --lang glsl");
+        // `microshadow shader` writes the same code from the EXR, given the prefix the bake's files took
+        // from their names.
+        const RunResult g = cli("shader " + base + ".exr --lang glsl --shader-prefix " + c.name);
         ASSERT_EQ(g.exit_code, 0) << g.output;
         EXPECT_EQ(g.output, read_text(base + ".glsl"));
-        ASSERT_EQ(cli("shader " + base + ".exr --lang hlsl --out " + base + "2.hlsl").exit_code, 0);
+        ASSERT_EQ(cli("shader " + base + ".exr --lang hlsl --out " + base + "2.hlsl --shader-prefix " + c.name).exit_code, 0);
         EXPECT_EQ(read_text(base + "2.hlsl"), read_text(base + ".hlsl"));
-        compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
-        compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
-        compile_spirv(hlsl_pixel_wrapper(read_text(base + ".hlsl"), three_d), base + "_ps.hlsl", "-D -e main -S frag");
+        compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d, c.name), base + "_cs.comp", "");
+        compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d, c.name), base + "_cs.hlsl", "-D -e main -S comp");
+        compile_spirv(hlsl_pixel_wrapper(read_text(base + ".hlsl"), three_d, c.name), base + "_ps.hlsl", "-D -e main -S frag");
         const std::string glsl = read_text(base + ".glsl");
         EXPECT_NE(glsl.find(c.name == "uniform" ? "n_dot_l + 1.0 <= 2.0 * cos_t * cos_t" : "2.0 * visibility + n_dot_l <= 1.0"), std::string::npos);
         EXPECT_NE(glsl.find("(alpha_x * alpha_y)^(1/4)"), std::string::npos);
@@ -134,7 +120,7 @@ TEST_F(ShaderTest, GeneratedGlslAndHlslCompile) {
     // Every LUT format the bake writes gives the same code as its EXR (before: `shader` refused all but
     // .exr); only the quoted source file name differs.
     ASSERT_EQ(cli("lut export " + path("seed3d.exr") + " --out " + path("seed3d.ktx2") + " --encoding float16").exit_code, 0);
-    const RunResult k = cli("shader " + path("seed3d.ktx2") + " --lang glsl");
+    const RunResult k = cli("shader " + path("seed3d.ktx2") + " --lang glsl --shader-prefix seed3d");
     EXPECT_EQ(k.exit_code, 0) << k.output;
     std::string from_exr = read_text(path("seed3d.glsl"));
     for (std::size_t at = from_exr.find("seed3d.exr"); at != std::string::npos; at = from_exr.find("seed3d.exr", at))
@@ -237,8 +223,8 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
         }
         const auto lookup = ms::LutLookup::open(base + ".exr");
         const bool three_d = c.name != "seed2d", cosine = c.name != "uniform";
-        const auto glsl = compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d), base + "_cs.comp", "");
-        const auto hlsl = compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d), base + "_cs.hlsl", "-D -e main -S comp");
+        const auto glsl = compile_spirv(glsl_wrapper(read_text(base + ".glsl"), three_d, c.name), base + "_cs.comp", "");
+        const auto hlsl = compile_spirv(hlsl_wrapper(read_text(base + ".hlsl"), three_d, c.name), base + "_cs.hlsl", "-D -e main -S comp");
         ASSERT_FALSE(glsl.empty() || hlsl.empty()) << "the shaders did not compile";
         const std::vector<float> points = sample_points(lookup.file(), 4000, cosine);
         // Each texture is compared with the lut3d comparator on the values it stores (the EXR's texels
@@ -276,6 +262,71 @@ TEST_F(ShaderTest, GlslAndHlslOnLavapipeAgreeWithTheLut3dComparator) {
                           << a.zero_region << " zero-region points exactly 0\n";
             }
         }
+    }
+}
+
+}  // namespace
+
+namespace {
+
+// WGSL compute wrapper: one lookup per input vec4, the texture and its sampler at bindings 0 and 1.
+std::string wgsl_wrapper(const std::string& generated, bool three_d, const std::string& prefix) {
+    return std::string("@group(0) @binding(0) var g_lut: ") + (three_d ? "texture_3d<f32>" : "texture_2d<f32>") + ";\n" +
+           "@group(0) @binding(1) var g_sampler: sampler;\n"
+           "@group(0) @binding(2) var<storage, read> g_inputs: array<vec4<f32>>;\n"
+           "@group(0) @binding(3) var<storage, read_write> g_outputs: array<f32>;\n" +
+           generated +
+           "@compute @workgroup_size(64) fn main(@builtin(global_invocation_id) id: vec3<u32>) {\n"
+           "    if (id.x >= arrayLength(&g_outputs)) { return; }\n"
+           "    let p = g_inputs[id.x];\n"
+           "    g_outputs[id.x] = " + prefix + "_micro_shadowing(g_lut, g_sampler, p.x, p.y, p.z, p.w);\n}\n";
+}
+
+// WGSL: `bake --shader-wgsl` and `shader --lang wgsl` write the same code; run through wgpu on the
+// machine's adapter (lavapipe) over the bake's float32 and float16 KTX2 textures it agrees with the lut3d
+// comparator as the GLSL does (1e-5 on the stored texels; exactly 0 in the zero region), on random
+// points over and beyond every axis, every texel centre or endpoint and the domain's corners.
+TEST_F(ShaderTest, WgslThroughWgpuAgreesWithTheLut3dComparator) {
+    std::vector<ms::testing::WgpuJob> jobs;
+    struct Check {
+        std::string what;
+        ms::LutLookup stored;
+        std::vector<float> points;
+        bool cosine;
+    };
+    std::vector<Check> checks;
+    for (const auto& c : kCases) {
+        SCOPED_TRACE(c.name);
+        const std::string base = path(c.name);
+        RunResult r = cli("bake -q " + c.bake_args + " --out " + base + ".ktx2 --shader-wgsl " + base + ".wgsl");
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+        ASSERT_EQ(cli("lut export " + base + ".ktx2 --out " + base + "_h.ktx2 --encoding float16").exit_code, 0);
+        r = cli("shader " + base + ".ktx2 --lang wgsl --shader-prefix " + c.name);
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+        std::string from_file = read_text(base + ".wgsl");
+        EXPECT_EQ(r.output, from_file);
+        EXPECT_EQ(from_file.find("ms_"), std::string::npos) << "every name carries the prefix";
+        const bool three_d = c.name != "seed2d";
+        const ms::LutLookup lookup(ms::read_lut(base + ".ktx2"));
+        const std::vector<float> points = sample_points(lookup.file(), 2000);
+        for (const std::string& ext : {std::string(".ktx2"), std::string("_h.ktx2")}) {
+            ms::LutFile stored = lookup.file();
+            if (ext == "_h.ktx2")
+                for (float& v : stored.data) v = float(Imath::half(v));
+            jobs.push_back({wgsl_wrapper(from_file, three_d, c.name), {ms::testing::ktx2_texture(base + ext)}, points, points.size() / 4});
+            checks.push_back({c.name + ext, ms::LutLookup(stored), points, c.name != "uniform"});
+        }
+    }
+    const auto run = ms::testing::run_wgpu(jobs, dir_);
+    if (!run.skip.empty()) GTEST_SKIP() << run.skip;
+    ASSERT_EQ(run.outputs.size(), jobs.size());
+    for (std::size_t j = 0; j < jobs.size(); ++j) {
+        ASSERT_EQ(run.outputs[j].size(), checks[j].points.size() / 4) << checks[j].what;
+        const Agreement a = compare(checks[j].stored, checks[j].points, run.outputs[j], 1e-5, checks[j].cosine, checks[j].what + " wgsl");
+        EXPECT_GT(a.compared, 1000u) << checks[j].what;
+        EXPECT_GT(a.zero_region, 250u) << checks[j].what;
+        std::cout << "[ figures  ] " << checks[j].what << " wgsl on " << run.device << ": max |shader - lut3d| = " << a.max_diff
+                  << " over " << a.compared << " points; " << a.zero_region << " zero-region points exactly 0\n";
     }
 }
 

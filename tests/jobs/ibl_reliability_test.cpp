@@ -350,11 +350,11 @@ TEST_F(IblReliability, NumericOptionsMustBeFiniteNumbers) {
 TEST_F(IblReliability, ARerunWithFewerMipsOrAnotherFormatLeavesNoFileOfTheEarlierRun) {
     env::write_exr(path("sky.exr"), sky(128, 64), {});
     const std::string common = " --samples 16 --threads 1 --irradiance-size 4 -q";
-    auto r = cli("ibl prefilter sky.exr --out pf --levels 4 --dfg-size 4" + common);
+    auto r = cli("ibl prefilter sky.exr --out pf --levels 4 --dfg-size 4 --format exr" + common);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     for (const char* f : {"specular_m3.exr", "dfg.exr", "dfg_preview.png"}) ASSERT_TRUE(fs::exists(dir_ / "pf" / f)) << f;
     std::ofstream(dir_ / "pf" / "notes.txt") << "the user's file\n";
-    r = cli("ibl prefilter sky.exr --out pf --levels 2" + common);
+    r = cli("ibl prefilter sky.exr --out pf --levels 2 --format exr" + common);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_EQ(names(snapshot(dir_ / "pf")), " ibl.json irradiance.exr irradiance_preview.png notes.txt sh.json specular_m0.exr "
                                             "specular_m1.exr specular_preview.png");
@@ -530,7 +530,7 @@ TEST_F(IblReliability, DfgFailoverOnTwoDevicesGivesTheSameLut) {
 
 TEST_F(IblReliability, PrefilterFailoverOnTwoDevicesGivesTheSameMips) {
     env::write_exr(path("sky.exr"), sky(64, 32), {});
-    const std::string args = "ibl prefilter sky.exr --levels 3 --samples 64 --irradiance-size 4 -q --out ";
+    const std::string args = "ibl prefilter sky.exr --levels 3 --samples 64 --irradiance-size 4 --format exr -q --out ";
     ASSERT_EQ(cli(args + "one --device 0").exit_code, 0);
     auto fault = cli(args + "fault --device all", kTwoDevices + " MICROSHADOW_FAIL_DEVICE=0:0");
     ASSERT_EQ(fault.exit_code, 0) << fault.output;

@@ -14,7 +14,9 @@
 #include <Imath/half.h>
 #include <png.h>
 
+#include <algorithm>
 #include <cmath>
+#include <iterator>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -610,21 +612,39 @@ std::size_t png_mismatches(const Png& p, const LutFile& exr, double* worst) {
 
 TEST_F(LutFormatsTest, ExrConvertedByOpenImageIONeverDividesByAlpha) {
     if (run_shell("command -v oiiotool >/dev/null").exit_code != 0) GTEST_SKIP() << "oiiotool not installed (openimageio-tools)";
-    bake("lut.exr");
-    const LutFile exr = read_lut(path("lut.exr"));
-    ASSERT_EQ(exr.metadata.at("channels")[2].at("exr_channel"), "roughness_0p9");
-    // 4 channels like the seed LUT, the last one roughness 1 (the old "A").
+    // 4 channels like the seed LUT, named R, G, B, A (what engines' EXR importers read), the last one
+    // roughness 1; the roughness of each is in the metadata.
     ASSERT_EQ(cli("bake -q --size 8 --samples 4096 --out " + path("seed.exr")).exit_code, 0);
     const LutFile seed = read_lut(path("seed.exr"));
-    ASSERT_EQ(seed.metadata.at("channels")[3].at("exr_channel"), "roughness_1");
-    RunResult r = run_shell("oiiotool " + path("seed.exr") + " -d uint8 -o " + path("seed.png") + " 2>&1");
+    const char* rgba[] = {"R", "G", "B", "A"};
+    for (int c = 0; c < 4; ++c) {
+        EXPECT_EQ(seed.metadata.at("channels")[c].at("exr_channel"), rgba[c]);
+        EXPECT_EQ(seed.metadata.at("channels")[c].at("roughness"), seed.channels[c].roughness);
+    }
+    RunResult r = run_shell("iinfo -v " + path("seed.exr") + " 2>&1");
+    EXPECT_NE(r.output.find("channel list: R, G, B, A"), std::string::npos) << r.output;
+    r = run_shell("oiiotool " + path("seed.exr") + " -d uint8 -o " + path("seed.png") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     double worst = 0;
     EXPECT_EQ(png_mismatches(read_png(path("seed.png")), seed, &worst), 0u) << "worst " << worst;
-    std::cout << "[ figures  ] oiiotool -d uint8 of the new EXR: max |png - exr| = " << worst << "\n";
+    std::cout << "[ figures  ] oiiotool -d uint8 of the RGBA EXR: max |png - exr| = " << worst << "\n";
+    // `lut info` gives each channel's roughness.
+    r = cli("lut info " + path("seed.exr"));
+    EXPECT_NE(r.output.find("channel A: roughness 1"), std::string::npos) << r.output;
 
-    // The same data in the old R, G, B, A layout: read_lut still reads it, and the check above does
-    // catch the corruption oiiotool causes there (so it can fail).
+    // Files that named their channels by roughness ("roughness_0p1", ...) still read.
+    nlohmann::json named = seed.metadata;
+    std::vector<std::string> names;
+    for (auto& c : named.at("channels")) {
+        names.push_back(ms::exr_channel_name(c.at("roughness").get<double>()));
+        c["exr_channel"] = names.back();
+    }
+    write_raw_exr(path("named.exr"), int(seed.width), int(seed.height), names, named.dump(), seed.data);
+    EXPECT_EQ(read_lut(path("named.exr")).data, seed.data);
+    EXPECT_EQ(names[0], "roughness_0p1");
+
+    // The same RGBA data without the bake's oiio:UnassociatedAlpha attribute: the check above does catch
+    // the premultiplied-alpha corruption oiiotool causes there (so it can fail).
     nlohmann::json old = seed.metadata;
     for (auto& c : old.at("channels")) c.erase("exr_channel");
     write_raw_exr(path("old.exr"), int(seed.width), int(seed.height), {"R", "G", "B", "A"}, old.dump(), seed.data);
@@ -633,8 +653,9 @@ TEST_F(LutFormatsTest, ExrConvertedByOpenImageIONeverDividesByAlpha) {
     r = run_shell("oiiotool " + path("old.exr") + " -d uint8 -o " + path("old.png") + " 2>&1");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     const std::size_t corrupted = png_mismatches(read_png(path("old.png")), seed, &worst);
-    EXPECT_GT(corrupted, 0u) << "the old RGBA layout should show the premultiplied-alpha corruption";
-    std::cout << "[ figures  ] oiiotool -d uint8 of an old RGBA EXR: " << corrupted << " channel values off by > 1/255, worst " << worst << "\n";
+    EXPECT_GT(corrupted, 0u) << "an RGBA EXR without oiio:UnassociatedAlpha should show the premultiplied-alpha corruption";
+    std::cout << "[ figures  ] oiiotool -d uint8 of an RGBA EXR without the attribute: " << corrupted
+              << " channel values off by > 1/255, worst " << worst << "\n";
 }
 
 TEST_F(LutFormatsTest, HostileLutFilesAreRefusedNamingFileAndField) {
@@ -682,6 +703,48 @@ TEST_F(LutFormatsTest, HostileLutFilesAreRefusedNamingFileAndField) {
     expect_refused("inf.exr", good, {0.1f, 0.2f, INFINITY, 0.4f}, 2, "texel (x 0, y 1)");
     expect_refused("big.exr", good, {0.1f, 0.2f, 0.3f, 1.5f}, 2, "not in [0, 1]");
     expect_refused("neg.exr", good, {-0.1f, 0.2f, 0.3f, 0.4f}, 2, "not in [0, 1]");
+}
+
+// The chunk types of a PNG file in order, with the gAMA value (x 100000) when there is one.
+std::vector<std::string> png_chunk_types(const std::string& file, std::uint32_t* gamma) {
+    std::ifstream in(file, std::ios::binary);
+    const std::vector<unsigned char> b{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    auto be32 = [&](std::size_t at) { return std::uint32_t(b.at(at)) << 24 | std::uint32_t(b.at(at + 1)) << 16 | std::uint32_t(b.at(at + 2)) << 8 | b.at(at + 3); };
+    std::vector<std::string> types;
+    for (std::size_t at = 8; at + 8 <= b.size();) {
+        const std::uint32_t length = be32(at);
+        types.emplace_back(b.begin() + long(at + 4), b.begin() + long(at + 8));
+        if (types.back() == "gAMA") *gamma = be32(at + 8);
+        at += 12 + std::size_t(length);
+    }
+    return types;
+}
+
+// PNG atlases are data: a gAMA chunk of 1.0 (100000) and no sRGB or iCCP chunk, so importers read the
+// samples as linear values (OpenImageIO: oiio:ColorSpace "linear"), not as sRGB colour. The DFG LUT's
+// 16-bit PNG (`ibl dfg --out F.png`) too.
+TEST_F(LutFormatsTest, PngAtlasIsMarkedLinearData) {
+    for (const char* encoding : {"unorm8", "unorm16", "dfg"}) {
+        SCOPED_TRACE(encoding);
+        const bool dfg = std::string(encoding) == "dfg";
+        const std::string png = path(std::string("atlas_") + encoding + ".png");
+        const RunResult r = cli(dfg ? "ibl dfg -q --method sampled --size 4 --samples 256 --out " + png
+                                    : "bake -q --size 4 --samples 256 --encoding " + std::string(encoding) + " --out " + png);
+        ASSERT_EQ(r.exit_code, 0) << r.output;
+        std::uint32_t gamma = 0;
+        const auto types = png_chunk_types(png, &gamma);
+        ASSERT_FALSE(types.empty());
+        EXPECT_EQ(types.front(), "IHDR");
+        EXPECT_NE(std::find(types.begin(), types.end(), "gAMA"), types.end());
+        EXPECT_EQ(gamma, 100000u);
+        EXPECT_EQ(std::find(types.begin(), types.end(), "sRGB"), types.end());
+        EXPECT_EQ(std::find(types.begin(), types.end(), "iCCP"), types.end());
+        if (!dfg) EXPECT_FALSE(read_lut(png).data.empty());  // and it still reads back
+        if (run_shell("command -v iinfo >/dev/null").exit_code == 0) {
+            const RunResult info = run_shell("iinfo -v " + png + " 2>&1");
+            EXPECT_NE(info.output.find("oiio:ColorSpace: \"linear\""), std::string::npos) << info.output;
+        }
+    }
 }
 
 }  // namespace

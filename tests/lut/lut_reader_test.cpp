@@ -305,7 +305,7 @@ TEST_F(LutReaderTest, RepresentationDdsOpensLikeItsExr) {
     RunResult r = cli("repr bake -q --kind azimuth-axis --visibility-count 2 --n-dot-l-count 3 --n-dot-v-count 2 "
                       "--azimuth-nodes 3 --roughness 0.4,0.8 --samples 256 --out " + path("r.exr"));
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    r = cli("repr export " + path("r.exr") + " --out " + path("r.dds"));
+    r = cli("repr export " + path("r.exr") + " --float --out " + path("r.dds"));
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_TRUE(repr::is_representation_file(path("r.dds")));
     const auto a = repr::open_representation(path("r.exr"));

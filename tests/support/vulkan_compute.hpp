@@ -24,11 +24,45 @@ struct ComputeResult {
     std::vector<float> values;
 };
 
+// The one level of a KTX2 file as a texture (the header fields are checked in lut_formats_test).
+inline ComputeTexture ktx2_texture(const std::string& path);
+
 // separate_sampler: bindings are 0 = sampled image, 1 = sampler, 2 = inputs, 3 = outputs (HLSL's
 // Texture + SamplerState); otherwise 0 = combined image sampler, 1 = inputs, 2 = outputs (GLSL).
 // The shader's local size must divide 64; inputs are padded to a multiple of 64.
 ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const ComputeTexture& texture,
                           const std::vector<float>& inputs_vec4, bool separate_sampler);
+
+// Several textures in one shader (the combined-shader tests): texture k at binding k (combined image
+// sampler) or at 2k (image) and 2k + 1 (sampler) when separate_sampler, then the inputs and the
+// outputs; the shader writes `outputs_per_input` floats per input (input i's at i * outputs_per_input).
+ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const std::vector<ComputeTexture>& textures,
+                          const std::vector<float>& inputs_vec4, bool separate_sampler, std::uint32_t outputs_per_input);
+
+}  // namespace ms::testing
+
+#include <algorithm>
+#include <fstream>
+#include <iterator>
+
+namespace ms::testing {
+
+inline ComputeTexture ktx2_texture(const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    std::vector<std::uint8_t> b{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    auto u32 = [&](std::size_t at) {
+        return std::uint32_t(b.at(at)) | std::uint32_t(b.at(at + 1)) << 8 | std::uint32_t(b.at(at + 2)) << 16 | std::uint32_t(b.at(at + 3)) << 24;
+    };
+    ComputeTexture t;
+    t.vk_format = u32(12);
+    t.width = u32(20);
+    t.height = u32(24);
+    t.depth = std::max(1u, u32(28));
+    t.three_d = u32(28) > 0;
+    const std::size_t offset = u32(80), length = u32(88);
+    t.texels.assign(b.begin() + offset, b.begin() + offset + length);
+    return t;
+}
 
 }  // namespace ms::testing
 
@@ -100,8 +134,8 @@ inline std::uint32_t memory_type(VkPhysicalDevice pd, std::uint32_t bits, VkMemo
 
 }  // namespace vkh
 
-inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const ComputeTexture& tex,
-                                 const std::vector<float>& inputs_vec4, bool separate_sampler) {
+inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const std::vector<ComputeTexture>& textures,
+                                 const std::vector<float>& inputs_vec4, bool separate_sampler, std::uint32_t outputs_per_input) {
     using namespace vkh;
     ComputeResult result;
     // The loader reads VK_ICD_FILENAMES when the instance is created: point it at lavapipe unless the
@@ -154,14 +188,15 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
         result.skip = "no Vulkan device with a compute queue (install mesa-vulkan-drivers for lavapipe)";
         return result;
     }
-    const VkFormat format = VkFormat(tex.vk_format);
-    VkFormatProperties fp;
-    vkGetPhysicalDeviceFormatProperties(pd, format, &fp);
-    const VkFormatFeatureFlags need = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
-                                      VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
-    if ((fp.optimalTilingFeatures & need) != need) {
-        result.skip = result.device + " cannot linearly filter VkFormat " + std::to_string(tex.vk_format);
-        return result;
+    for (const auto& tex : textures) {
+        VkFormatProperties fp;
+        vkGetPhysicalDeviceFormatProperties(pd, VkFormat(tex.vk_format), &fp);
+        const VkFormatFeatureFlags need = VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT |
+                                          VK_FORMAT_FEATURE_TRANSFER_DST_BIT;
+        if ((fp.optimalTilingFeatures & need) != need) {
+            result.skip = result.device + " cannot linearly filter VkFormat " + std::to_string(tex.vk_format);
+            return result;
+        }
     }
 
     const float priority = 1.0f;
@@ -200,45 +235,12 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
         return buf;
     };
     const std::size_t count = inputs_vec4.size() / 4, padded = (count + 63) / 64 * 64;
-    void *staging_map, *in_map, *out_map;
-    VkBuffer staging = make_buffer(tex.texels.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging_map);
-    std::memcpy(staging_map, tex.texels.data(), tex.texels.size());
+    void *in_map, *out_map;
     VkBuffer in_buf = make_buffer(padded * 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &in_map);
     std::memset(in_map, 0, padded * 16);
     std::memcpy(in_map, inputs_vec4.data(), inputs_vec4.size() * sizeof(float));
-    VkBuffer out_buf = make_buffer(padded * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &out_map);
+    VkBuffer out_buf = make_buffer(padded * 4 * outputs_per_input, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, &out_map);
 
-    // The texture: one level, optimal tiling, device memory.
-    VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-    ii.imageType = tex.three_d ? VK_IMAGE_TYPE_3D : VK_IMAGE_TYPE_2D;
-    ii.format = format;
-    ii.extent = {tex.width, tex.height, tex.three_d ? tex.depth : 1u};
-    ii.mipLevels = 1;
-    ii.arrayLayers = 1;
-    ii.samples = VK_SAMPLE_COUNT_1_BIT;
-    ii.tiling = VK_IMAGE_TILING_OPTIMAL;
-    ii.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-    ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    VkImage image;
-    check(vkCreateImage(dev, &ii, nullptr, &image), "vkCreateImage");
-    c.add([=] { vkDestroyImage(dev, image, nullptr); });
-    VkMemoryRequirements imr;
-    vkGetImageMemoryRequirements(dev, image, &imr);
-    VkMemoryAllocateInfo imai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
-    imai.allocationSize = imr.size;
-    imai.memoryTypeIndex = memory_type(pd, imr.memoryTypeBits, 0);
-    VkDeviceMemory image_mem;
-    check(vkAllocateMemory(dev, &imai, nullptr, &image_mem), "vkAllocateMemory(image)");
-    c.add([=] { vkFreeMemory(dev, image_mem, nullptr); });
-    check(vkBindImageMemory(dev, image, image_mem, 0), "vkBindImageMemory");
-    VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
-    vci.image = image;
-    vci.viewType = tex.three_d ? VK_IMAGE_VIEW_TYPE_3D : VK_IMAGE_VIEW_TYPE_2D;
-    vci.format = format;
-    vci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    VkImageView view;
-    check(vkCreateImageView(dev, &vci, nullptr, &view), "vkCreateImageView");
-    c.add([=] { vkDestroyImageView(dev, view, nullptr); });
     // The sampler engines must use for the LUT: linear, clamp-to-edge, level 0 only.
     VkSamplerCreateInfo sci{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
     sci.magFilter = sci.minFilter = VK_FILTER_LINEAR;
@@ -248,6 +250,52 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
     VkSampler sampler;
     check(vkCreateSampler(dev, &sci, nullptr, &sampler), "vkCreateSampler");
     c.add([=] { vkDestroySampler(dev, sampler, nullptr); });
+
+    // The textures: one level each, optimal tiling, device memory, uploaded from a staging buffer.
+    struct Uploaded {
+        VkBuffer staging;
+        VkImage image;
+        VkExtent3D extent;
+        VkDescriptorImageInfo info;
+    };
+    std::vector<Uploaded> uploaded;
+    for (const auto& tex : textures) {
+        const VkFormat format = VkFormat(tex.vk_format);
+        void* staging_map;
+        VkBuffer staging = make_buffer(tex.texels.size(), VK_BUFFER_USAGE_TRANSFER_SRC_BIT, &staging_map);
+        std::memcpy(staging_map, tex.texels.data(), tex.texels.size());
+        VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
+        ii.imageType = tex.three_d ? VK_IMAGE_TYPE_3D : VK_IMAGE_TYPE_2D;
+        ii.format = format;
+        ii.extent = {tex.width, tex.height, tex.three_d ? tex.depth : 1u};
+        ii.mipLevels = 1;
+        ii.arrayLayers = 1;
+        ii.samples = VK_SAMPLE_COUNT_1_BIT;
+        ii.tiling = VK_IMAGE_TILING_OPTIMAL;
+        ii.usage = VK_IMAGE_USAGE_TRANSFER_DST_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+        ii.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        VkImage image;
+        check(vkCreateImage(dev, &ii, nullptr, &image), "vkCreateImage");
+        c.add([=] { vkDestroyImage(dev, image, nullptr); });
+        VkMemoryRequirements imr;
+        vkGetImageMemoryRequirements(dev, image, &imr);
+        VkMemoryAllocateInfo imai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
+        imai.allocationSize = imr.size;
+        imai.memoryTypeIndex = memory_type(pd, imr.memoryTypeBits, 0);
+        VkDeviceMemory image_mem;
+        check(vkAllocateMemory(dev, &imai, nullptr, &image_mem), "vkAllocateMemory(image)");
+        c.add([=] { vkFreeMemory(dev, image_mem, nullptr); });
+        check(vkBindImageMemory(dev, image, image_mem, 0), "vkBindImageMemory");
+        VkImageViewCreateInfo vci{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+        vci.image = image;
+        vci.viewType = tex.three_d ? VK_IMAGE_VIEW_TYPE_3D : VK_IMAGE_VIEW_TYPE_2D;
+        vci.format = format;
+        vci.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        VkImageView view;
+        check(vkCreateImageView(dev, &vci, nullptr, &view), "vkCreateImageView");
+        c.add([=] { vkDestroyImageView(dev, view, nullptr); });
+        uploaded.push_back({staging, image, ii.extent, {sampler, view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL}});
+    }
 
     // Descriptors.
     std::vector<VkDescriptorSetLayoutBinding> bindings;
@@ -259,12 +307,15 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
         x.stageFlags = VK_SHADER_STAGE_COMPUTE_BIT;
         bindings.push_back(x);
     };
-    const std::uint32_t in_binding = separate_sampler ? 2 : 1, out_binding = separate_sampler ? 3 : 2;
-    if (separate_sampler) {
-        bind(0, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE);
-        bind(1, VK_DESCRIPTOR_TYPE_SAMPLER);
-    } else {
-        bind(0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
+    const std::uint32_t k = std::uint32_t(textures.size());
+    const std::uint32_t in_binding = separate_sampler ? 2 * k : k, out_binding = in_binding + 1;
+    for (std::uint32_t t = 0; t < k; ++t) {
+        if (separate_sampler) {
+            bind(2 * t, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE);
+            bind(2 * t + 1, VK_DESCRIPTOR_TYPE_SAMPLER);
+        } else {
+            bind(t, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER);
+        }
     }
     bind(in_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
     bind(out_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER);
@@ -289,7 +340,6 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
     dsai.pSetLayouts = &dsl;
     VkDescriptorSet set;
     check(vkAllocateDescriptorSets(dev, &dsai, &set), "vkAllocateDescriptorSets");
-    VkDescriptorImageInfo image_info{sampler, view, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL};
     VkDescriptorBufferInfo in_info{in_buf, 0, VK_WHOLE_SIZE}, out_info{out_buf, 0, VK_WHOLE_SIZE};
     std::vector<VkWriteDescriptorSet> writes;
     auto write = [&](std::uint32_t b, VkDescriptorType t, const VkDescriptorImageInfo* ii2, const VkDescriptorBufferInfo* bi) {
@@ -302,11 +352,13 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
         w.pBufferInfo = bi;
         writes.push_back(w);
     };
-    if (separate_sampler) {
-        write(0, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, &image_info, nullptr);
-        write(1, VK_DESCRIPTOR_TYPE_SAMPLER, &image_info, nullptr);
-    } else {
-        write(0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, &image_info, nullptr);
+    for (std::uint32_t t = 0; t < k; ++t) {
+        if (separate_sampler) {
+            write(2 * t, VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, &uploaded[t].info, nullptr);
+            write(2 * t + 1, VK_DESCRIPTOR_TYPE_SAMPLER, &uploaded[t].info, nullptr);
+        } else {
+            write(t, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, &uploaded[t].info, nullptr);
+        }
     }
     write(in_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, nullptr, &in_info);
     write(out_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, nullptr, &out_info);
@@ -350,25 +402,29 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
     VkCommandBufferBeginInfo cbbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
     cbbi.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
     check(vkBeginCommandBuffer(cmd, &cbbi), "vkBeginCommandBuffer");
-    VkImageMemoryBarrier to_dst{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-    to_dst.srcAccessMask = 0;
-    to_dst.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-    to_dst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-    to_dst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    to_dst.srcQueueFamilyIndex = to_dst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-    to_dst.image = image;
-    to_dst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1, &to_dst);
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = ii.extent;
-    vkCmdCopyBufferToImage(cmd, staging, image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
-    VkImageMemoryBarrier to_read = to_dst;
-    to_read.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-    to_read.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
-    to_read.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-    to_read.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
-    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, nullptr, 0, nullptr, 1, &to_read);
+    for (const auto& u : uploaded) {
+        VkImageMemoryBarrier to_dst{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+        to_dst.srcAccessMask = 0;
+        to_dst.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        to_dst.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+        to_dst.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        to_dst.srcQueueFamilyIndex = to_dst.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+        to_dst.image = u.image;
+        to_dst.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0,
+                             nullptr, 1, &to_dst);
+        VkBufferImageCopy region{};
+        region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+        region.imageExtent = u.extent;
+        vkCmdCopyBufferToImage(cmd, u.staging, u.image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+        VkImageMemoryBarrier to_read = to_dst;
+        to_read.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+        to_read.dstAccessMask = VK_ACCESS_SHADER_READ_BIT;
+        to_read.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+        to_read.newLayout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL;
+        vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 0, nullptr,
+                             0, nullptr, 1, &to_read);
+    }
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, &set, 0, nullptr);
     vkCmdDispatch(cmd, std::uint32_t(padded / 64), 1, 1);
@@ -386,14 +442,25 @@ inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const 
     si.pCommandBuffers = &cmd;
     check(vkQueueSubmit(queue, 1, &si, fence), "vkQueueSubmit");
     check(vkWaitForFences(dev, 1, &fence, VK_TRUE, 60ull * 1000 * 1000 * 1000), "vkWaitForFences");
-    result.values.assign(static_cast<const float*>(out_map), static_cast<const float*>(out_map) + count);
+    result.values.assign(static_cast<const float*>(out_map), static_cast<const float*>(out_map) + count * outputs_per_input);
     return result;
+}
+
+inline ComputeResult run_compute(const std::vector<std::uint32_t>& spirv, const ComputeTexture& texture,
+                                 const std::vector<float>& inputs_vec4, bool separate_sampler) {
+    return run_compute(spirv, std::vector<ComputeTexture>{texture}, inputs_vec4, separate_sampler, 1);
 }
 
 }  // namespace ms::testing
 #else
 namespace ms::testing {
 inline ComputeResult run_compute(const std::vector<std::uint32_t>&, const ComputeTexture&, const std::vector<float>&, bool) {
+    ComputeResult r;
+    r.skip = "built without Vulkan (libvulkan-dev not found by CMake)";
+    return r;
+}
+inline ComputeResult run_compute(const std::vector<std::uint32_t>&, const std::vector<ComputeTexture>&, const std::vector<float>&, bool,
+                                 std::uint32_t) {
     ComputeResult r;
     r.skip = "built without Vulkan (libvulkan-dev not found by CMake)";
     return r;

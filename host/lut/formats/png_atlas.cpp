@@ -29,7 +29,9 @@ void write_png_atlas(const std::string& path, const LutFile& lut, PixelEncoding 
 
     AtomicPath atomic(path);
     // The metadata rides along as an iTXt chunk, UTF-8 JSON under the key "microshadow".
-    write_png(atomic.temp_path(), PngImage{lut.width, lut.height, 4, int(bits), image.data()}, "microshadow", json);
+    PngImage png{lut.width, lut.height, 4, int(bits), image.data()};
+    png.linear_data = true;  // roughness data, not sRGB colour
+    write_png(atomic.temp_path(), png, "microshadow", json);
     atomic.commit();
 }
 

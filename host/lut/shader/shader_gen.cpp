@@ -7,16 +7,10 @@
 #include <stdexcept>
 
 #include "lut/formats/binary_writer.hpp"
+#include "lut/shader/compose.hpp"
+#include "lut/shader/wgsl.hpp"
 
 namespace ms::lutshader {
-
-ShaderLanguage parse_shader_language(const std::string& s) {
-    if (s == "glsl") return ShaderLanguage::glsl;
-    if (s == "hlsl") return ShaderLanguage::hlsl;
-    throw std::invalid_argument("--lang must be glsl or hlsl, not '" + s + "'");
-}
-
-std::string to_string(ShaderLanguage l) { return l == ShaderLanguage::glsl ? "glsl" : "hlsl"; }
 
 namespace {
 
@@ -42,6 +36,7 @@ std::string axis_uv(const LutAxis& a, const std::string& p, const char* clamp_fn
 }  // namespace
 
 std::string generate_shader(const LutFile& lut, ShaderLanguage language, const std::string& source_name) {
+    if (language == ShaderLanguage::wgsl) return glsl_to_wgsl(generate_shader(lut, ShaderLanguage::glsl, source_name));
     if (lut.axes.size() != 3 || lut.channels.empty() || lut.channels.size() > 4)
         throw std::invalid_argument("shader: the LUT needs 3 axes and 1 to 4 channels");
     const bool glsl = language == ShaderLanguage::glsl;
@@ -131,8 +126,10 @@ std::string generate_shader(const LutFile& lut, ShaderLanguage language, const s
     return o.str();
 }
 
-void write_shader(const std::string& path, const LutFile& lut, ShaderLanguage language, const std::string& source_name) {
-    lutfmt::write_text_atomically(path, generate_shader(lut, language, source_name));
+void write_shader(const std::string& path, const LutFile& lut, ShaderLanguage language, const std::string& source_name,
+                  const std::string& prefix) {
+    lutfmt::write_text_atomically(path, compose(generate_shader(lut, language, source_name), language,
+                                                prefix.empty() ? default_prefix(path) : prefix));
 }
 
 }  // namespace ms::lutshader

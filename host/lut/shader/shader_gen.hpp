@@ -17,18 +17,17 @@
 #include <string>
 
 #include "lut/exr_lut.hpp"
+#include "lut/shader/language.hpp"
 
 namespace ms::lutshader {
-
-enum class ShaderLanguage { glsl, hlsl };
-ShaderLanguage parse_shader_language(const std::string&);  // "glsl" | "hlsl"; std::invalid_argument
-std::string to_string(ShaderLanguage);
 
 // The shader source (a function library to paste or #include; no entry point). `source_name` is
 // recorded in the comment (the LUT file the code was made for).
 std::string generate_shader(const LutFile& lut, ShaderLanguage language, const std::string& source_name);
 
-// Writes generate_shader's output atomically.
-void write_shader(const std::string& path, const LutFile& lut, ShaderLanguage language, const std::string& source_name);
+// Writes generate_shader's output, composable (lut/shader/compose.hpp: names prefixed with `prefix`, or
+// with default_prefix(path) when it is empty; include guard), atomically.
+void write_shader(const std::string& path, const LutFile& lut, ShaderLanguage language, const std::string& source_name,
+                  const std::string& prefix = "");
 
 }  // namespace ms::lutshader

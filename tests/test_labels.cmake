@@ -18,6 +18,7 @@ set(microshadow_cli_tests
   "^BakeTest\\.BadInputAndInterruptionLeaveNoFile$"
   "^BakeTest\\.TwoDevicesAndFaultInjectionGiveTheSameData$"
   "^CliHelp\\."
+  "^FirstHour(Cli)?\\."
   "^Distributed\\.Cli"
   "^CliTest\\."
   "^DesignTest\\.CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput$"
@@ -87,6 +88,7 @@ set(microshadow_cli_tests
   "^SceneReliability\\.(Sigterm|FailingDeviceOfTwo|OutputProblems|FittedSceneLut|LutsNamedAAndAError)"
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
+  "^FirstHour\\.(KernelCompilerWarningsStayInTheBuildLogUnlessAsked|AMergeSaysItReadEarlierWorkRatherThanReportComputeTime)$"
   "^ReprPresetMax\\."
   "^ReprAnisotropicCorrectedTest\\.ThePresetMeetsItsMeasuredAccuracyAgainstTheExactTerm$"
   "^Distributed\\.CliSceneShardsMergeToOneProcess$"

@@ -96,7 +96,7 @@ for script in "$scratch"/blocks/*.sh; do
   # block's wall and CPU time (the kernels' threads and mpirun's ranks included).
   TIMEFORMAT="check-readme: $where: %R s wall, %U s user + %S s system CPU"
   # (PS4 is set inside: bash running as root ignores one from the environment.)
-  if time (cd "$dir" && bash -euo pipefail -c 'PS4="+ [${SECONDS} s] "; set -x; source "$0"' "$script"); then
+  if time (cd "$dir" && bash -euo pipefail -c 'PS4="+ [\${SECONDS} s] "; set -x; source "$0"' "$script"); then
     echo "check-readme: $where: passed in $((SECONDS - t0)) s"
     ran=$((ran + 1))
   else

@@ -42,7 +42,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     for (auto& a : args) argv.push_back(a.data());
     try {
         app.parse(int(argv.size()), argv.data());
-    } catch (const CLI::ParseError&) {
+    } catch (const CLI::ParseError& e) {
+        // The one line the program prints for it (the suggestion walks argv and the parsed commands).
+        (void)ms::cli::parse_error_line(app, int(argv.size()), argv.data(), e);
     } catch (const ParsedOnly&) {
     }
     return 0;

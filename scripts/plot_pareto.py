@@ -95,6 +95,14 @@ def main():
     left.set_xticks(ticks)
     left.set_xticklabels(["0 (none)"] + [f"{t // 1024} KiB" if t < (1 << 20) else f"{t >> 20} MiB" for t in ticks[1:]])
     left.set_xlabel("texture memory [bytes, log scale]")
+    if not textured:
+        # Every candidate sits at "0 (none)": an axis of bytes would only show matplotlib's zoom into
+        # that one column; say instead what would give it a meaning.
+        left.set_xlim(0.5, 2)
+        left.minorticks_off()
+        left.set_xticks([zero_bytes], ["0 (none)"])
+        left.text(0.03, 0.5, "no candidate stores a texture:\n--lut FILE or --repr PRESET|FILE adds one",
+                  transform=left.transAxes, ha="left", va="center", fontsize=10, color="0.35")
     left.set_ylabel("error vs reference term (N.L-weighted)  o RMS   - p99   x max   [log scale]")
     draw(right, rows, "alu_per_light", 1)
     right.set_xlabel("ALU instructions per light [count from the GLSL, log scale]  (hollow: >= 1 texture fetch)")

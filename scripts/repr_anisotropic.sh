@@ -49,4 +49,4 @@ for name in ("anisotropic", "full-range", "lut3d"):
     o, n = outside[name]
     print(f"| {name} | {a[0]:.4f} | {a[1]:.3f} | {a[2]:.3f} | " + " | ".join(cells) + f" | {o} of {n} |")
 PY
-echo "anisotropic: $("$ms" repr info "$out/anisotropic.exr" | sed -n 2p)"
+echo "anisotropic: $("$ms" repr info "$out/anisotropic.exr" | sed -n "s/^cost: //p")"

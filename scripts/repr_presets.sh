@@ -56,5 +56,5 @@ for domain in ("realistic", "full-range"):
 PY
 for f in lut3d realistic full-range; do
     if [ "$f" = lut3d ]; then continue; fi
-    echo "$f: $("$ms" repr info "$out/$f.exr" | sed -n 2p)"
+    echo "$f: $("$ms" repr info "$out/$f.exr" | sed -n "s/^cost: //p")"
 done

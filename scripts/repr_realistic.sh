@@ -40,7 +40,7 @@ python3 "$here/repr_realistic_queries.py" "$out/queries.csv" "$count" 15
 compare=(--compare "lut3d=$out/lut3d.exr")
 for f in "$out"/axis-*.exr "$out"/harm-*.exr; do compare+=(--compare "$f"); done
 "$ms" eval --in "$out/queries.csv" --out "$out/results.csv" --samples 65536 "${compare[@]}" 2>&1 | grep 'term:'
-for f in "$out"/axis-*.exr "$out"/harm-*.exr; do echo "$(basename "$f" .exr): $("$ms" repr info "$f" | sed -n 2p)"; done
+for f in "$out"/axis-*.exr "$out"/harm-*.exr; do echo "$(basename "$f" .exr): $("$ms" repr info "$f" | sed -n "s/^cost: //p")"; done
 # The 99th percentile of |error| per comparator (eval prints max, RMS and N.L-weighted RMS).
 python3 - "$out/results.csv" <<'PY'
 import csv, sys

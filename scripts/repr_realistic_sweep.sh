@@ -25,4 +25,4 @@ fi
 ls -l "$luts"/repr-*
 "$ms" sweep "$here/../docs/study/repr-realistic.toml" --out "$out" --restart
 python3 "$here/repr_sweep_table.py" "$out/sweep.csv" lut3d-32
-for f in "$luts"/repr-axis-v32.exr "$luts"/repr-harm-v32.exr; do echo "$(basename "$f" .exr): $("$ms" repr info "$f" | sed -n 2p)"; done
+for f in "$luts"/repr-axis-v32.exr "$luts"/repr-harm-v32.exr; do echo "$(basename "$f" .exr): $("$ms" repr info "$f" | sed -n "s/^cost: //p")"; done

@@ -4,7 +4,8 @@
 Bakes the seed 3D LUT (the relative azimuth averaged away) and the recommended representation
 (azimuth harmonics, docs/representations.md), evaluates the term itself with the exact method on
 random realistic queries, and reports each one's error: overall, N.L-weighted (as shading sees it) and
-against the relative azimuth between light and view, with a plot when matplotlib is installed.
+against the relative azimuth between light and view, with its plot (matplotlib: Debian's
+python3-matplotlib, or `pip install '.[plot]'`; --no-plot goes without).
 
     python3 examples/python/study.py --out study-out            # the full sizes (a few minutes)
     python3 examples/python/study.py --small --out study-out    # CI: small bakes, seconds
@@ -27,7 +28,21 @@ def main() -> int:
     parser.add_argument("--small", action="store_true", help="small bakes and 500 queries (CI)")
     parser.add_argument("--backend", default="opencl", choices=["opencl", "oracle"])
     parser.add_argument("--seed", type=int, default=1, help="seed of the random queries")
+    parser.add_argument("--no-plot", action="store_true", help="the tables only (no matplotlib needed)")
     args = parser.parse_args()
+    plt = None
+    if not args.no_plot:
+        # Checked before any work: a missing plotting library is said at once, with the ways out.
+        try:
+            import matplotlib
+
+            matplotlib.use("Agg")
+            import matplotlib.pyplot as plt
+        except ImportError as e:
+            print(f"study.py: the plot needs matplotlib, which this Python cannot import ({e}); install it with "
+                  "`pip install '.[plot]'` (or Debian's python3-matplotlib in a --system-site-packages venv), "
+                  "or run with --no-plot", file=sys.stderr)
+            return 2
     os.makedirs(args.out, exist_ok=True)
     queries = 500 if args.small else args.queries
 
@@ -88,13 +103,7 @@ def main() -> int:
                                      for b in range(len(centres))])
         print(f"{name:12}" + "".join(f"{x:7.4f}" for x in rms_by_bin[name]))
 
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("\nmatplotlib is not installed: no plot")
+    if plt is None:
         return 0
     fig, ax = plt.subplots(figsize=(6.4, 4))
     for name, rms in rms_by_bin.items():

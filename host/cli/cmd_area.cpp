@@ -111,11 +111,11 @@ void run_area_eval(const AreaEvalArgs& args) {
     if (sidecar) outputs.stream(json_out) << dump_json(meta, 2) << "\n";
     outputs.commit();
     if (!args.sampling.quiet)
-        std::cerr << "area eval: " << queries.size() << " " << args.light << " lights (" << stats.sampled << " sampled, "
+        std::cerr << "area eval: " << queries.size() << " " << args.light << " lights (" << stats.sampled << (exact ? " integrated, " : " sampled, ")
                   << stats.below_horizon << " below the horizon, " << stats.zero_region << " in the zero region, "
                   << stats.visibility_one << " at v = 1), max std error " << std::setprecision(3) << max_error
                   << (exact ? ", max inner error " + format_number(max_inner) : std::string()) << ", "
-                  << stats.seconds << " s on " << backend->name() << "\n";
+                  << "computed in " << stats.seconds << " s on " << backend->name() << "\n";
 }
 
 void run_area_sweep(AreaSweepArgs args) {

@@ -1,6 +1,7 @@
 // microshadow design: the command's options and its output on the terminal; the study itself (every
 // candidate against one cached reference set, the Pareto front, the best candidate inside a budget,
 // its bake) is jobs/design_study.hpp's.
+#include <algorithm>
 #include <cctype>
 #include <cstdlib>
 #include <filesystem>
@@ -177,6 +178,13 @@ void run_design(DesignArgs args, MpiWorld* world) {
     const std::string chosen = study.candidates()[result.chosen].name;
     std::cout << study.pareto_markdown(result) << "\n" << design::Study::reference_summary(set)
               << "; * Pareto front (weighted RMS, bytes, fetches, ALU), > chosen: " << chosen << "\n";
+    // Without a texture among the candidates the memory budget decided nothing: say so, and how to
+    // weigh textures, rather than let "chosen" read as the answer to the budget.
+    const auto& all = study.candidates();
+    if (std::none_of(all.begin(), all.end(), [](const design::Candidate& c) { return c.cost.bytes > 0; }))
+        std::cout << "note: no candidate stores a texture, so --max-bytes decided nothing and " << chosen
+                  << " is the lowest error among formulas; add --lut FILE or --repr PRESET|FILE to weigh textures "
+                     "(docs/study.md)\n";
     if (args.out.empty()) return;
     const std::string baked = study.write(outputs, files, args.out, result, set);
     outputs.commit();
@@ -189,7 +197,7 @@ void run_design(DesignArgs args, MpiWorld* world) {
         run_plotter({"/usr/bin/python3", find_plot_script("plot_pareto.py"), (dir / "pareto.csv").string(), "--out",
                      (dir / "pareto.png").string(), "--title",
                      "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"},
-                    "design", args.sampling.quiet, "the tables are written");
+                    "the tables are written");
     }
 }
 

@@ -139,12 +139,13 @@ void run_eval(const EvalArgs& args) {
     outputs.commit();
 
     if (!args.sampling.quiet)
-        std::cerr << "eval: " << queries.size() << " queries (" << stats.sampled << " sampled, " << stats.exact_zero
+        std::cerr << "eval: " << queries.size() << " queries (" << stats.sampled
+                  << (plan.method == Method::exact ? " integrated, " : " sampled, ") << stats.exact_zero
                   << " exact 0 in the zero region, " << stats.exact_one << " exact 1 at v = 1), "
                   << (plan.method == Method::exact ? std::string("exact method, max estimated error ")
                                                    : std::to_string(plan.samples) + " samples each, max std error ")
                   << std::setprecision(3) << max_error << ", "
-                  << std::setprecision(3) << stats.seconds << " s on " << backend->name() << "\n";
+                  << std::setprecision(3) << "computed in " << stats.seconds << " s on " << backend->name() << "\n";
     if (!args.sampling.quiet)
         for (std::size_t k = 0; k < comparators.size(); ++k)
             std::cerr << "eval: " << comparators[k].name() << " - term: max |error| " << std::setprecision(4)

@@ -39,7 +39,23 @@ std::string describe(const LutFile& lut, const lutfmt::LutFileInfo& info, const 
     const bool three_d = lut.n_dot_v().count > 1;
     const double step = lutfmt::encoding_step_bound(info.encoding);
     o << path << ": LUT, " << lutfmt::to_string(info.format) << " " << lutfmt::to_string(info.encoding);
-    if (step == 0) o << " (the baked floats exactly)\n";
+    // A float copy of an earlier quantised file (a PNG exported to EXR) holds that file's steps, not
+    // the baked floats: say so, with the bound the export recorded.
+    double earlier = 0;
+    if (lut.metadata.contains("error_budget") && lut.metadata.at("error_budget").is_object()) {
+        const auto& b = lut.metadata.at("error_budget");
+        if (b.contains("earlier_quantisation") && b.at("earlier_quantisation").is_number()) earlier = b.at("earlier_quantisation").get<double>();
+    }
+    if (earlier == 0 && lut.metadata.contains("earlier_quantisation_error") && lut.metadata.at("earlier_quantisation_error").is_number())
+        earlier = lut.metadata.at("earlier_quantisation_error").get<double>();
+    std::string from;
+    if (lut.metadata.contains("exported_from") && lut.metadata.at("exported_from").is_object())
+        from = lut.metadata.at("exported_from").value("encoding", std::string()) + " " +
+               lut.metadata.at("exported_from").value("format", std::string());
+    if (earlier > 0)
+        o << " (exported from an earlier " << (from.size() > 1 ? from + " " : std::string()) << "file: each texel within "
+          << step + earlier << " of the baked float)\n";
+    else if (step == 0) o << " (the baked floats exactly)\n";
     else o << " (each texel within " << step << " of the baked float)\n";
     o << "layout: " << lut.metadata.value("layout", std::string("?")) << ", " << (three_d ? "3D" : "2D") << " texture "
       << lut.visibility().count << " x " << lut.n_dot_l().count << (three_d ? " x " + std::to_string(lut.n_dot_v().count) : "")
@@ -87,7 +103,7 @@ void add_lut_command(CLI::App& app) {
     auto i = std::make_shared<LutInfoArgs>();
     auto* info = lut_cmd->add_subcommand("info", "print a LUT file's format, layout, error budget and provenance");
     info->add_option("file", i->file, "a LUT written by `microshadow bake` (.exr, .ktx2, .dds, .h, .inc or .png)")->required();
-    info->add_flag("--metadata", i->metadata, "also print the whole metadata record (JSON)");
+    info->add_flag("--metadata,--json", i->metadata, "also print the whole metadata record (JSON)");
     info->callback([i] {
         lutfmt::LutFileInfo format;
         const LutFile lut = open_or_bad_input(i->file, format);

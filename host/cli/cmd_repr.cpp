@@ -304,8 +304,36 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
 
 struct ReprFileArgs {
     std::string file, lang = "glsl", out, prefix;
-    bool half = false, float32 = false;
+    bool half = false, float32 = false, json = false;
 };
+
+// `repr info`: a summary in the shape of `lut info` (kind, layout, cost, domain, provenance); --json
+// gives the whole record.
+std::string describe_representation(const repr::Representation& rep, const std::string& path) {
+    const nlohmann::json p = rep.provenance();
+    auto text = [&](const char* key) { return p.contains(key) && p.at(key).is_string() ? p.at(key).get<std::string>() : std::string(); };
+    std::ostringstream o;
+    o << path << ": representation " << text("representation");
+    if (!text("preset").empty()) o << " (preset " << text("preset") << ")";
+    o << "\nlayout: " << rep.name() << "\ncost: " << cost_line(rep) << "\n";
+    if (p.contains("domain") && p.at("domain").is_object()) {
+        const auto& d = p.at("domain");
+        o << "domain:";
+        const char* sep = " ";
+        for (const auto& [key, label] : {std::pair{"roughness", "roughness"}, {"visibility", "visibility"}, {"n_dot_v", "NdotV"}, {"n_dot_l", "NdotL"}})
+            if (d.contains(key) && d.at(key).is_array() && d.at(key).size() == 2 && d.at(key)[0].is_number() && d.at(key)[1].is_number()) {
+                o << sep << label << " [" << d.at(key)[0].get<double>() << ", " << d.at(key)[1].get<double>() << "]";
+                sep = ", ";
+            }
+        if (d.contains("outside") && d.at("outside").is_string()) o << "; queries outside it are " << d.at("outside").get<std::string>();
+        o << "\n";
+    }
+    if (!text("method").empty()) o << "computed by: the " << text("method") << " method\n";
+    o << "made by: microshadow " << (text("version").empty() ? "?" : text("version"));
+    if (!text("command_line").empty()) o << ": " << text("command_line");
+    o << "\n";
+    return o.str();
+}
 
 std::unique_ptr<repr::Representation> open_or_bad_input(const std::string& path) {
     try {
@@ -411,9 +439,10 @@ void add_repr_command(CLI::App& app) {
     auto i = std::make_shared<ReprFileArgs>();
     auto* info = repr_cmd->add_subcommand("info", "print a representation file's layout, cost and provenance");
     info->add_option("file", i->file, "a file written by `microshadow repr bake`")->required();
+    info->add_flag("--json", i->json, "print the whole provenance record (JSON) instead of the summary");
     info->callback([i] {
         const auto rep = open_or_bad_input(i->file);
-        std::cout << rep->name() << "\n" << cost_line(*rep) << "\n" << rep->provenance().dump(2) << "\n";
+        std::cout << (i->json ? rep->provenance().dump(2) + "\n" : describe_representation(*rep, i->file));
     });
 }
 

@@ -31,13 +31,13 @@ struct SweepArgs {
 };
 
 // Draws the sweep's heatmaps into OUT/figures with plot_sweep.py.
-void run_plot(const std::string& out_dir, bool quiet) {
+void run_plot(const std::string& out_dir) {
     // Absolute paths: a relative directory starting with '-' would read as an option to argparse.
     const fs::path dir = fs::absolute(out_dir).lexically_normal();
     // Debian's python3 carries python3-matplotlib; a python3 earlier on PATH may not.
     run_plotter({"/usr/bin/python3", find_plot_script("plot_sweep.py"), "heatmaps", (dir / "sweep.csv").string(), "--out",
                  (dir / "figures").string()},
-                "sweep", quiet, "the sweep itself is complete in " + out_dir);
+                "the sweep itself is complete in " + out_dir);
 }
 
 void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunConfig& config, MpiWorld* world);
@@ -126,7 +126,7 @@ void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunCon
     std::cout << "wrote " << config.out_dir << "/sweep.csv\n\n";
     std::ifstream md(config.out_dir + "/summary.md");
     std::cout << md.rdbuf();
-    if (args.plot) run_plot(config.out_dir, args.sampling.quiet);
+    if (args.plot) run_plot(config.out_dir);
 }
 
 }  // namespace

@@ -16,6 +16,7 @@
 #include "cli/progress.hpp"
 #include "lut/shader/compose.hpp"
 #include "core/cancel.hpp"
+#include "device/error.hpp"
 #include "io/csv.hpp"
 #include "io/text.hpp"
 #include "sampling/point_set.hpp"
@@ -57,7 +58,8 @@ int report_error(const std::exception_ptr& error) {
     } catch (const std::exception& e) {
         std::cerr << "microshadow: error: " << e.what() << "\n";
         if (const auto* exit = dynamic_cast<const ExitError*>(&e)) return exit->code();
-        const bool bad_input = dynamic_cast<const CsvError*>(&e) || dynamic_cast<const std::invalid_argument*>(&e);
+        const bool bad_input = dynamic_cast<const CsvError*>(&e) || dynamic_cast<const std::invalid_argument*>(&e) ||
+                               dynamic_cast<const ocl::UnknownDeviceError*>(&e);
         return bad_input ? 2 : 1;
     } catch (...) {
         std::cerr << "microshadow: error: unknown failure\n";

@@ -131,7 +131,7 @@ private:
 };
 
 // Prints a failure of a command's run as "microshadow: ..." on stderr and returns its exit status: 2 for
-// bad input (std::invalid_argument, CSV errors), the signal's status when interrupted, an ExitError's
+// bad input (std::invalid_argument, CSV errors, a --device that names no device), the signal's status when interrupted, an ExitError's
 // own, 1 otherwise.
 int report_error(const std::exception_ptr& error);
 
@@ -160,7 +160,11 @@ void add_ibl_command(CLI::App& app);     // cmd_ibl.cpp
 void add_design_command(CLI::App& app);  // cmd_design.cpp
 void add_area_command(CLI::App& app);    // cmd_area.cpp
 void add_help_command(CLI::App& app);
-// "; did you mean --size?" for the closest command or long option within 3 edits of `word`, or "".
-std::string suggestion(CLI::App& app, const std::string& word);
+// "; did you mean --size?" for the closest of `scope`'s long options (`options`) or of its subcommands
+// within 3 edits of `word`, or "".
+std::string suggestion(CLI::App& scope, const std::string& word, bool options);
+// The one line printed for a command line that does not parse: a word that is no command or option
+// of the command, with the closest spelling, or else CLI11's message; each names the help to read.
+std::string parse_error_line(CLI::App& app, int argc, char** argv, const CLI::ParseError& error);
 
 }  // namespace ms::cli

@@ -10,16 +10,15 @@ namespace ms::cli {
 
 namespace {
 
-// Every spelling the command line accepts: subcommand names and their long options.
-std::vector<std::string> known_words(CLI::App& app) {
+// The spellings a mistyped word may have meant: the subcommands of `scope`, or its long options.
+std::vector<std::string> known_words(CLI::App& scope, bool options) {
     std::vector<std::string> words;
-    for (CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
-        words.push_back(sub->get_name());
-        for (const CLI::Option* o : sub->get_options())
+    if (options) {
+        for (const CLI::Option* o : scope.get_options())
             for (const std::string& name : o->get_lnames()) words.push_back("--" + name);
+    } else {
+        for (CLI::App* sub : scope.get_subcommands([](CLI::App*) { return true; })) words.push_back(sub->get_name());
     }
-    for (const CLI::Option* o : app.get_options())
-        for (const std::string& name : o->get_lnames()) words.push_back("--" + name);
     return words;
 }
 
@@ -46,7 +45,7 @@ void add_help_command(CLI::App& app) {
                 std::string names;
                 for (CLI::App* s : at->get_subcommands([](CLI::App*) { return true; }))
                     names += (names.empty() ? "" : ", ") + s->get_name();
-                throw std::invalid_argument(path.empty() ? "no command '" + word + "'" + suggestion(app, word)
+                throw std::invalid_argument(path.empty() ? "no command '" + word + "'" + suggestion(app, word, false)
                                                          : "'" + path + "' has no subcommand '" + word + "' (it has " + names + ")");
             }
             path += (path.empty() ? "" : " ") + word;
@@ -57,11 +56,11 @@ void add_help_command(CLI::App& app) {
     });
 }
 
-std::string suggestion(CLI::App& app, const std::string& word) {
+std::string suggestion(CLI::App& scope, const std::string& word, bool options) {
     std::string best;
     // A typo is a few edits of a word, and fewer than half its letters ("1" is not a typo of "ibl").
     std::size_t best_distance = std::min<std::size_t>(4, word.size() / 2 + 1);
-    for (const std::string& w : known_words(app)) {
+    for (const std::string& w : known_words(scope, options)) {
         const std::size_t d = edit_distance(word, w);
         if (d < best_distance) best = w, best_distance = d;
     }

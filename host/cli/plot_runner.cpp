@@ -38,10 +38,10 @@ std::string find_plot_script(const std::string& name) {
     throw std::runtime_error("--plot: " + name + " not found; looked in:" + looked);
 }
 
-void run_plotter(const std::vector<std::string>& args, const std::string& who, bool quiet, const std::string& what_is_done) {
+void run_plotter(const std::vector<std::string>& args, const std::string& what_is_done) {
     std::string shown;
     for (const auto& a : args) shown += (shown.empty() ? "" : " ") + shell_quote(a);
-    if (!quiet) std::cerr << who << ": " << shown << "\n";
+    // Not echoed: the plotter prints the figures it wrote; a failure names the command line.
     std::vector<char*> argv;
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);

@@ -15,9 +15,9 @@ namespace ms::cli {
 std::string find_plot_script(const std::string& name);
 
 // Runs args[0] with args as its argument vector through posix_spawn: no shell, so no file name (a spec
-// called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command. `who` prefixes the
-// echoed command line (unless quiet). A failing plotter becomes ExitError with its status (128 + N for
+// called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command. The command line is
+// not echoed (the plotter prints the figures it writes). A failing plotter becomes ExitError with its status (128 + N for
 // a signal, as a shell reports it) and the message "plotting failed (...): COMMAND; " + what_is_done.
-void run_plotter(const std::vector<std::string>& args, const std::string& who, bool quiet, const std::string& what_is_done);
+void run_plotter(const std::vector<std::string>& args, const std::string& what_is_done);
 
 }  // namespace ms::cli

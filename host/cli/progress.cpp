@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <csignal>
+#include <string>
 #include <cstdio>
 #include <thread>
 
@@ -17,6 +18,32 @@ Progress::Progress(std::string label, bool quiet)
     : label_(std::move(label)), quiet_(quiet), tty_(::isatty(STDERR_FILENO) == 1),
       start_(std::chrono::steady_clock::now()), last_draw_(start_) {}
 
+std::string format_duration(double seconds) {
+    char buf[48];
+    if (!(seconds >= 0)) seconds = 0;
+    if (seconds < 10) std::snprintf(buf, sizeof buf, "%.1f s", seconds);
+    else if (seconds < 60) std::snprintf(buf, sizeof buf, "%.0f s", seconds);
+    else if (seconds < 3600) std::snprintf(buf, sizeof buf, "%d min %02d s", int(seconds) / 60, int(seconds) % 60);
+    else std::snprintf(buf, sizeof buf, "%d h %02d min", int(seconds) / 3600, int(seconds) / 60 % 60);
+    return buf;
+}
+
+std::string progress_text(const std::string& label, std::size_t done, std::size_t total, double elapsed, bool bar) {
+    const double fraction = total ? double(done) / double(total) : 1.0;
+    std::string eta;
+    if (done > 0 && done < total) eta = ", about " + format_duration(elapsed * double(total - done) / double(done)) + " left";
+    char head[160];
+    if (bar) {
+        const int width = 30, filled = int(fraction * width);
+        std::string cells(filled, '#');
+        cells.resize(width, '.');
+        std::snprintf(head, sizeof head, " [%s] %5.1f%% %zu/%zu, ", cells.c_str(), 100 * fraction, done, total);
+    } else {
+        std::snprintf(head, sizeof head, ": %3d%% (%zu/%zu) ", int(fraction * 10) * 10, done, total);
+    }
+    return label + head + format_duration(elapsed) + eta;
+}
+
 void Progress::update(std::size_t done, std::size_t total) {
     if (quiet_ || total == 0) return;
     const double fraction = double(done) / double(total);
@@ -25,17 +52,15 @@ void Progress::update(std::size_t done, std::size_t total) {
     if (tty_) {
         if (done != total && now - last_draw_ < std::chrono::milliseconds(100)) return;
         last_draw_ = now;
-        const int width = 30, filled = int(fraction * width);
-        std::string bar(filled, '#');
-        bar.resize(width, '.');
-        std::fprintf(stderr, "\r%s [%s] %5.1f%% %zu/%zu %.1fs", label_.c_str(), bar.c_str(), 100 * fraction, done, total, elapsed);
+        // Cleared to the end of the line: the estimate's text can shrink between draws.
+        std::fprintf(stderr, "\r%s\033[K", progress_text(label_, done, total, elapsed, true).c_str());
         std::fflush(stderr);
         drawn_ = true;
     } else {
         const int decile = int(fraction * 10);
         if (decile == last_decile_) return;
         last_decile_ = decile;
-        std::fprintf(stderr, "%s: %3d%% (%zu/%zu) %.1fs\n", label_.c_str(), decile * 10, done, total, elapsed);
+        std::fprintf(stderr, "%s\n", progress_text(label_, done, total, elapsed, false).c_str());
     }
 }
 

@@ -7,6 +7,13 @@
 
 namespace ms::cli {
 
+// "12 s", "4 min 05 s", "2 h 07 min": a duration as a person reads it.
+std::string format_duration(double seconds);
+// The text of one progress report: "LABEL [####......]  40.0% 52/128, 8.3 s, about 12 s left" on a
+// terminal (`bar`), "LABEL:  40% (52/128) 8.3 s, about 12 s left" otherwise. The estimate of the time
+// left assumes the rest goes at the pace so far; none is given before any work is done or at the end.
+std::string progress_text(const std::string& label, std::size_t done, std::size_t total, double elapsed_seconds, bool bar);
+
 class Progress {
 public:
     Progress(std::string label, bool quiet = false);

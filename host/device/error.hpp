@@ -35,6 +35,12 @@ class NoDeviceError : public std::runtime_error {
 public:
     using std::runtime_error::runtime_error;
 };
+// A device selector (--device 3, a name) that matches no device of this machine: the caller's input is
+// wrong, not the machine (the command line exits with status 2 for it, as for any bad option).
+class UnknownDeviceError : public NoDeviceError {
+public:
+    using NoDeviceError::NoDeviceError;
+};
 
 // Runs f, turning the C++ bindings' cl::Error (which names the failed call) into ms::ocl::Error.
 template <class F>

@@ -1,5 +1,7 @@
 #include "device/runtime.hpp"
 
+#include "device/build_log.hpp"
+
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -295,7 +297,7 @@ std::vector<DeviceInfo> select_devices(const std::string& spec) {
             std::size_t index = 0;
             const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), index, 10);
             if (ec != std::errc() || end != item.data() + item.size() || index >= devices.size())
-                throw NoDeviceError("no OpenCL device " + item + "; the devices are:" + device_list_text(devices));
+                throw UnknownDeviceError("no OpenCL device " + item + "; the devices are:" + device_list_text(devices));
             out.push_back(devices[index]);
         }
         if (!out.empty()) return out;
@@ -305,7 +307,7 @@ std::vector<DeviceInfo> select_devices(const std::string& spec) {
         if (lower(d.name).find(lower(spec)) != std::string::npos || lower(d.platform).find(lower(spec)) != std::string::npos)
             out.push_back(d);
     if (out.empty())
-        throw NoDeviceError("no OpenCL device matches '" + spec + "'; the devices are:" + device_list_text(devices));
+        throw UnknownDeviceError("no OpenCL device matches '" + spec + "'; the devices are:" + device_list_text(devices));
     return out;
 }
 
@@ -402,18 +404,26 @@ cl::Program& Device::program(const std::string& file, const BuildConfig& config)
 
     const auto start = std::chrono::steady_clock::now();
     cl::Program program = checked([&] { return cl::Program(context_, source); });
+    // The compiler's own stderr lines join the build log (device/build_log.hpp).
+    CompilerOutputCapture capture;
+    auto build_log = [&] {
+        const std::string counts = capture.finish();
+        try {
+            return program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(info_.device) + counts;
+        } catch (const cl::Error&) {
+            return "(build log unavailable)\n" + counts;
+        }
+    };
     try {
         program.build({info_.device}, options.c_str());
     } catch (const cl::Error& e) {
         if (e.err() != CL_BUILD_PROGRAM_FAILURE) throw Error(e.what(), e.err());
-        std::string log;
-        try {
-            log = program.getBuildInfo<CL_PROGRAM_BUILD_LOG>(info_.device);
-        } catch (const cl::Error&) {
-            log = "(build log unavailable)";
-        }
-        throw BuildError(info_.label(), options, log);
+        throw BuildError(info_.label(), options, build_log());
     }
+    const std::string log = build_log();
+    if (show_build_logs() && log.find_first_not_of(" \n") != std::string::npos)
+        std::fprintf(stderr, "kernel build of %s on %s (%s): log:\n%s%s", file.c_str(), info_.label().c_str(), options.c_str(),
+                     log.c_str(), log.back() == '\n' ? "" : "\n");
     last_build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return programs_.emplace(key, std::move(program)).first->second;
 }

@@ -95,7 +95,15 @@ std::string bake_job_summary(const BakeJobSpec& job, const BakeJobResult& r) {
       << result.skipped_one << " exact 1 at v = 1), " << result.slices << " slices, " << azimuth_summary(result) << ", "
       << result.samples_per_batch << " samples per batch, " << result.batches << " batches; max std error " << result.max_std_error;
     if (spec.tolerance > 0) s << (result.tolerance_met ? " (tolerance met)" : " (TOLERANCE NOT MET: raise --max-batches)");
-    s << "; " << result.seconds << " s on " << r.metadata["device"].get<std::string>() << "\n";
+    // The time is this run's: a merge only reads slices computed by earlier runs, so it says so
+    // rather than report a read of the store as compute time.
+    if (result.computed_slices == 0 && result.loaded_slices > 0)
+        s << "; merged " << result.loaded_slices << " slices computed by earlier runs (read in " << result.seconds << " s)\n";
+    else if (result.loaded_slices > 0)
+        s << "; " << result.computed_slices << " slices computed in " << result.seconds << " s on " << r.metadata["device"].get<std::string>()
+          << ", " << result.loaded_slices << " found in the store\n";
+    else
+        s << "; computed in " << result.seconds << " s on " << r.metadata["device"].get<std::string>() << "\n";
     if (result.rerun_chunks)
         for (const auto& f : result.failed_devices) s << "bake: device failed, its chunks were rerun: " << f << "\n";
     if (const auto& check = r.verification)

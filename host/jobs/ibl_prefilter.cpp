@@ -483,11 +483,21 @@ env::Canvas prefilter_preview_canvas(const PrefilterResult& result, double expos
     }
     env::Canvas canvas = env::tone_map(img, exposure);
     for (std::size_t m = 0; m < result.mips.size(); ++m) {
-        char label[96];
-        std::snprintf(label, sizeof label, "mip %zu  %ux%u  roughness %.3f", m, result.mips[m].size, result.mips[m].size,
+        // The largest of these labels that fits its cell's width (none in a cell too small for any): a
+        // label wider than the cell ran into the next one ("roughnesmi0.000").
+        char full[96], brief[48];
+        std::snprintf(full, sizeof full, "mip %zu  %ux%u  roughness %.3f", m, result.mips[m].size, result.mips[m].size,
                       result.roughness[m]);
+        std::snprintf(brief, sizeof brief, "m%zu r %.3f", m, result.roughness[m]);
+        std::string label;
+        std::uint32_t scale = 1;
+        for (const auto& [text, size] : {std::pair<const char*, std::uint32_t>{full, 2}, {full, 1}, {brief, 2}, {brief, 1}})
+            if (env::text_width(text, size) + 4 <= cw) {
+                label = text, scale = size;
+                break;
+            }
         const std::int64_t ox = std::int64_t(m % cols) * cw, oy = std::int64_t(m / cols) * ch;
-        canvas.text(ox + 2, oy + 3 * n + 4, label, n >= 64 ? 2 : 1, 255);
+        if (!label.empty()) canvas.text(ox + 2, oy + 3 * n + 4, label, scale, 255);
         env::label_cross_faces(canvas, ox, oy, n);
     }
     canvas.text(4, 2 * ch + 3, env::tone_map_caption(exposure), 1, 255);

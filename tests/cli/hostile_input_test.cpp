@@ -204,8 +204,8 @@ TEST_F(HostileInput, BadCommandLinesFailCleanly) {
         int exit_code;
     };
     const std::vector<Case> cases = {
-        {"", "A subcommand is required", 2},
-        {"frobnicate", "A subcommand is required", 2},
+        {"", "a command is required", 2},
+        {"frobnicate", "'frobnicate' is not a command", 2},
         {"eval", "--in is required", 2},
         {"eval --method sampled --in " + q, "--out is required", 2},
         {"eval --method sampled --in " + q + " --out " + out + ".csv --samples 0", "--samples: Value 0 not in range", 2},
@@ -218,8 +218,8 @@ TEST_F(HostileInput, BadCommandLinesFailCleanly) {
         {"eval --method sampled --in " + q + " --out " + out + ".csv --backend cuda", "--backend", 2},
         {"eval --method sampled --in " + q + " --out " + out + ".csv --unknown-flag", "--unknown-flag", 2},
         {"eval --method sampled --in /nonexistent-microshadow.csv --out " + out + ".csv", "cannot open for reading", 2},
-        {"eval --method sampled --in " + q + " --out " + out + ".csv --device 999", "no OpenCL device 999; the devices are", 1},
-        {"eval --method sampled --in " + q + " --out " + out + ".csv --device nosuchdevice", "no OpenCL device matches 'nosuchdevice'", 1},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --device 999", "no OpenCL device 999; the devices are", 2},
+        {"eval --method sampled --in " + q + " --out " + out + ".csv --device nosuchdevice", "no OpenCL device matches 'nosuchdevice'", 2},
         // A bad destination is bad input (exit 2), refused before any work.
         {"eval --method sampled --in " + q + " --out /nonexistent-microshadow/dir/o.csv", "does not exist", 2},
         {"eval --method sampled --in " + q + " --out " + dir_.string(), "it is a directory", 2},

@@ -182,6 +182,13 @@ TEST_F(DesignTest, CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput) {
     EXPECT_TRUE(fs::exists(path("out/chosen-az0.exr")));
     EXPECT_TRUE(fs::exists(path("out/chosen-az0.glsl")));
     EXPECT_TRUE(fs::exists(path("out/design.json")));
+    EXPECT_EQ(r.output.find("no candidate stores a texture"), std::string::npos) << r.output;
+    // Part 1's formulas alone: the budget of bytes decided nothing, and the answer says so (before, a
+    // bare "chosen: pz-analytic" read as the answer to --max-bytes).
+    const RunResult formulas = cli("design --reference " + path("ref.toml") + " --cache " + path("cache") + " --max-bytes 256KiB -q");
+    ASSERT_EQ(formulas.exit_code, 0) << formulas.output;
+    EXPECT_NE(formulas.output.find("note: no candidate stores a texture, so --max-bytes decided nothing"), std::string::npos)
+        << formulas.output;
 
     // The representation and a fitted closed form can be chosen and baked with their shaders; the
     // closed form's JSON is a candidate again (the same errors: the same coefficients).

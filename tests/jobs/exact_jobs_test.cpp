@@ -311,11 +311,11 @@ TEST_F(ExactJobsTest, ReprBakeCommandWritesTheMethodIntoTheFile) {
     const std::string cli = std::string("cd '") + dir_.string() + "' && '" + MICROSHADOW_CLI + "' ";
     const std::string grid = " --kind azimuth-axis --visibility-count 3 --n-dot-l-count 3 --n-dot-v-count 2 --roughness 0.5 --azimuth-nodes 3 "
                              "--backend oracle -q --out ";
-    const auto e = ms::testing::run_shell(cli + "repr bake" + grid + "e.exr && '" + MICROSHADOW_CLI + "' repr info e.exr 2>&1");
+    const auto e = ms::testing::run_shell(cli + "repr bake" + grid + "e.exr && '" + MICROSHADOW_CLI + "' repr info e.exr --json 2>&1");
     ASSERT_EQ(e.exit_code, 0) << e.output;
     EXPECT_NE(e.output.find("\"method\": \"exact\""), std::string::npos) << e.output;
     const auto s = ms::testing::run_shell(cli + "repr bake" + grid + "s.exr --method sampled --samples 1024 && '" + MICROSHADOW_CLI +
-                                      "' repr info s.exr 2>&1");
+                                      "' repr info s.exr --json 2>&1");
     ASSERT_EQ(s.exit_code, 0) << s.output;
     EXPECT_NE(s.output.find("\"method\": \"sampled\""), std::string::npos) << s.output;
 }

@@ -13,6 +13,7 @@
 #include "env/prefilter.hpp"
 #include "integrands/prefilter/prefilter_integrand.hpp"
 #include "jobs/ibl_prefilter.hpp"
+#include "scene/image_io.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace {
@@ -279,6 +280,16 @@ TEST_F(IblPrefilterCli, WritesMipsIrradianceAndPreviews) {
     EXPECT_EQ(meta.at("specular").at("mapping"), "cmgen");
     EXPECT_EQ(meta.at("specular").at("roughness").size(), 3u);
     EXPECT_LT(meta.at("specular").at("verify").at("max_relative").get<double>(), 0.05);
+    // The preview's mip labels (white text in the black strip under each cross, cells of 4n + 8 pixels
+    // side by side) stay inside their cells: a few columns either side of every boundary between two
+    // cells are dark in the strip. Before, "mip 0  16x16  roughness 0.000" ran across into the next
+    // cell's label.
+    const std::uint32_t n = 16, cell = 4 * n + 8, strip = 3 * n + 4;
+    const auto red = scene::read_channels(path("out/specular_preview.png"), {"R"}).at(0);
+    for (std::uint32_t boundary = cell; boundary + 2 < red.width; boundary += cell)
+        for (std::uint32_t y = strip; y < strip + 16 && y < red.height; ++y)
+            for (std::uint32_t x = boundary - 2; x < boundary + 2; ++x)
+                EXPECT_EQ(red.at(x, y), 0.0f) << "label text at (" << x << ", " << y << "), across the cells' boundary " << boundary;
 }
 
 }  // namespace

@@ -20,6 +20,7 @@ set(microshadow_cli_tests
   "^CliHelp\\."
   "^Distributed\\.Cli"
   "^CliTest\\."
+  "^NoOpenClRuntime\\."
   "^DesignTest\\.CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput$"
   "^EvalCompareTest\\."
   "^Failover\\."

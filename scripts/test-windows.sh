@@ -2,9 +2,10 @@
 # Runs the Windows build (scripts/build-windows.sh) under Wine:
 #   1. the unit and CLI tests of build-windows/tests/microshadow_tests.exe. Left out, each with its reason:
 #      the tests labelled slow or gpu (tests/test_labels.cmake: the Linux suite runs them; gpu needs
-#      Vulkan), the MPI and Slurm tests (no MPI in the Windows build), and every test that needs an
-#      OpenCL device: Wine has no OpenCL runtime, so such a test fails with the program's own "no OpenCL
-#      runtime is installed" and is reported as skipped for that reason; any other failure fails the run.
+#      Vulkan) and the MPI and Slurm tests (no MPI in the Windows build). Wine's OpenCL.dll forwards to
+#      the machine's own OpenCL runtime (PoCL in CI), so the OpenCL tests run too; where the machine has
+#      none, a test that needs a device fails with the program's own "no OpenCL runtime is installed"
+#      and is reported as skipped for that reason; any other failure fails the run.
 #      The test files built on POSIX only are listed when build-windows is configured.
 #   2. agreement with the Linux build (build/microshadow, built when missing): `eval --method exact` on
 #      random queries and `bake --method exact` of a small LUT, on the C++ backend both; every value of
@@ -67,7 +68,7 @@ for case in ET.parse(sys.argv[1]).getroot().iter("testcase"):
         continue
     (needs_opencl if all(no_opencl in f for f in failures) else failed).append(name)
 print("test-windows: %d passed, %d skipped by the test itself, %d skipped: they need an OpenCL device "
-      "(Wine has no OpenCL runtime)" % (ran - len(needs_opencl) - len(failed), skipped, len(needs_opencl)))
+      "(no OpenCL runtime here)" % (ran - len(needs_opencl) - len(failed), skipped, len(needs_opencl)))
 for name in failed:
     print("test-windows: FAILED " + name)
 sys.exit(1 if failed else 0)

@@ -27,7 +27,7 @@ using ms::testing::RunResult;
 using ms::testing::ScratchDirTest;
 using ms::testing::run_shell;
 
-RunResult run(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
+RunResult run_compare_cli(const std::string& args) { return run_shell(std::string(MICROSHADOW_CLI) + " " + args + " 2>&1"); }
 
 std::vector<std::string> split(const std::string& line) {
     std::vector<std::string> f;
@@ -123,7 +123,7 @@ TEST_F(EvalCompareTest, ColumnsEqualTheSweepsComparatorsAtTheSamePoints) {
     std::string compare;
     for (const auto& a : kAnalytic) compare += " --compare " + a;
     compare += " --compare " + lut.string();
-    const auto r = run("eval --method sampled --in " + path("q.csv") + " --out " + path("r.csv") +
+    const auto r = run_compare_cli("eval --method sampled --in " + path("q.csv") + " --out " + path("r.csv") +
                        " --backend oracle --samples 256 --ao-weighting uniform" + compare);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     auto eval = read_columns(path("r.csv"));
@@ -153,7 +153,7 @@ TEST_F(EvalCompareTest, NamedLutAndSidecarProvenance) {
     const auto in = path("q.csv");
     std::ofstream(in) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n"
                          "0.5,0.16,0.16,0.9797959,0,0.2,0.6,0,0.8\n0.3,0.2,0.5,0,0.6,0.8,0,0,2\n";
-    const auto r = run("eval --method sampled -q --in " + in + " --out " + path("r.csv") + " --backend oracle --samples 256 --compare " +
+    const auto r = run_compare_cli("eval --method sampled -q --in " + in + " --out " + path("r.csv") + " --backend oracle --samples 256 --compare " +
                        lut.string() + " --compare mine=" + lut.string() + " --compare naughty-dog");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_EQ(r.output.find("max |error|"), std::string::npos) << "-q prints no summary";
@@ -191,7 +191,7 @@ TEST_F(EvalCompareTest, BadComparatorsAreRefusedBeforeAnyWork) {
     std::ofstream(path("garbage.exr")) << "not an exr";
     const std::string out = path("r.csv");
     auto refused = [&](const std::string& compare, const std::string& message) {
-        const auto r = run("eval --method sampled --in " + in + " --out " + out + " --backend oracle --samples 256 " + compare);
+        const auto r = run_compare_cli("eval --method sampled --in " + in + " --out " + out + " --backend oracle --samples 256 " + compare);
         EXPECT_EQ(r.exit_code, 2) << compare << "\n" << r.output;
         EXPECT_NE(r.output.find(message), std::string::npos) << compare << "\n" << r.output;
         EXPECT_FALSE(fs::exists(out)) << compare;
@@ -213,7 +213,7 @@ TEST_F(EvalCompareTest, BadComparatorsAreRefusedBeforeAnyWork) {
     std::ofstream(in) << "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n0.5,0.16,0.16,0,0,1,0,0,1\n"
                          "0.5,1.5,1.5,0,0,1,0,0,1\n";
     refused("--compare activision-adjusted", "query 2: --compare activision-adjusted");
-    const auto ok = run("eval --method sampled -q --in " + in + " --out " + out + " --backend oracle --samples 256 --compare activision");
+    const auto ok = run_compare_cli("eval --method sampled -q --in " + in + " --out " + out + " --backend oracle --samples 256 --compare activision");
     EXPECT_EQ(ok.exit_code, 0) << ok.output;
 }
 

@@ -44,8 +44,8 @@ for group in ("slow", "gpu"):
     patterns += [p.replace("\\\\", "\\") for p in re.findall(r'"([^"]*)"', block)]
 # MPI and Slurm: the distributed tests that start mpirun or a Slurm cluster (no MPI in this build).
 patterns += [r"^Distributed\.(Mpi|Slurm)", r"Mpi", r"Slurm"]
-# Not ported yet: tests whose commands use sh syntax cmd.exe does not take (VAR=value prefixes, quoting,
-# pipes) or check POSIX-only behaviour; they fail under Wine for that reason, and the Linux suite runs them.
+# Not ported yet: tests that fail under Wine; those looked into run their commands in sh syntax cmd.exe
+# does not take (VAR=value prefixes, quoting). The Linux suite runs them all.
 patterns += ["^%s$" % re.escape(n) for n in """
 AreaCommandCli.EvalMethodExactWritesTheInnerErrorAndRefusesWhatItIgnores
 Distributed.CliBadShardsAndMergesExitTwoAndWriteNothing

@@ -3,7 +3,8 @@
 #   that holds only its own folders and the folders it SEES (list them transitively: a header of a seen
 #   layer may include that layer's own dependencies). KERNEL_LAYOUT adds kernels/common, where the
 #   host/kernel layout header lives. LINKS are the libraries it links (publicly). UNITY: compiled as a
-#   unity build (below), for the layers whose files spend most of their time in shared headers.
+#   unity build (below), for the layers whose files spend most of their time in shared headers. Every
+#   layer sees and links the platform layer (ms_platform, host/platform).
 set(MICROSHADOW_LAYERS "" CACHE INTERNAL "")
 
 # Unity builds: most of a file's compile time in the upper layers is the headers it shares with its
@@ -43,6 +44,12 @@ function(microshadow_layer name)
   foreach(folder IN LISTS L_FOLDERS L_SEES)
     file(CREATE_LINK ${PROJECT_SOURCE_DIR}/host/${folder} ${view}/${folder} SYMBOLIC)
   endforeach()
+  # Every layer may use the platform layer (host/platform: the operating system's services), which
+  # itself sees nothing of ours.
+  if(NOT name STREQUAL "ms_platform")
+    file(CREATE_LINK ${PROJECT_SOURCE_DIR}/host/platform ${view}/platform SYMBOLIC)
+    list(APPEND L_LINKS ms_platform)
+  endif()
   target_include_directories(${name} PRIVATE ${view})
   if(L_KERNEL_LAYOUT)
     target_include_directories(${name} PRIVATE ${PROJECT_SOURCE_DIR}/kernels/common)

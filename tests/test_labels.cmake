@@ -22,6 +22,7 @@ set(microshadow_cli_tests
   "^FirstHour(Cli)?\\."
   "^Distributed\\.Cli"
   "^CliTest\\."
+  "^NoOpenClRuntime\\."
   "^DesignTest\\.CommandRanksAKnownBetterComparatorFirstAndRefusesBadInput$"
   "^EvalCompareTest\\."
   "^Failover\\."

@@ -2,11 +2,10 @@
 // runs, and its images and report are handed back instead of written (SceneResult::save writes them).
 #include "microshadow/scene.hpp"
 
-#include <unistd.h>
-
 #include <stdexcept>
 
 #include "api/facade.hpp"
+#include "core/memory.hpp"
 #include "jobs/scene.hpp"
 #include "scene/description.hpp"
 #include "scene/inputs.hpp"
@@ -26,8 +25,7 @@ namespace {
 
 // Half the physical memory, the command's limit on the output images (0: unknown, no limit).
 std::uint64_t half_physical_memory() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-    return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) / 2 : 0;
+    return ms::physical_memory() / 2;
 }
 
 }  // namespace

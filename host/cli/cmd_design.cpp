@@ -194,10 +194,11 @@ void run_design(DesignArgs args, MpiWorld* world) {
                   << (baked.empty() ? std::string() : " and chosen-" + chosen + ".*") << "\n";
     if (args.plot) {
         const fs::path dir = fs::absolute(args.out).lexically_normal();
-        run_plotter({"/usr/bin/python3", find_plot_script("plot_pareto.py"), (dir / "pareto.csv").string(), "--out",
-                     (dir / "pareto.png").string(), "--title",
-                     "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"},
-                    "the tables are written");
+        std::vector<std::string> command = python_command();
+        command.insert(command.end(), {find_plot_script("plot_pareto.py"), (dir / "pareto.csv").string(), "--out",
+                                       (dir / "pareto.png").string(), "--title",
+                                       "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"});
+        run_plotter(command, "the tables are written");
     }
 }
 
@@ -229,7 +230,7 @@ void add_design_command(CLI::App& app) {
     cmd->add_option("--choose", args->choose, "bake this candidate instead of the best inside the budget");
     cmd->add_option("--out", args->out, "folder for pareto.csv, pareto.md, design.json and the chosen candidate's files "
                                         "(chosen-NAME.*: its data and GLSL/HLSL)");
-    cmd->add_flag("--plot", args->plot, "with --out: draw OUT/pareto.png with plot_pareto.py (/usr/bin/python3, matplotlib)");
+    cmd->add_flag("--plot", args->plot, "with --out: draw OUT/pareto.png with plot_pareto.py (Python 3 with matplotlib: MICROSHADOW_PYTHON, else python3 or py on PATH)");
     cmd->add_flag("--strict-domain", args->strict_domain,
                   "refuse (exit status 2, nothing written) a candidate whose domain (a file's or a fit's roughness, visibility "
                   "and NdotV ranges) leaves out reference points; without it they are counted (\"outside domain\" in pareto.md/.csv, "

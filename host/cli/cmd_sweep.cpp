@@ -34,10 +34,10 @@ struct SweepArgs {
 void run_plot(const std::string& out_dir) {
     // Absolute paths: a relative directory starting with '-' would read as an option to argparse.
     const fs::path dir = fs::absolute(out_dir).lexically_normal();
-    // Debian's python3 carries python3-matplotlib; a python3 earlier on PATH may not.
-    run_plotter({"/usr/bin/python3", find_plot_script("plot_sweep.py"), "heatmaps", (dir / "sweep.csv").string(), "--out",
-                 (dir / "figures").string()},
-                "the sweep itself is complete in " + out_dir);
+    std::vector<std::string> command = python_command();
+    command.insert(command.end(), {find_plot_script("plot_sweep.py"), "heatmaps", (dir / "sweep.csv").string(), "--out",
+                                   (dir / "figures").string()});
+    run_plotter(command, "the sweep itself is complete in " + out_dir);
 }
 
 void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunConfig& config, MpiWorld* world);
@@ -150,7 +150,7 @@ void add_sweep_command(CLI::App& app) {
                   "refuse (exit status 2, nothing written) a sweep whose points lie outside a comparator file's domain (the "
                   "roughness, visibility and NdotV ranges its metadata records); without it they are counted in "
                   "summary.md and sweep.json (\"outside_domain\") and warned of");
-    cmd->add_flag("--plot", args->plot, "draw heatmaps into OUT/figures with plot_sweep.py (/usr/bin/python3, matplotlib; found beside the "
+    cmd->add_flag("--plot", args->plot, "draw heatmaps into OUT/figures with plot_sweep.py (Python 3 with matplotlib: MICROSHADOW_PYTHON, else python3 or py on PATH; found beside the "
                   "executable: ../share/microshadow/ or the source tree's scripts/)");
     // Measured on the project's 2-core CPU: the exact evaluator takes ~10 us a query per core at its
     // default 1e-10; the sampled default (65536 samples) ~45 us for a standard error of ~5e-4.

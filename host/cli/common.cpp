@@ -3,7 +3,6 @@
 #include "exact/exact_term.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 
-#include <unistd.h>
 
 #include <cstdlib>
 

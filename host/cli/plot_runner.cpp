@@ -1,20 +1,15 @@
 #include "cli/plot_runner.hpp"
 
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-
-#include <cerrno>
-#include <cstring>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <stdexcept>
+#include <system_error>
 
 #include "cli/common.hpp"
 #include "io/text.hpp"
-
-extern char** environ;
+#include "platform/process.hpp"
 
 namespace ms::cli {
 
@@ -22,56 +17,73 @@ namespace fs = std::filesystem;
 
 std::string find_plot_script(const std::string& name) {
     std::error_code ec;
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (ec) throw std::runtime_error("--plot: cannot find the executable's path (/proc/self/exe: " + ec.message() + ")");
+    const fs::path exe = fs::u8path(platform::executable_path(ec));
+    if (ec) throw std::runtime_error("--plot: cannot find the executable's path (" + ec.message() + ")");
     const fs::path bin = exe.parent_path();
     std::vector<fs::path> candidates = {bin / ".." / "share" / "microshadow" / name, bin / ".." / "scripts" / name};
     std::ifstream cache(bin / "CMakeCache.txt");
     for (std::string line; std::getline(cache, line);)
         if (line.rfind("CMAKE_HOME_DIRECTORY:INTERNAL=", 0) == 0)
-            candidates.push_back(fs::path(line.substr(line.find('=') + 1)) / "scripts" / name);
+            candidates.push_back(fs::u8path(line.substr(line.find('=') + 1)) / "scripts" / name);
     std::string looked;
     for (const auto& c : candidates) {
-        if (fs::is_regular_file(c, ec)) return c.lexically_normal().string();
-        looked += "\n  " + c.lexically_normal().string();
+        if (fs::is_regular_file(c, ec)) return c.lexically_normal().u8string();
+        looked += "\n  " + c.lexically_normal().u8string();
     }
     throw std::runtime_error("--plot: " + name + " not found; looked in:" + looked);
+}
+
+namespace {
+
+// Whether `python` (with its leading arguments) can import matplotlib: asked quietly, without loading it.
+bool has_matplotlib(std::vector<std::string> python) {
+    python.insert(python.end(), {"-c", "import importlib.util, sys; sys.exit(importlib.util.find_spec('matplotlib') is None)"});
+    try {
+        const platform::ProcessEnd end = platform::run_program(python);
+        return end.exited && end.code == 0;
+    } catch (const std::system_error&) {
+        return false;
+    }
+}
+
+}  // namespace
+
+std::vector<std::string> python_command() {
+    if (const char* chosen = std::getenv("MICROSHADOW_PYTHON"); chosen && *chosen) {
+        if (platform::find_on_path(chosen).empty())
+            throw std::runtime_error(std::string("--plot: MICROSHADOW_PYTHON=") + chosen + " is not a program that can be run");
+        return {chosen};
+    }
+    // Every python3 on PATH, then Windows' launcher `py -3`; the first that has matplotlib (a virtual
+    // environment's python3 earlier on PATH may lack it, while the system's has it).
+    std::vector<std::vector<std::string>> found;
+    for (const auto& p : platform::find_on_path("python3")) found.push_back({p});
+    for (const auto& p : platform::find_on_path("py")) found.push_back({p, "-3"});
+    if (found.empty())
+        throw std::runtime_error(
+            "--plot needs Python 3 with matplotlib, and no python3 (or py, on Windows) is on PATH: install Python 3 and "
+            "matplotlib, or name the interpreter with MICROSHADOW_PYTHON=/path/to/python");
+    for (const auto& python : found)
+        if (has_matplotlib(python)) return python;
+    return found.front();  // its own error then says what is missing
 }
 
 void run_plotter(const std::vector<std::string>& args, const std::string& what_is_done) {
     std::string shown;
     for (const auto& a : args) shown += (shown.empty() ? "" : " ") + shell_quote(a);
     // Not echoed: the plotter prints the figures it wrote; a failure names the command line.
-    std::vector<char*> argv;
-    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-    argv.push_back(nullptr);
-    // The CLI blocks SIGINT/SIGTERM in every thread (progress.cpp) and a spawned child inherits that
-    // mask: give the plotter the default mask and dispositions so Ctrl-C stops it too.
-    posix_spawnattr_t attr;
-    posix_spawnattr_init(&attr);
-    sigset_t none, defaults;
-    sigemptyset(&none);
-    sigemptyset(&defaults);
-    sigaddset(&defaults, SIGINT);
-    sigaddset(&defaults, SIGTERM);
-    sigaddset(&defaults, SIGPIPE);
-    posix_spawnattr_setsigmask(&attr, &none);
-    posix_spawnattr_setsigdefault(&attr, &defaults);
-    posix_spawnattr_setflags(&attr, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
     std::cout.flush();
-    pid_t pid = 0;
-    const int rc = posix_spawn(&pid, argv[0], nullptr, &attr, argv.data(), environ);
-    posix_spawnattr_destroy(&attr);
-    if (rc != 0) throw std::runtime_error("--plot: cannot run " + args[0] + ": " + std::strerror(rc));
-    int status = 0;
-    while (waitpid(pid, &status, 0) < 0)
-        if (errno != EINTR) throw std::runtime_error(std::string("--plot: waitpid: ") + std::strerror(errno));
-    if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return;
+    platform::ProcessEnd end;
+    try {
+        end = platform::run_program(args);
+    } catch (const std::system_error& e) {
+        throw std::runtime_error("--plot: " + std::string(e.what()));
+    }
+    if (end.exited && end.code == 0) return;
     // The plotter's own status becomes the command's (128 + N for a signal, as a shell reports it).
-    const int code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    const int code = end.exited ? end.code : 128 + end.code;
     throw ExitError(code, "plotting failed (" +
-                              (WIFEXITED(status) ? "exit status " + std::to_string(code)
-                                                 : "killed by signal " + std::to_string(WTERMSIG(status))) +
+                              (end.exited ? "exit status " + std::to_string(code) : "killed by signal " + std::to_string(end.code)) +
                               "): " + shown + "; " + what_is_done);
 }
 

@@ -14,7 +14,13 @@ namespace ms::cli {
 // out-of-tree builds. Throws std::runtime_error listing where it looked.
 std::string find_plot_script(const std::string& name);
 
-// Runs args[0] with args as its argument vector through posix_spawn: no shell, so no file name (a spec
+// The Python interpreter the plot scripts run with, as a command's first arguments: MICROSHADOW_PYTHON
+// when set; else the first python3 on PATH that has matplotlib, then Windows' `py -3` launcher (or the
+// first of them, whose error then says what is missing). Throws std::runtime_error, saying how to
+// install or name one, when there is none.
+std::vector<std::string> python_command();
+
+// Runs args[0] (a path, or a program on PATH) with args as its argument vector: no shell, so no file name (a spec
 // called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command. The command line is
 // not echoed (the plotter prints the figures it writes). A failing plotter becomes ExitError with its status (128 + N for
 // a signal, as a shell reports it) and the message "plotting failed (...): COMMAND; " + what_is_done.

@@ -1,21 +1,18 @@
 #include "cli/progress.hpp"
 
 #include <atomic>
-
-#include <pthread.h>
-#include <unistd.h>
-
-#include <csignal>
 #include <string>
 #include <cstdio>
-#include <thread>
 
 #include "core/cancel.hpp"
+#include "platform/files.hpp"
+#include "platform/process.hpp"
+#include "platform/signals.hpp"
 
 namespace ms::cli {
 
 Progress::Progress(std::string label, bool quiet)
-    : label_(std::move(label)), quiet_(quiet), tty_(::isatty(STDERR_FILENO) == 1),
+    : label_(std::move(label)), quiet_(quiet), tty_(platform::is_terminal(platform::kStandardError)),
       start_(std::chrono::steady_clock::now()), last_draw_(start_) {}
 
 std::string format_duration(double seconds) {
@@ -69,11 +66,11 @@ void Progress::finish() {
     drawn_ = false;
 }
 
-// SIGINT/SIGTERM are blocked in every thread and taken by one thread with sigwait, instead of an
-// asynchronous handler, because a blocked mask is inherited by child processes: PoCL runs its linker
-// as a child while it compiles a kernel, and a terminal's Ctrl-C (sent to the whole process group)
-// killed it mid-link, which made PoCL abort the process (exit 134) instead of the clean stop (130).
-// Called before any other thread exists, so PoCL's own threads inherit the mask as well.
+// SIGINT/SIGTERM (Ctrl-C, Ctrl-Break and closing the console on Windows) are taken by one thread of
+// platform::watch_interrupts, which on POSIX blocks them in every thread (PoCL's linker, a child
+// process, must not die of a terminal's Ctrl-C mid-link: PoCL would abort the process, exit 134,
+// instead of the clean stop, 130). Called before any other thread exists, so PoCL's own threads
+// inherit the mask as well.
 std::atomic<int>& last_signal() {
     static std::atomic<int> sig{0};
     return sig;
@@ -81,34 +78,29 @@ std::atomic<int>& last_signal() {
 
 int interrupted_exit_status() {
     const int sig = last_signal().load();
-    return 128 + (sig ? sig : SIGINT);  // the shell's convention: 130 for SIGINT, 143 for SIGTERM
+    return 128 + (sig ? sig : platform::kInterruptSignal);  // the shell's convention: 130 for SIGINT, 143 for SIGTERM
 }
 
 void install_interrupt_handlers() {
-    sigset_t set;
-    sigemptyset(&set);
-    sigaddset(&set, SIGINT);
-    sigaddset(&set, SIGTERM);
-    if (pthread_sigmask(SIG_BLOCK, &set, nullptr) != 0) return;  // keeps the default: die on the signal
-    std::thread([set] {
-        for (int received = 0;;) {
-            int sig = 0;
-            if (sigwait(&set, &sig) != 0) continue;
+    // When it cannot, the default stays: die on the signal.
+    platform::watch_interrupts([](int sig) {
+        static std::atomic<int> received{0};  // Windows may run two console events' handlers at once
+        {
             last_signal().store(sig);
             cancel_requested().store(true);
             // The first signals ask the running batch to finish and stop cleanly; a third one means the
             // user will not wait for that (a long device batch): leave now, like an unhandled signal.
-            if (++received >= 3) {
+            if (received.fetch_add(1) + 1 >= 3) {
                 // Outputs are renamed into place only when complete, so nothing half-written appears; a
                 // temporary file may be left, and the next run that writes the same output removes it.
                 static const char msg[] =
                     "\nmicroshadow: interrupted three times: exiting at once; files appear only when complete, and "
                     "a leftover temporary file is removed by the next run that writes the same output\n";
-                (void)!::write(STDERR_FILENO, msg, sizeof msg - 1);
-                ::_exit(128 + sig);
+                (void)!platform::write_some(platform::kStandardError, msg, sizeof msg - 1);
+                platform::exit_now(128 + sig);
             }
         }
-    }).detach();
+    });
 }
 
 }  // namespace ms::cli

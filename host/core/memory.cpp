@@ -1,15 +1,12 @@
 #include "core/memory.hpp"
 
-#include <unistd.h>
-
 #include <cstdio>
+
+#include "platform/memory.hpp"
 
 namespace ms {
 
-std::uint64_t physical_memory() {
-    const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
-    return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) : 0;
-}
+std::uint64_t physical_memory() { return platform::physical_memory(); }
 
 std::string gib(std::uint64_t bytes) {
     char buf[32];

@@ -1,6 +1,6 @@
 #include "device/build_log.hpp"
 
-#include <unistd.h>
+#include "platform/files.hpp"
 
 #include <atomic>
 #include <regex>
@@ -21,7 +21,7 @@ std::mutex& capture_mutex() {
 
 void write_all(int fd, const std::string& text) {
     for (std::size_t done = 0; done < text.size();) {
-        const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+        const long long n = platform::write_some(fd, text.data() + done, text.size() - done);
         if (n <= 0) return;
         done += std::size_t(n);
     }
@@ -41,9 +41,9 @@ CompilerOutputCapture::CompilerOutputCapture() : lock_(capture_mutex()) {
     std::fflush(stderr);
     file_ = std::tmpfile();
     if (!file_) return;
-    saved_stderr_ = ::dup(STDERR_FILENO);
-    if (saved_stderr_ < 0 || ::dup2(::fileno(file_), STDERR_FILENO) < 0) {
-        if (saved_stderr_ >= 0) ::close(saved_stderr_);
+    saved_stderr_ = platform::duplicate_descriptor(platform::kStandardError);
+    if (saved_stderr_ < 0 || platform::redirect_descriptor(fileno(file_), platform::kStandardError) < 0) {
+        if (saved_stderr_ >= 0) platform::close_file(saved_stderr_);
         saved_stderr_ = -1;
         std::fclose(file_);
         file_ = nullptr;
@@ -58,8 +58,8 @@ std::string CompilerOutputCapture::finish() {
         return {};
     }
     std::fflush(stderr);
-    ::dup2(saved_stderr_, STDERR_FILENO);
-    ::close(saved_stderr_);
+    platform::redirect_descriptor(saved_stderr_, platform::kStandardError);
+    platform::close_file(saved_stderr_);
     saved_stderr_ = -1;
     std::string text;
     std::rewind(file_);
@@ -78,7 +78,7 @@ std::string CompilerOutputCapture::finish() {
         (is_compiler_count_line(bare) ? compiler : others) += line;
         at = end;
     }
-    write_all(STDERR_FILENO, others);
+    write_all(platform::kStandardError, others);
     lock_.unlock();
     return compiler;
 }

@@ -25,6 +25,11 @@ struct DeviceInfo {
     std::string label() const { return name + " [" + platform + "]"; }
 };
 
+// Whether an OpenCL runtime could be loaded (libOpenCL.so.1 on Linux, OpenCL.dll on Windows, or the file
+// MICROSHADOW_OPENCL_LIBRARY names; device/cl_loader.cpp): the program runs without one, on its C++
+// backends. `detail`: the file loaded, or why none could be.
+bool opencl_runtime_loaded(std::string* detail = nullptr);
+
 // Every device of every platform, in platform order. Throws NoDeviceError when there is no platform.
 // Calls prepare_opencl_environment() first.
 std::vector<DeviceInfo> enumerate_devices();

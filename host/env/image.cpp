@@ -21,9 +21,6 @@
 #include <sstream>
 #include <stdexcept>
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
 #include <cerrno>
 
@@ -32,6 +29,7 @@
 #include "io/exr_file.hpp"
 #include "io/exr_preflight.hpp"
 #include "io/input_guard.hpp"
+#include "platform/files.hpp"
 
 namespace ms::env {
 
@@ -61,30 +59,30 @@ namespace {
 // interrupt handlers cannot stop a blocked open), then refuses anything but a regular file. Returns the
 // descriptor (the caller closes it) and the file's size.
 int open_regular_file(const std::string& path, std::uint64_t& size) {
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    using platform::FileKind;
+    const int fd = platform::open_file(path, platform::read_only | platform::non_blocking);
     if (fd < 0) throw EnvironmentError("environment " + path + ": cannot open for reading (" + std::strerror(errno) + ")");
-    struct stat st {};
-    if (::fstat(fd, &st) != 0) {
+    platform::FileStatus st;
+    if (platform::descriptor_status(fd, st) != 0) {
         const int err = errno;
-        ::close(fd);
+        platform::close_file(fd);
         throw EnvironmentError("environment " + path + ": cannot read (" + std::strerror(err) + ")");
     }
-    if (!S_ISREG(st.st_mode)) {
-        ::close(fd);
-        const std::string kind = S_ISDIR(st.st_mode)    ? "a directory"
-                                 : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)"
-                                 : S_ISSOCK(st.st_mode) ? "a socket"
-                                                        : "a device";
+    if (st.kind != FileKind::regular) {
+        platform::close_file(fd);
+        const std::string kind = st.kind == FileKind::directory || st.kind == FileKind::fifo || st.kind == FileKind::socket
+                                     ? platform::kind_phrase(st.kind)
+                                     : "a device";
         throw EnvironmentError("environment " + path + ": is " + kind + ", not a regular file");
     }
-    size = std::uint64_t(st.st_size);
+    size = st.size;
     note_input(path);
     return fd;
 }
 
 void check_regular_file(const std::string& path) {
     std::uint64_t size = 0;
-    ::close(open_regular_file(path, size));
+    platform::close_file(open_regular_file(path, size));
 }
 
 std::string read_regular_file(const std::string& path) {
@@ -94,22 +92,22 @@ std::string read_regular_file(const std::string& path) {
     try {
         bytes.resize(std::size_t(size));
     } catch (const std::bad_alloc&) {
-        ::close(fd);
+        platform::close_file(fd);
         throw EnvironmentError("environment " + path + ": " + std::to_string(size) + " bytes do not fit in memory");
     }
     std::size_t done = 0;
     while (done < bytes.size()) {
-        const ssize_t n = ::read(fd, &bytes[done], bytes.size() - done);
+        const long long n = platform::read_some(fd, &bytes[done], bytes.size() - done);
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) {
             const int err = n < 0 ? errno : 0;
-            ::close(fd);
+            platform::close_file(fd);
             throw EnvironmentError("environment " + path + ": read error" +
                                    (err ? std::string(" (") + std::strerror(err) + ")" : std::string(" (the file shrank)")));
         }
         done += std::size_t(n);
     }
-    ::close(fd);
+    platform::close_file(fd);
     return bytes;
 }
 

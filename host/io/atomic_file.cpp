@@ -1,11 +1,5 @@
 #include "io/atomic_file.hpp"
 
-#include <dirent.h>
-#include <fcntl.h>
-#include <signal.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <climits>
 #include <cstdio>
@@ -16,23 +10,19 @@
 #include <set>
 
 #include "io/input_guard.hpp"
+#include "platform/files.hpp"
+#include "platform/process.hpp"
 
 namespace ms {
 
 namespace fs = std::filesystem;
+using platform::FileKind;
 
 namespace {
 
 std::string sys_error(int err) { return std::strerror(err); }
 
-std::string node_kind(mode_t mode) {
-    if (S_ISDIR(mode)) return "a directory";
-    if (S_ISCHR(mode)) return "a character device";
-    if (S_ISBLK(mode)) return "a block device";
-    if (S_ISFIFO(mode)) return "a FIFO (named pipe)";
-    if (S_ISSOCK(mode)) return "a socket";
-    return "not a regular file";
-}
+std::string node_kind(FileKind kind) { return kind == FileKind::regular ? "not a regular file" : platform::kind_phrase(kind); }
 
 // The longest suffix a temporary or backup name adds to the target's name: "." + ".tmp." + a pid
 // (pid_max is at most 2^22, 7 digits; 10 leaves room).
@@ -40,7 +30,7 @@ constexpr std::size_t kTempNameOverhead = 16;
 
 std::string temp_name(const std::string& path, const char* kind) {
     const fs::path p(path);
-    return (p.parent_path() / ("." + p.filename().string() + "." + kind + "." + std::to_string(::getpid()))).string();
+    return (p.parent_path() / ("." + p.filename().string() + "." + kind + "." + std::to_string(platform::process_id()))).string();
 }
 
 std::string parent_dir(const std::string& path) {
@@ -53,16 +43,16 @@ std::string parent_dir(const std::string& path) {
 std::string follow_links(const std::string& named) {
     std::string current = named;
     for (int hop = 0; hop < 40; ++hop) {
-        struct stat st {};
-        if (::lstat(current.c_str(), &st) != 0) {
+        platform::FileStatus st;
+        if (platform::link_status(current, st) != 0) {
             if (errno == ENOENT) return current;
             throw OutputError("cannot write " + named + ": " + current + ": " + sys_error(errno));
         }
-        if (!S_ISLNK(st.st_mode)) return current;
-        std::vector<char> buf(PATH_MAX + 1);
-        const ssize_t n = ::readlink(current.c_str(), buf.data(), buf.size() - 1);
-        if (n < 0) throw OutputError("cannot write " + named + ": cannot read the symlink " + current + ": " + sys_error(errno));
-        const fs::path target(std::string(buf.data(), std::size_t(n)));
+        if (st.kind != FileKind::symlink) return current;
+        std::string link;
+        if (platform::read_link(current, link) != 0)
+            throw OutputError("cannot write " + named + ": cannot read the symlink " + current + ": " + sys_error(errno));
+        const fs::path target(link);
         current = target.is_absolute() ? target.string() : (fs::path(parent_dir(current)) / target).lexically_normal().string();
     }
     throw OutputError("cannot write " + named + ": too many levels of symbolic links");
@@ -90,9 +80,10 @@ void remove_stale_temporaries(const std::string& path) {
     auto it = stale_by_dir.find(dir);
     if (it == stale_by_dir.end()) {
         std::vector<std::string> stale;
-        if (DIR* d = ::opendir(dir.c_str())) {
-            while (const dirent* e = ::readdir(d)) {
-                const std::string name = e->d_name;
+        std::error_code listed;  // an unreadable folder: nothing to clean
+        for (fs::directory_iterator e(dir, listed); !listed && e != fs::directory_iterator(); e.increment(listed)) {
+            {
+                const std::string name = e->path().filename().string();
                 if (name.size() < 8 || name[0] != '.') continue;
                 const auto dot = name.rfind('.');
                 const std::string pid_text = name.substr(dot + 1);
@@ -100,11 +91,10 @@ void remove_stale_temporaries(const std::string& path) {
                 const std::string kind = name.substr(dot - 4, 5);  // ".tmp." or ".bak."
                 if (kind != ".tmp." && kind != ".bak.") continue;
                 const long long pid = std::stoll(pid_text);
-                if (pid <= 0 || pid > INT_MAX || pid == ::getpid()) continue;
-                if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;
+                if (pid <= 0 || pid > INT_MAX || pid == platform::process_id()) continue;
+                if (platform::process_exists(long(pid))) continue;
                 stale.push_back(name);
             }
-            ::closedir(d);
         }
         it = stale_by_dir.emplace(dir, std::move(stale)).first;
     }
@@ -119,8 +109,8 @@ void remove_stale_temporaries(const std::string& path) {
             continue;
         }
         const std::string full = (fs::path(dir) / *n).string();
-        struct stat st {};
-        if (::lstat(full.c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(full.c_str());
+        platform::FileStatus st;
+        if (platform::link_status(full, st) == 0 && st.kind == FileKind::regular) platform::remove_file(full);
         n = names.erase(n);
     }
 }
@@ -154,7 +144,7 @@ private:
         const char* p = pbase();
         std::size_t left = std::size_t(pptr() - pbase());
         while (left > 0 && error_ == 0) {
-            const ssize_t n = ::write(fd_, p, left);
+            const long long n = platform::write_some(fd_, p, left);
             if (n < 0) {
                 if (errno == EINTR) continue;
                 error_ = errno;
@@ -174,7 +164,7 @@ private:
 bool write_all(int fd, const std::string& data, int& err) {
     std::size_t done = 0;
     while (done < data.size()) {
-        const ssize_t n = ::write(fd, data.data() + done, data.size() - done);
+        const long long n = platform::write_some(fd, data.data() + done, data.size() - done);
         if (n < 0) {
             if (errno == EINTR) continue;
             err = errno;
@@ -185,13 +175,7 @@ bool write_all(int fd, const std::string& data, int& err) {
     return true;
 }
 
-void fsync_dir(const std::string& dir) {
-    const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-    if (fd >= 0) {
-        ::fsync(fd);  // best effort: some file systems refuse fsync on directories
-        ::close(fd);
-    }
-}
+void fsync_dir(const std::string& dir) { platform::sync_directory(dir); }
 
 }  // namespace
 
@@ -207,8 +191,8 @@ OutputTarget prepare_output(const std::string& named, bool allow_stdout) {
         throw OutputError("cannot write " + named + ": this output must be a file" +
                           (allow_stdout ? " (use - for standard output)" : " (standard output is not supported here)"));
     }
-    struct stat st {};
-    const bool exists = ::lstat(named.c_str(), &st) == 0;
+    platform::FileStatus st;
+    const bool exists = platform::link_status(named, st) == 0;
     if (!exists && errno != ENOENT) {
         if (errno == ENAMETOOLONG) throw OutputError("cannot write " + named + ": file name too long");
         // ENOTDIR: a path component is a file; EACCES: a directory on the way cannot be searched.
@@ -216,16 +200,14 @@ OutputTarget prepare_output(const std::string& named, bool allow_stdout) {
         throw OutputError("cannot write " + named + ": " + sys_error(errno));
     }
     t.path = named;
-    if (S_ISLNK(st.st_mode)) {
-        struct stat target {};
-        if (::stat(named.c_str(), &target) == 0) {
-            if (!S_ISREG(target.st_mode))
-                throw OutputError("cannot write " + named + ": it is a symlink to " + node_kind(target.st_mode) +
+    if (exists && st.kind == FileKind::symlink) {
+        platform::FileStatus target;
+        if (platform::path_status(named, target) == 0) {
+            if (target.kind != FileKind::regular)
+                throw OutputError("cannot write " + named + ": it is a symlink to " + node_kind(target.kind) +
                                   "; only regular files are replaced");
-            char* real = ::realpath(named.c_str(), nullptr);
-            if (!real) throw OutputError("cannot write " + named + ": cannot resolve the symlink: " + sys_error(errno));
-            t.path = real;
-            std::free(real);
+            if (platform::resolve_path(named, t.path) != 0)
+                throw OutputError("cannot write " + named + ": cannot resolve the symlink: " + sys_error(errno));
         } else if (errno == ENOENT) {
             t.path = follow_links(named);  // dangling: create its target
         } else if (errno == ELOOP) {
@@ -234,20 +216,19 @@ OutputTarget prepare_output(const std::string& named, bool allow_stdout) {
             throw OutputError("cannot write " + named + ": " + sys_error(errno));
         }
     } else if (exists) {
-        if (S_ISDIR(st.st_mode)) throw OutputError("cannot write " + named + ": it is a directory");
-        if (!S_ISREG(st.st_mode))
-            throw OutputError("cannot write " + named + ": it is " + node_kind(st.st_mode) +
+        if (st.kind == FileKind::directory) throw OutputError("cannot write " + named + ": it is a directory");
+        if (st.kind != FileKind::regular)
+            throw OutputError("cannot write " + named + ": it is " + node_kind(st.kind) +
                               "; only regular files are replaced (outputs are written to a temporary file and renamed)");
     }
 
     const std::string dir = parent_dir(t.path);
-    struct stat dst {};
-    if (::stat(dir.c_str(), &dst) != 0 || !S_ISDIR(dst.st_mode))
+    platform::FileStatus dst;
+    if (platform::path_status(dir, dst) != 0 || dst.kind != FileKind::directory)
         throw OutputError("cannot write " + named + ": directory " + dir + " does not exist");
-    if (::access(dir.c_str(), W_OK) != 0)
+    if (!platform::can_create_in(dir))
         throw OutputError("cannot write " + named + ": directory " + dir + " is not writable (" + sys_error(errno) + ")");
-    long name_max = ::pathconf(dir.c_str(), _PC_NAME_MAX);
-    if (name_max <= 0) name_max = NAME_MAX;
+    const long name_max = platform::max_file_name(dir);
     const std::string file = fs::path(t.path).filename().string();
     if (file.empty() || file == "." || file == "..") throw OutputError("cannot write " + named + ": not a file name");
     if (file.size() + kTempNameOverhead > std::size_t(name_max))
@@ -277,9 +258,9 @@ void OutputSet::discard() {
     for (auto& e : entries_) {
         e->out.reset();
         e->buffer.reset();
-        if (e->fd >= 0) ::close(e->fd);
+        if (e->fd >= 0) platform::close_file(e->fd);
         e->fd = -1;
-        if (!e->temp.empty()) ::unlink(e->temp.c_str());
+        if (!e->temp.empty()) platform::remove_file(e->temp);
     }
 }
 
@@ -305,11 +286,11 @@ std::ostream& OutputSet::stream(std::size_t index) {
     if (e.target.to_stdout) return e.memory;
     if (!e.opened) {
         // A replaced file keeps its permission bits (a new one gets 0666 less the umask).
-        struct stat st {};
-        const bool existed = ::stat(e.target.path.c_str(), &st) == 0;
-        e.fd = ::open(e.temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+        platform::FileStatus st;
+        const bool existed = platform::path_status(e.target.path, st) == 0;
+        e.fd = platform::open_file(e.temp, platform::write_only | platform::create | platform::truncate, 0666);
         if (e.fd < 0) throw std::runtime_error("cannot create " + e.temp + ": " + sys_error(errno));
-        if (existed) ::fchmod(e.fd, st.st_mode & 07777);
+        if (existed) platform::set_permissions(e.fd, st.permissions);
         e.buffer = std::make_unique<FdBuf>(e.fd);
         e.out = std::make_unique<std::ostream>(e.buffer.get());
         e.opened = true;
@@ -341,19 +322,19 @@ void OutputSet::commit() {
             auto* buf = static_cast<FdBuf*>(e.buffer.get());
             if (!buf->flush_all()) fail("cannot write " + e.target.named + " (temporary " + e.temp + "): " + sys_error(buf->error()));
         } else {
-            fd = ::open(e.temp.c_str(), O_RDWR | O_CLOEXEC);  // written by the caller's writer (OpenEXR, libpng)
+            fd = platform::open_file(e.temp, platform::read_write);  // written by the caller's writer (OpenEXR, libpng)
             if (fd < 0) fail("cannot reopen " + e.temp + " (for " + e.target.named + "): " + sys_error(errno));
         }
         e.out.reset();
         e.buffer.reset();
         e.fd = -1;
         // ENOSPC and EIO of delayed allocation surface at fsync or close, not at write.
-        if (::fsync(fd) != 0) {
+        if (platform::sync_file(fd) != 0) {
             const int err = errno;
-            ::close(fd);
+            platform::close_file(fd);
             fail("cannot write " + e.target.named + ": fsync of " + e.temp + " failed: " + sys_error(err));
         }
-        if (::close(fd) != 0) fail("cannot write " + e.target.named + ": close of " + e.temp + " failed: " + sys_error(errno));
+        if (platform::close_file(fd) != 0) fail("cannot write " + e.target.named + ": close of " + e.temp + " failed: " + sys_error(errno));
     }
     // 2. Inside an OutputGroup: the group renames these with the other writers' files.
     if (OutputGroup* group = OutputGroup::current()) {
@@ -404,7 +385,7 @@ void publish_pending(const std::vector<OutputGroup::Pending>& pending) {
         if (!p.to_stdout) continue;
         std::fflush(stdout);
         int err = 0;
-        if (!write_all(STDOUT_FILENO, p.data, err)) throw std::runtime_error("cannot write to standard output: " + sys_error(err));
+        if (!write_all(platform::kStandardOutput, p.data, err)) throw std::runtime_error("cannot write to standard output: " + sys_error(err));
     }
     std::vector<std::string> backups(pending.size());
     std::vector<bool> existed(pending.size(), false);
@@ -412,24 +393,24 @@ void publish_pending(const std::vector<OutputGroup::Pending>& pending) {
     for (std::size_t i = 0; i < pending.size(); ++i) {
         const OutputGroup::Pending& e = pending[i];
         if (e.to_stdout) continue;
-        struct stat st {};
-        if (::lstat(e.path.c_str(), &st) == 0) {
+        platform::FileStatus st;
+        if (platform::link_status(e.path, st) == 0) {
             existed[i] = true;
             const std::string bak = temp_name(e.path, "bak");
-            ::unlink(bak.c_str());
-            if (S_ISREG(st.st_mode) && ::link(e.path.c_str(), bak.c_str()) == 0) backups[i] = bak;
+            platform::remove_file(bak);
+            if (st.kind == FileKind::regular && platform::hard_link(e.path, bak) == 0) backups[i] = bak;
         }
-        if (std::rename(e.temp.c_str(), e.path.c_str()) != 0) {
+        if (platform::replace_file(e.temp, e.path) != 0) {
             const int err = errno;
             std::string lost;
             for (std::size_t j = 0; j < i; ++j) {
                 const OutputGroup::Pending& done = pending[j];
                 if (done.to_stdout) continue;
-                if (!backups[j].empty()) std::rename(backups[j].c_str(), done.path.c_str());
-                else if (!existed[j]) ::unlink(done.path.c_str());
+                if (!backups[j].empty()) platform::replace_file(backups[j], done.path);
+                else if (!existed[j]) platform::remove_file(done.path);
                 else lost += " " + done.named;  // no hard link possible here: cannot be put back
             }
-            if (!backups[i].empty()) ::unlink(backups[i].c_str());
+            if (!backups[i].empty()) platform::remove_file(backups[i]);
             throw std::runtime_error("cannot rename " + e.temp + " to " + e.path + ": " + sys_error(err) +
                                      (lost.empty() ? "; no output was changed"
                                                    : "; already replaced (the file system refused a backup link):" + lost));
@@ -437,7 +418,7 @@ void publish_pending(const std::vector<OutputGroup::Pending>& pending) {
         dirs.insert(parent_dir(e.path));
     }
     for (const auto& b : backups)
-        if (!b.empty()) ::unlink(b.c_str());
+        if (!b.empty()) platform::remove_file(b);
     // Make the renames durable.
     for (const auto& d : dirs) fsync_dir(d);
 }
@@ -455,7 +436,7 @@ OutputGroup::~OutputGroup() {
     current_group = nullptr;
     if (!committed_)
         for (const auto& p : pending_)
-            if (!p.to_stdout) ::unlink(p.temp.c_str());
+            if (!p.to_stdout) platform::remove_file(p.temp);
 }
 
 OutputGroup* OutputGroup::current() { return current_group; }
@@ -465,7 +446,7 @@ void OutputGroup::hand_over(Pending p) {
         for (const auto& q : pending_) {
             std::error_code e1, e2;
             if (!q.to_stdout && fs::weakly_canonical(q.path, e1) == fs::weakly_canonical(p.path, e2)) {
-                ::unlink(p.temp.c_str());
+                platform::remove_file(p.temp);
                 throw OutputError("outputs " + q.named + " and " + p.named + " name the same file");
             }
         }
@@ -479,7 +460,7 @@ void OutputGroup::commit() {
         publish_pending(pending_);
     } catch (...) {
         for (const auto& p : pending_)
-            if (!p.to_stdout) ::unlink(p.temp.c_str());
+            if (!p.to_stdout) platform::remove_file(p.temp);
         pending_.clear();
         throw;
     }

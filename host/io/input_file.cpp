@@ -1,11 +1,9 @@
 #include "io/input_file.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstring>
+
+#include "platform/files.hpp"
 
 namespace ms {
 
@@ -20,43 +18,39 @@ std::string describe_limit(std::uint64_t bytes) {
 }  // namespace
 
 void require_regular_file(const std::string& path, const std::string& what) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0) throw InputError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
-    if (S_ISREG(st.st_mode)) return;
-    const char* kind = S_ISDIR(st.st_mode)    ? "a directory"
-                       : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)"
-                       : S_ISCHR(st.st_mode)  ? "a character device"
-                       : S_ISBLK(st.st_mode)  ? "a block device"
-                       : S_ISSOCK(st.st_mode) ? "a socket"
-                                              : "not a regular file";
+    platform::FileStatus st;
+    if (platform::path_status(path, st) != 0) throw InputError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
+    if (st.kind == platform::FileKind::regular) return;
+    const std::string kind = st.kind == platform::FileKind::other ? "not a regular file" : platform::kind_phrase(st.kind);
     throw InputError(path + ": is " + kind + ", not a regular file (a " + what + " is read from a file)");
 }
 
 std::string read_input_file(const std::string& path, std::uint64_t max_bytes, const std::string& what) {
     // Opened first, then checked with fstat: the same file is checked and read (no race with a rename),
     // and O_NONBLOCK keeps open() of a FIFO without a writer from hanging before the check.
-    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+    const int fd = platform::open_file(path, platform::read_only | platform::non_blocking);
     if (fd < 0) throw InputError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
     struct Closer {
         int fd;
-        ~Closer() { ::close(fd); }
+        ~Closer() { platform::close_file(fd); }
     } closer{fd};
-    struct stat st {};
-    if (::fstat(fd, &st) != 0) throw InputError(path + ": cannot read (" + std::string(std::strerror(errno)) + ")");
-    if (S_ISDIR(st.st_mode)) throw InputError(path + ": is a directory, not a " + what + " file");
-    if (S_ISCHR(st.st_mode) || S_ISBLK(st.st_mode) || S_ISSOCK(st.st_mode))
-        throw InputError(path + ": is a " + std::string(S_ISSOCK(st.st_mode) ? "socket" : "device") +
+    using platform::FileKind;
+    platform::FileStatus st;
+    if (platform::descriptor_status(fd, st) != 0) throw InputError(path + ": cannot read (" + std::string(std::strerror(errno)) + ")");
+    if (st.kind == FileKind::directory) throw InputError(path + ": is a directory, not a " + what + " file");
+    if (st.kind == FileKind::character_device || st.kind == FileKind::block_device || st.kind == FileKind::socket)
+        throw InputError(path + ": is a " + std::string(st.kind == FileKind::socket ? "socket" : "device") +
                          ", not a regular file; a " + what + " must be a file (at most " + describe_limit(max_bytes) + ")");
-    if (S_ISREG(st.st_mode) && std::uint64_t(st.st_size) > max_bytes)
-        throw InputError(path + ": is " + std::to_string(st.st_size) + " bytes, more than the limit of " +
+    if (st.kind == FileKind::regular && st.size > max_bytes)
+        throw InputError(path + ": is " + std::to_string(st.size) + " bytes, more than the limit of " +
                          describe_limit(max_bytes) + " for a " + what);
     // Blocking reads from here (a pipe's writer may be slower than us).
-    ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    platform::make_blocking(fd);
     std::string data;
-    if (S_ISREG(st.st_mode)) data.reserve(std::size_t(st.st_size));
+    if (st.kind == FileKind::regular) data.reserve(std::size_t(st.size));
     char buf[1 << 16];
     while (true) {
-        const ssize_t n = ::read(fd, buf, sizeof buf);
+        const long long n = platform::read_some(fd, buf, sizeof buf);
         if (n < 0) {
             if (errno == EINTR) continue;
             throw InputError(path + ": read error (" + std::string(std::strerror(errno)) + ")");

@@ -1,12 +1,10 @@
 #include "io/input_guard.hpp"
 
-#include <sys/stat.h>
-
 #include <map>
 #include <mutex>
-#include <utility>
 
 #include "io/atomic_file.hpp"
+#include "platform/files.hpp"
 
 namespace ms {
 
@@ -16,7 +14,7 @@ namespace {
 struct NotedInputs {
     std::mutex mutex;
     int guards = 0;
-    std::map<std::pair<dev_t, ino_t>, std::string> files;  // identity -> the path it was read as
+    std::map<platform::FileIdentity, std::string> files;  // identity -> the path it was read as
 };
 
 NotedInputs& noted() {
@@ -40,18 +38,18 @@ void note_input(const std::string& path) {
     NotedInputs& n = noted();
     std::lock_guard<std::mutex> lock(n.mutex);
     if (n.guards == 0) return;
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0) return;
-    n.files.emplace(std::make_pair(st.st_dev, st.st_ino), path);
+    platform::FileIdentity id;
+    if (platform::file_identity(path, id) != 0) return;
+    n.files.emplace(id, path);
 }
 
 void refuse_if_input(const std::string& output, const std::string& named) {
     NotedInputs& n = noted();
     std::lock_guard<std::mutex> lock(n.mutex);
     if (n.guards == 0 || n.files.empty()) return;
-    struct stat st {};
-    if (::stat(output.c_str(), &st) != 0) return;
-    const auto it = n.files.find(std::make_pair(st.st_dev, st.st_ino));
+    platform::FileIdentity id;
+    if (platform::file_identity(output, id) != 0) return;
+    const auto it = n.files.find(id);
     if (it == n.files.end()) return;
     throw OutputError("cannot write " + named + ": it is the input " + it->second +
                       " of this command (an output never replaces an input; name another file)");

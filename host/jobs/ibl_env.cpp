@@ -1,19 +1,17 @@
 #include "jobs/ibl_env.hpp"
 
-#include <dirent.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <sstream>
 #include <stdexcept>
 
 #include "core/cancel.hpp"
 #include "core/types.hpp"
 #include "io/atomic_file.hpp"
+#include "platform/files.hpp"
 
 namespace ms {
 
@@ -108,17 +106,16 @@ nlohmann::json irradiance_metadata(const IrradianceResult& r, const std::string&
 std::vector<std::string> stale_job_files(const std::string& dir, const std::set<std::string>& written,
                                          const std::function<bool(const std::string&)>& is_job_file) {
     std::vector<std::string> stale;
-    DIR* d = ::opendir(dir.c_str());
-    if (!d) return stale;  // a new folder: nothing of an earlier run
-    while (const dirent* e = ::readdir(d)) {
-        const std::string name = e->d_name;
+    std::error_code listed;  // a new folder: nothing of an earlier run
+    for (std::filesystem::directory_iterator e(dir, listed); !listed && e != std::filesystem::directory_iterator();
+         e.increment(listed)) {
+        const std::string name = e->path().filename().string();
         if (written.count(name) || !is_job_file(name)) continue;
         const std::string path = dir + "/" + name;
-        struct stat st {};
+        platform::FileStatus st;
         // Only regular files: a link or a folder of that name is the user's, not an earlier output.
-        if (::lstat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode)) stale.push_back(path);
+        if (platform::link_status(path, st) == 0 && st.kind == platform::FileKind::regular) stale.push_back(path);
     }
-    ::closedir(d);
     std::sort(stale.begin(), stale.end());
     return stale;
 }
@@ -128,7 +125,7 @@ void commit_outputs(OutputSet& outputs, const std::vector<std::string>& stale) {
     // here, before any file is replaced.
     throw_if_cancelled();
     outputs.commit();
-    for (const auto& path : stale) ::unlink(path.c_str());
+    for (const auto& path : stale) platform::remove_file(path);
 }
 
 env::Sh9 sh_shader_constants(const env::Sh9& sh) {

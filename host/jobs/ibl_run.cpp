@@ -1,6 +1,5 @@
 #include "jobs/ibl_run.hpp"
 
-#include <unistd.h>
 
 #include <cerrno>
 #include <cmath>
@@ -13,6 +12,7 @@
 #include "env/image.hpp"
 #include "env/preview.hpp"
 #include "io/atomic_file.hpp"
+#include "platform/files.hpp"
 
 namespace ms {
 
@@ -53,7 +53,7 @@ OutputFolder::OutputFolder(std::string dir) : dir_(std::move(dir)) {
     const fs::path p = fs::path(dir_).lexically_normal();
     if (fs::exists(p, ec)) {
         if (!fs::is_directory(p, ec)) throw OutputError("--out " + dir_ + " exists and is not a directory");
-        if (::access(p.c_str(), W_OK) != 0) throw OutputError("--out " + dir_ + ": the folder is not writable (" + std::strerror(errno) + ")");
+        if (!platform::can_create_in(p.string())) throw OutputError("--out " + dir_ + ": the folder is not writable (" + std::strerror(errno) + ")");
         return;
     }
     // The folders to make, deepest first, up to the first that exists.
@@ -64,7 +64,7 @@ OutputFolder::OutputFolder(std::string dir) : dir_(std::move(dir)) {
     const fs::path last = to_make_.back();
     const fs::path parent = last.parent_path().empty() ? fs::path(".") : last.parent_path();
     if (!fs::is_directory(parent, ec)) throw OutputError("--out " + dir_ + ": " + parent.string() + " is not a directory");
-    if (::access(parent.c_str(), W_OK) != 0)
+    if (!platform::can_create_in(parent.string()))
         throw OutputError("--out " + dir_ + ": cannot create it in " + parent.string() + " (" + std::strerror(errno) + ")");
 }
 

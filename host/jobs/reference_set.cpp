@@ -5,9 +5,6 @@
 
 #include <toml++/toml.h>
 
-#include <fcntl.h>
-#include <sys/file.h>
-#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -28,6 +25,7 @@
 #include "exact/exact_term.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "io/text.hpp"
+#include "platform/files.hpp"
 #include "sampling/point_set.hpp"
 #include "schedule/chunk_store.hpp"
 
@@ -213,18 +211,18 @@ std::string set_aside(const std::string& path, const std::string& tag) {
 
 // An exclusive lock on DIR/reference-H.lock while a set is computed, so that two runs on one cache
 // never compute (and then remove) the same chunks: the second waits, then finds the finished file.
-// flock() locks die with their process, so a killed run leaves no stale lock; the empty file stays
+// The advisory lock dies with its process, so a killed run leaves no stale lock; the empty file stays
 // (removing it would let a third run lock a new file while a second still waits on the old one).
 class CacheLock {
 public:
     CacheLock(const std::string& path, const std::function<void(const std::string&)>& notice) {
-        fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+        fd_ = platform::open_file(path, platform::read_write | platform::create, 0644);
         if (fd_ < 0) throw std::invalid_argument(path + ": cannot create the cache lock (" + std::strerror(errno) + ")");
         bool told = false;
-        while (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
-            if (errno != EWOULDBLOCK && errno != EINTR) {
+        for (int held; (held = platform::try_lock_exclusive(fd_)) != 0;) {
+            if (held < 0) {
                 const int e = errno;
-                ::close(fd_);
+                platform::close_file(fd_);
                 throw std::runtime_error(path + ": cannot lock (" + std::strerror(e) + ")");
             }
             if (!told && notice) notice("another run is computing this reference set (" + path + " is locked); waiting for it");
@@ -232,13 +230,13 @@ public:
             try {
                 throw_if_cancelled();
             } catch (...) {
-                ::close(fd_);
+                platform::close_file(fd_);
                 throw;
             }
             std::this_thread::sleep_for(std::chrono::milliseconds(50));
         }
     }
-    ~CacheLock() { ::close(fd_); }
+    ~CacheLock() { platform::close_file(fd_); }
     CacheLock(const CacheLock&) = delete;
     CacheLock& operator=(const CacheLock&) = delete;
 

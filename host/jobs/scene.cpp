@@ -5,8 +5,6 @@
 #include "jobs/area.hpp"
 #include "integrands/area_light/light_geometry.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
@@ -26,6 +24,7 @@
 #include "core/cone.hpp"
 #include "io/atomic_file.hpp"
 #include "io/text.hpp"
+#include "platform/files.hpp"
 #include "jobs/bake.hpp"
 #include "jobs/cache_keys.hpp"
 #include "jobs/compare.hpp"
@@ -1257,7 +1256,7 @@ void check_output_folder(const std::string& dir) {
     fs::path p = dir.empty() ? fs::path(".") : fs::path(dir);
     if (fs::exists(p, ec)) {
         if (!fs::is_directory(p, ec)) throw OutputError(dir + ": exists and is not a folder (it names the output folder)");
-        if (::access(p.c_str(), W_OK | X_OK) != 0)
+        if (!platform::can_create_in(p.string()))
             throw OutputError(dir + ": cannot write in this folder (" + std::strerror(errno) + ")");
         return;
     }
@@ -1266,7 +1265,7 @@ void check_output_folder(const std::string& dir) {
     while (!above.empty() && !fs::exists(above, ec) && above != above.parent_path()) above = above.parent_path();
     if (!fs::is_directory(above, ec))
         throw OutputError(dir + ": cannot be created (" + above.string() + " is not a folder)");
-    if (::access(above.c_str(), W_OK | X_OK) != 0)
+    if (!platform::can_create_in(above.string()))
         throw OutputError(dir + ": cannot be created (" + above.string() + ": " + std::strerror(errno) + ")");
 }
 

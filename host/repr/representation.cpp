@@ -8,7 +8,6 @@
 #include <ImfStringAttribute.h>
 
 #include <Imath/half.h>
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -24,6 +23,7 @@
 #include "io/exr_preflight.hpp"
 #include "io/input_file.hpp"
 #include "io/input_guard.hpp"
+#include "platform/files.hpp"
 #include "lut/formats/lut_reader.hpp"
 #include "lut/formats/texture_reader.hpp"
 #include "repr/presets.hpp"
@@ -314,8 +314,8 @@ void refuse_lut(const std::string& path) {
 }  // namespace
 
 bool is_representation_file(const std::string& path) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;  // a FIFO would block open()
+    platform::FileStatus st;
+    if (platform::path_status(path, st) != 0 || st.kind != platform::FileKind::regular) return false;  // a FIFO would block open()
     if (lutfmt::has_dds_magic(path)) {
         try {
             read_dds_representation(path);

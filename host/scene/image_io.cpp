@@ -4,6 +4,7 @@
 #include "io/exr_preflight.hpp"
 #include "io/input_guard.hpp"
 #include "io/png_file.hpp"
+#include "platform/files.hpp"
 
 #include <ImfChannelList.h>
 #include <ImfFrameBuffer.h>
@@ -25,7 +26,6 @@
 #include <memory>
 #include <set>
 
-#include <sys/stat.h>
 
 namespace ms::scene {
 
@@ -228,12 +228,10 @@ std::vector<std::string> exr_names(const std::vector<ExrChannel>& channels, bool
 
 void require_regular_file(const std::string& path) {
     // stat, not open: opening a FIFO blocks until a writer appears, beyond the reach of SIGINT/SIGTERM.
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0) throw SceneError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
-    if (S_ISREG(st.st_mode)) return note_input(path);
-    const char* kind = S_ISDIR(st.st_mode) ? "a directory" : S_ISFIFO(st.st_mode) ? "a FIFO (named pipe)"
-                       : S_ISCHR(st.st_mode) ? "a character device" : S_ISBLK(st.st_mode) ? "a block device"
-                       : S_ISSOCK(st.st_mode) ? "a socket" : "not a regular file";
+    platform::FileStatus st;
+    if (platform::path_status(path, st) != 0) throw SceneError(path + ": cannot open for reading (" + std::strerror(errno) + ")");
+    if (st.kind == platform::FileKind::regular) return note_input(path);
+    const char* kind = platform::kind_phrase(st.kind);
     throw SceneError(path + ": is " + std::string(kind) + ", not a regular file (images and LUTs are read from files)");
 }
 

@@ -1,8 +1,5 @@
 #include "schedule/chunk_store.hpp"
 
-#include <fcntl.h>
-#include <signal.h>
-#include <unistd.h>
 
 #include <nlohmann/json.hpp>
 
@@ -21,6 +18,8 @@
 #include "io/atomic_file.hpp"
 #include "io/input_file.hpp"
 #include "io/text.hpp"
+#include "platform/files.hpp"
+#include "platform/process.hpp"
 
 namespace ms::schedule {
 
@@ -36,10 +35,8 @@ constexpr std::uint64_t kMaxItemBytes = std::uint64_t(1) << 32;
 constexpr const char* kTrailerPrefix = "# ";
 
 std::string host_name() {
-    char name[256] = {};
-    if (::gethostname(name, sizeof name - 1) != 0) return "host";
     // Only characters safe in a file name.
-    std::string s(name);
+    std::string s = platform::host_name();
     for (char& c : s)
         if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '.') c = '_';
     return s.empty() ? "host" : s;
@@ -49,13 +46,13 @@ std::string host_name() {
 // shared folder from several nodes at once, so neither the name nor its clean-up may collide.
 std::string temporary_of(const std::string& path) {
     const fs::path p(path);
-    return (p.parent_path() / ("." + p.filename().string() + ".tmp." + host_name() + "." + std::to_string(::getpid()))).string();
+    return (p.parent_path() / ("." + p.filename().string() + ".tmp." + host_name() + "." + std::to_string(platform::process_id()))).string();
 }
 
 void write_all(int fd, const std::string& bytes, const std::string& path) {
     std::size_t at = 0;
     while (at < bytes.size()) {
-        const ssize_t n = ::write(fd, bytes.data() + at, bytes.size() - at);
+        const long long n = platform::write_some(fd, bytes.data() + at, bytes.size() - at);
         if (n < 0 && errno == EINTR) continue;
         if (n <= 0) throw std::runtime_error(path + ": cannot write (" + std::strerror(errno) + ")");
         at += std::size_t(n);
@@ -63,16 +60,11 @@ void write_all(int fd, const std::string& bytes, const std::string& path) {
 }
 
 void sync_path(const std::string& path, bool directory) {
-    const int fd = ::open(path.c_str(), (directory ? O_RDONLY | O_DIRECTORY : O_RDONLY) | O_CLOEXEC);
-    if (fd < 0) {
-        if (!directory) throw std::runtime_error(path + ": cannot open to sync (" + std::strerror(errno) + ")");
-        return;  // a folder that cannot be opened for syncing (some file systems): its files were synced
+    if (directory) {
+        platform::sync_directory(path);  // best effort: some file systems refuse; its files were synced
+        return;
     }
-    const int rc = ::fsync(fd);
-    const int e = errno;
-    ::close(fd);
-    if (rc != 0 && !(directory && (e == EINVAL || e == EBADF)))
-        throw std::runtime_error(path + ": cannot sync to disk (" + std::strerror(e) + ")");
+    if (platform::sync_path(path) != 0) throw std::runtime_error(path + ": cannot sync to disk (" + std::strerror(errno) + ")");
 }
 
 std::string manifest_name(const Shard& s) {
@@ -158,9 +150,9 @@ void remove_stale_temporaries(const std::string& folder) {
         if (name.empty() || name[0] != '.' || at == std::string::npos) continue;
         const std::string pid_text = name.substr(at + marker.size());
         if (pid_text.empty() || pid_text.find_first_not_of("0123456789") != std::string::npos || pid_text.size() > 9) continue;
-        const pid_t pid = pid_t(std::stol(pid_text));
+        const long pid = std::stol(pid_text);
         // A process of this host that no longer exists left it; a live one is still writing.
-        if (pid != ::getpid() && ::kill(pid, 0) != 0 && errno == ESRCH) fs::remove(entry.path(), ec);
+        if (pid != platform::process_id() && !platform::process_exists(pid)) fs::remove(entry.path(), ec);
     }
 }
 
@@ -205,18 +197,18 @@ ItemDigest ChunkFiles::write(std::uint64_t id, const std::string& payload, bool*
     }
     // Written and renamed outside the lock: items of several places are written in parallel.
     const std::string target = path(id), temp = temporary_of(target);
-    const int fd = ::open(temp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    const int fd = platform::open_file(temp, platform::write_only | platform::create | platform::truncate, 0644);
     if (fd < 0) throw std::runtime_error(temp + ": cannot create (" + std::strerror(errno) + ")");
     try {
         write_all(fd, bytes, temp);
     } catch (...) {
-        ::close(fd);
-        ::unlink(temp.c_str());
+        platform::close_file(fd);
+        platform::remove_file(temp);
         throw;
     }
-    if (::close(fd) != 0 || std::rename(temp.c_str(), target.c_str()) != 0) {
+    if (platform::close_file(fd) != 0 || platform::replace_file(temp, target) != 0) {
         const int e = errno;
-        ::unlink(temp.c_str());
+        platform::remove_file(temp);
         throw std::runtime_error(target + ": cannot write (" + std::strerror(e) + ")");
     }
     std::lock_guard<std::mutex> lock(mutex_);

@@ -5,7 +5,9 @@
 #include <condition_variable>
 #include <deque>
 #include <exception>
+#include <iostream>
 #include <mutex>
+#include <string>
 #include <set>
 #include <thread>
 
@@ -28,7 +30,20 @@ Backend Backend::oracle(unsigned threads) {
 }
 
 Backend Backend::from(const BackendSpec& spec) {
-    return spec.is_oracle() ? oracle(spec.threads) : opencl(ocl::select_devices(spec.device));
+    if (spec.is_oracle()) return oracle(spec.threads);
+    // No OpenCL runtime on this machine at all (no libOpenCL.so.1 / OpenCL.dll) and no device asked for
+    // by name: the job runs on the C++ backend (the oracle; the exact method's C++ evaluator), and says
+    // so once per process. A named device still fails, with the reason.
+    std::string detail;
+    if ((spec.device.empty() || spec.device == "default") && !ocl::opencl_runtime_loaded(&detail)) {
+        static std::once_flag told;
+        std::call_once(told, [&] {
+            std::cerr << "note: no OpenCL runtime is installed (" << detail
+                      << "); running on the CPU with the C++ backend (--backend oracle)\n";
+        });
+        return oracle(spec.threads);
+    }
+    return opencl(ocl::select_devices(spec.device));
 }
 
 Scheduler::Scheduler(Backend backend) : backend_(std::move(backend)) {

@@ -11,6 +11,7 @@
 #include "oracle/oracle.hpp"
 #include "device/runtime.hpp"
 #include "test_queries.hpp"
+#include "platform/process.hpp"
 
 namespace ms {
 namespace {
@@ -173,14 +174,14 @@ TEST(OpenClRuntime, FailedBuildCarriesTheBuildLog) {
     std::filesystem::create_directories(dir / "term");
     for (const auto& name : ocl::preamble_files()) std::ofstream(dir / name) << "\n";
     std::ofstream(dir / "term/generic_term.cl") << "__kernel void f(__global int* x) { x[0] = undefined_symbol; }\n";
-    setenv("MICROSHADOW_KERNEL_DIR", dir.c_str(), 1);
+    ms::platform::set_environment("MICROSHADOW_KERNEL_DIR", dir.string());
     ocl::Device device(ocl::select_devices("default").front());
     try {
         device.program("term/generic_term.cl", {});
-        unsetenv("MICROSHADOW_KERNEL_DIR");
+        ms::platform::set_environment("MICROSHADOW_KERNEL_DIR", "");  // empty: the embedded kernels
         FAIL() << "expected BuildError";
     } catch (const ocl::BuildError& e) {
-        unsetenv("MICROSHADOW_KERNEL_DIR");
+        ms::platform::set_environment("MICROSHADOW_KERNEL_DIR", "");  // empty: the embedded kernels
         EXPECT_NE(e.log().find("undefined_symbol"), std::string::npos) << e.log();
         EXPECT_NE(std::string(e.what()).find("clBuildProgram"), std::string::npos);
     }

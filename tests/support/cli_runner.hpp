@@ -3,13 +3,11 @@
 #pragma once
 
 #include <gtest/gtest.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <string>
+
+#include "platform/process.hpp"
 
 namespace ms::testing {
 
@@ -18,15 +16,11 @@ struct RunResult {
     std::string output;  // stdout and whatever the command redirects into it
 };
 
-// Runs `command` through sh and collects its stdout.
+// Runs `command` through the shell (sh; cmd.exe on Windows) and collects its stdout.
 inline RunResult run_shell(const std::string& command) {
-    FILE* pipe = popen(command.c_str(), "r");
-    if (!pipe) return {-1, "popen failed: " + command};
     std::string out;
-    std::array<char, 4096> buf;
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) out.append(buf.data(), n);
-    const int status = pclose(pipe);
-    return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+    const int code = platform::run_shell_command(command, out);
+    return {code, out};
 }
 
 // Runs this build's `microshadow ARGS` with stderr joined to stdout.
@@ -38,7 +32,7 @@ protected:
     explicit ScratchDirTest(std::string prefix) : prefix_(std::move(prefix)) {}
     void SetUp() override {
         dir_ = std::filesystem::temp_directory_path() /
-               ("microshadow_" + prefix_ + "_" + std::to_string(::getpid()) + "_" +
+               ("microshadow_" + prefix_ + "_" + std::to_string(platform::process_id()) + "_" +
                 ::testing::UnitTest::GetInstance()->current_test_info()->name());
         std::filesystem::remove_all(dir_);
         std::filesystem::create_directories(dir_);

@@ -1,6 +1,5 @@
 #include "lut/formats/texture_reader.hpp"
 
-#include <sys/stat.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -11,6 +10,7 @@
 #include "io/bounded_json.hpp"
 #include "io/input_file.hpp"
 #include "io/input_guard.hpp"
+#include "platform/files.hpp"
 #include "lut/formats/dds.hpp"
 #include "lut/formats/ktx2.hpp"
 
@@ -24,8 +24,8 @@ constexpr std::uint32_t kDdsMagicWord = 0x20534444u, kFourCcDx10 = 0x30315844u;
 constexpr std::uint64_t kMaxSidecarBytes = std::uint64_t(16) << 20;
 
 bool starts_with(const std::string& path, const unsigned char* magic, std::size_t n) {
-    struct stat st {};
-    if (::stat(path.c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return false;  // a FIFO would block open()
+    platform::FileStatus st;
+    if (platform::path_status(path, st) != 0 || st.kind != platform::FileKind::regular) return false;  // a FIFO would block open()
     std::FILE* f = std::fopen(path.c_str(), "rb");
     if (!f) return false;
     unsigned char head[16] = {};
@@ -246,8 +246,8 @@ nlohmann::json read_dds_metadata(const std::string& path) {
     const std::string sidecar = path + ".json";
     // No sidecar: the caller says what that means for it. One that exists but cannot be read (a FIFO,
     // a directory, more than the limit) is refused with its reason, not taken for a missing one.
-    struct stat st {};
-    if (::lstat(sidecar.c_str(), &st) != 0 && errno == ENOENT) return nullptr;
+    platform::FileStatus st;
+    if (platform::link_status(sidecar, st) != 0 && errno == ENOENT) return nullptr;
     require_regular_file(sidecar, "DDS metadata sidecar");
     note_input(sidecar);
     const std::string text = read_input_file(sidecar, kMaxSidecarBytes, "DDS metadata sidecar");

@@ -25,6 +25,6 @@ cmake --build "$BUILD_DIR" -j"$JOBS"
 supp="$(pwd)/$BUILD_DIR/lsan.supp"
 printf 'leak:libpocl\nleak:libLLVM\nleak:libclang-cpp\nleak:libOpenCL\nleak:libhwloc\n' >"$supp"
 export ASAN_OPTIONS="${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0:strict_string_checks=1}"
-export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$supp}"
+export LSAN_OPTIONS="${LSAN_OPTIONS:-suppressions=$supp:print_suppressions=0}"
 export UBSAN_OPTIONS="${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}"
 ctest --test-dir "$BUILD_DIR" -j"$JOBS" --output-on-failure --timeout 900

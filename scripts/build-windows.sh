@@ -6,6 +6,7 @@
 #   bash scripts/build-windows.sh          # install what is missing, build the dependencies once, build
 #   bash scripts/build-windows.sh test     # the same, then the unit and CLI tests under Wine
 #   bash scripts/build-windows.sh deps     # only steps 1 to 3
+# (WINDOWS_BUILD_DIR names another build folder than build-windows.)
 #
 # Steps, each skipped when already done:
 #   1. Debian packages: the MinGW-w64 compilers (posix threads), Wine, zlib for MinGW, dpkg-dev;
@@ -24,7 +25,9 @@ jobs=${JOBS:-2}
 deps=${WINDOWS_DEPS_DIR:-$root/build-windows-deps}
 prefix=$deps/prefix
 toolchain=$root/cmake/mingw-w64.cmake
-build=${BUILD_DIR:-build-windows}
+# Its own variable, not BUILD_DIR: other scripts read BUILD_DIR for their native builds, and a native
+# build folder reused here would keep its cached host compiler under the MinGW flags.
+build=${WINDOWS_BUILD_DIR:-build-windows}
 t_start=$SECONDS
 log() { echo "build-windows: $* ($((SECONDS - t_start)) s)" >&2; }
 
@@ -146,6 +149,12 @@ header_package nlohmann_json nlohmann_json::nlohmann_json
 
 # --- 4. the project ------------------------------------------------------------------------------------
 log "configuring $build"
+# A folder first configured without the MinGW toolchain keeps its host compiler in CMakeCache.txt, which
+# a toolchain file given later does not replace: refuse it rather than mix the two.
+if [ -f "$build/CMakeCache.txt" ] && ! grep -q "^CMAKE_TOOLCHAIN_FILE:.*mingw-w64.cmake" "$build/CMakeCache.txt"; then
+  echo "build-windows: $build was configured for another compiler; give another WINDOWS_BUILD_DIR or delete it" >&2
+  exit 2
+fi
 # shellcheck disable=SC2086  # MICROSHADOW_CMAKE_ARGS is a list of arguments
 nice -n 5 cmake -S . -B "$build" -DCMAKE_TOOLCHAIN_FILE="$toolchain" -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_PREFIX_PATH="$prefix" -DZLIB_LIBRARY="$zlib_static" -DZLIB_INCLUDE_DIR=/usr/x86_64-w64-mingw32/include \

@@ -106,8 +106,8 @@ class FirstHour : public ms::testing::ScratchDirTest {
 protected:
     FirstHour() : ScratchDirTest("first_hour") {}
     // The program run inside the scratch folder (its outputs land there), stderr joined to stdout.
-    RunResult here(const std::string& args, const std::string& env = "") {
-        return run_shell("cd '" + dir_.string() + "' && " + env + " " + MICROSHADOW_CLI + " " + args + " 2>&1");
+    RunResult here(const std::string& args, const ms::testing::ShellVariables& env = {}) {
+        return run_shell(ms::testing::shell_prefix(dir_, env) + MICROSHADOW_CLI + " " + args + " 2>&1");
     }
 };
 
@@ -219,7 +219,7 @@ TEST_F(FirstHour, KernelCompilerWarningsStayInTheBuildLogUnlessAsked) {
     fs::copy(kFirstHourSource + "/kernels", kernels, fs::copy_options::recursive);
     std::ofstream(kernels / "term" / "generic_term.cl", std::ios::app)
         << "\nkernel void ms_warning_probe(global float* x) { if (x[0] = 1) { x[1] = 2; } }\n";
-    const std::string env = "MICROSHADOW_KERNEL_DIR='" + kernels.string() + "' POCL_CACHE_DIR='" + (dir_ / "pocl").string() + "'";
+    const ms::testing::ShellVariables env = {{"MICROSHADOW_KERNEL_DIR", kernels.string()}, {"POCL_CACHE_DIR", (dir_ / "pocl").string()}};
     const std::string eval = "eval --method sampled --samples 1024 -q --in " + kFirstHourSource + "/examples/queries.csv --out t.csv";
     const RunResult quiet = here(eval, env);
     ASSERT_EQ(quiet.exit_code, 0) << quiet.output;

@@ -6,6 +6,8 @@
 
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "platform/process.hpp"
 
@@ -16,11 +18,32 @@ struct RunResult {
     std::string output;  // stdout and whatever the command redirects into it
 };
 
-// Runs `command` through the shell (sh; cmd.exe on Windows) and collects its stdout.
+// Runs `command` through the shell (sh; cmd.exe on Windows) and collects its stdout. A Windows program
+// writes its console text with \r\n line ends; they are read as \n, so one expected text fits both.
 inline RunResult run_shell(const std::string& command) {
     std::string out;
     const int code = platform::run_shell_command(command, out);
+#ifdef _WIN32
+    std::string lf;
+    for (std::size_t i = 0; i < out.size(); ++i)
+        if (!(out[i] == '\r' && i + 1 < out.size() && out[i + 1] == '\n')) lf += out[i];
+    out.swap(lf);
+#endif
     return {code, out};
+}
+
+// The shell's words for "in this folder, with these variables set, run": sh's cd and VAR='value'
+// prefixes, or cmd.exe's cd /d (which also changes the drive) and set "VAR=value" &&.
+using ShellVariables = std::vector<std::pair<std::string, std::string>>;
+inline std::string shell_prefix(const std::filesystem::path& dir, const ShellVariables& variables = {}) {
+#ifdef _WIN32
+    std::string s = "cd /d \"" + dir.string() + "\" && ";
+    for (const auto& [name, value] : variables) s += "set \"" + name + "=" + value + "\" && ";
+#else
+    std::string s = "cd '" + dir.string() + "' && ";
+    for (const auto& [name, value] : variables) s += name + "='" + value + "' ";
+#endif
+    return s;
 }
 
 // Runs this build's `microshadow ARGS` with stderr joined to stdout.

@@ -373,8 +373,12 @@ void assemble(const std::string& out_dir, const std::string& header, std::uint64
     }
     out.flush();
     if (!out) throw std::runtime_error((fs::path(out_dir) / "sweep.csv").string() + ": could not be written");
-    std::ifstream in(outputs.temp_path(csv), std::ios::binary);
-    const Summary s = summarise(in, (fs::path(out_dir) / "sweep.csv").string());
+    // The temporary is read back in its own scope: Windows cannot rename a file that is still open, so
+    // the reader must be closed before commit() renames it to sweep.csv.
+    const Summary s = [&] {
+        std::ifstream in(outputs.temp_path(csv), std::ios::binary);
+        return summarise(in, (fs::path(out_dir) / "sweep.csv").string());
+    }();
     outputs.stream(md) << summary_markdown(s) << domain_markdown(provenance);
     outputs.stream(sc) << summary_csv(s);
     provenance["max_std_error"] = s.max_std_error;

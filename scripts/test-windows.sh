@@ -44,23 +44,18 @@ for group in ("slow", "gpu"):
     patterns += [p.replace("\\\\", "\\") for p in re.findall(r'"([^"]*)"', block)]
 # MPI and Slurm: the distributed tests that start mpirun or a Slurm cluster (no MPI in this build).
 patterns += [r"^Distributed\.(Mpi|Slurm)", r"Mpi", r"Slurm"]
-# Not ported yet: tests that fail under Wine; those looked into run their commands in sh syntax cmd.exe
-# does not take (VAR=value prefixes, quoting). The Linux suite runs them all.
+# Not ported yet: tests that fail under Wine for reasons of the test itself, as far as looked into: commands
+# in sh syntax cmd.exe does not take (single quotes, VAR=value prefixes), a test that removes its folder
+# while it still holds a file there open, a copy over an existing file. The Linux suite runs them all.
 # Needs a Python for Windows (the plotter it starts), which the Wine prefix does not have.
 patterns += [r"^FirstHour\.PlotDoesNotEchoItsPythonCommandLine$"]
 patterns += ["^%s$" % re.escape(n) for n in """
 AreaCommandCli.EvalMethodExactWritesTheInnerErrorAndRefusesWhatItIgnores
 Distributed.CliBadShardsAndMergesExitTwoAndWriteNothing
-Distributed.CliBadShardsAndMergesExitTwoAndWriteNothing
 Distributed.CliSceneRefusesBadSplitsExitTwoAndWritesNothing
-Distributed.CliSceneRefusesBadSplitsExitTwoAndWritesNothing
-DomainTest.SweepsReportPointsOutsideAComparatorFilesDomainAndStrictRefusesBeforeWriting
-EvalCompareTest.ColumnsEqualTheSweepsComparatorsAtTheSamePoints
 ExactJobsTest.BakeCommandRecordsTheVerificationMethod
 ExactJobsTest.ReprBakeCommandWritesTheMethodIntoTheFile
 ExactJobsTest.SweepCommandDefaultsToExactAndRefusesATolerancedSampledSweep
-ExactJobsTest.SweepExactAgreesWithSampledAndRecordsItsMethod
-ExactJobsTest.SweepOfOneMethodIsNeverResumedByTheOther
 HostileInput.BadCommandLinesFailCleanly
 HostileInput.BadQueryFilesFailCleanly
 HostileInput.BadSweepSpecsFailCleanly
@@ -68,10 +63,6 @@ IblPrefilterToleranceCli.VerifyFailsACorruptedEstimatorAndWritesNothing
 IblShCli.WritesCoefficientsAndIrradianceCross
 LutReaderTest.HostileOrMismatchedFilesAreRefusedWithTheProblemNamed
 SweepCli.AnisotropicSweepMatchesTheOracle
-SweepIntegrity.ChunksWithoutDigestsAreCheckedByStructure
-SweepIntegrity.MergeNamesADamagedShardChunkAndARerunRepairsIt
-SweepIntegrity.RestartRemovesEverythingTheOldSweepWrote
-SweepRun.ComparatorColumnsAreTheAnalyticTerms
 """.split()]
 left_out = [n for n in names if any(re.search(p, n) for p in patterns)]
 print("-" + ":".join(left_out) if left_out else "*")

@@ -52,6 +52,7 @@ set(microshadow_cli_tests
   "^PreviewTest\\."
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnXyzEnvironmentIsRefusedNotReadAsGrey$"
+  "^Reliability\\.AValueLessAccurateThanAskedIsFlaggedWithItsOwnExitStatus$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"

@@ -977,4 +977,74 @@ TEST_F(OutputGuard, NonRegularInputsAreRefusedWithoutOpening) {
     EXPECT_NO_THROW(ms::require_regular_file(path("file"), "LUT"));
 }
 
+
+// --- round 4: a value less accurate than asked is flagged, never silent ----------------------------
+
+// The JSON beside an output (eval and area eval's sidecar).
+nlohmann::json sidecar_of(const fs::path& csv) { return nlohmann::json::parse(slurp_file(fs::path(csv.string() + ".json"))); }
+
+TEST_F(Reliability, AValueLessAccurateThanAskedIsFlaggedWithItsOwnExitStatus) {
+    // The float kernel of the exact method is limited by float rounding (~1e-5) whatever the tolerance:
+    // at eval's default 1e-10 every value misses it. Before, exit 0 and no word.
+    auto r = run("eval --exact-float --in " + kQueries + " --out f.csv");
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    EXPECT_CONTAINS(r.output, "(TOLERANCE NOT MET: ");
+    EXPECT_CONTAINS(r.output, "is above the tolerance 1e-10");
+    ASSERT_TRUE(fs::exists(dir_ / "f.csv")) << "the values are written all the same";
+    EXPECT_EQ(sidecar_of(dir_ / "f.csv").at("tolerance_met"), false);
+    EXPECT_GT(sidecar_of(dir_ / "f.csv").at("queries_over_tolerance").get<int>(), 0);
+    // Said under --quiet too; --allow-tolerance-miss keeps the flag and exits 0.
+    r = run("eval -q --exact-float --in " + kQueries + " --out f.csv");
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    EXPECT_CONTAINS(r.output, "exit status 3 (--allow-tolerance-miss: 0)");
+    r = run("eval -q --exact-float --allow-tolerance-miss --in " + kQueries + " --out f.csv");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "is above the tolerance 1e-10");
+    EXPECT_EQ(sidecar_of(dir_ / "f.csv").at("tolerance_met"), false);
+    // The double evaluator meets it: exit 0, the summary says so.
+    r = run("eval --in " + kQueries + " --out d.csv");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "(tolerance 1e-10 met)");
+    EXPECT_EQ(sidecar_of(dir_ / "d.csv").at("tolerance_met"), true);
+
+    // Sampled with --tolerance: 2^23 samples (no room left under the 2^24 cap) cannot reach 1e-9.
+    const std::string header = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n";
+    write("q.csv", header + "0.5,0.25,0.25,0.3,0,0.95,0.2,0.5,0.8\n");
+    r = run("eval -q --method sampled --samples 8388608 --tolerance 1e-9 --in q.csv --out s.csv");
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    EXPECT_EQ(sidecar_of(dir_ / "s.csv").at("tolerance_met"), false);
+    // Without --tolerance the sampled method asked for none: nothing to flag.
+    r = run("eval -q --method sampled --samples 256 --in q.csv --out s.csv");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_FALSE(sidecar_of(dir_ / "s.csv").contains("tolerance_met"));
+
+    // bake: the exact float kernel against the exact bake's default 1e-6; a sampled bake held to one
+    // batch against --tolerance 1e-5 (its summary already said so; now its exit status does too).
+    r = run("bake --size 8 --method exact --exact-float --out e.exr");
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    EXPECT_CONTAINS(r.output, "(TOLERANCE NOT MET)");
+    EXPECT_CONTAINS(r.output, "texels is above the tolerance 1e-06");
+    ASSERT_TRUE(fs::exists(dir_ / "e.exr"));
+    r = run("lut info e.exr --metadata");
+    EXPECT_CONTAINS(r.output, "\"tolerance_met\": false");
+    r = run("bake -q --size 8 --method sampled --tolerance 1e-5 --max-batches 1 --out s.exr");
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    r = run("bake -q --size 8 --method sampled --tolerance 1e-5 --max-batches 1 --allow-tolerance-miss --out s.exr");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    r = run("bake -q --size 8 --method exact --out x.exr");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+
+    // area eval --method exact: the inner term's tolerance. At anisotropy ~1000 the exact evaluator's
+    // estimate stays near 6e-11, far above 1e-13, at some outer directions.
+    write("a.csv", "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,light_x,light_y,light_z,half_angle_deg\n"
+                   "0.6,1.18e-4,1.19e-7,-0.5592,0.5186,0.6468,0.5323,-0.5682,0.6276,5\n");
+    r = run("area eval --method exact --samples 256 --tolerance 1e-13 --in a.csv --out a_out.csv");
+    EXPECT_EQ(r.exit_code, 3) << r.output;
+    EXPECT_CONTAINS(r.output, "(TOLERANCE NOT MET: 1 of 1 above 1e-13");
+    EXPECT_EQ(sidecar_of(dir_ / "a_out.csv").at("exact").at("tolerance_met"), false);
+    r = run("area eval -q --method exact --samples 256 --in a.csv --out a_out.csv");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_EQ(sidecar_of(dir_ / "a_out.csv").at("exact").at("tolerance_met"), true);
+}
+
 }  // namespace

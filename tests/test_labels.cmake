@@ -53,6 +53,7 @@ set(microshadow_cli_tests
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnXyzEnvironmentIsRefusedNotReadAsGrey$"
   "^Reliability\\.AValueLessAccurateThanAskedIsFlaggedWithItsOwnExitStatus$"
+  "^Reliability\\.TinyAndHugeAreaLightsGiveTheirLimitsOnEveryPath$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"

@@ -19,7 +19,9 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <cstdlib>
 #include <filesystem>
@@ -1045,6 +1047,83 @@ TEST_F(Reliability, AValueLessAccurateThanAskedIsFlaggedWithItsOwnExitStatus) {
     r = run("area eval -q --method exact --samples 256 --in a.csv --out a_out.csv");
     EXPECT_EQ(r.exit_code, 0) << r.output;
     EXPECT_EQ(sidecar_of(dir_ / "a_out.csv").at("exact").at("tolerance_met"), true);
+}
+
+// --- round 4: area lights at the extremes -----------------------------------------------------------
+
+// term and std_error of every row of an area eval (or eval) CSV, by the header's names.
+std::vector<std::pair<double, double>> terms_of(const std::string& csv) {
+    std::istringstream in(csv);
+    std::string line;
+    std::getline(in, line);
+    std::vector<std::string> names;
+    for (std::istringstream h(line); std::getline(h, line, ',');) names.push_back(line);
+    const auto at = [&](const std::string& n) { return std::size_t(std::find(names.begin(), names.end(), n) - names.begin()); };
+    const std::size_t term = at("term"), error = at("std_error");
+    std::vector<std::pair<double, double>> rows;
+    while (std::getline(in, line)) {
+        std::vector<std::string> fields;
+        for (std::istringstream f(line); std::getline(f, line, ',');) fields.push_back(line);
+        if (fields.size() == names.size()) rows.emplace_back(std::stod(fields[term]), std::stod(fields[error]));
+    }
+    return rows;
+}
+
+TEST_F(Reliability, TinyAndHugeAreaLightsGiveTheirLimitsOnEveryPath) {
+    // Measured before: a sphere light of half-angle 1e-18 degrees (1e-10 on the oracle) or a rectangle of
+    // side 2e-20 gave 0 +- 0 (the density 1 / solid angle overflowed float, 1 - cos gamma cancelled in
+    // double); a Lambert rectangle of half-side 1e3 at distance 1 gave 0 +- 2e-5 (kernel), 6e-7 (oracle)
+    // or 0.008 (exact) against 0.450; half-side 1e5 was refused as "in the rectangle's plane".
+    const std::string surface = "0.5,0.25,0.25,0.3,0,0.95,";
+    write("point.csv", "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n" + surface + "0.2,0.5,0.8\n" + surface + "0,0,1\n");
+    auto r = run("eval -q --in point.csv --out point_out.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto point = terms_of(slurp_file(dir_ / "point_out.csv"));
+    ASSERT_EQ(point.size(), 2u);
+    write("tiny.csv", "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,light_x,light_y,light_z,half_angle_deg\n" + surface +
+                          "0.2,0.5,0.8,1e-18\n" + surface + "0.2,0.5,0.8,1e-300\n");
+    const std::string rect_header = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,p0_x,p0_y,p0_z,p1_x,p1_y,p1_z,p2_x,p2_y,p2_z,p3_x,p3_y,p3_z\n";
+    const auto square = [&](const std::string& h) {
+        return surface + "-" + h + ",-" + h + ",1," + h + ",-" + h + ",1," + h + "," + h + ",1,-" + h + "," + h + ",1\n";
+    };
+    write("tiny_rect.csv", rect_header + square("1e-20") + square("1e-160"));
+    write("huge_rect.csv", rect_header + square("1e3") + square("1e5"));
+    // The whole hemisphere but a band of cosine-weighted measure 3e-8: what a rectangle of half-side 1e3
+    // at distance 1 (a band of 1e-6) tends to, with bounded weights (uniform in the cone).
+    write("hemisphere.csv", "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,light_x,light_y,light_z,half_angle_deg\n" + surface + "0,0,1,89.99\n");
+    r = run("area eval -q --lobe lambert --method exact --in hemisphere.csv --out hemisphere_out.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto hemisphere = terms_of(slurp_file(dir_ / "hemisphere_out.csv"));
+    ASSERT_EQ(hemisphere.size(), 1u);
+    EXPECT_NEAR(hemisphere[0].first, 0.450, 0.002);
+    // 0.999 quantile of Student's t with 7 degrees of freedom: 5.41; two estimates' errors combined.
+    const double t999 = 5.41;
+    for (const std::string method : {"", " --backend oracle", " --method exact"})
+        for (const std::string lobe : {"lambert", "ggx"}) {
+            const std::string args = "area eval -q --lobe " + lobe + method;
+            r = run(args + " --in tiny.csv --out t.csv");
+            ASSERT_EQ(r.exit_code, 0) << args << ": " << r.output;
+            for (const auto& [term, error] : terms_of(slurp_file(dir_ / "t.csv")))
+                EXPECT_LE(std::fabs(term - point[0].first), t999 * std::hypot(error, point[0].second) + 1e-9) << args << ": " << term;
+            r = run(args + " --light rect --in tiny_rect.csv --out t.csv");
+            ASSERT_EQ(r.exit_code, 0) << args << ": " << r.output;
+            for (const auto& [term, error] : terms_of(slurp_file(dir_ / "t.csv")))
+                EXPECT_LE(std::fabs(term - point[1].first), t999 * std::hypot(error, point[1].second) + 1e-9) << args << ": " << term;
+            if (lobe != "lambert") continue;
+            r = run(args + " --light rect --in huge_rect.csv --out t.csv");
+            ASSERT_EQ(r.exit_code, 0) << args << ": " << r.output;
+            const auto huge = terms_of(slurp_file(dir_ / "t.csv"));
+            ASSERT_EQ(huge.size(), 2u);
+            for (const auto& [term, error] : huge) {
+                EXPECT_LE(std::fabs(term - hemisphere[0].first), t999 * std::hypot(error, hemisphere[0].second) + 1e-5) << args << ": " << term;
+                EXPECT_LT(error, 0.01) << args;
+            }
+        }
+    // Seen edge-on, a rectangle is still refused, for its true reason.
+    write("edge.csv", rect_header + surface + "1,0,0,2,0,0,2,0,1,1,0,1\n");
+    r = run("area eval -q --light rect --in edge.csv --out e.csv");
+    EXPECT_EQ(r.exit_code, 2) << r.output;
+    EXPECT_CONTAINS(r.output, "lies in the rectangle's plane");
 }
 
 }  // namespace

@@ -54,6 +54,8 @@ set(microshadow_cli_tests
   "^Reliability\\.AnXyzEnvironmentIsRefusedNotReadAsGrey$"
   "^Reliability\\.AValueLessAccurateThanAskedIsFlaggedWithItsOwnExitStatus$"
   "^Reliability\\.TinyAndHugeAreaLightsGiveTheirLimitsOnEveryPath$"
+  "^Reliability\\.AForgedManifestItemCountIsSetAsideAndTheResumeHeals$"
+  "^Reliability\\.ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"

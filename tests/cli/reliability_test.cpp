@@ -1126,4 +1126,76 @@ TEST_F(Reliability, TinyAndHugeAreaLightsGiveTheirLimitsOnEveryPath) {
     EXPECT_CONTAINS(r.output, "lies in the rectangle's plane");
 }
 
+// --- round 4: stores heal a forged manifest and refuse forged sweep rows -------------------------------
+
+TEST_F(Reliability, AForgedManifestItemCountIsSetAsideAndTheResumeHeals) {
+    // Measured before: a manifest of this very job with its item count changed made every resume and
+    // merge fail ("holds another job"), and nothing set it aside.
+    const std::string bake = kTinyBake + " --layout seed-2d --out m.exr";
+    ASSERT_EQ(run(bake + " --shard 0/2").exit_code, 0);
+    ASSERT_EQ(run(bake + " --shard 1/2").exit_code, 0);
+    const fs::path manifest = dir_ / "m.exr.chunks" / "manifest.shard-0-of-2.json";
+    const auto forge = [&] {
+        nlohmann::json m = nlohmann::json::parse(slurp_file(manifest));
+        m["items"] = m["items"].get<std::uint64_t>() + 5;
+        put_bytes(manifest, m.dump(1) + "\n");
+    };
+    forge();
+    // The merge: the manifest is set aside with a warning; every item is still there and checked on
+    // reading, so the merge completes.
+    auto r = run(bake.substr(0, bake.find(" -q")) + bake.substr(bake.find(" -q") + 3) + " --merge");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "items: the manifest says 9 items where this job's spec has 4");
+    EXPECT_TRUE(fs::exists(dir_ / "m.exr"));
+    EXPECT_TRUE(fs::exists(dir_ / "m.exr.chunks" / "items" / "rejected" / "manifest.shard-0-of-2.json.items"));
+    EXPECT_FALSE(fs::exists(manifest));
+    // The shard's next run writes its manifest again (its items are read and checked, not recomputed).
+    r = run(bake + " --shard 0/2");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    ASSERT_TRUE(fs::exists(manifest));
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(manifest))["items"], 4);
+    ASSERT_EQ(run(bake + " --merge").exit_code, 0);
+    // A resume straight over a forged manifest heals in the same run.
+    forge();
+    r = run(bake.substr(0, bake.find(" -q")) + bake.substr(bake.find(" -q") + 3) + " --shard 0/2");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_CONTAINS(r.output, "moved to");
+    EXPECT_EQ(nlohmann::json::parse(slurp_file(manifest))["items"], 4);
+}
+
+TEST_F(Reliability, ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten) {
+    // A sweep shard's chunk rewritten with term 5.0, nan or -0.5, its digest in the manifest recomputed
+    // (what anyone can do): merge refuses it as bad input and writes nothing, not even its folder.
+    write("s.toml", "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.9]\nn_dot_l = [0.4, 0.8]\n"
+                    "n_dot_v = [0.5, 1.0]\nroughness = [0.3]\n[comparators]\nanalytic = [\"naughty-dog\"]\n");
+    for (const char* shard : {"0/2", "1/2"})
+        ASSERT_EQ(run("sweep s.toml -q --backend oracle --out split --shard " + std::string(shard)).exit_code, 0);
+    const fs::path chunk = dir_ / "split" / "chunks" / "chunk-0000000000.csv";
+    const fs::path manifest = dir_ / "split" / "manifest.shard-0-of-2.json";
+    const std::string rows = slurp_file(chunk), recorded = slurp_file(manifest);
+    for (const std::string forged : {"5.0", "nan", "-0.5"}) {
+        // The second row's term (field 13 of the header point,...,visibility,term,std_error,...).
+        std::string text = rows;
+        const std::size_t row = text.find('\n') + 1;
+        std::size_t at = row;
+        for (int k = 0; k < 12; ++k) at = text.find(',', at) + 1;
+        text.replace(at, text.find(',', at) - at, forged);
+        put_bytes(chunk, text);
+        nlohmann::json m = nlohmann::json::parse(recorded);
+        m["digests"]["0"]["fnv1a64"] = ms::hex16(ms::fnv1a(text));
+        put_bytes(manifest, m.dump(1) + "\n");
+        const auto r = run("merge -q --out merged split");
+        EXPECT_EQ(r.exit_code, 2) << forged << ": " << r.output;
+        EXPECT_CONTAINS(r.output, "values: row of point 1");
+        EXPECT_FALSE(fs::exists(dir_ / "merged")) << forged << ": merge wrote its folder";
+        EXPECT_FALSE(fs::exists(chunk)) << forged << ": the forged chunk was not set aside";
+    }
+    // The shard's rerun computes the chunk again; the merge then succeeds.
+    put_bytes(manifest, recorded);
+    ASSERT_EQ(run("sweep s.toml -q --backend oracle --out split --shard 0/2").exit_code, 0);
+    const auto r = run("merge -q --out merged split");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_TRUE(fs::exists(dir_ / "merged" / "sweep.csv"));
+}
+
 }  // namespace

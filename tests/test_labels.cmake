@@ -56,6 +56,7 @@ set(microshadow_cli_tests
   "^Reliability\\.TinyAndHugeAreaLightsGiveTheirLimitsOnEveryPath$"
   "^Reliability\\.AForgedManifestItemCountIsSetAsideAndTheResumeHeals$"
   "^Reliability\\.ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten$"
+  "^Reliability\\.ThePlotterIsEndedWhenTheCommandIsInterrupted$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"

@@ -1198,4 +1198,30 @@ TEST_F(Reliability, ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten) {
     EXPECT_TRUE(fs::exists(dir_ / "merged" / "sweep.csv"));
 }
 
+// --- round 4: the --plot child ends with the command --------------------------------------------------
+
+TEST_F(Reliability, ThePlotterIsEndedWhenTheCommandIsInterrupted) {
+    // A SIGTERM sent to microshadow alone (a batch system's) used to leave it waiting on the plotter, which
+    // kept running. A fake slow plotter (MICROSHADOW_PYTHON) records its pid and sleeps.
+    write("s.toml", "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.9]\nn_dot_l = [0.4, 0.8]\n"
+                    "n_dot_v = [0.5, 1.0]\nroughness = [0.3]\n[comparators]\nanalytic = [\"naughty-dog\"]\n");
+    write("slow-python", "#!/bin/sh\necho $$ > plotter.pid.tmp && mv plotter.pid.tmp plotter.pid\nexec sleep 10\n");
+    fs::permissions(dir_ / "slow-python", fs::perms::owner_all);
+    for (const char* signal : {"TERM", "INT"}) {
+        fs::remove(dir_ / "plotter.pid");
+        fs::remove_all(dir_ / "o");
+        // `set -m`: the command runs in its own process group with SIGINT not ignored (a background job of
+        // a non-interactive shell ignores it otherwise); the signal goes to microshadow's pid alone.
+        const auto r = run_shell("cd " + sq(dir_.string()) + " || exit; set -m; MICROSHADOW_PYTHON=" + sq((dir_ / "slow-python").string()) +
+                                 " " + sq(cli()) + " sweep s.toml -q --backend oracle --out o --plot >/dev/null 2>err.txt & ms=$!; "
+                                 "for i in $(seq 1 600); do [ -s plotter.pid ] && break; sleep 0.05; done; "
+                                 "kill -" + signal + " $ms; wait $ms; echo status=$?; sleep 0.2; "
+                                 "if kill -0 $(cat plotter.pid) 2>/dev/null; then echo plotter-alive; kill $(cat plotter.pid); else echo plotter-ended; fi");
+        EXPECT_CONTAINS(r.output, std::string("status=") + (std::string(signal) == "TERM" ? "143" : "130"));
+        EXPECT_CONTAINS(r.output, "plotter-ended");
+        EXPECT_CONTAINS(slurp_file(dir_ / "err.txt"), "the plotter was stopped; the sweep itself is complete in o");
+        EXPECT_TRUE(fs::exists(dir_ / "o" / "sweep.csv")) << "the sweep before the plot is kept";
+    }
+}
+
 }  // namespace

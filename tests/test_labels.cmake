@@ -57,6 +57,7 @@ set(microshadow_cli_tests
   "^Reliability\\.AForgedManifestItemCountIsSetAsideAndTheResumeHeals$"
   "^Reliability\\.ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten$"
   "^Reliability\\.ThePlotterIsEndedWhenTheCommandIsInterrupted$"
+  "^Reliability\\.TheOracleAnswersLightsGrazingTheHorizon$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"
   "^Reliability\\.DeeplyNestedMetadataIsRefusedNotACrash$"

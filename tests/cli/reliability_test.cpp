@@ -1224,4 +1224,42 @@ TEST_F(Reliability, ThePlotterIsEndedWhenTheCommandIsInterrupted) {
     }
 }
 
+// --- round 4: the oracle at grazing lights ------------------------------------------------------------
+
+TEST_F(Reliability, TheOracleAnswersLightsGrazingTheHorizon) {
+    // Measured before: a light at wo.z <= ~1e-155 gave 0 +- 0 on --backend oracle (tan^2 theta overflowed,
+    // so G1(wo) and every sample's weight were 0), where the exact method and the kernel give up to 0.68.
+    std::string csv = "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n";
+    int rows = 0;
+    for (const char* z : {"1e-160", "1e-300"})
+        for (const double n_dot_v : {0.2, 0.7, 1.0})
+            for (const char* light : {"1,0,", "0,1,", "0.6,-0.8,"})
+                for (const char* alpha : {"0.04,0.04,", "0.5,0.5,", "1,1,", "0.2,0.8,"}) {
+                    std::ostringstream row;
+                    row.precision(17);
+                    row << "0.95," << alpha << std::sqrt(1 - n_dot_v * n_dot_v) << ",0," << n_dot_v << "," << light << z << "\n";
+                    csv += row.str();
+                    ++rows;
+                }
+    write("q.csv", csv);
+    auto r = run("eval -q --method sampled --backend oracle --samples 4096 --in q.csv --out oracle.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    r = run("eval -q --in q.csv --out exact.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const auto oracle = terms_of(slurp_file(dir_ / "oracle.csv")), exact = terms_of(slurp_file(dir_ / "exact.csv"));
+    ASSERT_EQ(oracle.size(), std::size_t(rows));
+    ASSERT_EQ(exact.size(), std::size_t(rows));
+    int positive = 0;
+    for (int i = 0; i < rows; ++i) {
+        // 5.41: the 0.999 quantile of Student's t with 7 degrees of freedom (8 replicates); a bar of 1e-12 for
+        // the exact 0 of a light behind the view's slope.
+        EXPECT_LE(std::fabs(oracle[i].first - exact[i].first), 5.41 * oracle[i].second + 1e-12)
+            << "row " << i + 1 << ": oracle " << oracle[i].first << " +- " << oracle[i].second << ", exact " << exact[i].first;
+        // Not the binomial bound of "no sample passed" (0 +- 0.18 at 4096 samples, which any value meets).
+        if (exact[i].first > 0.3) EXPECT_LT(oracle[i].second, 0.03) << "row " << i + 1;
+        positive += exact[i].first > 0.3;
+    }
+    EXPECT_GT(positive, rows / 4) << "the grazing lights should mostly be lit";
+}
+
 }  // namespace

@@ -233,6 +233,17 @@ private:
     PointSet light_, normals_;
 };
 
+// The point query of the area query's surface towards the light direction wo.
+Query surface_towards(const AreaQuery& q, const Vec3& wo) {
+    Query point;
+    point.visibility = q.visibility;
+    point.alpha_x = q.alpha_x;
+    point.alpha_y = q.alpha_y;
+    point.wi = q.wi;
+    point.wo = wo;
+    return point;
+}
+
 class InnerTermWorker final : public schedule::Worker {
 public:
     explicit InnerTermWorker(AreaIntegrand& owner) : owner_(owner) {}
@@ -245,12 +256,7 @@ public:
             const AreaQuery& q = owner_.queries()[i];
             if (is_point_limit(q.light)) {
                 // The point light at the centre: the inner term there, its error the inner term's own.
-                Query point;
-                point.visibility = q.visibility;
-                point.alpha_x = q.alpha_x;
-                point.alpha_y = q.alpha_y;
-                point.wi = q.wi;
-                point.wo = centre_direction(q.light);
+                const Query point = surface_towards(q, centre_direction(q.light));
                 const InnerValue t = owner_.config().inner_term(point);
                 AreaEstimate e;
                 e.sampled = true;
@@ -267,13 +273,7 @@ public:
                     const std::size_t k = std::size_t(r) * n + j;
                     const LightSample ls = sample_light(q, pts.u3[k], pts.u4[k]);
                     if (!(ls.weight > 0)) continue;
-                    Query point;
-                    point.visibility = q.visibility;
-                    point.alpha_x = q.alpha_x;
-                    point.alpha_y = q.alpha_y;
-                    point.wi = q.wi;
-                    point.wo = ls.wo;
-                    const InnerValue t = owner_.config().inner_term(point);
+                    const InnerValue t = owner_.config().inner_term(surface_towards(q, ls.wo));
                     s.numerator[r] += ls.weight * t.term;
                     s.denominator[r] += ls.weight;
                     s.weighted_inner_error += ls.weight * std::fabs(t.error);

@@ -23,6 +23,7 @@ struct AreaEvalArgs {
     std::string in, out, light = "sphere", lobe = "ggx";
     SamplingOptions sampling;
     bool samples_given = false;
+    bool allow_tolerance_miss = false;
 };
 
 struct AreaSweepArgs {
@@ -81,6 +82,8 @@ void run_area_eval(const AreaEvalArgs& args) {
     for (const auto& c : columns) out << c << ",";
     out << "term,std_error" << (exact ? ",inner_error" : "") << "\n";
     double max_error = 0, max_inner = 0;
+    // The exact method's tolerance is its inner term's: each light's inner error against it.
+    ToleranceCheck tolerance{exact ? inner_tolerance : 0.0};
     for (std::size_t i = 0; i < queries.size(); ++i) {
         const std::vector<double>& v = raw[i];  // the input columns as written
         for (double x : v) out << format_number(x) << ",";
@@ -89,6 +92,7 @@ void run_area_eval(const AreaEvalArgs& args) {
         out << "\n";
         max_error = std::max(max_error, results[i].term.std_error);
         max_inner = std::max(max_inner, results[i].inner_error);
+        if (exact) tolerance.add(results[i].inner_error);
     }
     nlohmann::json meta = provenance(args.sampling, plan, backend->name());
     meta["method"] = args.sampling.method;
@@ -98,7 +102,9 @@ void run_area_eval(const AreaEvalArgs& args) {
                          {"outer", "the light sampled as the kernel samples it (randomised replicates)"},
                          {"std_error", "the outer sampling's (Student t, replicates - 1 degrees of freedom)"},
                          {"inner_error", "deterministic bound from the inner values' estimated errors"},
-                         {"max_inner_error", max_inner}};
+                         {"max_inner_error", max_inner},
+                         {"tolerance_met", tolerance.met()},
+                         {"lights_over_tolerance", tolerance.over}};
     }
     meta["light"] = args.light;
     meta["lobe"] = args.lobe;
@@ -114,8 +120,9 @@ void run_area_eval(const AreaEvalArgs& args) {
         std::cerr << "area eval: " << queries.size() << " " << args.light << " lights (" << stats.sampled << (exact ? " integrated, " : " sampled, ")
                   << stats.below_horizon << " below the horizon, " << stats.zero_region << " in the zero region, "
                   << stats.visibility_one << " at v = 1), max std error " << std::setprecision(3) << max_error
-                  << (exact ? ", max inner error " + format_number(max_inner) : std::string()) << ", "
+                  << (exact ? ", max inner error " + format_number(max_inner) + " " + tolerance.summary() : std::string()) << ", "
                   << "computed in " << stats.seconds << " s on " << backend->name() << "\n";
+    finish_tolerance_check("area eval", "lights", tolerance, args.allow_tolerance_miss);
 }
 
 void run_area_sweep(AreaSweepArgs args) {
@@ -203,6 +210,7 @@ void add_area_command(CLI::App& app) {
     e->add_option("--tolerance", eval->sampling.tolerance,
                   "exact method: the estimated error asked of each inner value T(wo) (default 1e-6; 1e-13 to 0.1)")
         ->check(CLI::PositiveNumber);
+    add_tolerance_miss_option(e, eval->allow_tolerance_miss);
     e->callback([eval, e] {
         eval->samples_given = e->count("--samples") > 0;
         if (eval->sampling.method == "exact") {

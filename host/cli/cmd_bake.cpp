@@ -28,6 +28,7 @@ struct BakeArgs {
     // bake what a scene needs (jobs/scene_bake.hpp)
     std::string scene, scene_report, scene_layout = "fit";
     bool no_scene_compare = false;
+    bool allow_tolerance_miss = false;
     double scene_error = 0.01;
     // Beyond one process (docs/cluster.md): shards and their chunk store, the merge, MPI ranks.
     DistributionArgs distribution;
@@ -172,7 +173,17 @@ void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
     if (!quiet && !r.written && !world) std::cerr << r.shard_note;
 }
 
-void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
+// The written bake's texels against the tolerance asked of them (the exact method's default when none
+// was given; a sampled bake without --tolerance asked none).
+ToleranceCheck bake_tolerance_check(const BakeJobSpec& job, const BakeJobResult& r) {
+    ToleranceCheck check;
+    if (!r.written) return check;
+    check.tolerance = job.bake.method == Method::exact ? r.bake.exact_tolerance : job.bake.tolerance;
+    for (const float e : r.bake.std_error) check.add(e);
+    return check;
+}
+
+ToleranceCheck run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
     // The output format by extension or --format, the preview and shader paths: checked before the bake.
     const lutfmt::LutOutput output = check_bake_outputs(args.outputs, args.out, args.preview, args.half);
     BakeJobSpec job;
@@ -199,13 +210,17 @@ void run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld* world) {
     }();
     if (!quiet && r.written) std::cerr << bake_job_summary(job, r);
     if (!quiet && !r.written && !world) std::cerr << r.shard_note;
+    return bake_tolerance_check(job, r);
 }
 
 void run_bake(const BakeArgs& args) {
     if (!args.scene.empty()) return with_distribution(args.distribution, [&](MpiWorld* world) { run_scene_bake_command(args, world); });
     const BakeSpec spec = make_spec(args);
     // The MPI world first: every rank reads the same command line, and only rank 0 touches the outputs.
-    with_distribution(args.distribution, [&](MpiWorld* world) { run_bake_job(args, spec, world); });
+    ToleranceCheck tolerance;
+    with_distribution(args.distribution, [&](MpiWorld* world) { tolerance = run_bake_job(args, spec, world); });
+    // After the world has ended: a flag is not a failure of the ranks.
+    finish_tolerance_check("bake", "texels", tolerance, args.allow_tolerance_miss);
 }
 
 }  // namespace
@@ -250,6 +265,7 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--max-batches", a->max_batches, "most batches per slice with --tolerance")
         ->transform(decimal_range(1, 4096))
         ->capture_default_str();
+    add_tolerance_miss_option(cmd, a->allow_tolerance_miss);
     cmd->add_option("--verify", a->verify,
                     "recompute K random texels (--verify-method) at the bake's azimuth rule; fail if one disagrees "
                     "beyond its error bar (Bonferroni-corrected Student-t)")

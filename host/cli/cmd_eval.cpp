@@ -23,6 +23,7 @@ struct EvalArgs {
     SamplingOptions sampling;
     std::vector<std::string> compare;  // --compare NAME | FILE | NAME=FILE
     bool strict_domain = false;        // refuse queries outside a comparator's domain
+    bool allow_tolerance_miss = false;
 };
 
 void run_eval(const EvalArgs& args) {
@@ -85,6 +86,8 @@ void run_eval(const EvalArgs& args) {
     // Per comparator: max |e|, RMS and the N.L-weighted RMS, w = max(N.L, 0).
     std::vector<ErrorStats> errors(comparators.size());
     double max_error = 0;
+    // The exact method always has a tolerance (its default when not given); the sampled one when given.
+    ToleranceCheck tolerance{plan.tolerance};
     for (std::size_t i = 0; i < queries.size(); ++i) {
         const Query& q = queries[i];
         for (double v : {q.visibility, q.alpha_x, q.alpha_y, q.wi.x, q.wi.y, q.wi.z, q.wo.x, q.wo.y, q.wo.z})
@@ -97,6 +100,7 @@ void run_eval(const EvalArgs& args) {
         }
         out << "\n";
         max_error = std::max(max_error, results[i].std_error);
+        tolerance.add(results[i].std_error);
     }
 
     // Provenance beside the CSV (CSV has no standard place for metadata).
@@ -112,6 +116,10 @@ void run_eval(const EvalArgs& args) {
                            {"exact_zero", stats.exact_zero},
                            {"exact_one", stats.exact_one},
                            {"max_std_error", max_error}};
+    if (tolerance.tolerance > 0) {
+        meta["tolerance_met"] = tolerance.met();
+        meta["queries_over_tolerance"] = tolerance.over;
+    }
     if (plan.method == Method::exact) {
         // What decides the numbers of the exact method, and what its std_error column means.
         meta["exact"] = exact_provenance(plan);
@@ -144,7 +152,7 @@ void run_eval(const EvalArgs& args) {
                   << " exact 0 in the zero region, " << stats.exact_one << " exact 1 at v = 1), "
                   << (plan.method == Method::exact ? std::string("exact method, max estimated error ")
                                                    : std::to_string(plan.samples) + " samples each, max std error ")
-                  << std::setprecision(3) << max_error << ", "
+                  << std::setprecision(3) << max_error << (tolerance.tolerance > 0 ? " " + tolerance.summary() : "") << ", "
                   << std::setprecision(3) << "computed in " << stats.seconds << " s on " << backend->name() << "\n";
     if (!args.sampling.quiet)
         for (std::size_t k = 0; k < comparators.size(); ++k)
@@ -157,6 +165,7 @@ void run_eval(const EvalArgs& args) {
             std::cerr << "eval: warning: " << comparators[k].name() << ": " << outside[k].outside << " of " << outside[k].lookups
                       << " queries outside its domain (" << domains[k]->describe() << "), e.g. " << first_outside[k]
                       << "; --strict-domain refuses them\n";
+    finish_tolerance_check("eval", "queries", tolerance, args.allow_tolerance_miss);
 }
 
 }  // namespace
@@ -182,6 +191,7 @@ void add_eval_command(CLI::App& app) {
                          "Default exact: at its default tolerance 1e-10 it takes ~10 us a query per core, less "
                          "than the sampled default's 65536 samples (~45 us a query per core for ~5e-4)");
     add_tolerance_option(cmd, args->sampling);
+    add_tolerance_miss_option(cmd, args->allow_tolerance_miss);
     cmd->callback([args, cmd] {
         // Sampling settings with the exact method would be ignored: refuse them, naming the way out.
         if (args->sampling.method == "exact")

@@ -6,6 +6,7 @@
 
 #include <cstdlib>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
@@ -64,6 +65,34 @@ int report_error(const std::exception_ptr& error) {
         std::cerr << "microshadow: error: unknown failure\n";
         return 1;
     }
+}
+
+void ToleranceCheck::add(double error) {
+    ++values;
+    if (!(tolerance > 0) || error <= tolerance) return;
+    ++over;
+    worst = std::isnan(error) || std::isnan(worst) ? std::numeric_limits<double>::quiet_NaN() : std::max(worst, error);
+}
+
+std::string ToleranceCheck::summary() const {
+    if (!(tolerance > 0)) return "";
+    if (met()) return "(tolerance " + format_g(tolerance) + " met)";
+    return "(TOLERANCE NOT MET: " + std::to_string(over) + " of " + std::to_string(values) + " above " + format_g(tolerance) +
+           ", worst " + format_g(worst) + ")";
+}
+
+void add_tolerance_miss_option(CLI::App* app, bool& allow) {
+    app->add_flag("--allow-tolerance-miss", allow,
+                  "exit status 0 even when a value's estimated error is above the tolerance asked (by default such a "
+                  "run writes its outputs, flags them in its summary and metadata, and exits with status 3)");
+}
+
+void finish_tolerance_check(const std::string& command, const std::string& what, const ToleranceCheck& check, bool allowed) {
+    if (check.met()) return;
+    std::cerr << command << ": warning: the estimated error of " << check.over << " of " << check.values << " " << what
+              << " is above the tolerance " << format_g(check.tolerance) << " (worst " << format_g(check.worst) << ")"
+              << (allowed ? "\n" : "; exit status 3 (--allow-tolerance-miss: 0)\n");
+    if (!allowed) throw ReportedError(kExitToleranceNotMet);
 }
 
 void check_sampling_size(const SamplingPlan& p) {

@@ -130,6 +130,33 @@ private:
     int code_;
 };
 
+// The exit status of a run that wrote its outputs but left some value's estimated error above the
+// tolerance asked of it (docs/cli.md): distinct from 1 (failed) and 2 (bad input), so a script can tell
+// "computed, but less accurate than asked" from both.
+constexpr int kExitToleranceNotMet = 3;
+
+// How a command's values compare with the tolerance asked of them: add() each value's estimated error.
+// An error that is NaN counts as above (an estimate that cannot be checked is no estimate).
+struct ToleranceCheck {
+    double tolerance = 0;  // 0: nothing was asked (every value passes)
+    std::uint64_t values = 0, over = 0;
+    double worst = 0;  // the largest estimated error above the tolerance
+    void add(double error);
+    bool met() const { return over == 0; }
+    // "(tolerance 1e-10 met)" or "(TOLERANCE NOT MET: 3 of 6 values above 1e-10, worst 1.7e-05)" for
+    // a summary line; "" when no tolerance was asked.
+    std::string summary() const;
+};
+
+// --allow-tolerance-miss, for a command that checks its values against a tolerance.
+void add_tolerance_miss_option(CLI::App* app, bool& allow);
+
+// The last step of a command that checks its values, after its outputs are written and its summary
+// printed: when some value's estimated error is above the tolerance, one line on stderr (said even with
+// --quiet: the outputs are not what was asked) and, unless `allowed` (--allow-tolerance-miss), the run
+// ends with kExitToleranceNotMet. `what` names the values ("queries", "texels", "lights").
+void finish_tolerance_check(const std::string& command, const std::string& what, const ToleranceCheck& check, bool allowed);
+
 // Prints a failure of a command's run as "microshadow: ..." on stderr and returns its exit status: 2 for
 // bad input (std::invalid_argument, CSV errors, a --device that names no device), the signal's status when interrupted, an ExitError's
 // own, 1 otherwise.

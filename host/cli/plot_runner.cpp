@@ -8,6 +8,7 @@
 #include <system_error>
 
 #include "cli/common.hpp"
+#include "core/cancel.hpp"
 #include "io/text.hpp"
 #include "platform/process.hpp"
 
@@ -75,10 +76,13 @@ void run_plotter(const std::vector<std::string>& args, const std::string& what_i
     std::cout.flush();
     platform::ProcessEnd end;
     try {
-        end = platform::run_program(args);
+        // SIGINT/SIGTERM sent to this process alone reach the plotter through this question: it is ended,
+        // and the command stops as interrupted (a terminal's Ctrl-C reaches both anyway).
+        end = platform::run_program(args, [] { return cancel_requested().load(); });
     } catch (const std::system_error& e) {
         throw std::runtime_error("--plot: " + std::string(e.what()));
     }
+    if (cancel_requested().load()) throw Cancelled("interrupted: the plotter was stopped; " + what_is_done);
     if (end.exited && end.code == 0) return;
     // The plotter's own status becomes the command's (128 + N for a signal, as a shell reports it).
     const int code = end.exited ? end.code : 128 + end.code;

@@ -24,6 +24,8 @@ std::vector<std::string> python_command();
 // called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command. The command line is
 // not echoed (the plotter prints the figures it writes). A failing plotter becomes ExitError with its status (128 + N for
 // a signal, as a shell reports it) and the message "plotting failed (...): COMMAND; " + what_is_done.
+// SIGINT or SIGTERM while it runs ends it and throws Cancelled (exit 130 / 143).
+// SIGINT or SIGTERM while it runs ends the plotter and throws Cancelled (exit status 130 / 143).
 void run_plotter(const std::vector<std::string>& args, const std::string& what_is_done);
 
 }  // namespace ms::cli

@@ -1,5 +1,6 @@
 // The program: every command on one CLI11 app, and the exit status of a run.
-// Exit status: 0 success, 1 failure while running, 2 bad command line or bad input, 130 interrupted by SIGINT, 143 by SIGTERM.
+// Exit status: 0 success, 1 failure while running, 2 bad command line or bad input, 3 written but some value
+// less accurate than the tolerance asked (common.hpp), 130 interrupted by SIGINT, 143 by SIGTERM.
 #include <cctype>
 #include <iostream>
 

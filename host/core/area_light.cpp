@@ -40,12 +40,15 @@ void validate_rect(const RectLight& r) {
     if (std::fabs(cos_corner) > kRectTolerance)
         throw std::invalid_argument("degenerate rect light: the corner at p0 is " + number(std::acos(std::fmax(-1.0, std::fmin(1.0, cos_corner))) * 180 / kPi) +
                                     " degrees, not a right angle");
-    const Vec3 n = cross(e1, e2);
-    const double area = length(n);
-    // The shaded point (the origin) in the rectangle's plane sees it edge-on: zero solid angle.
-    const double distance = std::fabs(dot(n, r.corners[0])) / area;
+    // The unit normal from the unit edges: the cross product of the edges themselves underflows for a
+    // rectangle of sides ~1e-160, which is small but not degenerate.
+    const Vec3 n = cross(Vec3{e1.x / l1, e1.y / l1, e1.z / l1}, Vec3{e2.x / l2, e2.y / l2, e2.z / l2});
+    // The shaded point (the origin) in the rectangle's plane sees it edge-on: zero solid angle. Only a
+    // distance lost in the rounding of n.p0 (~1e-16 of the corners' reach) is that: a rectangle far larger
+    // than its distance covers nearly a hemisphere, which is no degeneracy.
+    const double distance = std::fabs(dot(n, r.corners[0])) / length(n);
     const double reach = std::fmax(size, length(r.corners[0]));
-    if (!(distance > kRectTolerance * reach))
+    if (!(distance > kPlaneRounding * reach))
         throw std::invalid_argument("degenerate rect light: the shaded point lies in the rectangle's plane (distance " +
                                     number(distance) + "), so it covers no solid angle");
 }

@@ -52,6 +52,10 @@ struct AreaQuery {
 // Relative tolerance of the rectangle checks (planarity, right angles, p2 = p1 + p3 - p0): loose enough
 // for corners written with 7 significant digits, tight enough that a visibly skewed quad is refused.
 constexpr double kRectTolerance = 1e-5;
+// Distance from the rectangle's plane, relative to its size or to the corners' distance, below which the
+// shaded point counts as lying in the plane: the rounding of the distance computed from the corners
+// (double keeps ~1e-16 of them; a margin of 1e4 above it).
+constexpr double kPlaneRounding = 1e-12;
 
 // Throws std::invalid_argument naming the field and the value: the surface as core/query.hpp checks it
 // (visibility in [0, 1], alpha > 0, wi above the horizon); a sphere light's centre a finite non-zero

@@ -94,7 +94,10 @@ std::string bake_job_summary(const BakeJobSpec& job, const BakeJobResult& r) {
       << result.channels << " (" << result.texels << " texels; skipped " << result.skipped_zero << " exact 0 in the zero region, "
       << result.skipped_one << " exact 1 at v = 1), " << result.slices << " slices, " << azimuth_summary(result) << ", "
       << result.samples_per_batch << " samples per batch, " << result.batches << " batches; max std error " << result.max_std_error;
-    if (spec.tolerance > 0) s << (result.tolerance_met ? " (tolerance met)" : " (TOLERANCE NOT MET: raise --max-batches)");
+    // The exact method always integrates to a tolerance (its default when none was given).
+    if (spec.tolerance > 0 || spec.method == Method::exact)
+        s << (result.tolerance_met ? " (tolerance met)"
+                                   : spec.method == Method::exact ? " (TOLERANCE NOT MET)" : " (TOLERANCE NOT MET: raise --max-batches)");
     // The time is this run's: a merge only reads slices computed by earlier runs, so it says so
     // rather than report a read of the store as compute time.
     if (result.computed_slices == 0 && result.loaded_slices > 0)

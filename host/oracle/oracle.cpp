@@ -107,6 +107,12 @@ double smith_g1(const Vec3& w, const Vec3& wm, double alpha_x, double alpha_y) {
 
 double sample_weight(Form form, const Vec3& wi, const Vec3& wo, const Vec3& wm, double alpha_x, double alpha_y) {
     const double g1o = smith_g1(wo, wm, alpha_x, alpha_y);
+    // wo above the horizon and facing wm, but so grazing (wo.z below ~1e-155) that tan^2 theta overflows and
+    // G1(wo) = 1 / (1 + Lambda_o) rounds to 0. Every sampled normal's weight then carries that same factor
+    // (both forms tend to G1o times a constant: G1o, or G1o / G1i with G1i fixed by wi for the visible
+    // normals sampled), and the term is a ratio of two sums of these weights: the factor cancels, so the
+    // limit weight is 1. Without this every weight was 0 and the term 0 / 0 = 0 (the limit is ~0.64).
+    if (g1o == 0 && wo.z > 0 && dot(wo, wm) > 0 && std::isinf(smith_lambda(wo, alpha_x, alpha_y))) return 1.0;
     // Both forms are proportional to G1o; returning 0 here also keeps the height-correlated quotient
     // away from 0/0 when wm is invisible from both directions.
     if (g1o == 0) return 0.0;

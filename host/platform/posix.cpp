@@ -12,6 +12,7 @@
 
 #include <cerrno>
 #include <algorithm>
+#include <chrono>
 #include <climits>
 #include <cstdio>
 #include <cstdlib>
@@ -191,7 +192,7 @@ std::vector<std::string> find_on_path(const std::string& name) {
     return found;
 }
 
-ProcessEnd run_program(const std::vector<std::string>& args) {
+ProcessEnd run_program(const std::vector<std::string>& args, const std::function<bool()>& stop) {
     std::vector<char*> argv;
     for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
@@ -213,8 +214,21 @@ ProcessEnd run_program(const std::vector<std::string>& args) {
     posix_spawnattr_destroy(&attr);
     if (rc != 0) throw std::system_error(rc, std::generic_category(), "cannot run " + args[0]);
     int status = 0;
-    while (::waitpid(pid, &status, 0) < 0)
-        if (errno != EINTR) throw std::system_error(errno, std::generic_category(), "waitpid");
+    for (bool signalled = false;;) {
+        // Without a question, or once the child has been asked to end: wait for it plainly.
+        const pid_t done = ::waitpid(pid, &status, !stop || signalled ? 0 : WNOHANG);
+        if (done == pid) break;
+        if (done < 0) {
+            if (errno == EINTR) continue;
+            throw std::system_error(errno, std::generic_category(), "waitpid");
+        }
+        if (stop()) {
+            ::kill(pid, SIGTERM);
+            signalled = true;
+            continue;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
     ProcessEnd end;
     end.exited = WIFEXITED(status);
     end.code = end.exited ? WEXITSTATUS(status) : WTERMSIG(status);

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <system_error>
 #include <vector>
@@ -29,8 +30,10 @@ struct ProcessEnd {
 };
 // Runs argv[0] (a path, or a name looked up on PATH) with `argv` as its arguments, no shell involved,
 // with the default handling of interrupts (the CLI blocks them in its own threads), and waits for it.
-// Throws std::system_error when it cannot be started.
-ProcessEnd run_program(const std::vector<std::string>& argv);
+// `stop` (when given) is asked every 50 ms while the child runs: when it answers true the child is ended
+// (SIGTERM; TerminateProcess) and waited for, so a signal sent to this process alone (a batch system's
+// SIGTERM) does not leave it waiting on the child. Throws std::system_error when it cannot be started.
+ProcessEnd run_program(const std::vector<std::string>& argv, const std::function<bool()>& stop = {});
 
 // Sets an environment variable for this process and the children it starts (setenv; _putenv_s).
 int set_environment(const std::string& name, const std::string& value);

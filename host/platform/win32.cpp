@@ -374,7 +374,7 @@ std::wstring quote_argument(const std::wstring& arg) {
 
 }  // namespace
 
-ProcessEnd run_program(const std::vector<std::string>& args) {
+ProcessEnd run_program(const std::vector<std::string>& args, const std::function<bool()>& stop) {
     const std::vector<std::string> programs = find_on_path(args.at(0));
     const std::string program = programs.empty() ? std::string() : programs.front();
     if (program.empty())
@@ -388,7 +388,16 @@ ProcessEnd run_program(const std::vector<std::string>& args) {
     if (!::CreateProcessW(wide(program).c_str(), command_line.data(), nullptr, nullptr, FALSE, 0, nullptr, nullptr,
                           &startup, &info))
         throw std::system_error(int(::GetLastError()), std::system_category(), "cannot run " + args[0]);
-    ::WaitForSingleObject(info.hProcess, INFINITE);
+    if (!stop) {
+        ::WaitForSingleObject(info.hProcess, INFINITE);
+    } else {
+        while (::WaitForSingleObject(info.hProcess, 50) == WAIT_TIMEOUT)
+            if (stop()) {
+                ::TerminateProcess(info.hProcess, 1);
+                ::WaitForSingleObject(info.hProcess, INFINITE);
+                break;
+            }
+    }
     DWORD code = 0;
     ::GetExitCodeProcess(info.hProcess, &code);
     ::CloseHandle(info.hThread);

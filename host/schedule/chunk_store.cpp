@@ -123,6 +123,22 @@ void check_same_job(const std::string& path, const json& m, const StoreKey& key)
                                     "); use another store folder or remove this one");
 }
 
+// A manifest of this very job (job, version and spec hash agree) whose item count is not the job's is
+// damaged, not another job's: the spec hash fixes the count. Refusing it failed every resume; it is set
+// aside like a damaged item instead (its shard then counts as not run: the shard's items are read and
+// checked again and its next run writes a new manifest), and `warn` says so.
+void set_aside_damaged_manifests(const std::string& dir, const StoreKey& key, const ChunkFiles& files,
+                                 const std::function<void(const std::string&)>& warn) {
+    for (const auto& [path, m] : read_manifests(dir)) {
+        if (m["job"] != key.job || m["version"] != MICROSHADOW_VERSION || m["spec_hash"] != key.spec_hash || m["items"] == key.items)
+            continue;
+        const std::string problem = "items: the manifest says " + std::to_string(m["items"].get<std::uint64_t>()) +
+                                    " items where this job's spec has " + std::to_string(key.items);
+        const std::string moved = files.set_aside(path, problem);
+        if (warn) warn(path + ": " + problem + moved);
+    }
+}
+
 ChunkLayout item_store_layout(const std::string& dir, const std::string& spec_hash, ChunkLayout layout) {
     if (layout.folder.empty()) layout.folder = (fs::path(dir) / "items").string();
     layout.spec_hash = spec_hash;
@@ -314,12 +330,16 @@ std::optional<std::string> ChunkFiles::read(std::uint64_t id, std::string* warni
     return std::nullopt;
 }
 
-ItemStore::ItemStore(std::string dir, StoreKey key, Shard shard, CommitPolicy policy, ChunkLayout layout)
+ItemStore::ItemStore(std::string dir, StoreKey key, Shard shard, CommitPolicy policy, ChunkLayout layout,
+                     const std::function<void(const std::string&)>& warn)
     : dir_(std::move(dir)), key_(std::move(key)), shard_(shard) {
     if (shard_.count == 0 || shard_.index >= shard_.count) throw std::invalid_argument("chunk store: bad shard " + shard_text(shard_));
     std::error_code ec;
     if (fs::exists(dir_, ec) && !fs::is_directory(dir_, ec))
         throw std::invalid_argument(dir_ + ": the chunk store must be a folder, and this is not one");
+    // The files object writes nothing until an item is saved: a refused store stays as it was.
+    files_ = std::make_unique<ChunkFiles>(item_store_layout(dir_, key_.spec_hash, std::move(layout)), policy);
+    set_aside_damaged_manifests(dir_, key_, *files_, warn);
     for (const auto& [path, m] : read_manifests(dir_)) {
         check_same_job(path, m, key_);
         if (m["shard_count"] != shard_.count)
@@ -328,11 +348,15 @@ ItemStore::ItemStore(std::string dir, StoreKey key, Shard shard, CommitPolicy po
                                         std::to_string(shard_.count) + " (--shard " + shard_text(shard_) +
                                         "); run the other shards with the same N (then --merge), or use another store folder");
     }
-    files_ = std::make_unique<ChunkFiles>(item_store_layout(dir_, key_.spec_hash, std::move(layout)), policy);
     fs::create_directories(files_->layout().folder);
 }
 
-ItemStore ItemStore::open_for_merge(std::string dir, StoreKey key, ChunkLayout layout) {
+ItemStore ItemStore::open_for_merge(std::string dir, StoreKey key, ChunkLayout layout,
+                                    const std::function<void(const std::string&)>& warn) {
+    {
+        const ChunkFiles files(item_store_layout(dir, key.spec_hash, layout));
+        set_aside_damaged_manifests(dir, key, files, warn);
+    }
     const auto manifests = read_manifests(dir);
     if (manifests.empty())
         throw std::invalid_argument(dir + ": no shard manifests (manifest.shard-I-of-N.json) in the chunk store; run the "

@@ -126,11 +126,16 @@ public:
     // std::invalid_argument (bad input: nothing is written) when a manifest there belongs to another
     // job, spec, version or item count, or splits the job into another number of shards.
     // `layout`: where the items lie and how they are sealed (default, folder empty: items/item-*.bin with
-    // the header seal; its spec hash is always the key's).
-    ItemStore(std::string dir, StoreKey key, Shard shard, CommitPolicy policy = {}, ChunkLayout layout = {});
+    // the header seal; its spec hash is always the key's). A manifest of this job, version and spec whose
+    // item count is not the key's is damaged: it is set aside (rejected/, as a damaged item is) and `warn`
+    // told, and its shard counts as not run.
+    ItemStore(std::string dir, StoreKey key, Shard shard, CommitPolicy policy = {}, ChunkLayout layout = {},
+              const std::function<void(const std::string&)>& warn = {});
     // Opens an existing store to merge it: every manifest must be of this key and one shard count.
-    // Throws std::invalid_argument when `dir` holds no manifest or mixes jobs or shard counts.
-    static ItemStore open_for_merge(std::string dir, StoreKey key, ChunkLayout layout = {});
+    // Throws std::invalid_argument when `dir` holds no manifest or mixes jobs or shard counts. Damaged
+    // manifests are set aside as above.
+    static ItemStore open_for_merge(std::string dir, StoreKey key, ChunkLayout layout = {},
+                                    const std::function<void(const std::string&)>& warn = {});
     ItemStore(ItemStore&&) = default;
 
     const std::string& dir() const { return dir_; }

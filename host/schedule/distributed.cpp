@@ -304,10 +304,10 @@ Distribution::Distribution(const DistributionRequest& request, const StoreKey& k
                             : (sharded || request.merge || existing_store) ? default_store
                                                                            : "";
     if (request.merge) {
-        store_.emplace(ItemStore::open_for_merge(dir, key));
+        store_.emplace(ItemStore::open_for_merge(dir, key, {}, warn));
         plan_.merge_only = true;
     } else if (!dir.empty()) {
-        store_.emplace(dir, key, shard_);
+        store_.emplace(dir, key, shard_, CommitPolicy{}, ChunkLayout{}, warn);
     }
     if (store_) plan_.store = &*store_;
     plan_.shard = shard_;

@@ -33,6 +33,10 @@
  *
  * Light directions. lambert: the light's own sampler, uniform in solid angle on a sphere light's cone,
  * uniform in area on a rectangle (p = p0 + u3 e1 + u4 e2, density |p|^2 / (A |n.wo|) in solid angle).
+ * A light of over 1 sr (cosine_technique) adds the cosine lobe as a second technique, as ggx adds its
+ * lobe below (p_lobe = wo.z / pi): a rectangle far larger than its distance has an area density that
+ * spans many orders over its directions, and area samples alone then miss the few directions that
+ * carry the weight; with the cosine lobe every weight is at most 2.
  * ggx: multiple importance sampling with the balance heuristic, one technique per point chosen by
  * u3 < 1/2 (the light's sampler) or u3 >= 1/2 (the GGX lobe: wi reflected about a visible normal drawn
  * from (2 u3 - 1, u4)), so each technique gets half the points on average:
@@ -162,8 +166,9 @@ inline void accumulate_block(const ms_area_query q, const real3 wi_std, __global
     /* ggx: u3 < 1/2 picks the light's sampler, else the lobe's, each with u3 stretched back onto [0, 1)
      * (one-sample MIS with probability 1/2 each: the balance weight below is the same). The choice must
      * not come from the point's index, which the normals' coordinates (u1 = i / n scrambled) depend on. */
-    const mask16 lobe_technique = (q.lobe == MS_LOBE_GGX) ? convert_mask16(v3 >= MS_R(0.5)) : (mask16)0;
-    if (q.lobe == MS_LOBE_GGX) v3 = select(v3 * MS_R(2.0), fma(v3, MS_R(2.0), MS_R(-1.0)), lobe_technique);
+    const int two_techniques = q.lobe == MS_LOBE_GGX || q.cosine_technique;
+    const mask16 lobe_technique = two_techniques ? convert_mask16(v3 >= MS_R(0.5)) : (mask16)0;
+    if (two_techniques) v3 = select(v3 * MS_R(2.0), fma(v3, MS_R(2.0), MS_R(-1.0)), lobe_technique);
     real16 wx, wy, wz, pdf_light;
     sample_light16(q, v3, v4, &wx, &wy, &wz, &pdf_light);
     if (q.lobe == MS_LOBE_GGX) {
@@ -176,10 +181,22 @@ inline void accumulate_block(const ms_area_query q, const real3 wi_std, __global
         wy = select(wy, fma(two_vm, ly, (real16)(-q.wi_y)), lobe_technique);
         wz = select(wz, fma(two_vm, lz, (real16)(-q.wi_z)), lobe_technique);
         pdf_light = select(pdf_light, light_pdf16(q, wx, wy, wz), lobe_technique);
+    } else if (two_techniques) {
+        /* the cosine lobe: radius sqrt(u3) on the unit disc, lifted to the hemisphere */
+        real16 sp, cp;
+        sincos_turns16(v4, &sp, &cp);
+        const real16 r = sqrt(v3);
+        wx = select(wx, r * cp, lobe_technique);
+        wy = select(wy, r * sp, lobe_technique);
+        wz = select(wz, sqrt(max(MS_R(1.0) - v3, zero)), lobe_technique);
+        pdf_light = select(pdf_light, light_pdf16(q, wx, wy, wz), lobe_technique);
     }
     const mask16 lit = (wz > zero) & (pdf_light > zero);
     real16 weight;
-    if (q.lobe == MS_LOBE_LAMBERT) {
+    if (q.lobe == MS_LOBE_LAMBERT && two_techniques) {
+        const real16 f_cos = wz / MS_PI_R;
+        weight = f_cos / (MS_R(0.5) * (pdf_light + f_cos));
+    } else if (q.lobe == MS_LOBE_LAMBERT) {
         weight = wz / (MS_PI_R * max(pdf_light, MS_R(1e-30)));
     } else {
         const real16 d = ggx_ndf16(q, wx + q.wi_x, wy + q.wi_y, wz + q.wi_z);

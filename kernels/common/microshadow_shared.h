@@ -112,7 +112,8 @@ typedef struct ms_area_query {
     float inv_measure;         /* sphere: 1 / solid angle;  rect: 1 / area */
     ms_u32 shape;              /* MS_LIGHT_* */
     ms_u32 lobe;               /* MS_LOBE_* */
-    ms_u32 pad1, pad2, pad3;   /* 128 bytes */
+    ms_u32 cosine_technique;   /* lambert: 1 when half the points sample the cosine lobe (lights of over 1 sr) */
+    ms_u32 pad2, pad3;         /* 128 bytes */
 } ms_area_query;
 
 /*

@@ -38,7 +38,22 @@ ms_area_query pack(const AreaQuery& q, const TermOptions& options) {
     put(p.wis_x, p.wis_y, p.wis_z, unit({q.alpha_x * q.wi.x, q.alpha_y * q.wi.y, q.wi.z}));
     p.lambda_i = float(smith_lambda(q.wi, q.alpha_x, q.alpha_y));
     p.lobe = q.lobe == Lobe::lambert ? MS_LOBE_LAMBERT : MS_LOBE_GGX;
-    if (q.light.shape == LightShape::sphere) {
+    p.cosine_technique = uses_cosine_technique(q) ? 1u : 0u;
+    if (is_point_limit(q.light)) {
+        // The point light at the centre: a cone of no width (every sample is the centre direction, no lobe
+        // sample falls inside) of a stand-in density 1. Every light sample then has the same weight, so the
+        // ratio is the term at the centre whatever the density; the lobe integral is set on the host.
+        p.shape = MS_LIGHT_SPHERE;
+        const Vec3 c = centre_direction(q.light);
+        const Vec3 helper = std::fabs(c.z) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
+        const Vec3 t1 = unit(cross(helper, c)), t2 = cross(c, t1);
+        put(p.a_x, p.a_y, p.a_z, c);
+        put(p.b_x, p.b_y, p.b_z, t1);
+        put(p.c_x, p.c_y, p.c_z, t2);
+        p.s0 = p.s1 = 0;
+        p.inv_measure = 1;
+        p.cosine_technique = 0;
+    } else if (q.light.shape == LightShape::sphere) {
         p.shape = MS_LIGHT_SPHERE;
         const Vec3 c = q.light.sphere.centre;
         const Vec3 helper = std::fabs(c.z) < 0.9 ? Vec3{0, 0, 1} : Vec3{1, 0, 0};
@@ -158,7 +173,12 @@ public:
                     s.passed += counts[2 * g];
                     s.weighted += counts[2 * g + 1];
                 }
-            owner_.store(todo[k], finish(s, n));
+            AreaEstimate e = finish(s, n);
+            const AreaQuery& q = owner_.queries()[todo[k]];
+            // A point light's stand-in density says nothing of its lobe integral: f cos at the centre times
+            // the solid angle.
+            if (is_point_limit(q.light)) e.lobe_integral = {lobe_weight(q, centre_direction(q.light)) * solid_angle(q.light), 0.0};
+            owner_.store(todo[k], e);
         }
         owner_.count_sampled(todo.size());
     }
@@ -213,6 +233,17 @@ private:
     PointSet light_, normals_;
 };
 
+// The point query of the area query's surface towards the light direction wo.
+Query surface_towards(const AreaQuery& q, const Vec3& wo) {
+    Query point;
+    point.visibility = q.visibility;
+    point.alpha_x = q.alpha_x;
+    point.alpha_y = q.alpha_y;
+    point.wi = q.wi;
+    point.wo = wo;
+    return point;
+}
+
 class InnerTermWorker final : public schedule::Worker {
 public:
     explicit InnerTermWorker(AreaIntegrand& owner) : owner_(owner) {}
@@ -223,6 +254,18 @@ public:
         const std::uint32_t R = pts.normals.replicates, n = pts.normals.points_per_replicate;
         for (std::size_t i : todo) {
             const AreaQuery& q = owner_.queries()[i];
+            if (is_point_limit(q.light)) {
+                // The point light at the centre: the inner term there, its error the inner term's own.
+                const Query point = surface_towards(q, centre_direction(q.light));
+                const InnerValue t = owner_.config().inner_term(point);
+                AreaEstimate e;
+                e.sampled = true;
+                e.term = {t.term, 0.0};
+                e.inner_error = std::fabs(t.error);
+                e.lobe_integral = {lobe_weight(q, point.wo) * solid_angle(q.light), 0.0};
+                owner_.store(i, e);
+                continue;
+            }
             ReplicateSums s(R);
             for (std::uint32_t r = 0; r < R; ++r) {
                 throw_if_cancelled();
@@ -230,13 +273,7 @@ public:
                     const std::size_t k = std::size_t(r) * n + j;
                     const LightSample ls = sample_light(q, pts.u3[k], pts.u4[k]);
                     if (!(ls.weight > 0)) continue;
-                    Query point;
-                    point.visibility = q.visibility;
-                    point.alpha_x = q.alpha_x;
-                    point.alpha_y = q.alpha_y;
-                    point.wi = q.wi;
-                    point.wo = ls.wo;
-                    const InnerValue t = owner_.config().inner_term(point);
+                    const InnerValue t = owner_.config().inner_term(surface_towards(q, ls.wo));
                     s.numerator[r] += ls.weight * t.term;
                     s.denominator[r] += ls.weight;
                     s.weighted_inner_error += ls.weight * std::fabs(t.error);

@@ -115,6 +115,12 @@ double max_height(const Light& light) {
     return best;
 }
 
+bool is_point_limit(const Light& light) { return !(solid_angle(light) >= kPointLimitSolidAngle); }
+
+bool uses_cosine_technique(const AreaQuery& q) {
+    return q.lobe == Lobe::lambert && solid_angle(q.light) > kCosineTechniqueSolidAngle;
+}
+
 Vec3 representative_direction(const AreaQuery& q) {
     if (q.lobe == Lobe::lambert) return centre_direction(q.light);
     const Vec3 wi = unit(q.wi);
@@ -156,9 +162,12 @@ double lobe_weight(const AreaQuery& q, const Vec3& wo) {
 
 LightSample sample_light(const AreaQuery& q, double u, double v) {
     LightSample s;
-    // ggx: u < 1/2 picks the light's sampler, else the lobe's, u stretched back onto [0, 1).
-    const bool lobe_technique = q.lobe == Lobe::ggx && u >= 0.5;
-    if (q.lobe == Lobe::ggx) u = lobe_technique ? 2 * u - 1 : 2 * u;
+    // ggx (and lambert with the cosine technique): u < 1/2 picks the light's sampler, else the lobe's,
+    // u stretched back onto [0, 1).
+    const bool cosine = uses_cosine_technique(q);
+    const bool two_techniques = q.lobe == Lobe::ggx || cosine;
+    const bool lobe_technique = two_techniques && u >= 0.5;
+    if (two_techniques) u = lobe_technique ? 2 * u - 1 : 2 * u;
     const Vec3 wi = unit(q.wi);
     double pdf_light = 0;
     if (!lobe_technique) {
@@ -183,6 +192,11 @@ LightSample sample_light(const AreaQuery& q, double u, double v) {
                 pdf_light = dot(p, p) / (length(n) * std::fabs(dot(unit(n), s.wo)));
             }
         }
+    } else if (cosine) {
+        // The cosine lobe: radius sqrt(u) on the unit disc, lifted to the hemisphere.
+        const double r = std::sqrt(u), phi = 2 * kPi * v;
+        s.wo = {r * std::cos(phi), r * std::sin(phi), std::sqrt(std::max(0.0, 1 - u))};
+        pdf_light = light_pdf(q.light, s.wo);
     } else {
         // Reflect wi about a visible normal (the spherical-cap sampler, Dupuy & Benyoub 2023).
         const Vec3 ws = unit({q.alpha_x * wi.x, q.alpha_y * wi.y, wi.z});
@@ -195,6 +209,11 @@ LightSample sample_light(const AreaQuery& q, double u, double v) {
         pdf_light = light_pdf(q.light, s.wo);
     }
     if (!(s.wo.z > 0) || !(pdf_light > 0)) return s;
+    if (cosine) {
+        const double f_cos = s.wo.z / kPi;
+        s.weight = f_cos / (0.5 * (pdf_light + f_cos));
+        return s;
+    }
     if (q.lobe == Lobe::lambert) {
         s.weight = s.wo.z / (kPi * pdf_light);
         return s;

@@ -28,6 +28,16 @@ double max_height(const Light& light);
 // Solid angle of the whole light (both sides of the horizon), steradians.
 double solid_angle(const Light& light);
 
+// A light of less than this solid angle (angular radius ~1e-12 radians) is evaluated at its limit, the
+// point light at its centre direction: its directions are one to double's rounding of a direction's
+// components (~1e-16 radians), the term changes over it by at most its variation over 1e-12 radians,
+// and its density 1 / solid angle would overflow float (from ~1e-38 sr) and double (from ~1e-308 sr).
+constexpr double kPointLimitSolidAngle = 1e-24;
+bool is_point_limit(const Light& light);
+// Lambert lights of more than 1 sr also sample the cosine lobe (the kernel's cosine_technique, below).
+constexpr double kCosineTechniqueSolidAngle = 1.0;
+bool uses_cosine_technique(const AreaQuery& q);
+
 // Karis 2013's most representative point for a GGX lobe, as engines pick it: the point of the light
 // closest to the mirror direction R = reflect(-wi, z). Sphere (unit distance, radius sin gamma):
 // c + t (R (c.R) - c) with t = min(1, sin gamma / |R (c.R) - c|), normalised. Rectangle: R's hit point on
@@ -40,8 +50,8 @@ double lobe_weight(const AreaQuery& q, const Vec3& wo);
 
 // The host's estimator of T_area over an outer set of light directions, with T(wo) supplied (a
 // deterministic evaluator plugs in here). It samples the light exactly as the kernel does (the
-// light's own sampler; for ggx u < 1/2 the light's sampler, u >= 1/2 the lobe's, balance heuristic),
-// from (u, v) in [0,1)^2.
+// light's own sampler; for ggx, and lambert lights of over 1 sr, u < 1/2 the light's sampler, u >= 1/2
+// the lobe's, balance heuristic), from (u, v) in [0,1)^2.
 struct LightSample {
     Vec3 wo;
     double weight = 0;  // W(wo) / p(wo): f cos / density, 0 below the horizon or outside the light

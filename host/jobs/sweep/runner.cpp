@@ -757,8 +757,15 @@ void merge_shards(const std::vector<std::string>& shard_dirs, const std::string&
                std::to_string(c % count) + "/" + std::to_string(count) + " in " + shard.dir +
                " (it computes the chunk again), then merge";
     };
-    fs::create_directories(out_dir);
-    assemble(out_dir, header, chunks, [&](std::uint64_t c) { return files.at(std::uint32_t(c % count))->path(c); }, check, prov);
+    // A merge refused for a damaged chunk writes nothing: not even the output folder it created.
+    std::error_code ec;
+    const bool created = !fs::exists(out_dir, ec) && fs::create_directories(out_dir);
+    try {
+        assemble(out_dir, header, chunks, [&](std::uint64_t c) { return files.at(std::uint32_t(c % count))->path(c); }, check, prov);
+    } catch (...) {
+        if (created) fs::remove(out_dir, ec);  // only when empty: what assemble wrote is its own to keep or not
+        throw;
+    }
 }
 
 Summary summarise(std::istream& csv, const std::string& name) {

@@ -1,4 +1,4 @@
-// microshadow::area_evaluate: `microshadow area eval` (cli/cmd_area.cpp) as a call on queries in memory.
+// microshadow::area_evaluate: `microshadow area eval` (jobs/area_run.hpp) as a call on queries in memory.
 #include "microshadow/area.hpp"
 
 #include <stdexcept>
@@ -8,7 +8,7 @@
 #include "core/area_light.hpp"
 #include "exact/exact_term.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
-#include "jobs/area.hpp"
+#include "jobs/area_run.hpp"
 #include "sampling/point_set.hpp"
 
 namespace microshadow {
@@ -63,20 +63,22 @@ std::vector<AreaEstimate> area_evaluate(const std::vector<AreaQuery>& queries, c
     plan.replicates = o.replicates;
     plan.seed = o.seed;
     plan.samples = ms::round_up_samples(samples, o.replicates);
-    const double inner_tolerance = o.tolerance > 0 ? o.tolerance : ms::area::kExactInnerTolerance;
-    if (exact) ms::exact_term::validate_tolerance(inner_tolerance);
+    ms::area::AreaEvalMethod method;
+    method.plan = plan;
+    method.exact = exact;
+    method.inner_tolerance = o.tolerance > 0 ? o.tolerance : ms::area::kExactInnerTolerance;
+    if (exact) ms::exact_term::validate_tolerance(method.inner_tolerance);
+    method.term = detail::term_options(o.ao_weighting, o.form);
+    method.make_backend = [&] { return detail::make_backend(o.backend, o.device, o.fast_math); };
 
     const ms::area::Lobe lobe = options.lobe == Lobe::ggx ? ms::area::Lobe::ggx : ms::area::Lobe::lambert;
     std::vector<ms::area::AreaQuery> qs;
     qs.reserve(queries.size());
     for (std::size_t i = 0; i < queries.size(); ++i) qs.push_back(to_ms(queries[i], lobe, i));
-    const ms::TermOptions term = detail::term_options(o.ao_weighting, o.form);
-    auto backend = exact ? ms::make_oracle_backend() : detail::make_backend(o.backend, o.device, o.fast_math);
-    ms::area::AreaRoutineConfig config;
-    if (exact) config.inner_term = ms::area::exact_inner_term(term.ao_weighting, inner_tolerance);
     const std::vector<ms::area::AreaEstimate> got = detail::run_with_progress(progress, [&](const auto& report) {
-        return ms::area::evaluate_area(*backend, qs, term, plan, config, nullptr,
-                                       [&](std::size_t done, std::size_t total) { report(done, total); });
+        ms::JobCallbacks callbacks;
+        callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { report(done, total); };
+        return ms::area::evaluate_area_queries(method, qs, callbacks).estimates;
     });
     std::vector<AreaEstimate> out;
     out.reserve(got.size());

@@ -22,7 +22,7 @@
 #include "lut/formats/lut_reader.hpp"
 #include "lut/lookup.hpp"
 #include <nlohmann/json.hpp>
-#include "jobs/repr_bake.hpp"
+#include "jobs/repr_run.hpp"
 #include "repr/presets.hpp"
 #include "repr/representation.hpp"
 #include "sampling/point_set.hpp"
@@ -276,20 +276,8 @@ struct LookupFile::Data {
     std::string metadata_json;
 };
 
-namespace {
-// The representation formats by extension, as `repr bake --out` takes them.
-void save_representation(const ms::repr::Representation& r, const std::string& path, bool half) {
-    const std::string ext = std::filesystem::path(path).extension().string();
-    if (ext == ".exr") return r.write(path, half);
-    if (ext == ".ktx2") return r.write_ktx2(path, half);
-    if (ext == ".dds") return r.write_dds(path, half);
-    throw std::invalid_argument("microshadow::LookupFile::save: a representation is written as .exr, .ktx2 or .dds, not " + path);
-}
-}  // namespace
-
 LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
-    // What `microshadow repr bake` builds from the same options (cli/cmd_repr.cpp).
-    std::optional<ms::repr::Preset> preset;
+    // The job of `microshadow repr bake` (jobs/repr_run.hpp), run without outputs.
     if (!a.preset.empty()) {
         const ReprBakeOptions d;
         const bool default_layout = a.kind == d.kind && a.visibility_count == d.visibility_count && a.n_dot_l_count == d.n_dot_l_count &&
@@ -300,71 +288,52 @@ LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
         if (!default_layout)
             throw std::invalid_argument("microshadow::repr_bake: preset '" + a.preset +
                                         "' sets the whole layout: leave kind, the counts, roughness and the warps at their defaults");
-        preset = ms::repr::preset(a.preset, term_options(a.sampling).ao_weighting);  // names the presets when unknown
     }
-    ms::repr::AzimuthBakeSpec spec;
-    spec.grid.visibility = a.visibility_count;
-    spec.grid.n_dot_l = a.n_dot_l_count;
-    spec.grid.n_dot_v = a.n_dot_v_count;
-    spec.grid.roughness = a.roughness;
-    spec.grid.warps.n_dot_v = ms::repr::parse_n_dot_v_warp(a.n_dot_v_warp);
-    spec.grid.warps.n_dot_l = ms::repr::parse_n_dot_l_warp(a.n_dot_l_warp);
-    spec.grid.warps.visibility = ms::repr::parse_visibility_warp(a.visibility_warp);
-    spec.term = term_options(a.sampling);
-    spec.grid.weighting = spec.term.ao_weighting;
-    spec.azimuth_nodes = a.azimuth_nodes;
     const SamplingOptions& o = a.sampling;
+    ms::repr::ReprBakeJobSpec spec;
+    spec.preset = a.preset;
+    spec.kind = a.kind;
+    spec.roughness_count = a.roughness_count;
+    ms::repr::AzimuthBakeSpec& bake = spec.bake;
+    bake.grid.visibility = a.visibility_count;
+    bake.grid.n_dot_l = a.n_dot_l_count;
+    bake.grid.n_dot_v = a.n_dot_v_count;
+    bake.grid.roughness = a.roughness;
+    bake.grid.warps.n_dot_v = ms::repr::parse_n_dot_v_warp(a.n_dot_v_warp);
+    bake.grid.warps.n_dot_l = ms::repr::parse_n_dot_l_warp(a.n_dot_l_warp);
+    bake.grid.warps.visibility = ms::repr::parse_visibility_warp(a.visibility_warp);
+    bake.term = term_options(o);
+    bake.azimuth_nodes = a.azimuth_nodes;
     if (o.method == Method::sampled) check_replicates(o.replicates, "microshadow::repr_bake");
-    spec.plan.samples = ms::round_up_samples(o.samples, o.replicates);
-    spec.plan.replicates = o.replicates;
-    spec.plan.seed = o.seed;
-    spec.plan.sequence = detail::to_ms(o.sequence);
-    spec.plan.tolerance = o.tolerance;
-    spec.plan.single_precision = o.exact_float;
+    bake.plan.samples = ms::round_up_samples(o.samples, o.replicates);
+    bake.plan.replicates = o.replicates;
+    bake.plan.seed = o.seed;
+    bake.plan.sequence = detail::to_ms(o.sequence);
+    bake.plan.tolerance = o.tolerance;
+    bake.plan.single_precision = o.exact_float;
     if (o.method == Method::exact) {
-        spec.plan.method = ms::Method::exact;
-        if (spec.plan.tolerance == 0) spec.plan.tolerance = ms::exact::kDefaultTolerance;
-        ms::exact_term::validate_tolerance(spec.plan.tolerance);
+        bake.plan.method = ms::Method::exact;
+        if (bake.plan.tolerance == 0) bake.plan.tolerance = ms::exact::kDefaultTolerance;
+        ms::exact_term::validate_tolerance(bake.plan.tolerance);
     }
-    spec.command_line = "microshadow::repr_bake (library " + version() + ")";
-    if (preset) {
-        // The preset's layout, baked and built as `repr bake --preset` does: the exact term at its grid,
-        // then (the anisotropic preset) the correction's fit.
-        spec.grid = preset->grid;
-        spec.azimuth_nodes = preset->azimuth_nodes;
-    } else {
-        const auto kinds = ms::repr::representation_kinds();
-        if (std::find(kinds.begin(), kinds.end(), a.kind) == kinds.end())
-            throw std::invalid_argument("microshadow::repr_bake: kind '" + a.kind + "' (azimuth-axis or azimuth-harmonics)");
-        if (a.roughness_count && (a.roughness_count < 2 || a.roughness_count > a.roughness.size()))
-            throw std::invalid_argument("microshadow::repr_bake: roughness_count must be between 2 and the number of roughness values");
-        if (a.kind == "azimuth-axis" && (a.roughness_count ? a.roughness_count : a.roughness.size()) > 4)
-            throw std::invalid_argument("microshadow::repr_bake: azimuth-axis holds 1 to 4 roughness nodes (RGBA): set roughness_count 4");
-        if (a.kind == "azimuth-harmonics" && a.azimuth_nodes < 7)
-            throw std::invalid_argument("microshadow::repr_bake: azimuth-harmonics projects on cos(m phi), m <= 3: azimuth_nodes must be at least 7");
+    bake.command_line = "microshadow::repr_bake (library " + version() + ")";
+    spec.make_backend = [&] { return make_backend(o); };
+    try {
+        ms::repr::validate(spec);
+    } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(std::string("microshadow::repr_bake: ") + e.what());
     }
-    auto backend = make_backend(o);
-    ms::repr::AzimuthBake baked = detail::run_with_progress(progress, [&](const auto& report) {
-        return ms::repr::bake_azimuth(spec, *backend, [&](std::size_t done, std::size_t total) { report(done, total); });
+    const ms::repr::ReprBakeJobResult result = detail::run_with_progress(progress, [&](const auto& report) {
+        ms::repr::ReprBakeJobCallbacks callbacks;
+        callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { report(done, total); };
+        return ms::repr::run_repr_bake_job(spec, callbacks);
     });
-    if (preset) {
-        baked.metadata["domain"] = preset->domain.to_json("the preset's domain: its measured errors hold here; outside, its axes clamp");
-        baked.metadata["preset"] = a.preset;
-    }
-    if (a.roughness_count) {
-        double worst = 0;
-        const auto keep = ms::repr::choose_roughness_nodes(baked, a.roughness_count, &worst);
-        baked = baked.with_roughness(keep);
-        baked.metadata["roughness_chosen_from"] = a.roughness;
-        baked.metadata["roughness_blend_rms"] = worst;
-    }
-    const std::string kind = preset ? preset->kind : a.kind;
     auto data = std::make_shared<LookupFile::Data>();
-    data->representation = preset ? ms::repr::build_preset(*preset, baked, *backend) : ms::repr::build_representation(kind, baked);
-    data->kind = kind;
-    nlohmann::json metadata = baked.metadata;
+    data->representation = result.representation;
+    data->kind = result.representation->kind();
+    nlohmann::json metadata = result.bake.metadata;
     metadata["kind"] = "representation";
-    metadata["representation"] = kind;
+    metadata["representation"] = data->kind;
     data->metadata_json = metadata.dump();
     return LookupFile(std::move(data));
 }
@@ -384,7 +353,15 @@ std::vector<float> LookupFile::texture() const {
 
 void LookupFile::save(const std::string& path, bool half) const {
     if (data_->lut) return data_->lut->save(path, half ? "float16" : "");
-    save_representation(*data_->representation, path, half);
+    ms::OutputSet outputs;
+    std::optional<ms::repr::ReprFileOutput> file;
+    try {
+        file.emplace(outputs, path);
+    } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(std::string("microshadow::LookupFile::save: ") + e.what());
+    }
+    file->write(outputs, *data_->representation, half);
+    outputs.commit();
 }
 
 LookupFile::LookupFile(std::shared_ptr<const Data> data) : data_(std::move(data)) {

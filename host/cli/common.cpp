@@ -67,20 +67,6 @@ int report_error(const std::exception_ptr& error) {
     }
 }
 
-void ToleranceCheck::add(double error) {
-    ++values;
-    if (!(tolerance > 0) || error <= tolerance) return;
-    ++over;
-    worst = std::isnan(error) || std::isnan(worst) ? std::numeric_limits<double>::quiet_NaN() : std::max(worst, error);
-}
-
-std::string ToleranceCheck::summary() const {
-    if (!(tolerance > 0)) return "";
-    if (met()) return "(tolerance " + format_g(tolerance) + " met)";
-    return "(TOLERANCE NOT MET: " + std::to_string(over) + " of " + std::to_string(values) + " above " + format_g(tolerance) +
-           ", worst " + format_g(worst) + ")";
-}
-
 void add_tolerance_miss_option(CLI::App* app, bool& allow) {
     app->add_flag("--allow-tolerance-miss", allow,
                   "exit status 0 even when a value's estimated error is above the tolerance asked (by default such a "

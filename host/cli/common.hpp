@@ -9,6 +9,7 @@
 #include "core/memory.hpp"
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
+#include "jobs/tolerance_check.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::cli {
@@ -134,19 +135,6 @@ private:
 // tolerance asked of it (docs/cli.md): distinct from 1 (failed) and 2 (bad input), so a script can tell
 // "computed, but less accurate than asked" from both.
 constexpr int kExitToleranceNotMet = 3;
-
-// How a command's values compare with the tolerance asked of them: add() each value's estimated error.
-// An error that is NaN counts as above (an estimate that cannot be checked is no estimate).
-struct ToleranceCheck {
-    double tolerance = 0;  // 0: nothing was asked (every value passes)
-    std::uint64_t values = 0, over = 0;
-    double worst = 0;  // the largest estimated error above the tolerance
-    void add(double error);
-    bool met() const { return over == 0; }
-    // "(tolerance 1e-10 met)" or "(TOLERANCE NOT MET: 3 of 6 values above 1e-10, worst 1.7e-05)" for
-    // a summary line; "" when no tolerance was asked.
-    std::string summary() const;
-};
 
 // --allow-tolerance-miss, for a command that checks its values against a tolerance.
 void add_tolerance_miss_option(CLI::App* app, bool& allow);

@@ -1,5 +1,7 @@
 #include "jobs/design_closed_form.hpp"
 
+#include "core/error_stats.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <array>
@@ -39,22 +41,22 @@ fit::ClosedForm fit_closed_form(const ReferenceSet& training, unsigned order) {
     const std::vector<double> start = fit::weighted_least_squares(a, start_target, w);
     fit::GaussNewtonReport report;
     form.coefficients = fit::gauss_newton(a, y, w, {fit::closed_form_link, fit::closed_form_link_derivative}, start, 50, &report);
-    double max_abs = 0, sum_w = 0, sum_we2 = 0;
+    // The fit's errors at its points of positive weight (a point of weight 0 adds nothing to the
+    // weighted RMS and is no part of the fitted region for the maximum).
+    ErrorStats fit_errors;
     for (std::size_t i = 0; i < n; ++i) {
         double z = 0;
         for (std::size_t k = 0; k < terms; ++k) z += a.rows[i * terms + k] * form.coefficients[k];
         const double e = fit::closed_form_link(z) - y[i];
-        if (w[i] > 0) max_abs = std::max(max_abs, std::fabs(e));
-        sum_w += w[i];
-        sum_we2 += w[i] * e * e;
+        if (w[i] > 0) fit_errors.add(e, w[i]);
     }
     form.provenance = {{"fitted_to", {{"name", training.definition.name},
                                       {"hash", training.definition.hash()},
                                       {"points", n},
                                       {"definition", training.definition.canonical_text()}}},
                        {"weighting", "weight x NdotL"},
-                       {"fit_weighted_rms", sum_w > 0 ? std::sqrt(sum_we2 / sum_w) : 0.0},
-                       {"fit_max_abs", max_abs},
+                       {"fit_weighted_rms", fit_errors.weighted_rms()},
+                       {"fit_max_abs", fit_errors.max_abs()},
                        {"gauss_newton_steps", report.iterations},
                        {"program", "microshadow " MICROSHADOW_VERSION}};
     const SearchRegion region = region_of(training);

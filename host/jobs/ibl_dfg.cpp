@@ -1,5 +1,7 @@
 #include "jobs/ibl_dfg.hpp"
 
+#include "core/error_stats.hpp"
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
@@ -615,18 +617,21 @@ DfgComparison compare_dfg(const DfgBakeResult& result, const std::string& refere
                                     std::to_string(ref.height) + ", the LUT " + std::to_string(result.width) + " x " +
                                     std::to_string(result.height));
     DfgComparison c;
+    ErrorStats channel[3];  // scale, bias, E: the LUT minus the reference
     for (std::uint32_t y = 0; y < result.height; ++y)
         for (std::uint32_t x = 0; x < result.width; ++x) {
             const auto& v = result.at(x, y);
             const double mine[3] = {v.scale.term, v.bias.term, v.albedo.term};
             for (int k = 0; k < 3; ++k) {
-                const double d = std::abs(mine[k] - double(ref.at(x, y, k)));
-                c.max_abs[k] = std::max(c.max_abs[k], d);
-                c.rms[k] += d * d;
-                if (d > c.max_all) c.max_all = d, c.worst_x = x, c.worst_y = y;
+                const double d = mine[k] - double(ref.at(x, y, k));
+                channel[k].add(d);
+                if (std::abs(d) > c.max_all) c.max_all = std::abs(d), c.worst_x = x, c.worst_y = y;
             }
         }
-    for (double& r : c.rms) r = std::sqrt(r / double(result.values.size()));
+    for (int k = 0; k < 3; ++k) {
+        c.max_abs[k] = channel[k].max_abs();
+        c.rms[k] = channel[k].rms();
+    }
     return c;
 }
 

@@ -1,5 +1,7 @@
 #include "jobs/reference_set.hpp"
 
+#include "core/error_stats.hpp"
+
 #include "core/digest.hpp"
 #include "jobs/cache_keys.hpp"
 
@@ -466,12 +468,10 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
     const std::string json_file = fs::path(set.file).replace_extension(".json").string();
     const std::size_t n = set.points.size();
     auto finish = [&]() {
-        double sum_sq = 0;
-        for (const auto& e : set.values) {
-            set.max_std_error = std::max(set.max_std_error, e.std_error);
-            sum_sq += e.std_error * e.std_error;
-        }
-        set.rms_std_error = n ? std::sqrt(sum_sq / double(n)) : 0;
+        ErrorStats std_errors;  // the values' estimated errors, summarised as every error is
+        for (const auto& e : set.values) std_errors.add(e.std_error);
+        set.max_std_error = std_errors.max_abs();
+        set.rms_std_error = std_errors.rms();
         rep.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         return set;
     };

@@ -186,8 +186,10 @@ std::vector<std::complex<double>> poles_of(const CircleQuartic& quartic) {
 // |z_j| < 1 and Log(1 - e^{i psi} / z_j) (plus a constant) for |z_j| > 1 (|1 - w| > 0 with |w| < 1 keeps
 // the principal Log continuous). The error bound has two parts:
 //  - the roots: P~4 - P4 = sum (c~_i - c_i) z^i is at most delta on |z| = 1, so |f - f~| <= |N| delta /
-//    (|v|^2 |v~|^2) with |v|^2 >= m (the smallest eigenvalue of S^-2 on unit normals), giving
-//    delta / (m - delta) * max|N| * integral 1 / |v|^2, the last integral computed by the same closed form;
+//    (|v|^2 |v~|^2) with |v|^2 >= m (the smallest eigenvalue of S^-2 on unit normals). |N| / |v|^2 is at
+//    most max|N| / m, and also |v'| / |v| <= |v'|max / sqrt(m) (N = a.(v x v'), |a| = 1), the tighter one
+//    for smooth surfaces (max|N| ~ 1 / alpha^2, |v'| ~ 1 / alpha); and integral 1 / |v~|^2 <=
+//    integral 1 / |v|^2 / (1 - delta / m), the last integral computed by the same closed form;
 //  - rounding: each term rho_j L_j carries a few ulps of |rho_j| |L_j|, and Log(1 - w) an absolute
 //    ~ ulp / |1 - w| from forming 1 - w; the residue sum may cancel, so the bound sums the moduli.
 struct ClosedFormArc {
@@ -196,7 +198,7 @@ struct ClosedFormArc {
 };
 
 ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double al1, double al2, double lo, double hi,
-                              double min_norm2) {
+                              double min_norm2, double speed_bound) {
     using cd = std::complex<double>;
     constexpr double eps = std::numeric_limits<double>::epsilon();
     ClosedFormArc out;
@@ -259,8 +261,9 @@ ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double a
     // integral 1 / |v|^2 <= (closed form + its rounding) / (1 - ratio), from the same bound with N = 1.
     const double integral_one = (std::fabs(sum_one.real()) + rounding_one) / (1 - ratio);
     const double max_numerator = std::fabs(al0) + std::hypot(al1, al2);
+    const double max_integrand = std::min(max_numerator / min_norm2, speed_bound / std::sqrt(min_norm2));
     out.value = sum_f.real();
-    out.error = ratio * max_numerator * integral_one + rounding_f;
+    out.error = delta / (1 - delta / min_norm2) * max_integrand * integral_one + rounding_f;
     out.usable = std::isfinite(out.value) && std::isfinite(out.error);
     return out;
 }
@@ -403,7 +406,9 @@ ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo
     const double min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (ax * ax), 1 / (ay * ay)});
     ArcIntegral out;
     if (rule.closed_form) {
-        const ClosedFormArc closed = closed_form_arc(quartic, k_const, bc, -bs, lo, hi, min_norm2);
+        // |v'(psi)| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2).
+        const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));
+        const ClosedFormArc closed = closed_form_arc(quartic, k_const, bc, -bs, lo, hi, min_norm2, speed_bound);
         if (closed.usable && closed.error <= absolute_tolerance) {
             out.value = closed.value;
             out.error = closed.error;
@@ -477,12 +482,14 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
         }
         const ArcIntegrand f{p, q, r, k_const, bc, bs};
         const CircleQuartic quartic = circle_quartic(p, q, r);
+        const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
         PieceSum sum;
         std::vector<std::complex<double>> poles;
         bool poles_found = false;
         for (const Interval& arc : arcs) {
             if (rule.closed_form) {
-                const ClosedFormArc closed = closed_form_arc(quartic, k_const, bc, -bs, arc.lo, arc.hi, min_norm2);
+                const ClosedFormArc closed =
+                    closed_form_arc(quartic, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
                 // The closed form where its bound meets the arc's share of the tolerance, quadrature elsewhere.
                 if (closed.usable && closed.error <= tolerance_per_radian * (arc.hi - arc.lo)) {
                     sum.value += closed.value;

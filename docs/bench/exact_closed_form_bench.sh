@@ -13,20 +13,7 @@ OUT=docs/bench/exact_closed_form.csv
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-/tmp/pocl-cache}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-python3 - "$tmp/q.csv" <<'PY'
-import math, random, sys
-random.seed(11)  # the stress set of exact_bench.sh
-with open(sys.argv[1], "w") as f:
-    f.write("visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n")
-    for _ in range(20000):
-        v = random.random()
-        ax = math.exp(math.log(0.002) * random.random())
-        ay = min(1.0, max(0.002, ax * math.exp(math.log(50) * (2 * random.random() - 1))))
-        cv = 0.01 + 0.99 * random.random(); pv = 2 * math.pi * random.random()
-        cl = random.random(); pl = 2 * math.pi * random.random()
-        sv = math.sqrt(1 - cv * cv); sl = math.sqrt(1 - cl * cl)
-        f.write(f"{v!r},{ax!r},{ay!r},{sv*math.cos(pv)!r},{sv*math.sin(pv)!r},{cv!r},{sl*math.cos(pl)!r},{sl*math.sin(pl)!r},{max(cl,1e-6)!r}\n")
-PY
+python3 docs/bench/exact_stress_queries.py "$tmp/q.csv"
 echo "repeat,build,job,wall_s,cpu_s,eval_s,us_per_query_core,load" > "$OUT"
 # one REPEAT BUILD JOB CMD...: time one command, append its row
 one() {

@@ -33,20 +33,7 @@ cpu() { awk '{print $2 + $3}' "$tmp/$1.time"; }
 for part in "${parts[@]}"; do
   case $part in
   eval)
-    python3 - "$tmp/q.csv" <<'PY'
-import math, random, sys
-random.seed(11)
-with open(sys.argv[1], "w") as f:
-    f.write("visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z\n")
-    for _ in range(20000):
-        v = random.random()
-        ax = math.exp(math.log(0.002) * random.random())
-        ay = min(1.0, max(0.002, ax * math.exp(math.log(50) * (2 * random.random() - 1))))
-        cv = 0.01 + 0.99 * random.random(); pv = 2 * math.pi * random.random()
-        cl = random.random(); pl = 2 * math.pi * random.random()
-        sv = math.sqrt(1 - cv * cv); sl = math.sqrt(1 - cl * cl)
-        f.write(f"{v!r},{ax!r},{ay!r},{sv*math.cos(pv)!r},{sv*math.sin(pv)!r},{cv!r},{sl*math.cos(pl)!r},{sl*math.sin(pl)!r},{max(cl,1e-6)!r}\n")
-PY
+    python3 docs/bench/exact_stress_queries.py "$tmp/q.csv"
     run ref "$BIN" eval --in "$tmp/q.csv" --out "$tmp/ref.csv" --method exact --tolerance 1e-13 --backend oracle --allow-tolerance-miss -q
     # Each configuration twice: the first run warms PoCL's kernel cache; the second is recorded, with the
     # evaluation's own seconds (eval's summary line: no start-up, CSV or kernel build).

@@ -23,7 +23,9 @@
 //    sweeps round n^;
 //  - the circle round e_z of an isotropic surface: |v|^2 = c^2 + s^2 / alpha^2 is constant;
 //  - (both of the hemisphere's three circles are great circles, so P(hemisphere) is closed-form.)
-// Every other arc is integrated by Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
+// Every other arc integrates in closed form by partial fractions over the roots of the quartic below
+// (closed_form_arc); where that form's error bound (roots and rounding) exceeds the arc's share of the
+// tolerance, or the quartic degenerates, the arc is integrated by Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
 // polynomial of degree 2: with z = e^{i psi}, z^2 |v|^2 is a quartic whose roots come in pairs z, 1/conj(z),
 // and each root inside the unit disc is a pole of the integrand at psi = arg z + i (-ln |z|). For smooth
 // or strongly anisotropic surfaces those poles come within ~alpha (or ~alpha_y / alpha_x) of the real
@@ -103,16 +105,24 @@ std::vector<Interval> boundary_arcs(const std::vector<Cap>& caps, std::size_t k,
     return arcs;
 }
 
-// The poles of 1 / |v(psi)|^2 in the upper half plane (one period), from the roots of
-// z^2 |v|^2 = sum c_i z^i inside the unit disc.
-std::vector<std::complex<double>> poles_of(const Vec3& p, const Vec3& q, const Vec3& r) {
+// The quartic z^2 |v(e^{i psi})|^2 = sum c_i z^i of an arc's circle and its roots.
+struct CircleQuartic {
+    std::complex<double> c[5];
+    std::complex<double> roots[4];
+    int root_count = 0;  // 4, or 2 when the z^4 and z^0 terms vanish, 0 when both leading terms do
+    double k0 = 0;       // the mean of |v|^2 (the scale of every coefficient)
+};
+
+CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
     using cd = std::complex<double>;
+    CircleQuartic out;
     const double k0 = dot(p, p) + 0.5 * (dot(q, q) + dot(r, r));
     const double k1 = 2 * dot(p, q), k2 = 2 * dot(p, r);
     const double k3 = 0.5 * (dot(q, q) - dot(r, r)), k4 = dot(q, r);
     // |v|^2 = k0 + k1 cos + k2 sin + k3 cos 2psi + k4 sin 2psi.
     const cd c4(0.5 * k3, -0.5 * k4), c3(0.5 * k1, -0.5 * k2), c2(k0, 0), c1(0.5 * k1, 0.5 * k2), c0(0.5 * k3, 0.5 * k4);
-    std::vector<cd> roots;
+    out.c[0] = c0, out.c[1] = c1, out.c[2] = c2, out.c[3] = c3, out.c[4] = c4;
+    out.k0 = k0;
     const double negligible = 1e-26 * k0 * k0;  // compared with squared moduli
     if (std::norm(c4) > negligible) {
         // Durand-Kerner on the monic quartic: converges for any start off the real axis and for
@@ -120,11 +130,11 @@ std::vector<std::complex<double>> poles_of(const Vec3& p, const Vec3& q, const V
         const cd inv4 = std::conj(c4) / std::norm(c4);
         const cd a3 = c3 * inv4, a2 = c2 * inv4, a1 = c1 * inv4, a0 = c0 * inv4;
         const double radius = std::pow(std::abs(a0), 0.25);
-        cd z[4];
+        cd* z = out.roots;
         const cd seed(0.4, 0.9);
         cd w = 1;
-        for (auto& zi : z) {
-            zi = radius * w;
+        for (int i = 0; i < 4; ++i) {
+            z[i] = radius * w;
             w *= seed;
         }
         for (int iter = 0; iter < 200; ++iter) {
@@ -143,16 +153,22 @@ std::vector<std::complex<double>> poles_of(const Vec3& p, const Vec3& q, const V
             }
             if (change < 1e-30) break;
         }
-        roots.assign(z, z + 4);
+        out.root_count = 4;
     } else if (std::norm(c3) > negligible) {
         // The z^4 and z^0 terms vanish: z (c3 z^2 + c2 z + c1), two roots (z = 0 and infinity are no poles).
         const cd disc = std::sqrt(c2 * c2 - 4.0 * c3 * c1);
         const cd big = -0.5 * (c2 + (std::real(std::conj(c2) * disc) >= 0 ? disc : -disc));
-        roots.push_back(big / c3);
-        if (big != cd(0)) roots.push_back(c1 / big);
+        out.roots[out.root_count++] = big / c3;
+        if (big != cd(0)) out.roots[out.root_count++] = c1 / big;
     }
-    std::vector<cd> poles;
-    for (const cd& z : roots) {
+    return out;
+}
+
+// The poles of 1 / |v(psi)|^2 in the upper half plane (one period): the roots inside the unit disc.
+std::vector<std::complex<double>> poles_of(const CircleQuartic& quartic) {
+    std::vector<std::complex<double>> poles;
+    for (int i = 0; i < quartic.root_count; ++i) {
+        const std::complex<double> z = quartic.roots[i];
         const double m2 = std::norm(z);
         if (!(m2 < 1) || m2 == 0) continue;
         const double im = -0.5 * std::log(m2);
@@ -160,6 +176,96 @@ std::vector<std::complex<double>> poles_of(const Vec3& p, const Vec3& q, const V
         poles.emplace_back(std::arg(z), im);
     }
     return poles;
+}
+
+// Closed form of an arc. With z = e^{i psi}, f dpsi = (al0 + al1 cos psi + al2 sin psi) / |v|^2 dpsi equals
+// (n2 z^2 + n1 z + n0) / (i P4(z)) dz, n2 = (al1 - i al2) / 2, n1 = al0, n0 = (al1 + i al2) / 2, P4 the
+// circle's quartic. Over the computed roots z_j (exact roots of P~4 = c4 prod (z - z_j)) partial fractions
+// are exact: f~ dpsi = sum_j rho_j dz / (z - z_j), rho_j = N(z_j) / (i c4 prod_{k != j} (z_j - z_k)), and
+// dz / (z - z_j) = d log(e^{i psi} - z_j), whose continuous branch is i psi + Log(1 - z_j e^{-i psi}) for
+// |z_j| < 1 and Log(1 - e^{i psi} / z_j) (plus a constant) for |z_j| > 1 (|1 - w| > 0 with |w| < 1 keeps
+// the principal Log continuous). The error bound has two parts:
+//  - the roots: P~4 - P4 = sum (c~_i - c_i) z^i is at most delta on |z| = 1, so |f - f~| <= |N| delta /
+//    (|v|^2 |v~|^2) with |v|^2 >= m (the smallest eigenvalue of S^-2 on unit normals). |N| / |v|^2 is at
+//    most max|N| / m, and also |v'| / |v| <= |v'|max / sqrt(m) (N = a.(v x v'), |a| = 1), the tighter one
+//    for smooth surfaces (max|N| ~ 1 / alpha^2, |v'| ~ 1 / alpha); and integral 1 / |v~|^2 <=
+//    integral 1 / |v|^2 / (1 - delta / m), the last integral computed by the same closed form;
+//  - rounding: each term rho_j L_j carries a few ulps of |rho_j| |L_j|, and Log(1 - w) an absolute
+//    ~ ulp / |1 - w| from forming 1 - w; the residue sum may cancel, so the bound sums the moduli.
+struct ClosedFormArc {
+    bool usable = false;
+    double value = 0, error = 0;
+};
+
+ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double al1, double al2, double lo, double hi,
+                              double min_norm2, double speed_bound) {
+    using cd = std::complex<double>;
+    constexpr double eps = std::numeric_limits<double>::epsilon();
+    ClosedFormArc out;
+    if (quartic.root_count != 4) return out;  // vanishing leading coefficients: quadrature instead
+    const cd* z = quartic.roots;
+    const cd c4 = quartic.c[4];
+    // Coefficients of c4 prod (z - z_j) from the elementary symmetric functions of the roots.
+    const cd e1 = z[0] + z[1] + z[2] + z[3];
+    const cd e2 = z[0] * z[1] + z[0] * z[2] + z[0] * z[3] + z[1] * z[2] + z[1] * z[3] + z[2] * z[3];
+    const cd e3 = z[0] * z[1] * z[2] + z[0] * z[1] * z[3] + z[0] * z[2] * z[3] + z[1] * z[2] * z[3];
+    const cd e4 = z[0] * z[1] * z[2] * z[3];
+    const cd rebuilt[5] = {c4 * e4, -c4 * e3, c4 * e2, -c4 * e1, c4};
+    double expansion_scale = std::abs(c4), coefficient_scale = 0;
+    for (int j = 0; j < 4; ++j) expansion_scale *= 1 + std::abs(z[j]);
+    double delta = 0;
+    for (int i = 0; i < 5; ++i) {
+        delta += std::abs(rebuilt[i] - quartic.c[i]);
+        coefficient_scale += std::abs(quartic.c[i]);
+    }
+    // The expansion above (a few roundings per term, each term at most expansion_scale) and the
+    // coefficients themselves (dot products of p, q, r: a few ulps of sum |c_i| >= k0) were rounded.
+    delta += 8 * eps * (expansion_scale + coefficient_scale);
+    if (!(delta < 0.25 * min_norm2)) return out;  // roots too inaccurate (or not converged)
+    const cd n2(0.5 * al1, -0.5 * al2), n1(al0, 0), n0(0.5 * al1, 0.5 * al2);
+    const cd e_lo(std::cos(lo), std::sin(lo)), e_hi(std::cos(hi), std::sin(hi));
+    cd sum_f = 0, sum_one = 0;
+    double rounding_f = 0, rounding_one = 0;
+    for (int j = 0; j < 4; ++j) {
+        cd derivative = c4;
+        for (int k = 0; k < 4; ++k)
+            if (k != j) derivative *= z[j] - z[k];
+        const double dn = std::norm(derivative);
+        if (!(dn > 0)) return out;  // coincident roots
+        // 1 / (i P~4'(z_j)) through the conjugate.
+        const cd inv_i_derivative = cd(0, -1) * std::conj(derivative) / dn;
+        const cd rho_f = ((n2 * z[j] + n1) * z[j] + n0) * inv_i_derivative;
+        const cd rho_one = z[j] * inv_i_derivative;  // numerator of 1 / |v|^2: n1 = 1
+        const bool inside = std::norm(z[j]) < 1;
+        cd w_lo, w_hi;
+        if (inside) {
+            w_lo = z[j] * std::conj(e_lo), w_hi = z[j] * std::conj(e_hi);
+        } else {
+            const cd inv = std::conj(z[j]) / std::norm(z[j]);
+            w_lo = e_lo * inv, w_hi = e_hi * inv;
+        }
+        const cd one_minus_lo = 1.0 - w_lo, one_minus_hi = 1.0 - w_hi;
+        cd dl = std::log(one_minus_hi) - std::log(one_minus_lo);
+        if (inside) dl += cd(0, hi - lo);
+        sum_f += rho_f * dl;
+        sum_one += rho_one * dl;
+        const double log_size = std::abs(std::log(one_minus_hi)) + std::abs(std::log(one_minus_lo)) +
+                                (inside ? std::fabs(hi) + std::fabs(lo) : 0.0) + 1.0 / std::abs(one_minus_hi) +
+                                1.0 / std::abs(one_minus_lo);
+        rounding_f += std::abs(rho_f) * log_size;
+        rounding_one += std::abs(rho_one) * log_size;
+    }
+    rounding_f *= 32 * eps;
+    rounding_one *= 32 * eps;
+    const double ratio = delta / (min_norm2 - delta);  // < 1/3
+    // integral 1 / |v|^2 <= (closed form + its rounding) / (1 - ratio), from the same bound with N = 1.
+    const double integral_one = (std::fabs(sum_one.real()) + rounding_one) / (1 - ratio);
+    const double max_numerator = std::fabs(al0) + std::hypot(al1, al2);
+    const double max_integrand = std::min(max_numerator / min_norm2, speed_bound / std::sqrt(min_norm2));
+    out.value = sum_f.real();
+    out.error = delta / (1 - delta / min_norm2) * max_integrand * integral_one + rounding_f;
+    out.usable = std::isfinite(out.value) && std::isfinite(out.error);
+    return out;
 }
 
 // Whether a translate (by 2 pi k) of `pole` lies inside the Bernstein ellipse E_rho of [lo, hi]. With
@@ -287,6 +393,37 @@ ArcRule arc_rule_for(double tolerance) {
     return {12, 8, 4.0};
 }
 
+ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo, double hi, const ArcRule& rule,
+                          double absolute_tolerance) {
+    const double ax = surface.alpha_x, ay = surface.alpha_y;
+    auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
+    Vec3 e1, e2;
+    basis(cap.n, e1, e2);
+    const Vec3 p = scale(unstretch(cap.n), cap.c), q = scale(unstretch(e1), cap.s), r = scale(unstretch(e2), cap.s);
+    const Vec3& a = surface.a;
+    const double k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
+    const CircleQuartic quartic = circle_quartic(p, q, r);
+    const double min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (ax * ax), 1 / (ay * ay)});
+    ArcIntegral out;
+    if (rule.closed_form) {
+        // |v'(psi)| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2).
+        const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));
+        const ClosedFormArc closed = closed_form_arc(quartic, k_const, bc, -bs, lo, hi, min_norm2, speed_bound);
+        if (closed.usable && closed.error <= absolute_tolerance) {
+            out.value = closed.value;
+            out.error = closed.error;
+            out.closed_form = true;
+            return out;
+        }
+    }
+    PieceSum sum;
+    integrate_piece(ArcIntegrand{p, q, r, k_const, bc, bs}, poles_of(quartic), lo, hi, rule,
+                    absolute_tolerance / (hi - lo), 0, sum);
+    out.value = sum.value;
+    out.error = sum.error;
+    return out;
+}
+
 Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
     Microsurface m;
     m.alpha_x = alpha_x;
@@ -310,6 +447,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
     BoundaryIntegral result;
     double rounding = 0;
     const double tolerance_per_radian = absolute_tolerance / (kTwoPi * caps.size());
+    // |v|^2 = |S^-1 m|^2 >= min(1, 1 / alpha_x^2, 1 / alpha_y^2) for unit m; the factor covers m's rounding.
+    const double min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (ax * ax), 1 / (ay * ay)});
     for (std::size_t k = 0; k < caps.size(); ++k) {
         Vec3 e1, e2;
         basis(caps[k].n, e1, e2);
@@ -342,9 +481,25 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
             continue;
         }
         const ArcIntegrand f{p, q, r, k_const, bc, bs};
-        const std::vector<std::complex<double>> poles = poles_of(p, q, r);
+        const CircleQuartic quartic = circle_quartic(p, q, r);
+        const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
         PieceSum sum;
-        for (const Interval& arc : arcs) integrate_piece(f, poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
+        std::vector<std::complex<double>> poles;
+        bool poles_found = false;
+        for (const Interval& arc : arcs) {
+            if (rule.closed_form) {
+                const ClosedFormArc closed =
+                    closed_form_arc(quartic, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
+                // The closed form where its bound meets the arc's share of the tolerance, quadrature elsewhere.
+                if (closed.usable && closed.error <= tolerance_per_radian * (arc.hi - arc.lo)) {
+                    sum.value += closed.value;
+                    sum.error += closed.error;
+                    continue;
+                }
+            }
+            if (!poles_found) poles = poles_of(quartic), poles_found = true;
+            integrate_piece(f, poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
+        }
         result.value += sum.value;
         result.error += sum.error;
         result.quadrature_pieces += sum.pieces;

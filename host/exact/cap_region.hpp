@@ -19,9 +19,12 @@ struct Cap {
 // for the error estimate |Q_high - Q_low|, pieces bisected until every complex pole of the integrand
 // lies outside the Bernstein ellipse of parameter `rho` of its piece, then further while a piece's
 // estimate exceeds its share of the tolerance.
+// An arc whose closed form (partial fractions over the roots of its circle's quartic) carries an error
+// bound within its share of the tolerance takes the closed form instead, unless `closed_form` is off.
 struct ArcRule {
     int high = 12, low = 8;
     double rho = 4;
+    bool closed_form = true;
 };
 
 // The rule used for a requested absolute tolerance on the term (estimated error of each value).
@@ -46,5 +49,16 @@ struct BoundaryIntegral {
 // `absolute_tolerance` applies to `value`; pieces share it in proportion to their length.
 BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
                                    double absolute_tolerance);
+
+// One arc psi in [lo, hi] of a cap's circle m(psi) = c n + s (cos psi e1 + sin psi e2), in the basis
+// (e1, e2) boundary_integral uses, not clipped by other caps: the integral of a.(v x dv) / |v|^2 by the
+// closed form where `rule` allows it and its bound meets `absolute_tolerance`, else by quadrature.
+// Requires a circle that is no great circle (c > 0) and no circle round e_z of an isotropic surface.
+struct ArcIntegral {
+    double value = 0, error = 0;
+    bool closed_form = false;
+};
+ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo, double hi, const ArcRule& rule,
+                          double absolute_tolerance);
 
 }  // namespace ms::exact

@@ -9,6 +9,7 @@ set(microshadow_gpu_tests
   "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader|CombinedShaderTest)\\."
   "^AreaShaderTest\\.(Rect)?TapsShaderMatchesTheCppTapsOnLavapipe$")
 set(microshadow_cli_tests
+  "^ExactBakeSummary\\."
   "^CombinedShaderTest\\."
   "^AreaCommandCli\\."
   "^AreaLightCli\\."
@@ -120,6 +121,7 @@ set(microshadow_slow_tests
   "^ExactKernel\\.(FloatKernelReachesItsMeasuredAccuracy|FloatKernelEstimateBoundsEveryValue|DoubleKernelAgreesWithTheEvaluatorOnAzimuthMeans)$"
   "^TermBars\\.FewRareSamplesInManyReplicatesKeepTheStatedCoverage$"
   "^ExactBakeBounds\\."
+  "^SampledBakeBounds\\."
   "^ExactJobsTest\\.VerifyAgainstTheExactMethodPassesARightBakeAndFailsAShiftedOne$"
   "^ClosedFormFit\\.RecoversTheCoefficientsThatGeneratedTheData$"
   "^IblReliability\\.(Sigterm|ARerunWithFewerMips)"

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/memory.hpp"
+#include "integrands/exact_term/exact_term_integrand.hpp"
 #include "io/atomic_file.hpp"
 #include "io/text.hpp"
 #include "lut/preview.hpp"
@@ -16,6 +17,15 @@
 namespace ms {
 
 namespace {
+
+// What computed an exact bake's texels: the C++ evaluator (the oracle backend) or the OpenCL kernels.
+std::string exact_engine_summary(const BakeSpec& spec) {
+    if (spec.oracle) return "the C++ evaluator (double)";
+    exact_term::ExactConfig engines;
+    engines.force_float = spec.exact_single_precision;
+    engines.kernel_on_cpu_devices = spec.exact_kernel_on_cpu;
+    return exact_term::describe_engines(engines);
+}
 
 // "azimuth nodes per row: 5 (7267 rows), 9 (5425 rows)" (adaptive bakes choose per row), or
 // "1 azimuth node" for a fixed angle.
@@ -92,12 +102,28 @@ std::string bake_job_summary(const BakeJobSpec& job, const BakeJobResult& r) {
     std::ostringstream s;
     s << std::setprecision(3) << "bake: " << spec.visibility.count << " x " << spec.n_dot_l.count << " x " << spec.n_dot_v.count << " x "
       << result.channels << " (" << result.texels << " texels; skipped " << result.skipped_zero << " exact 0 in the zero region, "
-      << result.skipped_one << " exact 1 at v = 1), " << result.slices << " slices, " << azimuth_summary(result) << ", "
-      << result.samples_per_batch << " samples per batch, " << result.batches << " batches; max std error " << result.max_std_error;
-    // The exact method always integrates to a tolerance (its default when none was given).
-    if (spec.tolerance > 0 || spec.method == Method::exact)
-        s << (result.tolerance_met ? " (tolerance met)"
-                                   : spec.method == Method::exact ? " (TOLERANCE NOT MET)" : " (TOLERANCE NOT MET: raise --max-batches)");
+      << result.skipped_one << " exact 1 at v = 1), " << result.slices << " slices, ";
+    if (spec.method == Method::exact) {
+        // The exact method has no samples or batches: it says what it integrated, with which rule, and
+        // how far its per-texel estimate is from the tolerance.
+        s << "exact method (" << exact_engine_summary(spec) << "): ";
+        if (spec.azimuth_mean)
+            s << "azimuth means of T by Gauss-Legendre on " << result.exact_quadrature_pieces << " azimuth pieces";
+        else
+            s << "T at " << spec.azimuth_degrees << " degrees";
+        s << "; largest estimated texel error " << result.max_std_error << " against the tolerance " << result.exact_tolerance;
+        if (result.tolerance_met)
+            s << " (tolerance met)";
+        else if (spec.exact_single_precision && !spec.oracle)
+            s << " (TOLERANCE NOT MET: the float kernel's rounding stops it; leave out --exact-float for the C++ "
+                 "evaluator on CPU devices and the double kernel where a device has fp64, or give a looser --tolerance)";
+        else
+            s << " (TOLERANCE NOT MET: give a looser --tolerance)";
+    } else {
+        s << azimuth_summary(result) << ", " << result.samples_per_batch << " samples per batch, " << result.batches
+          << " batches; max std error " << result.max_std_error;
+        if (spec.tolerance > 0) s << (result.tolerance_met ? " (tolerance met)" : " (TOLERANCE NOT MET: raise --max-batches)");
+    }
     // The time is this run's: a merge only reads slices computed by earlier runs, so it says so
     // rather than report a read of the store as compute time.
     if (result.computed_slices == 0 && result.loaded_slices > 0)

@@ -9,6 +9,7 @@ set(microshadow_gpu_tests
   "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader|CombinedShaderTest)\\."
   "^AreaShaderTest\\.(Rect)?TapsShaderMatchesTheCppTapsOnLavapipe$")
 set(microshadow_cli_tests
+  "^EnvCubemapFile\\.IblShTakesAKtx2CubeAsItsEnvironment$"
   "^CombinedShaderTest\\."
   "^AreaCommandCli\\."
   "^AreaLightCli\\."

@@ -5,12 +5,14 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cmath>
 #include <fstream>
 #include <sstream>
 
 #include "cli_runner.hpp"
 #include "glslang.hpp"
+#include "lut/bitmap_font.hpp"
 #include "scene/description.hpp"
 #include "scene/image_io.hpp"
 #include "scene/inputs.hpp"
@@ -98,6 +100,29 @@ TEST_F(SceneRender, GeneratedGlslShadesTheExampleSceneAsTheSceneCommandReports) 
                           << ", scene " << want << " (weight " << weight << ", term " << term << "), bound " << bound;
     }
     EXPECT_GT(lit, shaded.size() / 2);
+
+    // The picture (docs/engine.md): the shader's image, the scene command's, and |difference| x 10^6, side by
+    // side, radiance sRGB-encoded, unlit pixels blue; written beside the test's files, and into MICROSHADOW_FIGURE_DIR when set.
+    const std::uint32_t w = inputs.width(), h = inputs.height();
+    ms::RgbImage picture(3 * w + 8, h, 255, 255, 255);
+    // Pixels the sun does not light (below a horizon) in blue, so that no panel shows them as a value.
+    for (int panel = 0; panel < 3; ++panel) picture.fill(panel * std::int64_t(w + 4), 0, w, h, 40, 60, 120);
+    const auto srgb = [](double v) {
+        v = std::clamp(v, 0.0, 1.0);
+        return std::uint8_t(std::lround(255 * (v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055)));
+    };
+    for (std::size_t k = 0; k < shaded.size(); ++k) {
+        const std::size_t i = shaded[k];
+        const std::int64_t x = std::int64_t(i % w), y = std::int64_t(i / w);
+        const double want = double(planes[1].data[i]) * planes[0].data[i];
+        const std::uint8_t a = srgb(run.values[k]), b = srgb(want), c = srgb(std::abs(run.values[k] - want) * 1e6);
+        picture.set(x, y, a, a, a);
+        picture.set(x + w + 4, y, b, b, b);
+        picture.set(x + 2 * (w + 4), y, c, c, c);
+    }
+    ms::scene::write_png_rgb(path("render.png"), picture);
+    if (const char* figures = std::getenv("MICROSHADOW_FIGURE_DIR"))
+        ms::scene::write_png_rgb(std::string(figures) + "/engine-scene-render.png", picture);
     std::cout << "[ figures  ] example scene " << inputs.width() << "x" << inputs.height() << " on " << run.device << ": " << shaded.size()
               << " shaded pixels (" << lit << " lit), max |shader - scene| = " << worst << ", max ratio to the bound = " << worst_ratio << "\n";
 }

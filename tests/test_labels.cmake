@@ -6,10 +6,13 @@
 # CI runs them all. A new test is unit until it is listed here: list it under cli when it runs the
 # program, under slow when it takes a second or more (measured one at a time on the 2-core CI machine).
 set(microshadow_gpu_tests
+  "^SceneRender\\."
   "^(ShaderTest|ReprShaderTest|ReprKtx2Test|ClosedFormShader|CombinedShaderTest)\\."
   "^AreaShaderTest\\.(Rect)?TapsShaderMatchesTheCppTapsOnLavapipe$")
 set(microshadow_cli_tests
   "^ExactBakeSummary\\."
+  "^SceneRender\\."
+  "^EnvCubemapFile\\.IblShTakesAKtx2CubeAsItsEnvironment$"
   "^CombinedShaderTest\\."
   "^AreaCommandCli\\."
   "^AreaLightCli\\."
@@ -106,6 +109,7 @@ set(microshadow_cli_tests
   "^SceneReliability\\.(Sigterm|FailingDeviceOfTwo|OutputProblems|FittedSceneLut|LutsNamedAAndAError)"
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
+  "^SceneRender\\."
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"

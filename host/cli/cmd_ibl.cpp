@@ -197,7 +197,7 @@ void add_ibl_command(CLI::App& app) {
 
     auto s = std::make_shared<ShArgs>();
     auto* sh = ibl->add_subcommand("sh", "order-2 spherical harmonics (9 per channel) and irradiance of an environment");
-    add_environment_options(sh, s->job.environment, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr",
+    add_environment_options(sh, s->job.environment, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr, or a .ktx2 / .dds cubemap (its base level)",
                             " (docs/ibl.md: orientation)");
     sh->add_option("--out", s->job.out, "output JSON: coefficients, convolved irradiance coefficients, provenance")->required();
     sh->add_option("--irradiance", s->job.irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
@@ -211,7 +211,7 @@ void add_ibl_command(CLI::App& app) {
     auto p = std::make_shared<PrefilterArgs>();
     PrefilterSpec& ps = p->job.prefilter;
     auto* pf = ibl->add_subcommand("prefilter", "GGX-prefiltered specular cubemap mip chain (+ SH irradiance) of an environment, into a directory");
-    add_environment_options(pf, p->job.environment, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr",
+    add_environment_options(pf, p->job.environment, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr, or a .ktx2 / .dds cubemap (its base level)",
                             ", .exr or .hdr (docs/ibl.md: orientation)");
     pf->add_option("--out", p->job.out, "output directory (created)")->required();
     pf->add_option("--size", p->job.size, "base face size (power of two; default: from the source)")->transform(decimal_range(1, 4096));
@@ -266,7 +266,7 @@ void add_ibl_command(CLI::App& app) {
 
     auto q = std::make_shared<IrradianceArgs>();
     auto* ir = ibl->add_subcommand("irradiance", "irradiance cubemap (E / pi) by direct clamped-cosine convolution, with error bounds and SH comparison");
-    add_environment_options(ir, q->job.environment, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr",
+    add_environment_options(ir, q->job.environment, "environment: equirectangular (2:1) or a 4:3 / 3:4 cross, .exr or Radiance .hdr, or a .ktx2 / .dds cubemap (its base level)",
                             ", .exr or .hdr");
     ir->add_option("--out", q->job.out, "output directory (created): irradiance.<format>, irradiance.json, irradiance_preview.png")->required();
     ir->add_option("--face-size", q->job.map.face_size, "output face size")->transform(decimal_range(1, 1024))->capture_default_str();

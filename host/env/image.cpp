@@ -24,6 +24,7 @@
 
 #include <cerrno>
 
+#include "env/cubemap_file.hpp"
 #include "io/atomic_file.hpp"
 #include "io/bounded_json.hpp"
 #include "io/exr_file.hpp"
@@ -157,6 +158,8 @@ std::string join_names(const std::vector<std::string>& names) {
 }
 
 }  // namespace
+
+void check_environment_file(const std::string& path) { check_regular_file(path); }
 
 Image read_exr_rgb(const std::string& path, nlohmann::json* metadata) {
     check_regular_file(path);
@@ -360,7 +363,9 @@ Image read_environment_image(const std::string& path) {
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
     if (ext == ".exr") return read_exr_rgb(path);
     if (ext == ".hdr" || ext == ".pic") return read_rgbe(path);
-    throw EnvironmentError("environment " + path + ": expected an .exr or a Radiance .hdr file");
+    // A cubemap file's base level, unfolded into the horizontal cross cubemap_from_image takes back as it is.
+    if (ext == ".ktx2" || ext == ".dds") return cross_image(read_cubemap_file(path).levels.at(0));
+    throw EnvironmentError("environment " + path + ": expected an .exr or a Radiance .hdr file, or a .ktx2 / .dds cubemap");
 }
 
 }  // namespace ms::env

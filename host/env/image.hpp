@@ -70,7 +70,13 @@ Image read_rgbe(const std::string& path);
 // The same from the file's bytes (`name` in messages): what read_rgbe does after reading the file.
 Image decode_rgbe(const std::string& bytes, const std::string& name);
 
-// By extension: .exr -> read_exr_rgb, .hdr / .pic -> read_rgbe. Throws EnvironmentError otherwise.
+// Refuses (EnvironmentError "environment PATH: is a FIFO (named pipe), not a regular file", ...) anything
+// but a regular file or a link to one, without blocking in open().
+void check_environment_file(const std::string& path);
+
+// By extension: .exr -> read_exr_rgb, .hdr / .pic -> read_rgbe, .ktx2 / .dds -> the base level of
+// read_cubemap_file (env/cubemap_file.hpp) as a horizontal cross (cubemap_from_image keeps it as it is).
+// Throws EnvironmentError otherwise.
 Image read_environment_image(const std::string& path);
 
 }  // namespace ms::env

@@ -20,6 +20,7 @@
 
 #include "cli_runner.hpp"
 #include "env/cubemap.hpp"
+#include "env/cubemap_file.hpp"
 #include "env/image.hpp"
 #include "lut/formats/texture.hpp"
 
@@ -329,6 +330,21 @@ TEST_F(IblFormats, PrefilteredCubemapKtx2AndDdsReadBackEqualToTheExrFaces) {
                 }
     }
     EXPECT_NEAR(meta.at("quantisation").at("max_abs").get<double>(), worst_abs, 1e-12);
+    // The project's own reader (env/cubemap_file.hpp), as the IBL commands read a cube: the same texels.
+    for (const char* name : {"out_ktx2/specular.ktx2", "out_dds/specular.dds"}) {
+        const env::CubemapFile file = env::read_cubemap_file(path(name));
+        EXPECT_EQ(file.encoding, "float16");
+        EXPECT_EQ(file.metadata.at("mip_roughness"), meta.at("mip_roughness")) << name;
+        ASSERT_EQ(file.levels.size(), levels) << name;
+        for (std::uint32_t m = 0; m < levels; ++m)
+            for (int f = 0; f < 6; ++f)
+                for (std::uint32_t y = 0; y < (n >> m); ++y)
+                    for (std::uint32_t x = 0; x < (n >> m); ++x)
+                        for (int c = 0; c < 3; ++c) {
+                            const float want = exr_texel(m, f, x, y, c), got = file.levels[m].texel(f, x, y)[c];
+                            ASSERT_LE(std::abs(got - want), half_allowed(want)) << name << " mip " << m << " face " << f << " (" << x << ", " << y << ") " << c;
+                        }
+    }
 
     // DDS cubemap: DDSCAPS2_CUBEMAP | ALLFACES, DX10 TEXTURE2D with miscFlag TEXTURECUBE, arraySize 1;
     // the data face by face, each face's mips base first.

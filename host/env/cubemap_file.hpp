@@ -1,0 +1,36 @@
+// Reading a cubemap with its mip chain from one file: the KTX2 (faceCount 6) or DDS (DDSCAPS2_CUBEMAP,
+// metadata in "<file>.json") that `ibl prefilter --format ktx2|dds` and `ibl irradiance` write, so an
+// engine's mipped cube comes back as the cubemaps the IBL jobs compute with.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "env/cubemap.hpp"
+
+namespace ms::env {
+
+struct CubemapFile {
+    std::vector<Cubemap> levels;       // base level first; level p is max(1, size >> p) texels a side
+    nlohmann::json metadata;           // the file's "microshadow" JSON (object; empty when it has none)
+    std::string encoding;              // "float16" or "float32": the stored texels
+    std::size_t negative_residue_values = 0;  // as Image::negative_residue_values
+};
+
+// By extension, .ktx2 or .dds. Every refusal is an EnvironmentError "environment PATH: <reason>", one line:
+//   - anything but a regular file (a FIFO, a device, a directory) is refused before it is opened;
+//   - the container, as lut/formats/texture_reader.hpp checks it: the identifier, every header field,
+//     the descriptor and key/value regions, each level's offset and length against the file's size and
+//     against the texels its size holds, levels overlapping, bytes after the data;
+//   - a cubemap: faceCount 6 (KTX2) / the cubemap flags (DDS), square 2D faces, at most kMaxImagePixels
+//     texels over the six base faces; float16 or float32 (unorm formats clip radiance at 1);
+//   - every RGB value as the image readers check theirs (image.hpp): finite, at most kMaxRadiance and
+//     non-negative, negatives within kNegativeResidue of the file's largest value set to 0; the first
+//     that is not is named with its level, face (+X ...), texel (x, y) and channel. A is not data (the
+//     writers store 1) and is not read.
+CubemapFile read_cubemap_file(const std::string& path);
+
+}  // namespace ms::env

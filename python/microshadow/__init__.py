@@ -522,7 +522,7 @@ class Representation:
         """Writes it as ``repr bake --out``: .exr (what eval --compare and sweeps open), .ktx2 or .dds
         (+ .dds.json); half: 16-bit channels, as an engine uploads them."""
         p = os.fspath(path)
-        if os.path.splitext(p)[1] not in (".exr", ".ktx2", ".dds"):
+        if os.path.splitext(p)[1].lower() not in (".exr", ".ktx2", ".dds"):  # any case, as the C++ job takes it
             raise ValueError(f"path = {p!r}: a representation is written as .exr, .ktx2 or .dds")
         self._native.save(p, bool(half))
 

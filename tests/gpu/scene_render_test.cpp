@@ -16,6 +16,7 @@
 #include "scene/description.hpp"
 #include "scene/image_io.hpp"
 #include "scene/inputs.hpp"
+#include "test_files.hpp"
 #include "vulkan_compute.hpp"
 
 namespace {
@@ -26,13 +27,6 @@ class SceneRender : public ms::testing::ScratchDirTest {
 protected:
     SceneRender() : ScratchDirTest("scene_render") {}
 };
-
-std::string read_text(const std::string& path) {
-    std::ifstream in(path);
-    std::stringstream ss;
-    ss << in.rdbuf();
-    return ss.str();
-}
 
 TEST_F(SceneRender, GeneratedGlslShadesTheExampleSceneAsTheSceneCommandReports) {
     if (!ms::testing::have_glslang()) GTEST_SKIP() << "glslangValidator not installed (Debian glslang-tools; scripts/install-deps.sh)";
@@ -71,7 +65,7 @@ TEST_F(SceneRender, GeneratedGlslShadesTheExampleSceneAsTheSceneCommandReports) 
               "layout(set = 0, binding = 0) uniform sampler3D u_micro_shadowing;\n"
               "layout(std430, set = 0, binding = 1) readonly buffer GBuffer { vec4 gbuffer[]; };\n"
               "layout(std430, set = 0, binding = 2) writeonly buffer Radiance { float radiance[]; };\n"
-           << read_text(path("lut.glsl"))
+           << ms::testing::slurp_file(path("lut.glsl"))
            << "void main() {\n    uint i = gl_GlobalInvocationID.x;\n    vec4 g = gbuffer[i];\n"
               "    float direct = max(g.y, 0.0) * float(" << intensity << ");\n"
               "    radiance[i] = direct * lut_micro_shadowing(u_micro_shadowing, g.x, g.y, g.z, g.w);\n}\n";

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cmath>
 #include <fstream>
@@ -96,24 +97,47 @@ TEST_F(SceneRender, GeneratedGlslShadesTheExampleSceneAsTheSceneCommandReports) 
     EXPECT_GT(lit, shaded.size() / 2);
 
     // The picture (docs/engine.md): the shader's image, the scene command's, and |difference| x 10^6, side by
-    // side, radiance sRGB-encoded, unlit pixels blue; written beside the test's files, and into MICROSHADOW_FIGURE_DIR when set.
+    // side under their titles, radiance sRGB-encoded with its grey scale below, unlit pixels blue; written
+    // beside the test's files, and into MICROSHADOW_FIGURE_DIR when set.
     const std::uint32_t w = inputs.width(), h = inputs.height();
-    ms::RgbImage picture(3 * w + 8, h, 255, 255, 255);
-    // Pixels the sun does not light (below a horizon) in blue, so that no panel shows them as a value.
-    for (int panel = 0; panel < 3; ++panel) picture.fill(panel * std::int64_t(w + 4), 0, w, h, 40, 60, 120);
+    const std::int64_t top = 20, scale_top = top + h + 8, bar_height = 12;
+    ms::RgbImage picture(3 * w + 8, std::uint32_t(scale_top + bar_height + 40), 255, 255, 255);
     const auto srgb = [](double v) {
         v = std::clamp(v, 0.0, 1.0);
         return std::uint8_t(std::lround(255 * (v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055)));
     };
+    const char* titles[3] = {"GLSL on lavapipe", "microshadow scene", "abs difference x 1e6"};
+    for (int panel = 0; panel < 3; ++panel) {
+        const std::int64_t x0 = panel * std::int64_t(w + 4);
+        ms::draw_text(picture, x0 + (std::int64_t(w) - ms::text_width(titles[panel], 2)) / 2, 3, titles[panel], 2, 0, 0, 0);
+        // Pixels the sun does not light (below a horizon) in blue, so that no panel shows them as a value.
+        picture.fill(x0, top, w, h, 40, 60, 120);
+    }
     for (std::size_t k = 0; k < shaded.size(); ++k) {
         const std::size_t i = shaded[k];
-        const std::int64_t x = std::int64_t(i % w), y = std::int64_t(i / w);
+        const std::int64_t x = std::int64_t(i % w), y = top + std::int64_t(i / w);
         const double want = double(planes[1].data[i]) * planes[0].data[i];
         const std::uint8_t a = srgb(run.values[k]), b = srgb(want), c = srgb(std::abs(run.values[k] - want) * 1e6);
         picture.set(x, y, a, a, a);
         picture.set(x + w + 4, y, b, b, b);
         picture.set(x + 2 * (w + 4), y, c, c, c);
     }
+    // The grey scale: radiance 0 to 1 (W/m^2 per unit intensity) as every panel encodes it; the third panel's
+    // value is the difference times 10^6.
+    const std::int64_t bar_width = 3 * std::int64_t(w) + 8 - 40;
+    for (std::int64_t x = 0; x < bar_width; ++x) {
+        const std::uint8_t g = srgb(double(x) / double(bar_width - 1));
+        picture.fill(20 + x, scale_top, 1, bar_height, g, g, g);
+    }
+    for (const double tick : {0.0, 0.25, 0.5, 0.75, 1.0}) {
+        char label[16];
+        std::snprintf(label, sizeof label, "%g", tick);
+        const std::int64_t x = 20 + std::int64_t(std::lround(tick * double(bar_width - 1)));
+        picture.fill(x, scale_top + bar_height, 1, 4, 0, 0, 0);
+        ms::draw_text(picture, x - std::int64_t(ms::text_width(label, 1)) / 2, scale_top + bar_height + 6, label, 1, 0, 0, 0);
+    }
+    ms::draw_text(picture, 20, scale_top + bar_height + 18,
+                  "radiance = max(N.L, 0) x intensity x term, sRGB-encoded, blue: not lit by the sun", 1, 0, 0, 0);
     ms::scene::write_png_rgb(path("render.png"), picture);
     if (const char* figures = std::getenv("MICROSHADOW_FIGURE_DIR"))
         ms::scene::write_png_rgb(std::string(figures) + "/engine-scene-render.png", picture);

@@ -87,13 +87,39 @@ def _index(flat_index: int, shape: Tuple[int, ...]) -> str:
     return "[" + ", ".join(str(i) for i in np.unravel_index(flat_index, shape)) + "]"
 
 
+def _shown(value):
+    """A numpy scalar as the Python number it holds, so that a message shows 'nan', not 'np.float64(nan)'."""
+    return value.item() if isinstance(value, np.generic) else value
+
+
 def _array(name: str, value: ArrayLike) -> np.ndarray:
-    """`value` as a float64 array; ValueError naming the argument when it holds no numbers."""
+    """`value` as a float64 array; ValueError naming the argument when it holds no real numbers."""
     try:
-        a = np.asarray(value, dtype=np.float64)
+        a = np.asarray(value)
+        # Converting complex numbers to float64 would drop their imaginary parts with only a warning.
+        if np.iscomplexobj(a):
+            raise ValueError("complex numbers: give real ones")
+        a = a.astype(np.float64, copy=False)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{name}: not an array of numbers ({e})") from None
     return a
+
+
+# Bytes a query needs while it is evaluated: its 9 input and 2 output float64 columns, the rows handed to
+# the library and the library's own copies of both, with room to spare.
+_BYTES_PER_QUERY = 512
+
+
+def _check_memory(what: str, count: int) -> None:
+    """MemoryError at once, before any work, for a call whose queries cannot fit in this machine's memory."""
+    try:
+        physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return  # no figure on this platform: numpy's own MemoryError is the answer
+    needed = count * _BYTES_PER_QUERY
+    if needed > physical:
+        raise MemoryError(f"{count} {what} need about {needed / 2**30:.0f} GiB, more than this machine's "
+                          f"{physical / 2**30:.0f} GiB of memory: split the call")
 
 
 def _check_finite(name: str, a: np.ndarray) -> None:
@@ -133,7 +159,7 @@ def _directions(name: str, value: ArrayLike) -> np.ndarray:
     if zero.any():
         i = int(np.flatnonzero(zero)[0])
         where = f"[{i}]" if a.ndim == 2 else ""
-        raise ValueError(f"{name}{where} = {tuple(rows[i])}: a zero-length direction")
+        raise ValueError(f"{name}{where} = {tuple(float(x) for x in rows[i])}: a zero-length direction")
     return a
 
 
@@ -165,13 +191,13 @@ def _rows(a: np.ndarray, n: int) -> np.ndarray:
 
 def _choice(name: str, value: str, allowed: Sequence[str]) -> str:
     if value not in allowed:
-        raise ValueError(f"{name} = {value!r}: one of {', '.join(allowed)}")
+        raise ValueError(f"{name} = {_shown(value)!r}: one of {', '.join(allowed)}")
     return value
 
 
 def _count(name: str, value: int, lo: int, hi: int) -> int:
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not lo <= int(value) <= hi:
-        raise ValueError(f"{name} = {value!r}: an integer from {lo} to {hi}")
+        raise ValueError(f"{name} = {_shown(value)!r}: an integer from {lo} to {hi}")
     return int(value)
 
 
@@ -226,7 +252,7 @@ def _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_w
     _count("seed", seed, 0, 2**64 - 1)
     t = float(tolerance)
     if not (np.isfinite(t) and t >= 0):
-        raise ValueError(f"tolerance = {tolerance!r}: a finite number >= 0 (0: the method's default)")
+        raise ValueError(f"tolerance = {_shown(tolerance)!r}: a finite number >= 0 (0: the method's default)")
     return t
 
 
@@ -238,6 +264,13 @@ def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
     v = _scalar_or_vector("visibility", visibility)
     ax = _scalar_or_vector("alpha_x", alpha_x)
     ay = _scalar_or_vector("alpha_y", alpha_y)
+    # The number of queries follows from the shapes alone: a call too large for memory fails here, at once,
+    # not after seconds of checks and copies.
+    shapes = {"visibility": v, "alpha_x": ax, "alpha_y": ay}
+    for name, value in (("wi", wi), ("wo", wo)):
+        d = _array(name, value)
+        shapes[name] = d.reshape(1, -1) if d.ndim <= 1 else d
+    _check_memory("queries", _broadcast(shapes))
     _check_range("visibility", v, 0.0, 1.0)
     for name, a in (("alpha_x", ax), ("alpha_y", ay)):
         _check_finite(name, a)
@@ -252,7 +285,7 @@ def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
     if below.any():
         i = int(np.flatnonzero(below)[0])
         where = f"[{i}]" if wi_a.ndim == 2 else ""
-        raise ValueError(f"wi{where} = {tuple(wi_rows[i])}: below the horizon (wi_z must be > 0)")
+        raise ValueError(f"wi{where} = {tuple(float(x) for x in wi_rows[i])}: below the horizon (wi_z must be > 0)")
     n = _broadcast(
         {
             "visibility": v,
@@ -320,7 +353,7 @@ def evaluate(
     """
     tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
     if method == "exact" and tolerance > 0 and not (1e-13 <= tolerance <= 0.1):
-        raise ValueError(f"tolerance = {tolerance!r}: the exact method takes 1e-13 to 0.1 (0: 1e-10)")
+        raise ValueError(f"tolerance = {_shown(tolerance)!r}: the exact method takes 1e-13 to 0.1 (0: 1e-10)")
     rows = _query_rows(visibility, alpha_x, alpha_y, wi, wo)
     return _evaluate_rows(rows, method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend,
                           device, fast_math, exact_float, progress)
@@ -625,7 +658,7 @@ def bake(
         _count("samples", samples, 16, _MAX_SAMPLES)
     tolerance = _sampling(method, tolerance, 65536, replicates, seed, sequence, form, ao_weighting, backend, device)
     if tolerance and not 1e-7 <= tolerance <= 1.0:
-        raise ValueError(f"tolerance = {tolerance!r}: 1e-7 to 1 (0: one batch, or the exact method's 1e-6)")
+        raise ValueError(f"tolerance = {_shown(tolerance)!r}: 1e-7 to 1 (0: one batch, or the exact method's 1e-6)")
     if samples and tolerance:
         raise ValueError("give samples or tolerance, not both (tolerance adds batches of the default size)")
     if method == "exact" and samples:
@@ -654,12 +687,12 @@ def bake(
         ranges[name] = [float(a[0]), float(a[1])]
     if isinstance(azimuth, str):
         if azimuth != "mean":
-            raise ValueError(f"azimuth = {azimuth!r}: 'mean' or degrees in [0, 180]")
+            raise ValueError(f"azimuth = {_shown(azimuth)!r}: 'mean' or degrees in [0, 180]")
         azimuth_text = "mean"
     else:
         a = float(azimuth)
         if not (np.isfinite(a) and 0 <= a <= 180):
-            raise ValueError(f"azimuth = {azimuth!r}: 'mean' or degrees in [0, 180]")
+            raise ValueError(f"azimuth = {_shown(azimuth)!r}: 'mean' or degrees in [0, 180]")
         azimuth_text = repr(a)
     native = _core.bake(layout, int(size), int(counts["visibility_count"]), int(counts["n_dot_l_count"]),
                         int(counts["n_dot_v_count"]), rough,
@@ -861,7 +894,7 @@ def sweep(
     if seed is not None:
         _count("seed", seed, 0, 2**64 - 1)
     if tolerance is not None and not (np.isfinite(float(tolerance)) and float(tolerance) > 0):
-        raise ValueError(f"tolerance = {tolerance!r}: a finite number > 0")
+        raise ValueError(f"tolerance = {_shown(tolerance)!r}: a finite number > 0")
     spec_path = "" if spec is None else os.fspath(spec)
     if spec_path and not os.path.isfile(spec_path):
         raise FileNotFoundError(f"{spec_path}: no such file")
@@ -1030,7 +1063,7 @@ def area_eval(
         samples = 8192 if method == "exact" else 65536
     tolerance = _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_weighting, backend, device)
     if method == "exact" and tolerance > 0 and not (1e-13 <= tolerance <= 0.1):
-        raise ValueError(f"tolerance = {tolerance!r}: the exact method takes 1e-13 to 0.1 (0: 1e-6)")
+        raise ValueError(f"tolerance = {_shown(tolerance)!r}: the exact method takes 1e-13 to 0.1 (0: 1e-6)")
     # The surface columns, checked as evaluate() checks them (wi also serves as the unused wo).
     rows = _query_rows(visibility, alpha_x, alpha_y, wi, wi)
     n = rows.shape[0]
@@ -1135,7 +1168,7 @@ def scene(
     if tolerance is not None:
         t = float(tolerance)
         if not (np.isfinite(t) and 1e-12 <= t <= 0.5):
-            raise ValueError(f"tolerance = {tolerance!r}: 1e-12 to 0.5 (None: the description's)")
+            raise ValueError(f"tolerance = {_shown(tolerance)!r}: 1e-12 to 0.5 (None: the description's)")
     if isinstance(luts, (str, os.PathLike)):
         raise ValueError("luts: a list of LUT files (give [path] for one)")
     lut_paths = [os.fspath(p) for p in luts]
@@ -1176,7 +1209,7 @@ def _environment(environment: Optional[PathArg], faces: Optional[Sequence[PathAr
 def _real(name: str, value: float, lo: float, hi: float) -> float:
     v = float(value)
     if not (np.isfinite(v) and lo <= v <= hi):
-        raise ValueError(f"{name} = {value!r}: a number from {lo:g} to {hi:g}")
+        raise ValueError(f"{name} = {_shown(value)!r}: a number from {lo:g} to {hi:g}")
     return v
 
 
@@ -1264,12 +1297,12 @@ def ibl_prefilter(
     _choice("mapping", mapping, ("cmgen", "linear"))
     _count("size", size, 0, 4096)
     if size and size & (size - 1):
-        raise ValueError(f"size = {size!r}: a power of two (0: the source's)")
+        raise ValueError(f"size = {_shown(size)!r}: a power of two (0: the source's)")
     _count("levels", levels, 0, 13)
     _count("samples", samples, 16, 1 << 20)
     _count("max_samples", max_samples, 16, 1 << 24)
     if max_samples < samples:
-        raise ValueError(f"max_samples = {max_samples!r}: at least samples ({samples!r})")
+        raise ValueError(f"max_samples = {_shown(max_samples)!r}: at least samples ({_shown(samples)!r})")
     _choice("bright", bright, ("auto", "off"))
     _count("replicates", replicates, 2, 64)
     _count("seed", seed, 0, 2**64 - 1)
@@ -1457,7 +1490,7 @@ def design(
     orders = []
     for i, order in enumerate(fit_orders):
         if isinstance(order, bool) or not isinstance(order, (int, np.integer)) or not 1 <= int(order) <= 4:
-            raise ValueError(f"fit_orders[{i}] = {order!r}: an integer from 1 to 4")
+            raise ValueError(f"fit_orders[{i}] = {_shown(order)!r}: an integer from 1 to 4")
         orders.append(int(order))
     budget = {}
     for name, value, top in (("max_bytes", max_bytes, 2**64 - 1), ("max_fetches", max_fetches, 2**32 - 1),

@@ -127,6 +127,30 @@ def test_bad_input_is_a_value_error_naming_the_argument_and_index(call, message)
         call()
 
 
+def test_complex_numbers_are_refused_not_cut_to_their_real_part():
+    with pytest.raises(ValueError, match=r"visibility: not an array of numbers \(complex numbers"):
+        ms.evaluate([0.5 + 0.25j], 0.3, 0.3, [0, 0, 1], [0, 0, 1])
+    with pytest.raises(ValueError, match=r"wo: not an array of numbers \(complex numbers"):
+        ms.evaluate(0.5, 0.3, 0.3, [0, 0, 1], np.array([0, 0, 1], dtype=complex))
+
+
+def test_messages_show_numpy_numbers_as_numbers():
+    with pytest.raises(ValueError) as e:
+        ms.evaluate(0.5, 0.3, 0.3, [0, 0, 1], [0, 0, 1], tolerance=np.float64(np.nan))
+    assert "tolerance = nan:" in str(e.value) and "np." not in str(e.value)
+    with pytest.raises(ValueError) as e:
+        ms.evaluate(0.5, 0.3, 0.3, [[0, 0, 1], [0, 0, 0]], [0, 0, 1])
+    assert "wi[1] = (0.0, 0.0, 0.0)" in str(e.value)
+
+
+def test_a_call_larger_than_memory_fails_before_any_work():
+    # Ten billion queries as a zero-stride view (no memory of its own): refused from the shapes alone,
+    # before the checks and copies that would run out of memory only after seconds.
+    many = np.broadcast_to(np.array([0.0, 0.0, 1.0]), (10**10, 3))
+    with pytest.raises(MemoryError, match=r"10000000000 queries need about .* GiB, more than this machine's"):
+        ms.evaluate(0.5, 0.3, 0.3, many, [0, 0, 1], backend="oracle")
+
+
 def test_a_light_below_the_horizon_is_legal_and_gives_zero():
     term, err = ms.evaluate(0.5, 0.3, 0.3, [0, 0, 1], [0.6, 0, -0.8], backend="oracle")
     assert term[0] == 0.0 and err[0] == 0.0

@@ -143,7 +143,7 @@ std::string dfg_job_summary(const DfgJobSpec& spec, const DfgJobResult& r) {
       << (spec.bake.method == DfgMethod::sampled
               ? std::to_string(spec.bake.plan.samples) + " samples per texel, max std error " + to_chars(result.max_std_error)
               : std::string(to_string(spec.bake.method)) + ", max error estimate " + to_chars(result.max_exact_error))
-      << ", " << result.seconds << " s on " << result.backend << "\n";
+      << ", computed in " << result.seconds << " s on " << result.backend << "\n";
     if (const auto& cmp = r.comparison)
         s << "compare: max |diff| scale " << cmp->max_abs[0] << " bias " << cmp->max_abs[1] << " E " << cmp->max_abs[2] << " (worst texel "
           << cmp->worst_x << ", " << cmp->worst_y << "); rms " << cmp->rms[0] << " " << cmp->rms[1] << " " << cmp->rms[2] << "; bake "
@@ -301,7 +301,7 @@ std::string prefilter_job_summary(const PrefilterJobSpec& job, const PrefilterJo
     s << std::setprecision(3) << "ibl prefilter: " << result.mips.size() << " mips from " << r.source_size << "^2 faces ("
       << to_string(spec.mapping) << " roughness), " << (spec.options.filtered ? "filtered" : "unfiltered") << " importance sampling, "
       << result.bright_texels << " bright texels summed explicitly (" << 100 * result.bright_power_fraction << "% of the power), "
-      << double(result.samples) / double(std::max<std::uint64_t>(1, result.texels)) << " samples per texel on average, " << result.seconds
+      << double(result.samples) / double(std::max<std::uint64_t>(1, result.texels)) << " samples per texel on average, computed in " << result.seconds
       << " s (" << result.cpu_seconds << " CPU s); largest relative 95% bar " << result.max_relative_bar;
     if (spec.tolerance > 0)
         s << " (tolerance " << spec.tolerance
@@ -362,7 +362,7 @@ std::string irradiance_job_summary(const IrradianceJobSpec&, const IrradianceJob
     const IrradianceMapResult& m = r.result;
     std::ostringstream s;
     s << std::setprecision(3) << "ibl irradiance: " << m.map.size << "^2 faces from " << m.source_size << "^2 (convolved at "
-      << m.convolution_size << "^2), " << m.seconds << " s on " << m.backend << "; max relative error bound " << m.max_relative_bound << "\n";
+      << m.convolution_size << "^2), computed in " << m.seconds << " s on " << m.backend << "; max relative error bound " << m.max_relative_bound << "\n";
     s << "order-2 SH vs direct: max |diff| " << m.sh_max_abs << " (" << m.sh_max_relative << " of the largest value, RMS "
       << m.sh_rms_relative << "); SH truncation bound 3/32 int L / pi = " << m.sh_truncation_bound << "\n";
     if (const auto& check = r.verification)

@@ -177,6 +177,8 @@ std::vector<Estimate> evaluate_each(TermBackend& backend, const std::vector<Quer
         if (stats) {
             stats->rerun += round_stats.rerun;
             stats->seconds = round_stats.seconds;
+            if (r == 1) stats->resampled = where.size();  // later rounds take a subset of these
+            stats->most_samples = round.samples;
         }
     }
     return results;

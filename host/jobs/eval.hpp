@@ -52,6 +52,10 @@ struct EvalStats {
     std::size_t rerun = 0;         // work items rerun after a device failed
     std::vector<std::string> failed_devices;
     double seconds = 0;
+    // Sampled to a tolerance: the queries sampled again with more points, and the most points one got
+    // (0 when no query was sampled again).
+    std::size_t resampled = 0;
+    std::uint64_t most_samples = 0;
 };
 
 // Validates the queries (std::invalid_argument naming the first bad one), answers the trivial ones

@@ -144,7 +144,11 @@ std::string eval_job_summary(const EvalJobSpec& spec, const EvalJobResult& r) {
     o << "eval: " << r.queries << " queries (" << r.stats.sampled << (plan.method == Method::exact ? " integrated, " : " sampled, ")
       << r.stats.exact_zero << " exact 0 in the zero region, " << r.stats.exact_one << " exact 1 at v = 1), "
       << (plan.method == Method::exact ? std::string("exact method, max estimated error ")
-                                       : std::to_string(plan.samples) + " samples each, max std error ")
+                                       : std::to_string(plan.samples) + " samples each" +
+                                             (r.stats.resampled ? ", up to " + std::to_string(r.stats.most_samples) + " for the " +
+                                                                      std::to_string(r.stats.resampled) + " sampled again to the tolerance"
+                                                                : std::string()) +
+                                             ", max std error ")
       << std::setprecision(3) << r.max_std_error << (r.tolerance.tolerance > 0 ? " " + r.tolerance.summary() : "") << ", "
       << std::setprecision(3) << "computed in " << r.stats.seconds << " s on " << r.backend << "\n";
     for (const EvalComparatorResult& c : r.comparators)

@@ -158,6 +158,19 @@ TEST_F(FirstHour, SummariesCountWhatTheMethodDidAndProgressEstimatesTheTimeLeft)
     EXPECT_NE(area.output.find(" left\n"), std::string::npos) << area.output;
 }
 
+TEST_F(FirstHour, ASampledEvalToAToleranceSaysWhatTheQueriesSampledAgainGot) {
+    // Before: "1024 samples each" although the queries above the tolerance were sampled again with 4^k x.
+    const RunResult r = here("eval --method sampled --samples 1024 --tolerance 1e-3 --in " + kFirstHourSource +
+                             "/examples/queries.csv --out t.csv");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    EXPECT_NE(r.output.find("1024 samples each, up to "), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(" sampled again to the tolerance, max std error "), std::string::npos) << r.output;
+    // Without a tolerance nothing is sampled again and the summary says only the one count.
+    const RunResult once = here("eval --method sampled --samples 1024 --in " + kFirstHourSource + "/examples/queries.csv --out t.csv");
+    ASSERT_EQ(once.exit_code, 0) << once.output;
+    EXPECT_EQ(once.output.find("up to"), std::string::npos) << once.output;
+}
+
 TEST_F(FirstHour, AMergeSaysItReadEarlierWorkRatherThanReportComputeTime) {
     for (const char* shard : {"0/2", "1/2"}) ASSERT_EQ(here(std::string("bake --size 4 -q --samples 1024 --out m.exr --shard ") + shard).exit_code, 0);
     const RunResult merge = here("bake --size 4 --samples 1024 --out m.exr --merge");

@@ -16,7 +16,7 @@ protected:
 };
 
 TEST_F(ExactBakeSummary, SaysWhatTheExactMethodDidAndNothingOfSamples) {
-    const auto r = cli("bake --size 8 --method exact --backend oracle --out '" + path("x.exr") + "'");
+    const auto r = cli("bake --size 8 --method exact --backend oracle --out " + ms::testing::shell_quote(path("x.exr")));
     ASSERT_EQ(r.exit_code, 0) << r.output;
     EXPECT_NE(r.output.find("exact method (the C++ evaluator (double))"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("azimuth means of T by Gauss-Legendre on "), std::string::npos) << r.output;
@@ -27,7 +27,7 @@ TEST_F(ExactBakeSummary, SaysWhatTheExactMethodDidAndNothingOfSamples) {
 }
 
 TEST_F(ExactBakeSummary, AMissedToleranceOfTheFloatKernelNamesWhatWouldMeetIt) {
-    const auto r = cli("bake --size 8 --method exact --exact-float --out '" + path("f.exr") + "'");
+    const auto r = cli("bake --size 8 --method exact --exact-float --out " + ms::testing::shell_quote(path("f.exr")));
     EXPECT_EQ(r.exit_code, 3) << r.output;
     EXPECT_NE(r.output.find("exact method (the float kernel on every device)"), std::string::npos) << r.output;
     EXPECT_NE(r.output.find("(TOLERANCE NOT MET: the float kernel's rounding stops it; leave out --exact-float"),

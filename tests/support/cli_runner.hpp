@@ -32,6 +32,15 @@ inline RunResult run_shell(const std::string& command) {
     return {code, out};
 }
 
+// A path as one word of the shell's command line: sh's single quotes, cmd.exe's double quotes.
+inline std::string shell_quote(const std::string& path) {
+#ifdef _WIN32
+    return "\"" + path + "\"";
+#else
+    return "'" + path + "'";
+#endif
+}
+
 // The shell's words for "in this folder, with these variables set, run": sh's cd and VAR='value'
 // prefixes, or cmd.exe's cd /d (which also changes the drive) and set "VAR=value" &&.
 using ShellVariables = std::vector<std::pair<std::string, std::string>>;

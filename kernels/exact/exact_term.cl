@@ -6,10 +6,11 @@
  * the derivation): T = P(cone) / P(hemisphere) under the VNDF of wi, each probability the closed line
  * integral of a.(v x dv) / |v|^2 over the boundary of an intersection of spherical caps, v = S^-1 m.
  * The boundary is arcs of the caps' circles with closed-form ends; great circles and the isotropic
- * circle round e_z integrate in closed form, every other arc by Gauss-Legendre pieces split until the
- * complex poles of 1 / |v|^2 (Durand-Kerner roots of a quartic) lie outside each piece's Bernstein
- * ellipse, then while the difference to a lower-order rule (the error estimate) exceeds the piece's
- * share of the tolerance. The azimuth mean integrates T between its non-analytic azimuths in a cosine
+ * circle round e_z integrate in closed form, every other arc by partial fractions over the roots of
+ * a quartic (Durand-Kerner; exact_closed_form_arc) where that form's error bound allows, and otherwise
+ * by Gauss-Legendre pieces split until the roots' poles of 1 / |v|^2 lie outside each piece's
+ * Bernstein ellipse, then while the difference to a lower-order rule (the error estimate) exceeds the
+ * piece's share of the tolerance. The azimuth mean integrates T between its non-analytic azimuths in a cosine
  * substitution, with the same high/low pair.
  *
  * OpenCL C has no recursion: the host's recursive bisections are depth-first walks over explicit
@@ -55,6 +56,10 @@ typedef float2 ms_complex;
 #endif
 #ifndef MS_EXACT_AZIMUTH_STACK
 #define MS_EXACT_AZIMUTH_STACK 31
+#endif
+/* Closed-form arcs (1) or Gauss-Legendre on every arc (0, for tests and comparisons). */
+#ifndef MS_EXACT_CLOSED_FORM
+#define MS_EXACT_CLOSED_FORM 1
 #endif
 #define MS_EXACT_POLE_DEPTH 60      /* pole-driven splits of an arc piece */
 #define MS_EXACT_ERROR_DEPTH 40     /* tolerance-driven splits of an arc piece */
@@ -193,20 +198,32 @@ inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1
     return arcs;
 }
 
-/* ---- poles of the arc integrand ------------------------------------------------------------------- */
+/* ---- the circle's quartic: poles and closed-form arcs --------------------------------------------- */
 
-/* The poles of 1 / |v(psi)|^2 in the upper half plane, from the roots of z^2 |v|^2 (z = e^{i psi})
- * inside the unit disc; returns their number (<= 4). */
-inline int exact_poles(real3 p, real3 q, real3 r, real* pole_re, real* pole_im)
+/* |v(psi)|^2 = k0 + k1 cos psi + k2 sin psi + k3 cos 2 psi + k4 sin 2 psi; with z = e^{i psi} it is
+ * P4(z) / z^2, P4 = sum c[i] z^i, whose roots come in pairs z, 1 / conj(z) (P4 is self-reciprocal) and
+ * never lie on |z| = 1 (|v|^2 > 0 there). */
+typedef struct exact_quartic {
+    ms_complex c[5];
+    ms_complex z[4];
+    int roots; /* 4; 2 when the z^4 and z^0 terms vanish; 0 when the z^3 and z^1 terms do too */
+} exact_quartic;
+
+inline exact_quartic exact_circle_quartic(real3 p, real3 q, real3 r)
 {
+    exact_quartic out;
     const real k0 = dot(p, p) + MS_R(0.5) * (dot(q, q) + dot(r, r));
     const real k1 = MS_R(2.0) * dot(p, q), k2 = MS_R(2.0) * dot(p, r);
     const real k3 = MS_R(0.5) * (dot(q, q) - dot(r, r)), k4 = dot(q, r);
     const ms_complex c4 = (ms_complex)(MS_R(0.5) * k3, MS_R(-0.5) * k4), c3 = (ms_complex)(MS_R(0.5) * k1, MS_R(-0.5) * k2);
     const ms_complex c2 = (ms_complex)(k0, MS_R(0.0)), c1 = (ms_complex)(MS_R(0.5) * k1, MS_R(0.5) * k2);
     const ms_complex c0 = (ms_complex)(MS_R(0.5) * k3, MS_R(0.5) * k4);
-    ms_complex roots[4];
-    int found = 0;
+    out.c[0] = c0;
+    out.c[1] = c1;
+    out.c[2] = c2;
+    out.c[3] = c3;
+    out.c[4] = c4;
+    out.roots = 0;
     const real negligible = MS_EXACT_NEGLIGIBLE * k0 * k0;
     if (cx_norm(c4) > negligible) {
         /* Durand-Kerner on the monic quartic from starts off the real axis. */
@@ -216,44 +233,181 @@ inline int exact_poles(real3 p, real3 q, real3 r, real* pole_re, real* pole_im)
         const ms_complex seed = (ms_complex)(MS_R(0.4), MS_R(0.9));
         ms_complex w = (ms_complex)(MS_R(1.0), MS_R(0.0));
         for (int i = 0; i < 4; ++i) {
-            roots[i] = radius * w;
+            out.z[i] = radius * w;
             w = cx_mul(w, seed);
         }
         for (int iter = 0; iter < 200; ++iter) {
             real change = MS_R(0.0);
             for (int i = 0; i < 4; ++i) {
-                const ms_complex x = roots[i];
+                const ms_complex x = out.z[i];
                 const ms_complex value = cx_mul(cx_mul(cx_mul(x + a3, x) + a2, x) + a1, x) + a0;
                 ms_complex denom = (ms_complex)(MS_R(1.0), MS_R(0.0));
                 for (int j = 0; j < 4; ++j)
-                    if (j != i) denom = cx_mul(denom, x - roots[j]);
+                    if (j != i) denom = cx_mul(denom, x - out.z[j]);
                 const real dn = cx_norm(denom);
                 const ms_complex step = dn > MS_R(0.0) ? cx_mul(value, cx_conj(denom)) / dn : (ms_complex)(MS_R(1e-3), MS_R(1e-3));
-                roots[i] -= step;
-                change = fmax(change, cx_norm(step) / (MS_R(1.0) + cx_norm(roots[i])));
+                out.z[i] -= step;
+                change = fmax(change, cx_norm(step) / (MS_R(1.0) + cx_norm(out.z[i])));
             }
             if (change < MS_EXACT_ROOT_STOP) break;
         }
-        found = 4;
+        out.roots = 4;
     } else if (cx_norm(c3) > negligible) {
         /* z (c3 z^2 + c2 z + c1): two roots (z = 0 and infinity are no poles). */
         const ms_complex disc = cx_sqrt(cx_mul(c2, c2) - MS_R(4.0) * cx_mul(c3, c1));
         const real aligned = c2.x * disc.x + c2.y * disc.y; /* Re(conj(c2) disc) */
         const ms_complex big = MS_R(-0.5) * (c2 + (aligned >= MS_R(0.0) ? disc : -disc));
-        roots[found++] = cx_div(big, c3);
-        if (big.x != MS_R(0.0) || big.y != MS_R(0.0)) roots[found++] = cx_div(c1, big);
+        out.z[out.roots++] = cx_div(big, c3);
+        if (big.x != MS_R(0.0) || big.y != MS_R(0.0)) out.z[out.roots++] = cx_div(c1, big);
     }
+    return out;
+}
+
+/* The poles of 1 / |v(psi)|^2 in the upper half plane: each root inside the unit disc is one, at
+ * psi = arg z + i (-ln |z|); returns their number (<= 4). */
+inline int exact_poles(const exact_quartic* quartic, real* pole_re, real* pole_im)
+{
     int poles = 0;
-    for (int i = 0; i < found; ++i) {
-        const real m2 = cx_norm(roots[i]);
+    for (int i = 0; i < quartic->roots; ++i) {
+        const ms_complex z = quartic->z[i];
+        const real m2 = cx_norm(z);
         if (!(m2 < MS_R(1.0)) || m2 == MS_R(0.0)) continue;
         const real im = MS_R(-0.5) * log(m2);
         if (im > MS_R(12.0)) continue; /* farther than any piece's ellipse reaches */
-        pole_re[poles] = atan2(roots[i].y, roots[i].x);
+        pole_re[poles] = atan2(z.y, z.x);
         pole_im[poles] = im;
         ++poles;
     }
     return poles;
+}
+
+/* The closed form of an arc by partial fractions. With z = e^{i psi} and dpsi = dz / (i z), the arc
+ * integrand (n1 + al1 cos psi + al2 sin psi) / |v|^2 dpsi is N(z) / (i P4(z)) dz with
+ * N(z) = n2 z^2 + n1 z + n0, n2 = (al1 - i al2) / 2, n0 = (al1 + i al2) / 2 (deg N < deg P4). The
+ * computed roots z_j are the exact roots of P~4 = c4 prod (z - z_j), over which partial fractions are
+ * exact: N / (i P~4) = sum_j rho_j / (z - z_j), rho_j = N(z_j) / (i P~4'(z_j)). A primitive of
+ * dz / (z - z_j) along the unit circle, continuous in psi (1 - w with |w| < 1 keeps the principal
+ * Log off its cut), is
+ *     i psi + Log(1 - z_j e^{-i psi})   for |z_j| < 1   (log(z - z_j) = log z + log(1 - z_j / z)),
+ *     Log(1 - e^{i psi} / z_j)          for |z_j| > 1   (up to the constant log(-z_j)),
+ * so the arc's integral is Re sum_j rho_j [L_j(hi) - L_j(lo)]. Every root is handled by the same
+ * straight-line code: w = A_j (e.x, sign_j e.y) with A_j = z_j, sign -1 inside and A_j = 1 / z_j,
+ * sign +1 outside, and the i psi term weighted by inside_j in {0, 1}.
+ *
+ * What a circle's arcs share: the residues of the arc integrand (rho_f) and of 1 / |v|^2 (rho_one,
+ * N = z), and the distance delta of P~4 from P4 on the unit circle. */
+typedef struct exact_residues {
+    ms_complex rho_f[4], rho_one[4], factor[4];
+    real sign[4], inside[4];
+    real delta;
+    int usable;
+} exact_residues;
+
+inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0, real al1, real al2, real min_norm2)
+{
+    exact_residues out;
+    out.usable = 0;
+    out.delta = MS_R(0.0);
+    if (quartic->roots != 4) return out; /* vanishing leading coefficients: quadrature instead */
+    const ms_complex z0 = quartic->z[0], z1 = quartic->z[1], z2 = quartic->z[2], z3 = quartic->z[3];
+    const ms_complex c4 = quartic->c[4];
+    /* P~4's coefficients c4 (e4, -e3, e2, -e1, 1) from the elementary symmetric functions. */
+    const ms_complex z01 = cx_mul(z0, z1), z23 = cx_mul(z2, z3);
+    const ms_complex e1 = z0 + z1 + z2 + z3;
+    const ms_complex e2 = z01 + z23 + cx_mul(z0 + z1, z2 + z3);
+    const ms_complex e3 = cx_mul(z01, z2 + z3) + cx_mul(z23, z0 + z1);
+    const ms_complex e4 = cx_mul(z01, z23);
+    real delta = length(cx_mul(c4, e4) - quartic->c[0]) + length(quartic->c[1] + cx_mul(c4, e3)) +
+                 length(cx_mul(c4, e2) - quartic->c[2]) + length(quartic->c[3] + cx_mul(c4, e1));
+    real coefficient_scale = MS_R(0.0);
+    for (int i = 0; i < 5; ++i) coefficient_scale += length(quartic->c[i]);
+    const real expansion_scale = length(c4) * (MS_R(1.0) + length(z0)) * (MS_R(1.0) + length(z1)) *
+                                 (MS_R(1.0) + length(z2)) * (MS_R(1.0) + length(z3));
+    /* The residual above is itself rounded: each e_k c4 to a few ulps of |c4| e_k(|z|) (the sum over k
+     * of which is expansion_scale), and the coefficients c_i, dot products of p, q, r, to a few ulps of
+     * the products they are made of (at most 2 k0 <= 2 sum |c_i|). */
+    delta += MS_R(16.0) * MS_EXACT_EPS * (expansion_scale + coefficient_scale);
+    out.delta = delta;
+    /* P~4 within a quarter of min |v|^2 keeps |P~4| >= 3/4 min |v|^2 > 0 on the circle: else the roots
+     * are too inaccurate (or did not converge) for the bound to say anything. */
+    if (!(delta < MS_R(0.25) * min_norm2)) return out;
+    const ms_complex n2 = (ms_complex)(MS_R(0.5) * al1, MS_R(-0.5) * al2), n1 = (ms_complex)(al0, MS_R(0.0));
+    const ms_complex n0 = (ms_complex)(MS_R(0.5) * al1, MS_R(0.5) * al2);
+    const ms_complex z[4] = {z0, z1, z2, z3};
+    int finite = 1;
+    for (int j = 0; j < 4; ++j) {
+        const ms_complex zj = z[j];
+        ms_complex derivative = c4;
+        for (int k = 0; k < 4; ++k)
+            if (k != j) derivative = cx_mul(derivative, zj - z[k]);
+        const real dn = cx_norm(derivative);
+        finite &= dn > MS_R(0.0) && isfinite(dn); /* coincident roots have no simple residues */
+        /* 1 / (i P~4'(z_j)) = -i conj(P~4') / |P~4'|^2 */
+        const ms_complex inv_i_derivative = (ms_complex)(-derivative.y, -derivative.x) / dn;
+        out.rho_f[j] = cx_mul(cx_mul(n2, zj) + n1, zj) + n0;
+        out.rho_f[j] = cx_mul(out.rho_f[j], inv_i_derivative);
+        out.rho_one[j] = cx_mul(zj, inv_i_derivative);
+        const real m2 = cx_norm(zj);
+        const int inside = m2 < MS_R(1.0);
+        out.inside[j] = inside ? MS_R(1.0) : MS_R(0.0);
+        out.sign[j] = inside ? MS_R(-1.0) : MS_R(1.0);
+        out.factor[j] = inside ? zj : cx_conj(zj) / m2;
+    }
+    out.usable = finite;
+    return out;
+}
+
+/* The integral over [lo, hi] of the arc integrand by the closed form, with a bound on its error;
+ * returns 0 where the closed form does not apply. The bound, for the value computed from P~4 instead
+ * of P4 and in working precision:
+ *  - P~4: on |z| = 1, |f - f~| = |N| |P4 - P~4| / (|P4| |P~4|) <= (|N| / |v|^2) delta / (|v|^2 - delta)
+ *    with |v|^2 >= min_norm2 = m, so integral |f - f~| <= g delta / (1 - delta / m) I with g a bound
+ *    of |N| / |v|^2 and I = integral 1 / |v|^2. N = a.(v x v') and |a| = 1 give two such bounds,
+ *    max |N| / m and |v'|max / sqrt(m), the second far tighter on smooth surfaces. I itself is the closed
+ *    form of 1 / |v~|^2 within I delta / (m - delta) by the same argument, whence
+ *    I <= (|I~| + its rounding) / (1 - delta / (m - delta));
+ *  - rounding of the sum: each term rho_j L_j carries a few ulps of |rho_j| |L_j|, and Log(1 - w) an
+ *    absolute ~ulp |w| / |1 - w| from forming 1 - w; the residues may cancel, so the bound sums moduli;
+ *  - the integrand's inputs: |v|^2 from p, q, r to a few ulps, and the numerator's coefficients to a
+ *    few ulps of the products they are made of (parameter_size; they cancel at grazing views), which
+ *    moves the integral by those relative sizes times max |N| I and parameter_size I.
+ * `floor` receives the least error the quadrature may report for the arc where rounding stops it. */
+inline int exact_closed_form_arc(const exact_residues* res, real lo, real hi, real min_norm2, real max_numerator,
+                                 real speed_bound, real parameter_size, real* value, real* error, real* floor)
+{
+    if (!res->usable) return 0;
+    real c_lo, c_hi;
+    const real s_lo = sincos(lo, &c_lo), s_hi = sincos(hi, &c_hi);
+    ms_complex sum_f = (ms_complex)(MS_R(0.0), MS_R(0.0)), sum_one = sum_f;
+    real rounding_f = MS_R(0.0), rounding_one = MS_R(0.0);
+    const real width = hi - lo, ends_size = fabs(hi) + fabs(lo);
+    for (int j = 0; j < 4; ++j) {
+        const ms_complex u_lo = (ms_complex)(MS_R(1.0), MS_R(0.0)) - cx_mul(res->factor[j], (ms_complex)(c_lo, res->sign[j] * s_lo));
+        const ms_complex u_hi = (ms_complex)(MS_R(1.0), MS_R(0.0)) - cx_mul(res->factor[j], (ms_complex)(c_hi, res->sign[j] * s_hi));
+        const real n_lo = cx_norm(u_lo), n_hi = cx_norm(u_hi);
+        const ms_complex log_lo = (ms_complex)(MS_R(0.5) * log(n_lo), atan2(u_lo.y, u_lo.x));
+        const ms_complex log_hi = (ms_complex)(MS_R(0.5) * log(n_hi), atan2(u_hi.y, u_hi.x));
+        const ms_complex dl = log_hi - log_lo + (ms_complex)(MS_R(0.0), res->inside[j] * width);
+        sum_f += cx_mul(res->rho_f[j], dl);
+        sum_one += cx_mul(res->rho_one[j], dl);
+        const real log_size = fabs(log_lo.x) + fabs(log_lo.y) + fabs(log_hi.x) + fabs(log_hi.y) + res->inside[j] * ends_size +
+                              rsqrt(n_lo) + rsqrt(n_hi);
+        rounding_f += length(res->rho_f[j]) * log_size;
+        rounding_one += length(res->rho_one[j]) * log_size;
+    }
+    rounding_f *= MS_R(32.0) * MS_EXACT_EPS;
+    rounding_one *= MS_R(32.0) * MS_EXACT_EPS;
+    const real delta = res->delta;
+    const real ratio = delta / (min_norm2 - delta); /* < 1/3 */
+    const real integral_one = (fabs(sum_one.x) + rounding_one) / (MS_R(1.0) - ratio);
+    const real max_integrand = fmin(max_numerator / min_norm2, speed_bound / sqrt(min_norm2));
+    const real inputs = (MS_R(32.0) * max_numerator + MS_R(8.0) * parameter_size) * MS_EXACT_EPS * integral_one;
+    *value = sum_f.x;
+    *error = delta / (MS_R(1.0) - delta / min_norm2) * max_integrand * integral_one + rounding_f + inputs;
+    /* The quadrature stops refining where a piece's two rules differ by less than 1e3 ulps of its
+     * integral of |f| >= |value|, and adds 8 ulps of parameter_size over |v|^2 (exact_integrate_arc). */
+    *floor = (MS_R(1e3) * fabs(sum_f.x) + MS_R(8.0) * parameter_size * integral_one) * MS_EXACT_EPS;
+    return isfinite(*value) && isfinite(*error);
 }
 
 /* Whether a 2 pi translate of the pole lies inside the Bernstein ellipse E_rho of [lo, hi]
@@ -464,6 +618,8 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
     exact_sum result = {MS_R(0.0), MS_R(0.0), 0u, 0u};
     real rounding = MS_R(0.0), ends = MS_R(0.0);
     const real tolerance_per_radian = absolute_tolerance / (MS_EXACT_TWO_PI * count);
+    /* |v|^2 = |S^-1 m|^2 >= min(1, 1 / ax^2, 1 / ay^2) for unit m; the factor covers m's rounding. */
+    const real min_norm2 = (MS_R(1.0) - MS_R(8.0) * MS_EXACT_EPS) * fmin(MS_R(1.0), fmin(MS_R(1.0) / (ax * ax), MS_R(1.0) / (ay * ay)));
     for (int k = 0; k < count; ++k) {
         real3 e1, e2;
         exact_basis(caps[k].n, &e1, &e2);
@@ -514,12 +670,32 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
             const real lp = length(p), lq = length(q), lr = length(r);
             f.parameter_size = lq * lr + lp * lr + lp * lq;
         }
-        real pole_re[4], pole_im[4];
-        const int poles = exact_poles(p, q, r, pole_re, pole_im);
+        const exact_quartic quartic = exact_circle_quartic(p, q, r);
         exact_sum sum = {MS_R(0.0), MS_R(0.0), 0u, 0u};
+#if MS_EXACT_CLOSED_FORM
+        const exact_residues residues = exact_residues_make(&quartic, k_const, bc, -bs, min_norm2);
+        /* |N| <= |k| + hypot(bc, bs); |v'| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2). */
+        const real max_numerator = fabs(k_const) + hypot(bc, bs), speed_bound = sqrt(dot(q, q) + dot(r, r));
+#endif
+        real pole_re[4], pole_im[4];
+        int poles = -1; /* found on the first arc that needs quadrature */
         for (int i = 0; i < arcs; ++i) {
-            exact_integrate_arc(&f, pole_re, pole_im, poles, arc_lo[i], arc_hi[i], rule, gauss, tolerance_per_radian, &sum);
             ends += fabs(exact_arc_integrand(&f, arc_lo[i])) * end_lo[i] + fabs(exact_arc_integrand(&f, arc_hi[i])) * end_hi[i];
+#if MS_EXACT_CLOSED_FORM
+            /* The closed form where its bound meets the arc's share of the tolerance, or where it is no
+             * worse than the quadrature's own rounding could be (float, whose rounding, not the
+             * tolerance, limits either method); quadrature elsewhere. */
+            real closed_value, closed_error, closed_floor;
+            if (exact_closed_form_arc(&residues, arc_lo[i], arc_hi[i], min_norm2, max_numerator, speed_bound, f.parameter_size,
+                                      &closed_value, &closed_error, &closed_floor) &&
+                closed_error <= fmax(tolerance_per_radian * (arc_hi[i] - arc_lo[i]), closed_floor)) {
+                sum.value += closed_value;
+                sum.error += closed_error;
+                continue;
+            }
+#endif
+            if (poles < 0) poles = exact_poles(&quartic, pole_re, pole_im);
+            exact_integrate_arc(&f, pole_re, pole_im, poles, arc_lo[i], arc_hi[i], rule, gauss, tolerance_per_radian, &sum);
         }
         result.value += sum.value;
         result.error += sum.error;

@@ -122,7 +122,7 @@ set(microshadow_slow_tests
   "^ReprAnisotropicCorrectedTest\\.ThePresetMeetsItsMeasuredAccuracyAgainstTheExactTerm$"
   "^Distributed\\.CliSceneShardsMergeToOneProcess$"
   "^ExactTerm\\.AgreesWithTheScalarOracleOnAnisotropicAndUniformQueries$"
-  "^ExactKernel\\.(FloatKernelReachesItsMeasuredAccuracy|FloatKernelEstimateBoundsEveryValue|DoubleKernelAgreesWithTheEvaluatorOnAzimuthMeans)$"
+  "^ExactKernel\\.(FloatKernelReachesItsMeasuredAccuracy|FloatKernelEstimateBoundsEveryValue|DoubleKernelAgreesWithTheEvaluatorOnAzimuthMeans|DoubleKernelClosedFormAgreesAndIsTaken|FloatKernelClosedFormAgreesAndIsTaken)$"
   "^TermBars\\.FewRareSamplesInManyReplicatesKeepTheStatedCoverage$"
   "^ExactBakeBounds\\."
   "^SampledBakeBounds\\."

@@ -303,7 +303,9 @@ typedef struct exact_residues {
     int usable;
 } exact_residues;
 
-inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0, real al1, real al2, real min_norm2)
+/* g bounds |N| / |v|^2 on the circle, |v|^2 lies in [min_norm2, max_norm2]. */
+inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0, real al1, real al2, real min_norm2,
+                                          real max_norm2, real g, real parameter_size, real tolerance_per_radian)
 {
     exact_residues out;
     out.usable = 0;
@@ -331,6 +333,13 @@ inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0
     /* P~4 within a quarter of min |v|^2 keeps |P~4| >= 3/4 min |v|^2 > 0 on the circle: else the roots
      * are too inaccurate (or did not converge) for the bound to say anything. */
     if (!(delta < MS_R(0.25) * min_norm2)) return out;
+    /* The bound's root term alone (exact_closed_form_arc), g delta / (1 - delta / m) I with
+     * I >= width / max_norm2, against the two levels an arc accepts: its share of the tolerance, and
+     * the quadrature's rounding floor (|value| <= g I). Where it exceeds both by 2x on every arc, the
+     * residues are not worth computing (float on smooth surfaces, whose quartic float cannot resolve). */
+    const real root_term = delta / (MS_R(1.0) - delta / min_norm2) * g;
+    if (root_term > MS_R(2.0) * fmax(tolerance_per_radian * max_norm2, (MS_R(1e3) * g + MS_R(8.0) * parameter_size) * MS_EXACT_EPS))
+        return out;
     const ms_complex n2 = (ms_complex)(MS_R(0.5) * al1, MS_R(-0.5) * al2), n1 = (ms_complex)(al0, MS_R(0.0));
     const ms_complex n0 = (ms_complex)(MS_R(0.5) * al1, MS_R(0.5) * al2);
     const ms_complex z[4] = {z0, z1, z2, z3};
@@ -673,9 +682,13 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
         const exact_quartic quartic = exact_circle_quartic(p, q, r);
         exact_sum sum = {MS_R(0.0), MS_R(0.0), 0u, 0u};
 #if MS_EXACT_CLOSED_FORM
-        const exact_residues residues = exact_residues_make(&quartic, k_const, bc, -bs, min_norm2);
-        /* |N| <= |k| + hypot(bc, bs); |v'| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2). */
+        /* |N| <= |k| + hypot(bc, bs); |v'| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2) = speed_bound,
+         * and |v| <= |p| + speed_bound. */
         const real max_numerator = fabs(k_const) + hypot(bc, bs), speed_bound = sqrt(dot(q, q) + dot(r, r));
+        const real max_norm = length(p) + speed_bound;
+        const real g = fmin(max_numerator / min_norm2, speed_bound / sqrt(min_norm2));
+        const exact_residues residues = exact_residues_make(&quartic, k_const, bc, -bs, min_norm2, max_norm * max_norm, g,
+                                                            f.parameter_size, tolerance_per_radian);
 #endif
         real pole_re[4], pole_im[4];
         int poles = -1; /* found on the first arc that needs quadrature */

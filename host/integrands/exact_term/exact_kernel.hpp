@@ -1,6 +1,8 @@
 // The exact (deterministic) evaluator of the term on an OpenCL device: kernels/exact/exact_term.cl, the
-// same algorithm as host/exact/ (boundary integrals over cap arcs, pole-aware Gauss-Legendre), one
-// work-item per query or per LUT texel.
+// same algorithm as host/exact/ (boundary integrals over cap arcs, each arc in closed form by partial
+// fractions where that form's error bound allows, pole-aware Gauss-Legendre elsewhere), one work-item
+// per query or per LUT texel. ExactValue::quadrature_pieces counts the Gauss pieces of the arcs that
+// did not take the closed form (for azimuth means: the azimuth pieces).
 //
 // Precision. With BuildConfig::double_precision (devices with cl_khr_fp64) the kernel runs in double
 // and agrees with the C++ evaluator within their error estimates. Without it the kernel runs in float,
@@ -8,7 +10,10 @@
 // then carries float's rounding as first-order bounds (kernels/exact/exact_term.cl): the arc ends'
 // rounding amplified by acos near tangency (narrow cones seen at grazing angles, where the ends of the
 // view's great circle inside the cone are ill-conditioned) times the integrand there, and the
-// integrand's parameters rounded relative to the products they are made of. Checked value by value
+// integrand's parameters rounded relative to the products they are made of. A float arc takes the
+// closed form only where its bound is no larger than what the quadrature reports at its own rounding
+// floor: the quartic's coefficients carry float's rounding of the mean of |v|^2 (~1 / alpha^2), against
+// |v|^2 >= 1 near the poles, so in practice on rough surfaces only. Checked value by value
 // against the C++ evaluator on stress sets (tests/integrands/exact_kernel_test.cpp). Two kinds of
 // query float cannot resolve go to the C++ evaluator on the host instead, in double: a hemisphere
 // probability that rounds to 0 (views within ~1e-6 of the horizon; the kernel flags them) and

@@ -21,7 +21,10 @@
  *
  * Precision: `real` (common/real.cl). The thresholds that the host states in ulps of double are
  * stated here in ulps of `real`, so the float variant stops refining where float rounding, not the
- * quadrature, dominates, and its error estimate carries float's rounding floor.
+ * quadrature, dominates, and its error estimate carries float's rounding floor. An arc takes the
+ * closed form where its bound is within the arc's share of the tolerance or no larger than what the
+ * quadrature reports at that floor (in float, rough surfaces: the quartic's coefficients are rounded
+ * relative to the mean of |v|^2, ~1 / alpha^2, while |v|^2 >= 1 near the poles).
  */
 /* Preamble (prepended by the host, device/runtime.cpp): common/microshadow_shared.h, real.cl, ... */
 
@@ -371,8 +374,7 @@ inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0
  * of P4 and in working precision:
  *  - P~4: on |z| = 1, |f - f~| = |N| |P4 - P~4| / (|P4| |P~4|) <= (|N| / |v|^2) delta / (|v|^2 - delta)
  *    with |v|^2 >= min_norm2 = m, so integral |f - f~| <= g delta / (1 - delta / m) I with g a bound
- *    of |N| / |v|^2 and I = integral 1 / |v|^2. N = a.(v x v') and |a| = 1 give two such bounds,
- *    max |N| / m and |v'|max / sqrt(m), the second far tighter on smooth surfaces. I itself is the closed
+ *    of |N| / |v|^2 (exact_boundary_integral) and I = integral 1 / |v|^2. I itself is the closed
  *    form of 1 / |v~|^2 within I delta / (m - delta) by the same argument, whence
  *    I <= (|I~| + its rounding) / (1 - delta / (m - delta));
  *  - rounding of the sum: each term rho_j L_j carries a few ulps of |rho_j| |L_j|, and Log(1 - w) an
@@ -381,8 +383,8 @@ inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0
  *    few ulps of the products they are made of (parameter_size; they cancel at grazing views), which
  *    moves the integral by those relative sizes times max |N| I and parameter_size I.
  * `floor` receives the least error the quadrature may report for the arc where rounding stops it. */
-inline int exact_closed_form_arc(const exact_residues* res, real lo, real hi, real min_norm2, real max_numerator,
-                                 real speed_bound, real parameter_size, real* value, real* error, real* floor)
+inline int exact_closed_form_arc(const exact_residues* res, real lo, real hi, real min_norm2, real g, real max_numerator,
+                                 real parameter_size, real* value, real* error, real* floor)
 {
     if (!res->usable) return 0;
     real c_lo, c_hi;
@@ -409,10 +411,9 @@ inline int exact_closed_form_arc(const exact_residues* res, real lo, real hi, re
     const real delta = res->delta;
     const real ratio = delta / (min_norm2 - delta); /* < 1/3 */
     const real integral_one = (fabs(sum_one.x) + rounding_one) / (MS_R(1.0) - ratio);
-    const real max_integrand = fmin(max_numerator / min_norm2, speed_bound / sqrt(min_norm2));
     const real inputs = (MS_R(32.0) * max_numerator + MS_R(8.0) * parameter_size) * MS_EXACT_EPS * integral_one;
     *value = sum_f.x;
-    *error = delta / (MS_R(1.0) - delta / min_norm2) * max_integrand * integral_one + rounding_f + inputs;
+    *error = delta / (MS_R(1.0) - delta / min_norm2) * g * integral_one + rounding_f + inputs;
     /* The quadrature stops refining where a piece's two rules differ by less than 1e3 ulps of its
      * integral of |f| >= |value|, and adds 8 ulps of parameter_size over |v|^2 (exact_integrate_arc). */
     *floor = (MS_R(1e3) * fabs(sum_f.x) + MS_R(8.0) * parameter_size * integral_one) * MS_EXACT_EPS;
@@ -682,8 +683,10 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
         const exact_quartic quartic = exact_circle_quartic(p, q, r);
         exact_sum sum = {MS_R(0.0), MS_R(0.0), 0u, 0u};
 #if MS_EXACT_CLOSED_FORM
-        /* |N| <= |k| + hypot(bc, bs); |v'| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2) = speed_bound,
-         * and |v| <= |p| + speed_bound. */
+        /* |N| <= |k| + hypot(bc, bs) = max_numerator; |v'| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2)
+         * = speed_bound, and |v| <= |p| + speed_bound. Two bounds g of |N| / |v|^2 on the circle:
+         * max_numerator / m, and |v'| / |v| <= speed_bound / sqrt(m) from N = a.(v x v') with |a| = 1, the
+         * far tighter one on smooth surfaces. */
         const real max_numerator = fabs(k_const) + hypot(bc, bs), speed_bound = sqrt(dot(q, q) + dot(r, r));
         const real max_norm = length(p) + speed_bound;
         const real g = fmin(max_numerator / min_norm2, speed_bound / sqrt(min_norm2));
@@ -699,7 +702,7 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
              * worse than the quadrature's own rounding could be (float, whose rounding, not the
              * tolerance, limits either method); quadrature elsewhere. */
             real closed_value, closed_error, closed_floor;
-            if (exact_closed_form_arc(&residues, arc_lo[i], arc_hi[i], min_norm2, max_numerator, speed_bound, f.parameter_size,
+            if (exact_closed_form_arc(&residues, arc_lo[i], arc_hi[i], min_norm2, g, max_numerator, f.parameter_size,
                                       &closed_value, &closed_error, &closed_floor) &&
                 closed_error <= fmax(tolerance_per_radian * (arc_hi[i] - arc_lo[i]), closed_floor)) {
                 sum.value += closed_value;

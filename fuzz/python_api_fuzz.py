@@ -59,7 +59,9 @@ NUMBERS = [math.nan, math.inf, -math.inf, 1e308, -1e308, 5e-324, -5e-324, -0.0, 
            np.complex128(0.5 + 0j), "0.5", "nan", "", b"1", None, [], [[]], object(), np.datetime64("2020-01-01"),
            np.timedelta64(5, "s"), np.uint64(2**64 - 1), np.int8(-1)]
 
-COUNTS = [-1, -(2**63), 2**31, 2**32, 2**63, 2**64, 2**64 + 1, 10**30, True, False, 1.5, math.nan, math.inf, "3", None,
+# Counts (sizes, samples, seeds, threads): none a valid count of real work (2^31 samples a query would be a
+# legitimate minutes-long call, not a finding), so every one must be refused at once or be harmless.
+COUNTS = [-1, -(2**63), 2**63, 2**64, 2**64 + 1, 10**30, True, False, 1.5, math.nan, math.inf, "3", None,
           np.int64(-1), np.uint64(2**64 - 1), np.float64(2.0), [3], 3 + 0j]
 
 STRINGS = ["", "EXACT", "exact\0", " exact", "nan", "\u00e9", "x" * 10000, None, 1, b"exact", ["exact"], math.nan]
@@ -182,6 +184,7 @@ class Fuzzer:
 
     def _mutate(self, kwargs: dict, kinds: dict) -> dict:
         """kwargs with one to three of them replaced by a hostile value of the argument's kind."""
+        self.must_refuse = None
         names = list(kinds)
         for name in self.rng.sample(names, min(len(names), self.rng.choice([1, 1, 1, 2, 3]))):
             kind = kinds[name]
@@ -199,13 +202,36 @@ class Fuzzer:
                 kwargs[name] = self.rng.choice(NUMBERS)
             else:
                 kwargs[name] = hostile_array(self.rng, kind)
+                if _meaningless(kwargs[name]):
+                    self.must_refuse = name
+        self.shown = dict(kwargs)  # every argument, positional ones included, for the log and the findings
         return kwargs
 
     def case(self):
-        """One call: (description, a function of no arguments, the result's check)."""
+        """One call: (name, its arguments, a function of no arguments, the result's check, the argument
+        that must make it raise or None)."""
         n = self.rng.choice([1, 2, 3])
         target = self.rng.choice(TARGETS)
-        return target(self, n)
+        self.must_refuse = None
+        self.shown = None
+        name, kw, call, check = target(self, n)
+        return name, dict(self.shown) if self.shown is not None else kw, call, check, self.must_refuse
+
+
+def _meaningless(value) -> bool:
+    """A value no numeric argument may accept: complex numbers (their imaginary part would be dropped),
+    dates and durations, records, text, masked values."""
+    try:
+        a = np.asarray(value)
+    except Exception:  # noqa: BLE001 - ragged lists and the like: numpy's own refusal decides
+        return False
+    if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
+        return True
+    return a.dtype.kind in "cMmVUS" and a.size > 0
+
+
+# Numbers in messages as numpy spells them (np.float64(nan)): a message shows the number itself.
+_NUMPY_REPR = ("np.float64(", "np.int64(", "np.float32(", "np.uint64(", "np.int8(", "np.float16(", "np.complex128(")
 
 
 def _raising_progress(done, total):
@@ -401,17 +427,22 @@ def main() -> int:
         with open(log_path, "w") as log:
             case = 0
             while time.monotonic() - t0 < args.seconds and (not args.cases or case < args.cases):
-                name, kw, call, check = fuzzer.case()
+                name, kw, call, check, must_refuse = fuzzer.case()
                 log.write(f"{case}: {name}({_shown(kw)})\n")
                 log.flush()
                 faulthandler.dump_traceback_later(args.timeout, exit=True)
                 outcome = "returned"
                 try:
                     check(call())
+                    if must_refuse:
+                        findings.append(f"case {case}: {name}({_shown(kw)}): accepted {must_refuse} = "
+                                        f"{_shown({'': kw[must_refuse]})[1:]}")
                 except ALLOWED as e:
                     outcome = type(e).__name__
                     if not str(e):
                         findings.append(f"case {case}: {name}({_shown(kw)}): {type(e).__name__} without a message")
+                    elif any(r in str(e) for r in _NUMPY_REPR):
+                        findings.append(f"case {case}: {name}({_shown(kw)}): a numpy repr in the message: {e}")
                 except AssertionError as e:
                     findings.append(f"case {case}: {name}({_shown(kw)}): garbage returned: {e}")
                 except KeyboardInterrupt:

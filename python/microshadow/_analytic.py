@@ -8,7 +8,7 @@ from typing import Tuple
 import numpy as np
 
 from . import _microshadow as _core
-from ._checks import _array, ArrayLike, _check_range, _choice, _WEIGHTINGS
+from ._checks import _broadcast_shape, _array, ArrayLike, _check_range, _choice, _WEIGHTINGS
 
 
 #: Part 1's analytic terms, by the names ``eval --compare`` and sweep specs use.
@@ -41,15 +41,11 @@ def analytic(
         "n_dot_v": _array("n_dot_v", n_dot_v),
         "roughness": _array("roughness", roughness),
     }
+    shape = _broadcast_shape("analytic", arrays)
     _check_range("visibility", arrays["visibility"], 0.0, 1.0)
     _check_range("n_dot_l", arrays["n_dot_l"], -1.0, 1.0)
     _check_range("n_dot_v", arrays["n_dot_v"], -1.0, 1.0)
     _check_range("roughness", arrays["roughness"], 0.0, 1.0, lo_open=True)
-    try:
-        shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
-    except ValueError:
-        shapes = ", ".join(f"{k} {a.shape}" for k, a in arrays.items())
-        raise ValueError(f"analytic: the arguments do not broadcast ({shapes})") from None
     rows = np.empty(shape + (4,))
     for k, a in enumerate(arrays.values()):
         rows[..., k] = a

@@ -9,7 +9,7 @@ import numpy as np
 from . import _microshadow as _core
 from . import _options
 from ._evaluate import _query_rows
-from ._checks import (_array, ArrayLike, _broadcast, _check_finite, _check_range, _choice, _column, _directions,
+from ._checks import (_check_memory, _array, ArrayLike, _broadcast, _check_finite, _check_range, _choice, _column, _directions,
                      _progress, ProgressArg, _rows, _sampling, _scalar_or_vector, _shown)
 
 
@@ -90,6 +90,9 @@ def area_eval(
             raise ValueError("corners are a rect light's; a sphere takes light_direction and half_angle_deg")
         if light_direction is None or half_angle_deg is None:
             raise ValueError("light='sphere' needs light_direction and half_angle_deg")
+        # The number of lights follows from the shapes alone: too many for memory fails here, at once.
+        centre_a, half_a = _array("light_direction", light_direction), _array("half_angle_deg", half_angle_deg)
+        _check_memory("lights", max(centre_a.shape[0] if centre_a.ndim == 2 else 1, half_a.shape[0] if half_a.ndim == 1 else 1))
         centre = _directions("light_direction", light_direction)
         half = _scalar_or_vector("half_angle_deg", half_angle_deg)
         _check_range("half_angle_deg", half, 0.0, 90.0, lo_open=True, hi_open=True)
@@ -106,6 +109,7 @@ def area_eval(
         c = _array("corners", corners)
         if c.shape != (4, 3) and not (c.ndim == 3 and c.shape[1:] == (4, 3)):
             raise ValueError(f"corners: shape {c.shape}; expected (4, 3) or (N, 4, 3)")
+        _check_memory("lights", c.shape[0] if c.ndim == 3 else 1)
         _check_finite("corners", c)
         c3 = c if c.ndim == 3 else c[None]
         n = _broadcast({"surface": rows, "corners": c3})

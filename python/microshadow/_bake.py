@@ -205,8 +205,8 @@ def repr_bake(
     _choice("n_dot_l_warp", n_dot_l_warp, ("linear", "shadow-edge", "sqrt-top"))
     _choice("visibility_warp", visibility_warp, ("linear", "sqrt-top"))
     r = _scalar_or_vector("roughness", roughness).reshape(-1)
-    if r.size == 0:
-        raise ValueError("roughness: no values")
+    if not 1 <= r.size <= 64:  # the representation grid's limit, checked before any element is read
+        raise ValueError(f"roughness: {r.size} values; 1 to 64 nodes")
     _check_range("roughness", r, 0.0, 1.0, lo_open=True)
     if (np.diff(r) <= 0).any():
         i = int(np.flatnonzero(np.diff(r) <= 0)[0]) + 1

@@ -31,12 +31,18 @@ def _shown(value):
 def _array(name: str, value: ArrayLike) -> np.ndarray:
     """`value` as a float64 array; ValueError naming the argument when it holds no real numbers."""
     try:
+        if np.ma.isMaskedArray(value) and np.ma.getmaskarray(value).any():
+            # np.asarray would hand over the values under the mask as if they were given.
+            raise ValueError("masked values: give plain numbers")
         a = np.asarray(value)
-        # Converting complex numbers to float64 would drop their imaginary parts with only a warning.
+        # Converting complex numbers to float64 would drop their imaginary parts with only a warning; dates,
+        # durations, records and text would convert to numbers that mean nothing here.
         if np.iscomplexobj(a):
             raise ValueError("complex numbers: give real ones")
+        if a.dtype.kind in "MmVUS":
+            raise ValueError(f"{a.dtype} values: give real numbers")
         a = a.astype(np.float64, copy=False)
-    except (TypeError, ValueError) as e:
+    except (TypeError, ValueError, OverflowError) as e:
         raise ValueError(f"{name}: not an array of numbers ({e})") from None
     return a
 
@@ -46,16 +52,33 @@ def _array(name: str, value: ArrayLike) -> np.ndarray:
 _BYTES_PER_QUERY = 512
 
 
-def _check_memory(what: str, count: int) -> None:
+# Bytes a lookup or an analytic value needs: its 5 input columns, the output and the engine's copy.
+_BYTES_PER_LOOKUP = 128
+
+
+def _check_memory(what: str, count: int, bytes_each: int = _BYTES_PER_QUERY) -> None:
     """MemoryError at once, before any work, for a call whose queries cannot fit in this machine's memory."""
     try:
         physical = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     except (AttributeError, ValueError, OSError):
         return  # no figure on this platform: numpy's own MemoryError is the answer
-    needed = count * _BYTES_PER_QUERY
+    needed = count * bytes_each
     if needed > physical:
         raise MemoryError(f"{count} {what} need about {needed / 2**30:.0f} GiB, more than this machine's "
                           f"{physical / 2**30:.0f} GiB of memory: split the call")
+
+
+def _broadcast_shape(what: str, arrays: Dict[str, np.ndarray], bytes_each: int = _BYTES_PER_LOOKUP) -> Tuple[int, ...]:
+    """The shape `arrays` broadcast to, from their shapes alone: ValueError when they do not broadcast,
+    MemoryError when the result cannot fit in memory (at once: before a check reads any element of a
+    broadcast view of a billion values)."""
+    try:
+        shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
+    except ValueError:
+        shapes = ", ".join(f"{k} {a.shape}" for k, a in arrays.items())
+        raise ValueError(f"{what}: the arguments do not broadcast ({shapes})") from None
+    _check_memory("values", int(np.prod(shape, dtype=np.float64)), bytes_each)
+    return shape
 
 
 def _check_finite(name: str, a: np.ndarray) -> None:

@@ -9,8 +9,9 @@ import numpy as np
 from . import _microshadow as _core
 from . import _options
 from ._files import _lookup_rows
-from ._checks import (_array, ArrayLike, _broadcast, _check_finite, _check_memory, _check_range, _column,
-                     _directions, _index, _progress, ProgressArg, _rows, _sampling, _scalar_or_vector, _shown)
+from ._checks import (_BYTES_PER_QUERY, _array, ArrayLike, _broadcast, _broadcast_shape, _check_finite, _check_memory,
+                     _check_range, _column, _directions, _index, _progress, ProgressArg, _rows, _sampling,
+                     _scalar_or_vector, _shown)
 
 
 def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
@@ -155,12 +156,16 @@ def evaluate_iso(
     for key in options:
         if key not in _EVALUATE_OPTIONS:
             raise TypeError(f"evaluate_iso() got an unexpected keyword argument {key!r}")
+    given = {"visibility": _array("visibility", visibility), "n_dot_l": _array("n_dot_l", n_dot_l),
+             "n_dot_v": _array("n_dot_v", n_dot_v), "roughness": _array("roughness", roughness),
+             "relative_azimuth": _array("relative_azimuth", relative_azimuth)}
+    _broadcast_shape("evaluate_iso", given, _BYTES_PER_QUERY)
     # Each argument checked as given (the message indexes it in its own shape), then broadcast.
-    _check_range("visibility", _array("visibility", visibility), 0.0, 1.0)
-    _check_range("n_dot_l", _array("n_dot_l", n_dot_l), -1.0, 1.0)
-    _check_range("n_dot_v", _array("n_dot_v", n_dot_v), 0.0, 1.0, lo_open=True)
-    _check_range("roughness", _array("roughness", roughness), 0.0, 1.0, lo_open=True)
-    _check_finite("relative_azimuth", _array("relative_azimuth", relative_azimuth))
+    _check_range("visibility", given["visibility"], 0.0, 1.0)
+    _check_range("n_dot_l", given["n_dot_l"], -1.0, 1.0)
+    _check_range("n_dot_v", given["n_dot_v"], 0.0, 1.0, lo_open=True)
+    _check_range("roughness", given["roughness"], 0.0, 1.0, lo_open=True)
+    _check_finite("relative_azimuth", given["relative_azimuth"])
     rows, shape = _lookup_rows("evaluate_iso", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
     queries = _core.isotropic_rows(np.ascontiguousarray(rows)) if rows.shape[0] else np.empty((0, 9))
     merged = dict(_EVALUATE_DEFAULTS)

@@ -9,7 +9,7 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from . import _microshadow as _core
-from ._checks import _array, ArrayLike, _choice, _index, PathArg
+from ._checks import _broadcast_shape, _array, ArrayLike, _choice, _index, PathArg
 
 
 def _lookup_rows(name_prefix: str, visibility, n_dot_l, n_dot_v, roughness, relative_azimuth) -> Tuple[np.ndarray, Tuple[int, ...]]:
@@ -21,16 +21,12 @@ def _lookup_rows(name_prefix: str, visibility, n_dot_l, n_dot_v, roughness, rela
         "roughness": _array("roughness", roughness),
         "relative_azimuth": _array("relative_azimuth", 0.0 if relative_azimuth is None else relative_azimuth),
     }
+    shape = _broadcast_shape(name_prefix, arrays)
     for name, a in arrays.items():
         # NaN would make every blend weight NaN; the renderer's clamps cover the rest.
         if np.isnan(a).any():
             i = int(np.flatnonzero(np.isnan(a))[0])
             raise ValueError(f"{name}{_index(i, a.shape)} = nan: not a number")
-    try:
-        shape = np.broadcast_shapes(*(a.shape for a in arrays.values()))
-    except ValueError:
-        shapes = ", ".join(f"{k} {a.shape}" for k, a in arrays.items())
-        raise ValueError(f"{name_prefix}: the arguments do not broadcast ({shapes})") from None
     rows = np.empty(shape + (5,))
     for k, a in enumerate(arrays.values()):
         rows[..., k] = a

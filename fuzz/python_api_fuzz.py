@@ -122,6 +122,19 @@ def hostile_array(rng: random.Random, shape):
     return np.full((n, 7) if len(shape) == 2 else (n, 2), 0.5)
 
 
+def _write_hdr(path: str, width: int, height: int) -> None:
+    """A small Radiance .hdr sky (flat RGBE scanlines): a gradient with one bright texel."""
+    rgbe = np.zeros((height, width, 4), dtype=np.uint8)
+    rgbe[..., 0] = np.linspace(60, 200, width).astype(np.uint8)
+    rgbe[..., 1] = 128
+    rgbe[..., 2] = np.linspace(200, 60, height).astype(np.uint8)[:, None]
+    rgbe[..., 3] = 128
+    rgbe[1, 2] = [200, 180, 160, 134]
+    with open(path, "wb") as f:
+        f.write(f"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y {height} +X {width}\n".encode())
+        f.write(rgbe.tobytes())
+
+
 class Paths:
     """Hostile paths, made once: a folder, a FIFO (would block a reader in open()), an empty file, a
     garbage file, a missing file, a NUL byte, a very long name, a file named like a LUT that is not one."""
@@ -141,6 +154,8 @@ class Paths:
         with open(self.toml_garbage, "w") as f:
             f.write("[points\nregion = 'x'\n" + "[[a]]\n" * 50)
         self.missing = os.path.join(root, "missing.exr")
+        self.environment = os.path.join(root, "sky.hdr")
+        _write_hdr(self.environment, 8, 4)
 
     def hostile(self, rng: random.Random):
         return rng.choice([self.folder, self.fifo, self.empty, self.garbage, self.toml_garbage, self.missing, "", "a\0b",
@@ -384,7 +399,66 @@ def t_files(f: Fuzzer, n):
     return name, kw, lambda: getattr(ms, name)(**kw), lambda r: None
 
 
-TARGETS = [t_evaluate, t_evaluate_iso, t_lookup_inputs, t_analytic, t_lookup, t_lookup, t_save, t_open, t_bake,
+def t_environment(f: Fuzzer, n):
+    """The environment integrals on a valid 8 x 4 sky, their options hostile; then their save()."""
+    name = f.rng.choice(["ibl_prefilter", "ibl_irradiance", "ibl_sh"])
+    if name == "ibl_prefilter":
+        kw = dict(environment=f.paths.environment, size=4, levels=2, samples=16, max_samples=64, replicates=2,
+                  tolerance=0.0, threads=1, irradiance_size=2)
+        kinds = dict(size="count", levels="count", mapping="string", tolerance="number", samples="count",
+                     max_samples="count", replicates="count", seed="count", lod_bias="number", bright="string",
+                     bright_threshold="number", bright_min_roughness="number", wide_samples_factor="count",
+                     bright_max="count", device="string", threads="count", verify="count", irradiance_size="count")
+    elif name == "ibl_irradiance":
+        kw = dict(environment=f.paths.environment, face_size=2, source_size=4, backend="oracle", threads=1)
+        kinds = dict(face_size="count", source_size="count", backend="string", device="string", threads="count",
+                     verify="count")
+    else:
+        kw = dict(environment=f.paths.environment, face_size=2)
+        kinds = dict(face_size="count")
+    f._mutate(kw, kinds)
+    out = f.paths.output(f.rng) if f.rng.random() < 0.5 else os.path.join(f.paths.root, "env-out")
+    save = dict(format=f.rng.choice(["exr", "ktx2", "dds", "png", "", None, 3]),
+                encoding=f.rng.choice(["float16", "float32", "unorm8", None]), exposure=f.rng.choice(NUMBERS))
+
+    def call():
+        result = getattr(ms, name)(**kw)
+        for array in (getattr(result, "irradiance", None), getattr(result, "data", None)):
+            if array is not None:
+                _finite(name, array)
+        try:
+            if name == "ibl_sh":
+                result.save(out if isinstance(out, str) and out.endswith(".json") else out)
+            else:
+                result.save(out, **save)
+        except ALLOWED:
+            pass
+        return result
+    return name, dict(kw, out=out, **save), call, lambda r: None
+
+
+def t_dfg_save(f: Fuzzer, n):
+    dfg = f.dfg
+    kw = dict(path=f.paths.output(f.rng) if f.rng.random() < 0.5 else os.path.join(
+        f.paths.root, f.rng.choice(["d.exr", "d.h", "d.inc", "d.png", "d.ktx2", "d.dds", "d.tga"])),
+        half=f.rng.choice([False, True, 2, None, "yes"]), symbol=f.rng.choice(STRINGS + ["ok_symbol", "2bad", "a-b"]))
+    return "DfgLut.save", kw, lambda: dfg.save(**kw), lambda r: None
+
+
+def t_sweep_options(f: Fuzzer, n):
+    """A valid one-point sweep spec, its overrides hostile."""
+    toml = ('[sampling]\nmethod = "exact"\ntolerance = 1e-4\n[parameters]\nroughness = [0.5]\nn_dot_v = [0.5]\n'
+            'phi_i = [0.0]\nphi_o = [30.0]\nn_dot_l = [0.5]\nvisibility = [0.5]\n')
+    kw = dict(toml=toml, backend="oracle")
+    f._mutate(kw, dict(method="string", tolerance="number", samples="count", replicates="count", seed="count",
+                       sequence="string", form="string", ao_weighting="string", backend="string", out="out"))
+
+    def check(table):
+        _finite("sweep term", table["term"], -1e-9, 1 + 1e-9)
+    return "sweep(options)", kw, lambda: ms.sweep(**kw), check
+
+
+TARGETS = [t_environment, t_dfg_save, t_sweep_options, t_evaluate, t_evaluate_iso, t_lookup_inputs, t_analytic, t_lookup, t_lookup, t_save, t_open, t_bake,
            t_repr_bake, t_ibl_dfg, t_area_eval, t_files]
 
 
@@ -423,6 +497,7 @@ def main() -> int:
         representation = ms.repr_bake(kind="azimuth-axis", visibility_count=2, n_dot_l_count=2, n_dot_v_count=2,
                                       azimuth_nodes=2, roughness=[0.5], tolerance=1e-3, backend="oracle")
         fuzzer = Fuzzer(rng, paths, lut, representation)
+        fuzzer.dfg = ms.ibl_dfg(size=2, method="exact", threads=1)
         t0 = time.monotonic()
         with open(log_path, "w") as log:
             case = 0

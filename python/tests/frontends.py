@@ -24,9 +24,8 @@ import re
 import struct
 import subprocess
 import sys
+import random
 import tempfile
-
-import numpy as np
 
 # The jobs: small enough for a second or so each on the 2-core CI machine. Every key is a field of the
 # job's options struct (SamplingOptions, BakeOptions, ReprBakeOptions, AreaOptions).
@@ -74,20 +73,33 @@ def _write_csv(path, header, rows) -> None:
             w.writerow([repr(float(x)) for x in r])
 
 
-def _read_csv(path, columns) -> np.ndarray:
+def _read_csv(path, columns) -> list:
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
     header = rows[0]
-    return np.array([[float(r[header.index(c)]) for c in columns] for r in rows[1:]])
+    return [[float(r[header.index(c)]) for c in columns] for r in rows[1:]]
 
 
-def _same_bits(what: str, got: np.ndarray, want: np.ndarray) -> None:
-    got = np.ascontiguousarray(got, dtype=np.float64)
-    want = np.ascontiguousarray(want, dtype=np.float64)
-    if got.shape != want.shape or got.tobytes() != want.tobytes():
-        bad = np.flatnonzero(got.view(np.uint64) != want.view(np.uint64)) if got.shape == want.shape else []
-        where = f"; first differing element {int(bad[0])}: {got.flat[bad[0]]!r} != {want.flat[bad[0]]!r}" if len(bad) else ""
-        raise AssertionError(f"{what}: shapes {got.shape} and {want.shape} or their bits differ{where}")
+def _write_doubles(path, rows) -> None:
+    flat = [x for r in rows for x in r]
+    pathlib.Path(path).write_bytes(struct.pack(f"<{len(flat)}d", *flat))
+
+
+def _read_doubles(path, columns: int) -> list:
+    data = pathlib.Path(path).read_bytes()
+    flat = struct.unpack(f"<{len(data) // 8}d", data)
+    return [list(flat[i:i + columns]) for i in range(0, len(flat), columns)]
+
+
+def _same_bits(what: str, got: list, want: list) -> None:
+    """Rows of doubles identical bit for bit (-0.0 and 0.0, NaN payloads told apart)."""
+    bits = [[struct.pack("<d", float(x)) for x in r] for r in got], [[struct.pack("<d", x) for x in r] for r in want]
+    if bits[0] != bits[1]:
+        where = next(((i, k) for i, (a, b) in enumerate(zip(*bits)) for k in range(min(len(a), len(b))) if a[k] != b[k]),
+                     None)
+        detail = f"; first at row {where[0]}, column {where[1]}: {got[where[0]][where[1]]!r} != {want[where[0]][where[1]]!r}" \
+            if where else f"; {len(got)} rows against {len(want)}"
+        raise AssertionError(f"{what}: the values differ{detail}")
 
 
 def _same_file(what: str, a: pathlib.Path, b: pathlib.Path, provenance: bool = False) -> None:
@@ -144,24 +156,27 @@ def exr_without_provenance(data: bytes) -> bytes:
     return new_header + struct.pack(f"<{chunks}Q", *(o + shift for o in offsets)) + data[pos + 8 * chunks:]
 
 
-def queries(n: int = 16, seed: int = 5):
-    """n varied queries: anisotropic, every azimuth, lights above and below the horizon, v = 1 included."""
-    rng = np.random.default_rng(seed)
-    v = rng.uniform(0.2, 1.0, n)
-    v[0] = 1.0
-    ax = rng.uniform(0.05, 1.0, n)
-    ay = rng.uniform(0.05, 1.0, n)
-    wi = rng.normal(size=(n, 3))
-    wi[:, 2] = np.abs(wi[:, 2]) + 0.05
-    wo = rng.normal(size=(n, 3))
-    return np.column_stack([v, ax, ay, wi, wo])
+def queries(n: int = 16, seed: int = 5) -> list:
+    """n varied query rows: anisotropic, every azimuth, lights above and below the horizon, v = 1 first."""
+    rng = random.Random(seed)
+    rows = []
+    for i in range(n):
+        wi = [rng.gauss(0, 1), rng.gauss(0, 1), abs(rng.gauss(0, 1)) + 0.05]
+        wo = [rng.gauss(0, 1) for _ in range(3)]
+        rows.append([1.0 if i == 0 else rng.uniform(0.2, 1.0), rng.uniform(0.05, 1.0), rng.uniform(0.05, 1.0)] + wi + wo)
+    return rows
 
 
-def sphere_lights(n: int, seed: int = 3):
-    rng = np.random.default_rng(seed)
-    centre = rng.normal(size=(n, 3))
-    centre[:, 2] = np.abs(centre[:, 2]) + 0.1
-    return np.column_stack([centre, rng.uniform(2, 30, n)])
+def sphere_lights(n: int, seed: int = 3) -> list:
+    rng = random.Random(seed)
+    return [[rng.gauss(0, 1), rng.gauss(0, 1), abs(rng.gauss(0, 1)) + 0.1, rng.uniform(2, 30)] for _ in range(n)]
+
+
+def _columns(rows, a, b=None):
+    """Columns a (to b) of rows, as numpy arrays for the Python front end: (N,) or (N, b - a)."""
+    import numpy as np  # only where Python is compared: the package needs it anyway
+    m = np.array(rows, dtype=np.float64)
+    return m[:, a] if b is None else m[:, a:b]
 
 
 def check_eval(cli, api, ms, work: pathlib.Path, options: dict, tag: str) -> None:
@@ -169,30 +184,31 @@ def check_eval(cli, api, ms, work: pathlib.Path, options: dict, tag: str) -> Non
     _write_csv(work / f"{tag}.csv", QUERY_COLUMNS, rows)
     _run(cli, "eval", "--in", work / f"{tag}.csv", "--out", work / f"{tag}-cli.csv", "-q", *cli_flags(options))
     want = _read_csv(work / f"{tag}-cli.csv", ["term", "std_error"])
-    rows.tofile(work / f"{tag}.bin")
+    _write_doubles(work / f"{tag}.bin", rows)
     _run(api, "eval", work / f"{tag}.bin", work / f"{tag}-api.bin", *api_fields(options))
-    _same_bits(f"eval {tag}: C++ API against the CLI", np.fromfile(work / f"{tag}-api.bin").reshape(-1, 2), want)
+    _same_bits(f"eval {tag}: C++ API against the CLI", _read_doubles(work / f"{tag}-api.bin", 2), want)
     if ms is not None:
-        term, error = ms.evaluate(rows[:, 0], rows[:, 1], rows[:, 2], rows[:, 3:6], rows[:, 6:9], **options)
-        _same_bits(f"eval {tag}: Python against the CLI", np.column_stack([term, error]), want)
+        term, error = ms.evaluate(_columns(rows, 0), _columns(rows, 1), _columns(rows, 2), _columns(rows, 3, 6),
+                                  _columns(rows, 6, 9), **options)
+        _same_bits(f"eval {tag}: Python against the CLI", [list(r) for r in zip(term.tolist(), error.tolist())], want)
 
 
 def check_area(cli, api, ms, work: pathlib.Path) -> None:
-    surface = queries(6, seed=8)[:, :6]
+    surface = [r[:6] for r in queries(6, seed=8)]
     light = sphere_lights(len(surface))
-    _write_csv(work / "area.csv", SPHERE_COLUMNS, np.column_stack([surface, light]))
+    _write_csv(work / "area.csv", SPHERE_COLUMNS, [s + l for s, l in zip(surface, light)])
     _run(cli, "area", "eval", "--in", work / "area.csv", "--out", work / "area-cli.csv", "--light", "sphere", "-q",
          *cli_flags(AREA))
     # The sampled method's CSV has no inner_error column (the value the other front ends return is 0).
-    want = np.column_stack([_read_csv(work / "area-cli.csv", ["term", "std_error"]), np.zeros(len(surface))])
-    surface.tofile(work / "area-surface.bin")
-    light.tofile(work / "area-light.bin")
+    want = [r + [0.0] for r in _read_csv(work / "area-cli.csv", ["term", "std_error"])]
+    _write_doubles(work / "area-surface.bin", surface)
+    _write_doubles(work / "area-light.bin", light)
     _run(api, "area", work / "area-surface.bin", work / "area-light.bin", work / "area-api.bin", *api_fields(AREA))
-    _same_bits("area eval: C++ API against the CLI", np.fromfile(work / "area-api.bin").reshape(-1, 3), want)
+    _same_bits("area eval: C++ API against the CLI", _read_doubles(work / "area-api.bin", 3), want)
     if ms is not None:
-        got = ms.area_eval(surface[:, 0], surface[:, 1], surface[:, 2], surface[:, 3:6], light_direction=light[:, :3],
-                           half_angle_deg=light[:, 3], **AREA)
-        _same_bits("area eval: Python against the CLI", np.column_stack(got), want)
+        got = ms.area_eval(_columns(surface, 0), _columns(surface, 1), _columns(surface, 2), _columns(surface, 3, 6),
+                           light_direction=_columns(light, 0, 3), half_angle_deg=_columns(light, 3), **AREA)
+        _same_bits("area eval: Python against the CLI", [list(r) for r in zip(*(a.tolist() for a in got))], want)
 
 
 def check_bake(cli, api, ms, work: pathlib.Path) -> None:

@@ -137,7 +137,8 @@ def _write_hdr(path: str, width: int, height: int) -> None:
 
 class Paths:
     """Hostile paths, made once: a folder, a FIFO (would block a reader in open()), an empty file, a
-    garbage file, a missing file, a NUL byte, a very long name, a file named like a LUT that is not one."""
+    garbage file, a missing file, a NUL byte, a very long name, a file named like a LUT that is not one,
+    and (add_damaged) real LUT files damaged."""
 
     def __init__(self, root: str) -> None:
         self.root = root
@@ -157,7 +158,32 @@ class Paths:
         self.environment = os.path.join(root, "sky.hdr")
         _write_hdr(self.environment, 8, 4)
 
+        self.damaged = []
+
+    def add_damaged(self, lut, rng: random.Random) -> None:
+        """LUT files made from a real one and then damaged: cut short, bytes flipped, a .dds whose metadata
+        sidecar nests 100,000 deep (a recursive reader would overflow the stack)."""
+        for ext in ("exr", "ktx2", "dds", "h", "png"):
+            path = os.path.join(self.root, f"real.{ext}")
+            lut.save(path)
+            data = open(path, "rb").read()
+            for k, damaged in enumerate([data[: len(data) // 2], bytes(b ^ (0xFF if rng.random() < 0.01 else 0) for b in data)]):
+                name = os.path.join(self.root, f"damaged{k}.{ext}")
+                with open(name, "wb") as f:
+                    f.write(damaged)
+                if ext == "dds":
+                    with open(name + ".json", "wb") as f:
+                        f.write(open(path + ".json", "rb").read()[: 40 if k == 0 else None])
+                self.damaged.append(name)
+        deep = os.path.join(self.root, "deep.dds")
+        shutil.copy(os.path.join(self.root, "real.dds"), deep)
+        with open(deep + ".json", "w") as f:
+            f.write('{"microshadow":' + "[" * 100000 + "]" * 100000 + "}")
+        self.damaged.append(deep)
+
     def hostile(self, rng: random.Random):
+        if self.damaged and rng.random() < 0.3:
+            return rng.choice(self.damaged)
         return rng.choice([self.folder, self.fifo, self.empty, self.garbage, self.toml_garbage, self.missing, "", "a\0b",
                            "x" * 5000, "/dev/null", "/proc/self/mem", 5, None, b"\xff.exr", ["x.exr"]])
 
@@ -320,7 +346,11 @@ def t_save(f: Fuzzer, n):
 
 def t_open(f: Fuzzer, n):
     kw = dict(path=f.paths.hostile(f.rng))
-    return "open", kw, lambda: ms.open(**kw), lambda r: None
+
+    def check(table):  # what a reader accepts must be what a bake could have written
+        _finite("open data", table.data, -1e-6 if isinstance(table, ms.Lut) else -math.inf,
+                1 + 1e-6 if isinstance(table, ms.Lut) else math.inf)
+    return "open", kw, lambda: ms.open(**kw), check
 
 
 def t_bake(f: Fuzzer, n):
@@ -496,6 +526,7 @@ def main() -> int:
         lut = ms.bake(layout="custom", size=2, roughness=[0.3, 0.8], samples=64, replicates=2, backend="oracle")
         representation = ms.repr_bake(kind="azimuth-axis", visibility_count=2, n_dot_l_count=2, n_dot_v_count=2,
                                       azimuth_nodes=2, roughness=[0.5], tolerance=1e-3, backend="oracle")
+        paths.add_damaged(lut, rng)
         fuzzer = Fuzzer(rng, paths, lut, representation)
         fuzzer.dfg = ms.ibl_dfg(size=2, method="exact", threads=1)
         t0 = time.monotonic()

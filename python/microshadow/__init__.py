@@ -34,6 +34,7 @@ from . import _microshadow as _core
 from ._analytic import ANALYTIC_TERMS, analytic
 from ._area import AreaResult, area_eval
 from ._bake import REPR_PRESETS, bake, repr_bake
+from ._checks import ArrayLike, PathArg, ProgressArg  # noqa: F401 - the type aliases of the signatures
 from ._design import DesignTable, design
 from ._evaluate import evaluate, evaluate_iso, lookup_inputs
 from ._files import Lut, Representation, open  # noqa: A004 - the module's open, as in PIL / h5py
@@ -72,8 +73,6 @@ __all__ = [
     "design",
     "DesignTable",
 ]
-
-__version__: str = _core.version()
 
 __version__: str = _core.version()
 

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # CI stage for the Python package: the README's Python blocks exactly as written (a venv `.venv` in the
 # checkout, `pip install .`, the study example at small sizes; scripts/check-readme.sh --python), then
-# the pytest suite (python/tests, which compares with the program built by the Release stage) in that
-# venv. Run after `scripts/quickstart.sh test` (it needs build/microshadow).
+# the pytest suite (python/tests, which compares with the program built by the Release stage and, in
+# test_frontends.py, with the C++ API's front end build/tests/microshadow_api_jobs) in that venv. Run after `scripts/quickstart.sh test` (it needs build/microshadow).
 #   PYTHON        the interpreter the README's `python3` names (default /usr/bin/python3: Debian's, with
 #                 python3-numpy and matplotlib)
 #   MICROSHADOW_CMAKE_ARGS  extra configure flags, as quickstart.sh takes them (CI: -DMICROSHADOW_WERROR=ON);
@@ -12,6 +12,8 @@ cd "$(dirname "$0")/.."
 root=$PWD
 python=${PYTHON:-/usr/bin/python3}
 export MICROSHADOW_CLI=${MICROSHADOW_CLI:-$root/build/microshadow}
+# The C++ API's front end of the front-end test (python/tests/test_frontends.py), built by the Release stage.
+export MICROSHADOW_API_JOBS=${MICROSHADOW_API_JOBS:-$root/build/tests/microshadow_api_jobs}
 [ -x "$MICROSHADOW_CLI" ] || { echo "ci-python: $MICROSHADOW_CLI is missing (run scripts/quickstart.sh test first)" >&2; exit 1; }
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-$root/build-python-venv.pocl}
 mkdir -p "$POCL_CACHE_DIR"

@@ -9,6 +9,7 @@
 #include "core/cancel.hpp"
 #include "core/cone.hpp"
 #include "core/query.hpp"
+#include "exact/azimuth_grid.hpp"
 
 namespace ms::exact_term {
 
@@ -28,13 +29,15 @@ public:
     void texels(const std::vector<ExactTexel>& texels, AoWeighting weighting, bool azimuth_mean, double azimuth,
                 double tolerance, std::vector<exact::ExactValue>& out) override {
         out.resize(texels.size());
+        // Texels of one (visibility, alpha, NdotL) row share the azimuth grid's precomputation (its
+        // circle's quartic), which every value of the row reuses.
+        std::unique_ptr<exact::AzimuthGrid> grid;
         for (std::size_t i = 0; i < texels.size(); ++i) {
             if ((i & 15) == 0 && cancel_requested()) throw Cancelled();
             const ExactTexel& t = texels[i];
-            out[i] = azimuth_mean
-                         ? exact::exact_azimuth_mean(t.visibility, t.alpha, t.n_dot_v, t.n_dot_l, weighting, tolerance)
-                         : exact::exact_term_at_azimuth(t.visibility, t.alpha, t.n_dot_v, t.n_dot_l, azimuth, weighting,
-                                                        tolerance);
+            if (!grid || !grid->same_row(t.visibility, t.alpha, t.n_dot_l, weighting))
+                grid = std::make_unique<exact::AzimuthGrid>(t.visibility, t.alpha, t.n_dot_l, weighting);
+            out[i] = azimuth_mean ? grid->mean(t.n_dot_v, tolerance) : grid->term(t.n_dot_v, azimuth, tolerance);
         }
     }
 };

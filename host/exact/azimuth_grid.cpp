@@ -33,8 +33,7 @@ ExactValue AzimuthGrid::term(double n_dot_v, double phi, double tolerance) const
     const Microsurface surface = make_microsurface(alpha_, alpha_, wi);
     const ArcRule rule = arc_rule_for(tolerance);
     const Vec3 ez{0, 0, 1};
-    Cap hemisphere_caps[3] = {{ez, 0, 1}, {wo_, 0, 1}, {wi, 0, 1}};
-    const BoundaryIntegral hemisphere = boundary_integral(surface, hemisphere_caps, 3, rule, 0);
+    const BoundaryIntegral hemisphere = hemisphere_integral(surface, ez, wo_, wi);
     if (!(hemisphere.value > 0)) return out;
     Cap cone_caps[3] = {{ez, c_, s_}, {wo_, c_, s_}, {wi, 0, 1}};
     const BoundaryIntegral cone =

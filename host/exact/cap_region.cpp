@@ -21,7 +21,8 @@
 //  - a great circle (c_k = 0): v stays in the plane normal to S n_k (v.S n_k = m.n_k = 0), so
 //    v x dv = |v|^2 dtheta n^ with n^ = normalize(S n_k) and the arc gives (a.n^) times the angle v
 //    sweeps round n^;
-//  - the circle round e_z of an isotropic surface: |v|^2 = c^2 + s^2 / alpha^2 is constant;
+//  - the circle round e_z of an isotropic surface: |v|^2 = c^2 + s^2 / alpha^2 is constant, and any circle when
+//    alpha_x = alpha_y = 1 (v = m, |v|^2 = c^2 + s^2 = 1);
 //  - (both of the hemisphere's three circles are great circles, so P(hemisphere) is closed-form.)
 // Every other arc integrates in closed form by partial fractions over the roots of the quartic below
 // (closed_form_arc); where that form's error bound (roots and rounding) exceeds the arc's share of the
@@ -482,6 +483,49 @@ ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo
     return out;
 }
 
+BoundaryIntegral hemisphere_integral(const Microsurface& surface, const Vec3& n1, const Vec3& n2, const Vec3& n3) {
+    // On great circle k the part inside hemisphere j is the half circle from -u_kj to u_kj,
+    // counter-clockwise round n_k, with u_kj = normalize(n_k x n_j): there m.n_j falls through 0
+    // ((n_k x u_kj).n_j = ((n_k.n_j)^2 - 1) / |n_k x n_j| < 0). Two half circles of one circle, taken
+    // from -u_kj at 0 to u_kj at pi, meet in [beta, pi] when the other's start -u_kl (at beta) lies in
+    // the first (beta in [0, pi]), else in [0, beta - pi]: from -u_kl to u_kj, or from -u_kj to u_kl.
+    // The result is continuous in the normals, including where all three circles meet in two points
+    // (coplanar normals; beta -> 0 or pi), so the tie-break (>= 0) is harmless.
+    const Vec3 n[3] = {n1, n2, n3};
+    Vec3 u[3][3];  // u[k][j] = normalize(n_k x n_j) = -u[j][k]
+    for (int k = 0; k < 3; ++k)
+        for (int j = k + 1; j < 3; ++j) {
+            // n_k x (n_j - n_k): no cancellation when the axes are close.
+            const Vec3 dn = sub(n[j], n[k]);
+            const Vec3 w = cross(n[k], dn);
+            const double w2 = dot(w, w);
+            if (!(w2 > 1e-60) || dot(dn, dn) < 1e-28) return boundary_integral(surface, std::vector<Cap>{{n1, 0, 1}, {n2, 0, 1}, {n3, 0, 1}},
+                                                        ArcRule{}, 0);
+            u[k][j] = scale(w, 1 / std::sqrt(w2));
+            u[j][k] = scale(u[k][j], -1);
+        }
+    const double ax = surface.alpha_x, ay = surface.alpha_y;
+    auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
+    BoundaryIntegral result;
+    double magnitude = 0;
+    for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3, l = (k + 2) % 3;
+        const bool later_start = -dot(u[k][l], n[j]) >= 0;
+        const Vec3 start = later_start ? scale(u[k][l], -1) : scale(u[k][j], -1);
+        const Vec3 end = later_start ? u[k][j] : u[k][l];
+        // The angle v = S^-1 m sweeps round n^ = normalize(S n_k): in [0, pi] for an arc of at most half a
+        // turn (S^-1 keeps the plane's orientation), so a cross product rounded below 0 is 0.
+        const Vec3 axis = unit(Vec3{ax * n[k].x, ay * n[k].y, n[k].z});
+        const Vec3 vs = unstretch(start), ve = unstretch(end);
+        const double swept = std::atan2(std::max(0.0, dot(cross(vs, ve), axis)), dot(vs, ve));
+        const double part = dot(surface.a, axis) * swept;
+        result.value += part;
+        magnitude += std::fabs(part);
+    }
+    result.error = 32 * std::numeric_limits<double>::epsilon() * magnitude;
+    return result;
+}
+
 PreparedCircle prepare_circle(double alpha_x, double alpha_y, const Cap& cap) {
     PreparedCircle out;
     out.cap = cap;
@@ -562,9 +606,11 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             continue;
         }
         const double k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
-        const bool constant_norm = ax == ay && cap.n.x == 0 && cap.n.y == 0;
+        // |v|^2 is constant round e_z on an isotropic surface, and on every circle when S = I (alpha 1: v = m,
+        // |v|^2 = c^2 + s^2 = 1), where the quartic degenerates.
+        const bool constant_norm = (ax == ay && cap.n.x == 0 && cap.n.y == 0) || (ax == 1 && ay == 1);
         if (constant_norm) {
-            // Round e_z on an isotropic surface |v|^2 is constant: integrate the trigonometric numerator.
+            // Constant |v|^2: integrate the trigonometric numerator.
             const double norm2 = dot(p, p) + dot(q, q);
             for (const Interval& arc : arcs) {
                 const double part = (k_const * (arc.hi - arc.lo) + bc * (std::sin(arc.hi) - std::sin(arc.lo)) +

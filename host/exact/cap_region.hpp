@@ -94,10 +94,17 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
 BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::size_t cap_count, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared = nullptr);
 
+// The boundary integral of the intersection of three hemispheres {m.n_k > 0} (unit normals), as
+// boundary_integral of the caps {n_k, 0, 1} computes it, from the circles' meeting points (no arc
+// angles): the normalisation of P(cone), the hemisphere {m.z > 0, m.wo > 0} in the support
+// {m.wi > 0}. Nearly coincident or opposite normals fall back to boundary_integral.
+BoundaryIntegral hemisphere_integral(const Microsurface& surface, const Vec3& n1, const Vec3& n2, const Vec3& n3);
+
 // One arc psi in [lo, hi] of a cap's circle m(psi) = c n + s (cos psi e1 + sin psi e2), in the basis
 // (e1, e2) boundary_integral uses, not clipped by other caps: the integral of a.(v x dv) / |v|^2 by the
 // closed form where `rule` allows it and its bound meets `absolute_tolerance`, else by quadrature.
-// Requires a circle that is no great circle (c > 0) and no circle round e_z of an isotropic surface.
+// Requires a circle that is no great circle (c > 0) and of non-constant |v|^2 (not round e_z of an isotropic
+// surface, alpha not 1).
 struct ArcIntegral {
     double value = 0, error = 0;
     bool closed_form = false;

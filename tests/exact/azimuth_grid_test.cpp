@@ -58,6 +58,37 @@ TEST(AzimuthGrid, RotatingTheViewGivesThePerValueEvaluatorsTerm) {
     std::printf("%d values, worst |grid - per-value| / (sum of estimates) %.3g\n", compared, worst_ratio);
 }
 
+// The hemisphere from the three great circles' meeting points against boundary_integral's arcs: random
+// directions, and the LUT's own configurations where all three circles meet in two points (light and
+// view in one vertical plane: relative azimuth 0 or pi) or two normals nearly coincide.
+TEST(AzimuthGrid, HemisphereFromMeetingPointsMatchesTheArcs) {
+    std::mt19937_64 rng(7);
+    std::normal_distribution<double> g(0, 1);
+    std::uniform_real_distribution<double> u(0, 1);
+    auto unit = [](Vec3 a) {
+        const double n = std::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
+        return Vec3{a.x / n, a.y / n, a.z / n};
+    };
+    const Vec3 ez{0, 0, 1};
+    double worst = 0;
+    for (int i = 0; i < 3000; ++i) {
+        Vec3 wo = unit({g(rng), g(rng), std::fabs(g(rng)) + 1e-3});
+        Vec3 wi = unit({g(rng), g(rng), std::fabs(g(rng)) + 1e-3});
+        if (i % 5 == 1) wi = unit({wi.x, 0, wi.z}), wo = unit({i % 2 ? -wo.x : wo.x, 0, wo.z});   // coplanar
+        if (i % 5 == 2) wo = unit({wi.x + 1e-9 * g(rng), wi.y + 1e-9 * g(rng), wi.z});             // wo ~ wi
+        if (i % 5 == 3) wi = unit({1e-7 * g(rng), 1e-7 * g(rng), 1});                               // wi ~ e_z
+        const double alpha = std::pow(10.0, -3 * u(rng));
+        const exact::Microsurface surface = exact::make_microsurface(alpha, alpha, wi);
+        const exact::BoundaryIntegral points = exact::hemisphere_integral(surface, ez, wo, wi);
+        const exact::BoundaryIntegral arcs =
+            exact::boundary_integral(surface, std::vector<exact::Cap>{{ez, 0, 1}, {wo, 0, 1}, {wi, 0, 1}}, exact::ArcRule{}, 0);
+        const double allowed = points.error + arcs.error;
+        EXPECT_LE(std::fabs(points.value - arcs.value), allowed) << "case " << i << " alpha " << alpha;
+        worst = std::max(worst, std::fabs(points.value - arcs.value) / allowed);
+    }
+    std::printf("worst |meeting points - arcs| / (sum of estimates) %.3g\n", worst);
+}
+
 TEST(AzimuthGrid, MeansAgreeWithThePerValueEvaluatorsMeans) {
     std::mt19937_64 rng(3636);
     std::uniform_real_distribution<double> u(0, 1);

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Benchmarks of the exact method against the sampled one, in one run, from the repository root after a
 # Release build:
-#     bash docs/bench/exact_bench.sh [eval] [bake] [scene]      (all by default)
+#     bash docs/bench/exact_bench.sh [eval] [bake] [scene] [grid]      (all by default)
 # eval:  20,000 stress queries (alpha 0.002-1 log-uniform, anisotropy up to 1:50, view z 0.01-1, any
 #        light): a reference by the exact method at tolerance 1e-13 (C++), then the exact method at 1e-6
 #        and 1e-10 (C++ on 2 threads, OpenCL double and float kernels on PoCL) and the sampled kernel at
@@ -10,6 +10,8 @@
 # bake:  the 64^3 x 4 seed-3d azimuth-mean LUT: sampled with the defaults, exact at --tolerance 1e-4 and
 #        1e-6 (C++ threads and OpenCL double): wall and CPU, and max |difference| to the exact 1e-6 bake
 #        (whose own estimated error is <= 1e-6) -> docs/bench/exact_bake.csv
+# grid:  the 32^3 and 64^3 x 4 seed-3d LUT, sampled with the defaults against exact at --tolerance 1e-7,
+#        interleaved, 3 repeats -> docs/bench/exact_grid_bake.csv
 # scene: the 1024 x 1024 example scene (scripts/make_example_scene.py --size 1024), one light: sampled to
 #        2e-3 and exact to 1e-6 (both defaults of their method) -> docs/bench/exact_scene.csv
 # The machine may be shared: the CSVs record CPU seconds and the load average beside the wall times.
@@ -18,7 +20,7 @@ BIN=${MICROSHADOW:-build/microshadow}
 OUT=docs/bench
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-/tmp/pocl-cache}
 parts=("$@")
-[ ${#parts[@]} -gt 0 ] || parts=(eval bake scene)
+[ ${#parts[@]} -gt 0 ] || parts=(eval bake scene grid)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 load() { cut -d' ' -f1 /proc/loadavg; }
@@ -96,6 +98,34 @@ PY
       echo "$m,$t,$(wall "scene-$m"),$(cpu "scene-$m"),$bound,$l" >> "$OUT/exact_scene.csv"
     done
     ;;
-  *) echo "unknown part '$part' (eval, bake, scene)" >&2; exit 2 ;;
+  grid)
+    # The exact bake at the float floor against the sampled default, interleaved, REPEATS times per size
+    # (SIZES, default "32 64"; REPEATS default 3): wall and CPU of each run, and the largest difference
+    # of the sampled bake from the exact one of the same repeat.
+    echo "size,repeat,method,setting,wall_s,cpu_s,max_abs_difference_to_exact,load" > "$OUT/exact_grid_bake.csv"
+    for size in ${SIZES:-32 64}; do
+      for r in $(seq "${REPEATS:-3}"); do
+        for cfg in "sampled|default|--method sampled" "exact|1e-7|--method exact --tolerance 1e-7"; do
+          m=${cfg%%|*}; rest=${cfg#*|}; setting=${rest%%|*}; flags=${rest#*|}
+          l=$(load)
+          # shellcheck disable=SC2086
+          run "grid-$m" "$BIN" bake --size "$size" $flags --out "$tmp/grid-$m.exr" -q
+          diff=0
+          if [ "$m" = exact ]; then
+            diff=$(/opt/microshadow-py/bin/python3 - "$tmp/grid-exact.exr" "$tmp/grid-sampled.exr" <<'PY' 2>/dev/null || echo nan
+import sys, numpy as np, OpenImageIO as oiio
+a = oiio.ImageInput.open(sys.argv[1]); x = a.read_image("float"); a.close()
+b = oiio.ImageInput.open(sys.argv[2]); y = b.read_image("float"); b.close()
+n = min(x.shape[2], 4)
+print(f"{float(np.nanmax(np.abs(x[..., :n] - y[..., :n]))):.3e}")
+PY
+)
+          fi
+          echo "$size,$r,$m,$setting,$(wall "grid-$m"),$(cpu "grid-$m"),$diff,$l" >> "$OUT/exact_grid_bake.csv"
+        done
+      done
+    done
+    ;;
+  *) echo "unknown part '$part' (eval, bake, scene, grid)" >&2; exit 2 ;;
   esac
 done

@@ -21,7 +21,8 @@
 //  - a great circle (c_k = 0): v stays in the plane normal to S n_k (v.S n_k = m.n_k = 0), so
 //    v x dv = |v|^2 dtheta n^ with n^ = normalize(S n_k) and the arc gives (a.n^) times the angle v
 //    sweeps round n^;
-//  - the circle round e_z of an isotropic surface: |v|^2 = c^2 + s^2 / alpha^2 is constant;
+//  - the circle round e_z of an isotropic surface: |v|^2 = c^2 + s^2 / alpha^2 is constant, and any circle when
+//    alpha_x = alpha_y = 1 (v = m, |v|^2 = c^2 + s^2 = 1);
 //  - (both of the hemisphere's three circles are great circles, so P(hemisphere) is closed-form.)
 // Every other arc integrates in closed form by partial fractions over the roots of the quartic below
 // (closed_form_arc); where that form's error bound (roots and rounding) exceeds the arc's share of the
@@ -37,6 +38,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <stdexcept>
 
 #include "exact/gauss_legendre.hpp"
 
@@ -68,11 +70,29 @@ struct Interval {
     double lo, hi;
 };
 
+// A few intervals without allocation (boundary_integral runs ~10^8 times in a large exact bake): the
+// arcs of one circle inside the other caps. Intersecting disjoint intervals, each shorter than a turn,
+// with a periodic arc at most doubles their number, so n caps give at most 2^(n - 2) arcs.
+struct ArcList {
+    static constexpr std::size_t kCapacity = 16;  // enough for 6 caps
+    Interval items[kCapacity];
+    std::size_t count = 0;
+    void push(const Interval& i) {
+        if (count == kCapacity) throw std::length_error("boundary_integral: too many caps (at most 6)");
+        items[count++] = i;
+    }
+    bool empty() const { return count == 0; }
+    const Interval* begin() const { return items; }
+    const Interval* end() const { return items + count; }
+};
+
 // The parts of circle k that lie inside every other cap, as psi intervals (possibly one full turn).
-std::vector<Interval> boundary_arcs(const std::vector<Cap>& caps, std::size_t k, const Vec3& e1, const Vec3& e2) {
-    std::vector<Interval> arcs{{0.0, kTwoPi}};
+// Into `arcs` (left empty when circle k bounds nothing).
+void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const Vec3& e1, const Vec3& e2, ArcList& arcs) {
+    arcs.count = 0;
+    arcs.push({0.0, kTwoPi});
     bool full = true;
-    for (std::size_t j = 0; j < caps.size(); ++j) {
+    for (std::size_t j = 0; j < cap_count; ++j) {
         if (j == k) continue;
         const Cap& ck = caps[k];
         const Cap& cj = caps[j];
@@ -82,36 +102,33 @@ std::vector<Interval> boundary_arcs(const std::vector<Cap>& caps, std::size_t k,
         const double C = (cj.c - ck.c) + ck.c * 0.5 * dot(dn, dn);
         const double R = std::sqrt(A * A + B * B);
         if (C < -R) continue;                  // circle k lies inside cap j
-        if (C >= R) return {};                 // outside (or touching only): no boundary here
+        if (C >= R) {                          // outside (or touching only): no boundary here
+            arcs.count = 0;
+            return;
+        }
         const double centre = std::atan2(B, A);
         const double half = std::acos(C / R);  // C / R in (-1, 1)
         const Interval allowed{centre - half, centre + half};
-        std::vector<Interval> next;
+        ArcList next;
         for (const Interval& cur : arcs) {
             if (full) {
-                next.push_back(allowed);
+                next.push(allowed);
                 continue;
             }
             for (int shift = -1; shift <= 1; ++shift) {
                 const double lo = std::max(cur.lo, allowed.lo + shift * kTwoPi);
                 const double hi = std::min(cur.hi, allowed.hi + shift * kTwoPi);
-                if (hi > lo) next.push_back({lo, hi});
+                if (hi > lo) next.push({lo, hi});
             }
         }
         full = false;
-        arcs.swap(next);
-        if (arcs.empty()) return {};
+        std::copy(next.begin(), next.end(), arcs.items);
+        arcs.count = next.count;
+        if (arcs.empty()) return;
     }
-    return arcs;
 }
 
-// The quartic z^2 |v(e^{i psi})|^2 = sum c_i z^i of an arc's circle and its roots.
-struct CircleQuartic {
-    std::complex<double> c[5];
-    std::complex<double> roots[4];
-    int root_count = 0;  // 4, or 2 when the z^4 and z^0 terms vanish, 0 when both leading terms do
-    double k0 = 0;       // the mean of |v|^2 (the scale of every coefficient)
-};
+}  // namespace
 
 CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
     using cd = std::complex<double>;
@@ -164,6 +181,8 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
     return out;
 }
 
+namespace {
+
 // The poles of 1 / |v(psi)|^2 in the upper half plane (one period): the roots inside the unit disc.
 std::vector<std::complex<double>> poles_of(const CircleQuartic& quartic) {
     std::vector<std::complex<double>> poles;
@@ -197,11 +216,15 @@ struct ClosedFormArc {
     double value = 0, error = 0;
 };
 
-ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double al1, double al2, double lo, double hi,
-                              double min_norm2, double speed_bound) {
+}  // namespace
+
+// The part of the closed form that depends on the circle only (not on a, nor on the arc): the roots'
+// accuracy and 1 / (i P~4'(z_j)) at each root, so that a circle shared by many arcs and many a (every
+// view of a LUT row) solves its quartic once.
+ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2) {
     using cd = std::complex<double>;
     constexpr double eps = std::numeric_limits<double>::epsilon();
-    ClosedFormArc out;
+    ClosedFormRoots out;
     if (quartic.root_count != 4) return out;  // vanishing leading coefficients: quadrature instead
     const cd* z = quartic.roots;
     const cd c4 = quartic.c[4];
@@ -222,10 +245,6 @@ ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double a
     // coefficients themselves (dot products of p, q, r: a few ulps of sum |c_i| >= k0) were rounded.
     delta += 8 * eps * (expansion_scale + coefficient_scale);
     if (!(delta < 0.25 * min_norm2)) return out;  // roots too inaccurate (or not converged)
-    const cd n2(0.5 * al1, -0.5 * al2), n1(al0, 0), n0(0.5 * al1, 0.5 * al2);
-    const cd e_lo(std::cos(lo), std::sin(lo)), e_hi(std::cos(hi), std::sin(hi));
-    cd sum_f = 0, sum_one = 0;
-    double rounding_f = 0, rounding_one = 0;
     for (int j = 0; j < 4; ++j) {
         cd derivative = c4;
         for (int k = 0; k < 4; ++k)
@@ -233,7 +252,42 @@ ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double a
         const double dn = std::norm(derivative);
         if (!(dn > 0)) return out;  // coincident roots
         // 1 / (i P~4'(z_j)) through the conjugate.
-        const cd inv_i_derivative = cd(0, -1) * std::conj(derivative) / dn;
+        out.inv_i_derivative[j] = cd(0, -1) * std::conj(derivative) / dn;
+        out.roots[j] = z[j];
+    }
+    out.delta = delta;
+    out.usable = true;
+    return out;
+}
+
+namespace {
+
+// Log(x_hi) - Log(x_lo) for x = 1 - w, |w| < 1, as one logarithm and one atan2: Re x > 0 puts both
+// arguments in (-pi/2, pi/2), so their difference lies in (-pi, pi) and is the argument of
+// x_hi conj(x_lo) exactly (no branch to choose), and the moduli's logarithms subtract as
+// log(|x_hi|^2 / |x_lo|^2) / 2. Half the calls of two complex logarithms, and none of the library's
+// extra-precise path for |x| near 1 (a sorted exact sum), which the bound below does not need: forming
+// x = 1 - w already costs an ulp of 1 / |x| in the logarithm, and the bound allows 32 of them.
+std::complex<double> log_ratio(const std::complex<double>& x_hi, const std::complex<double>& x_lo, double norm_hi,
+                               double norm_lo) {
+    const std::complex<double> turn = x_hi * std::conj(x_lo);
+    return {0.5 * std::log(norm_hi / norm_lo), std::atan2(turn.imag(), turn.real())};
+}
+
+ClosedFormArc closed_form_arc(const ClosedFormRoots& prepared, double al0, double al1, double al2, double lo,
+                              double hi, double min_norm2, double speed_bound) {
+    using cd = std::complex<double>;
+    constexpr double eps = std::numeric_limits<double>::epsilon();
+    ClosedFormArc out;
+    if (!prepared.usable) return out;
+    const cd* z = prepared.roots;
+    const double delta = prepared.delta;
+    const cd n2(0.5 * al1, -0.5 * al2), n1(al0, 0), n0(0.5 * al1, 0.5 * al2);
+    const cd e_lo(std::cos(lo), std::sin(lo)), e_hi(std::cos(hi), std::sin(hi));
+    cd sum_f = 0, sum_one = 0;
+    double rounding_f = 0, rounding_one = 0;
+    for (int j = 0; j < 4; ++j) {
+        const cd inv_i_derivative = prepared.inv_i_derivative[j];
         const cd rho_f = ((n2 * z[j] + n1) * z[j] + n0) * inv_i_derivative;
         const cd rho_one = z[j] * inv_i_derivative;  // numerator of 1 / |v|^2: n1 = 1
         const bool inside = std::norm(z[j]) < 1;
@@ -245,15 +299,19 @@ ClosedFormArc closed_form_arc(const CircleQuartic& quartic, double al0, double a
             w_lo = e_lo * inv, w_hi = e_hi * inv;
         }
         const cd one_minus_lo = 1.0 - w_lo, one_minus_hi = 1.0 - w_hi;
-        cd dl = std::log(one_minus_hi) - std::log(one_minus_lo);
+        const double norm_lo = std::norm(one_minus_lo), norm_hi = std::norm(one_minus_hi);
+        // |x| >= 1 - |w| > 0 (no root on the unit circle); a ratio of norms that underflows would need a
+        // root within 1e-150 of it: the bound below then comes out infinite and the arc takes quadrature.
+        cd dl = log_ratio(one_minus_hi, one_minus_lo, norm_hi, norm_lo);
         if (inside) dl += cd(0, hi - lo);
         sum_f += rho_f * dl;
         sum_one += rho_one * dl;
-        const double log_size = std::abs(std::log(one_minus_hi)) + std::abs(std::log(one_minus_lo)) +
-                                (inside ? std::fabs(hi) + std::fabs(lo) : 0.0) + 1.0 / std::abs(one_minus_hi) +
-                                1.0 / std::abs(one_minus_lo);
-        rounding_f += std::abs(rho_f) * log_size;
-        rounding_one += std::abs(rho_one) * log_size;
+        // |Log x| <= |log |x|| + pi / 2 <= 0.7 + 1 / |x| + pi / 2 for |x| < 2 (log(1 / t) < 1 / t).
+        const double inverse_hi = 1.0 / std::sqrt(norm_hi), inverse_lo = 1.0 / std::sqrt(norm_lo);
+        const double log_size = 2 * (2.3 + inverse_hi + inverse_lo) + (inside ? std::fabs(hi) + std::fabs(lo) : 0.0) +
+                                inverse_hi + inverse_lo;
+        rounding_f += std::sqrt(std::norm(rho_f)) * log_size;
+        rounding_one += std::sqrt(std::norm(rho_one)) * log_size;
     }
     rounding_f *= 32 * eps;
     rounding_one *= 32 * eps;
@@ -408,7 +466,8 @@ ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo
     if (rule.closed_form) {
         // |v'(psi)| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2).
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));
-        const ClosedFormArc closed = closed_form_arc(quartic, k_const, bc, -bs, lo, hi, min_norm2, speed_bound);
+        const ClosedFormArc closed =
+            closed_form_arc(closed_form_roots(quartic, min_norm2), k_const, bc, -bs, lo, hi, min_norm2, speed_bound);
         if (closed.usable && closed.error <= absolute_tolerance) {
             out.value = closed.value;
             out.error = closed.error;
@@ -424,6 +483,68 @@ ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo
     return out;
 }
 
+BoundaryIntegral hemisphere_integral(const Microsurface& surface, const Vec3& n1, const Vec3& n2, const Vec3& n3) {
+    // On great circle k the part inside hemisphere j is the half circle from -u_kj to u_kj,
+    // counter-clockwise round n_k, with u_kj = normalize(n_k x n_j): there m.n_j falls through 0
+    // ((n_k x u_kj).n_j = ((n_k.n_j)^2 - 1) / |n_k x n_j| < 0). Two half circles of one circle, taken
+    // from -u_kj at 0 to u_kj at pi, meet in [beta, pi] when the other's start -u_kl (at beta) lies in
+    // the first (beta in [0, pi]), else in [0, beta - pi]: from -u_kl to u_kj, or from -u_kj to u_kl.
+    // The result is continuous in the normals, including where all three circles meet in two points
+    // (coplanar normals; beta -> 0 or pi), so the tie-break (>= 0) is harmless.
+    const Vec3 n[3] = {n1, n2, n3};
+    Vec3 u[3][3];  // u[k][j] = normalize(n_k x n_j) = -u[j][k]
+    for (int k = 0; k < 3; ++k)
+        for (int j = k + 1; j < 3; ++j) {
+            // n_k x (n_j - n_k): no cancellation when the axes are close.
+            const Vec3 dn = sub(n[j], n[k]);
+            const Vec3 w = cross(n[k], dn);
+            const double w2 = dot(w, w);
+            if (!(w2 > 1e-60) || dot(dn, dn) < 1e-28) return boundary_integral(surface, std::vector<Cap>{{n1, 0, 1}, {n2, 0, 1}, {n3, 0, 1}},
+                                                        ArcRule{}, 0);
+            u[k][j] = scale(w, 1 / std::sqrt(w2));
+            u[j][k] = scale(u[k][j], -1);
+        }
+    const double ax = surface.alpha_x, ay = surface.alpha_y;
+    auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
+    BoundaryIntegral result;
+    double magnitude = 0;
+    for (int k = 0; k < 3; ++k) {
+        const int j = (k + 1) % 3, l = (k + 2) % 3;
+        const bool later_start = -dot(u[k][l], n[j]) >= 0;
+        const Vec3 start = later_start ? scale(u[k][l], -1) : scale(u[k][j], -1);
+        const Vec3 end = later_start ? u[k][j] : u[k][l];
+        // The angle v = S^-1 m sweeps round n^ = normalize(S n_k): in [0, pi] for an arc of at most half a
+        // turn (S^-1 keeps the plane's orientation), so a cross product rounded below 0 is 0.
+        const Vec3 axis = unit(Vec3{ax * n[k].x, ay * n[k].y, n[k].z});
+        const Vec3 vs = unstretch(start), ve = unstretch(end);
+        const double swept = std::atan2(std::max(0.0, dot(cross(vs, ve), axis)), dot(vs, ve));
+        const double part = dot(surface.a, axis) * swept;
+        result.value += part;
+        magnitude += std::fabs(part);
+    }
+    result.error = 32 * std::numeric_limits<double>::epsilon() * magnitude;
+    return result;
+}
+
+PreparedCircle prepare_circle(double alpha_x, double alpha_y, const Cap& cap) {
+    PreparedCircle out;
+    out.cap = cap;
+    out.alpha_x = alpha_x;
+    out.alpha_y = alpha_y;
+    basis(cap.n, out.e1, out.e2);
+    // The same expressions as boundary_integral's, so that a prepared circle is the one it would compute.
+    auto unstretch = [&](const Vec3& m) { return Vec3{m.x / alpha_x, m.y / alpha_y, m.z}; };
+    out.p = scale(unstretch(cap.n), cap.c);
+    out.q = scale(unstretch(out.e1), cap.s);
+    out.r = scale(unstretch(out.e2), cap.s);
+    out.min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (alpha_x * alpha_x), 1 / (alpha_y * alpha_y)});
+    out.speed_bound = std::sqrt(dot(out.q, out.q) + dot(out.r, out.r));
+    out.quartic = circle_quartic(out.p, out.q, out.r);
+    out.closed = closed_form_roots(out.quartic, out.min_norm2);
+    out.poles = poles_of(out.quartic);
+    return out;
+}
+
 Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
     Microsurface m;
     m.alpha_x = alpha_x;
@@ -433,29 +554,47 @@ Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
 }
 
 BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
-                                   double absolute_tolerance) {
+                                   double absolute_tolerance, const PreparedCircle* prepared) {
+    return boundary_integral(surface, caps.data(), caps.size(), rule, absolute_tolerance, prepared);
+}
+
+BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::size_t cap_count, const ArcRule& rule,
+                                   double absolute_tolerance, const PreparedCircle* prepared) {
     // Coincident caps (wo = e_z, wo = wi, wi = e_z) would each exclude the other's circle (C = R = 0):
     // keep one of each.
-    for (std::size_t i = 0; i < caps.size(); ++i)
-        for (std::size_t j = caps.size(); j-- > i + 1;) {
+    for (std::size_t i = 0; i < cap_count; ++i)
+        for (std::size_t j = cap_count; j-- > i + 1;) {
             const Vec3 dn = sub(caps[i].n, caps[j].n);
-            if (dot(dn, dn) < 1e-30 && std::fabs(caps[i].c - caps[j].c) < 1e-16) caps.erase(caps.begin() + j);
+            if (dot(dn, dn) < 1e-30 && std::fabs(caps[i].c - caps[j].c) < 1e-16) {
+                std::copy(caps + j + 1, caps + cap_count, caps + j);
+                --cap_count;
+            }
         }
     const double ax = surface.alpha_x, ay = surface.alpha_y;
     const Vec3& a = surface.a;
     auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
     BoundaryIntegral result;
     double rounding = 0;
-    const double tolerance_per_radian = absolute_tolerance / (kTwoPi * caps.size());
+    const double tolerance_per_radian = absolute_tolerance / (kTwoPi * cap_count);
     // |v|^2 = |S^-1 m|^2 >= min(1, 1 / alpha_x^2, 1 / alpha_y^2) for unit m; the factor covers m's rounding.
     const double min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (ax * ax), 1 / (ay * ay)});
-    for (std::size_t k = 0; k < caps.size(); ++k) {
-        Vec3 e1, e2;
-        basis(caps[k].n, e1, e2);
-        const std::vector<Interval> arcs = boundary_arcs(caps, k, e1, e2);
-        if (arcs.empty()) continue;
+    for (std::size_t k = 0; k < cap_count; ++k) {
         const Cap& cap = caps[k];
-        const Vec3 p = scale(unstretch(cap.n), cap.c), q = scale(unstretch(e1), cap.s), r = scale(unstretch(e2), cap.s);
+        // The prepared circle stands for this cap when it has the same axis and cosine (bit for bit: its
+        // basis and parametrisation are then the ones computed below).
+        const PreparedCircle* known = prepared && cap.c == prepared->cap.c && cap.s == prepared->cap.s &&
+                                              cap.n.x == prepared->cap.n.x && cap.n.y == prepared->cap.n.y &&
+                                              cap.n.z == prepared->cap.n.z
+                                          ? prepared
+                                          : nullptr;
+        Vec3 e1, e2;
+        if (known) e1 = known->e1, e2 = known->e2;
+        else basis(cap.n, e1, e2);
+        ArcList arcs;
+        boundary_arcs(caps, cap_count, k, e1, e2, arcs);
+        if (arcs.empty()) continue;
+        const Vec3 p = known ? known->p : scale(unstretch(cap.n), cap.c);
+        const Vec3 q = known ? known->q : scale(unstretch(e1), cap.s), r = known ? known->r : scale(unstretch(e2), cap.s);
         if (cap.c == 0) {
             const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
             const double weight = dot(a, axis);
@@ -467,9 +606,11 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
             continue;
         }
         const double k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
-        const bool constant_norm = ax == ay && cap.n.x == 0 && cap.n.y == 0;
+        // |v|^2 is constant round e_z on an isotropic surface, and on every circle when S = I (alpha 1: v = m,
+        // |v|^2 = c^2 + s^2 = 1), where the quartic degenerates.
+        const bool constant_norm = (ax == ay && cap.n.x == 0 && cap.n.y == 0) || (ax == 1 && ay == 1);
         if (constant_norm) {
-            // Round e_z on an isotropic surface |v|^2 is constant: integrate the trigonometric numerator.
+            // Constant |v|^2: integrate the trigonometric numerator.
             const double norm2 = dot(p, p) + dot(q, q);
             for (const Interval& arc : arcs) {
                 const double part = (k_const * (arc.hi - arc.lo) + bc * (std::sin(arc.hi) - std::sin(arc.lo)) +
@@ -481,7 +622,14 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
             continue;
         }
         const ArcIntegrand f{p, q, r, k_const, bc, bs};
-        const CircleQuartic quartic = circle_quartic(p, q, r);
+        CircleQuartic own_quartic;
+        ClosedFormRoots own_roots;
+        if (!known) {
+            own_quartic = circle_quartic(p, q, r);
+            if (rule.closed_form) own_roots = closed_form_roots(own_quartic, min_norm2);
+        }
+        const CircleQuartic& quartic = known ? known->quartic : own_quartic;
+        const ClosedFormRoots& roots = known ? known->closed : own_roots;
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
         PieceSum sum;
         std::vector<std::complex<double>> poles;
@@ -489,7 +637,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
         for (const Interval& arc : arcs) {
             if (rule.closed_form) {
                 const ClosedFormArc closed =
-                    closed_form_arc(quartic, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
+                    closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
                 // The closed form where its bound meets the arc's share of the tolerance, quadrature elsewhere.
                 if (closed.usable && closed.error <= tolerance_per_radian * (arc.hi - arc.lo)) {
                     sum.value += closed.value;
@@ -497,8 +645,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
                     continue;
                 }
             }
-            if (!poles_found) poles = poles_of(quartic), poles_found = true;
-            integrate_piece(f, poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
+            if (!poles_found && !known) poles = poles_of(quartic), poles_found = true;
+            integrate_piece(f, known ? known->poles : poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
         }
         result.value += sum.value;
         result.error += sum.error;

@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -47,11 +48,12 @@ ExactValue term_of(double alpha_x, double alpha_y, const Vec3& wi, const Vec3& w
     const Microsurface surface = make_microsurface(alpha_x, alpha_y, wi);
     const ArcRule rule = arc_rule_for(tolerance);
     const Vec3 ez{0, 0, 1};
-    const BoundaryIntegral hemisphere = boundary_integral(surface, {{ez, 0, 1}, {wo, 0, 1}, {wi, 0, 1}}, rule, 0);
+    Cap hemisphere_caps[3] = {{ez, 0, 1}, {wo, 0, 1}, {wi, 0, 1}};
+    const BoundaryIntegral hemisphere = boundary_integral(surface, hemisphere_caps, 3, rule, 0);
     if (!(hemisphere.value > 0)) return out;
     const double s = std::sqrt(s2);
-    const BoundaryIntegral cone =
-        boundary_integral(surface, {{ez, c, s}, {wo, c, s}, {wi, 0, 1}}, rule, tolerance * hemisphere.value);
+    Cap cone_caps[3] = {{ez, c, s}, {wo, c, s}, {wi, 0, 1}};
+    const BoundaryIntegral cone = boundary_integral(surface, cone_caps, 3, rule, tolerance * hemisphere.value);
     const double t = cone.value / hemisphere.value;
     out.term = std::clamp(t, 0.0, 1.0);
     out.error = (cone.error + std::fabs(t) * hemisphere.error) / hemisphere.value;
@@ -256,6 +258,22 @@ ExactValue exact_term_at_azimuth(double visibility, double alpha, double n_dot_v
                    cone_cos_theta(visibility, weighting), cone_sin2_theta(visibility, weighting), tolerance);
 }
 
+ExactValue azimuth_mean_of(const std::function<ExactValue(double)>& term, double c, double s, double n_dot_v,
+                           double n_dot_l, double tolerance) {
+    ExactValue out;
+    const double sv2 = 1 - n_dot_v * n_dot_v, sl2 = 1 - n_dot_l * n_dot_l;
+    if (sv2 <= 0 || sl2 <= 0) return term(0.0);  // the azimuth does not change the term
+    const AzimuthEvents events = azimuth_events(c, s, n_dot_v, n_dot_l);
+    const AzimuthRule rule = azimuth_rule_for(tolerance);
+    MeanSum sum;
+    for (std::size_t i = 0; i + 1 < events.breakpoints.size(); ++i)
+        AzimuthInterval(term, events.breakpoints[i], events.breakpoints[i + 1], events, rule, tolerance, sum);
+    out.term = std::clamp(sum.integral / kPi, 0.0, 1.0);
+    out.error = sum.error / kPi;
+    out.quadrature_pieces = sum.pieces;
+    return out;
+}
+
 ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, double n_dot_l, AoWeighting weighting,
                               double tolerance) {
     const double c = cone_cos_theta(visibility, weighting), s2 = cone_sin2_theta(visibility, weighting);
@@ -269,18 +287,9 @@ ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, d
     const Vec3 wi = lut_view(n_dot_v);
     // Each value's own tolerance is a quarter of the mean's; the quadrature over the azimuth takes half.
     const double value_tolerance = 0.25 * tolerance;
-    auto term = [&](double phi) { return term_of(alpha, alpha, wi, lut_light(n_dot_l, phi), visibility, c, s2, value_tolerance); };
-    const double sv2 = 1 - n_dot_v * n_dot_v, sl2 = 1 - n_dot_l * n_dot_l;
-    if (sv2 <= 0 || sl2 <= 0) return term(0.0);  // the azimuth does not change the term
-    const AzimuthEvents events = azimuth_events(c, std::sqrt(s2), n_dot_v, n_dot_l);
-    const AzimuthRule rule = azimuth_rule_for(tolerance);
-    MeanSum sum;
-    for (std::size_t i = 0; i + 1 < events.breakpoints.size(); ++i)
-        AzimuthInterval(term, events.breakpoints[i], events.breakpoints[i + 1], events, rule, tolerance, sum);
-    out.term = std::clamp(sum.integral / kPi, 0.0, 1.0);
-    out.error = sum.error / kPi;
-    out.quadrature_pieces = sum.pieces;
-    return out;
+    return azimuth_mean_of(
+        [&](double phi) { return term_of(alpha, alpha, wi, lut_light(n_dot_l, phi), visibility, c, s2, value_tolerance); },
+        c, std::sqrt(s2), n_dot_v, n_dot_l, tolerance);
 }
 
 }  // namespace ms::exact

@@ -7,6 +7,8 @@
 // quadrature's, estimated from a lower-order rule on every piece.
 #pragma once
 
+#include <functional>
+
 #include "core/types.hpp"
 
 namespace ms::exact {
@@ -38,6 +40,13 @@ ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance = 
 // piece's error, which bounds the halves'), the values' own estimated errors and a rounding allowance.
 ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, double n_dot_l, AoWeighting weighting,
                               double tolerance = kDefaultTolerance);
+
+// The mean over phi in [0, pi] of term(phi), a term of the LUT's parameters (cone cosine c and sine s,
+// NdotV, NdotL) by exact_azimuth_mean's rule: the integrator both exact_azimuth_mean and the azimuth
+// grid (azimuth_grid.hpp) use. term(phi) must carry its own estimated error, computed to at most a
+// quarter of `tolerance`; the caller answers the cases with no cone (zero region, visibility 0 or 1).
+ExactValue azimuth_mean_of(const std::function<ExactValue(double)>& term, double c, double s, double n_dot_v,
+                           double n_dot_l, double tolerance);
 
 // The Gauss-Legendre rules on the azimuth pieces of a mean for a tolerance of the mean: the C++
 // evaluator takes `nodes` on each piece and on its two halves, pieces kept clear of complex singularities

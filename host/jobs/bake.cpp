@@ -225,9 +225,11 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
                                       std::to_string(azimuth.rho).substr(0, 3) +
                                       "), bisected until a piece agrees with its two halves to its share of the tolerance";
         }
-        m["rule"] = "boundary integral; arcs by Gauss-Legendre " + std::to_string(rule.high) + "/" +
-                    std::to_string(rule.low) + " nodes, poles outside the Bernstein ellipse rho = " +
-                    std::to_string(rule.rho).substr(0, 3);
+        m["rule"] = "boundary integral; arcs in closed form (partial fractions over the circle quartic's roots, on the "
+                    "C++ evaluator solved once per visibility, NdotL and roughness row with the view rotated) where its "
+                    "bound meets the arc's share of the tolerance, else Gauss-Legendre " +
+                    std::to_string(rule.high) + "/" + std::to_string(rule.low) +
+                    " nodes, poles outside the Bernstein ellipse rho = " + std::to_string(rule.rho).substr(0, 3);
         m["tolerance"] = r.exact_tolerance;
         m["tolerance_met"] = r.tolerance_met;
         m["max_error"] = r.max_std_error;

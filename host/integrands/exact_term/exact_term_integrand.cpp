@@ -1,6 +1,7 @@
 #include "integrands/exact_term/exact_term_integrand.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <exception>
 #include <stdexcept>
@@ -9,6 +10,7 @@
 #include "core/cancel.hpp"
 #include "core/cone.hpp"
 #include "core/query.hpp"
+#include "exact/azimuth_grid.hpp"
 
 namespace ms::exact_term {
 
@@ -28,13 +30,15 @@ public:
     void texels(const std::vector<ExactTexel>& texels, AoWeighting weighting, bool azimuth_mean, double azimuth,
                 double tolerance, std::vector<exact::ExactValue>& out) override {
         out.resize(texels.size());
+        // Texels of one (visibility, alpha, NdotL) row share the azimuth grid's precomputation (its
+        // circle's quartic), which every value of the row reuses.
+        std::unique_ptr<exact::AzimuthGrid> grid;
         for (std::size_t i = 0; i < texels.size(); ++i) {
             if ((i & 15) == 0 && cancel_requested()) throw Cancelled();
             const ExactTexel& t = texels[i];
-            out[i] = azimuth_mean
-                         ? exact::exact_azimuth_mean(t.visibility, t.alpha, t.n_dot_v, t.n_dot_l, weighting, tolerance)
-                         : exact::exact_term_at_azimuth(t.visibility, t.alpha, t.n_dot_v, t.n_dot_l, azimuth, weighting,
-                                                        tolerance);
+            if (!grid || !grid->same_row(t.visibility, t.alpha, t.n_dot_l, weighting))
+                grid = std::make_unique<exact::AzimuthGrid>(t.visibility, t.alpha, t.n_dot_l, weighting);
+            out[i] = azimuth_mean ? grid->mean(t.n_dot_v, tolerance) : grid->term(t.n_dot_v, azimuth, tolerance);
         }
     }
 };
@@ -58,7 +62,9 @@ public:
     void texels(const std::vector<ExactTexel>& texels, AoWeighting weighting, bool azimuth_mean, double azimuth,
                 double tolerance, std::vector<exact::ExactValue>& out) override {
         out.resize(texels.size());
-        split(texels.size(), [&](std::size_t lo, std::size_t hi) {
+        // Texels differ in cost by orders of magnitude (exact zeros against grazing smooth rows), so equal
+        // contiguous parts leave threads idle: the threads take small runs of texels in turn instead.
+        split_dynamic(texels.size(), 4, [&](std::size_t lo, std::size_t hi) {
             std::vector<ExactTexel> t(texels.begin() + lo, texels.begin() + hi);
             std::vector<exact::ExactValue> part;
             CpuEvaluator().texels(t, weighting, azimuth_mean, azimuth, tolerance, part);
@@ -67,6 +73,17 @@ public:
     }
 
 private:
+    // part(lo, hi) over runs of `run` items, handed to the threads as they become free (the values do not
+    // depend on which thread computes a run).
+    template <class Part>
+    void split_dynamic(std::size_t n, std::size_t run, const Part& part) {
+        std::atomic<std::size_t> next{0};
+        const std::size_t runs = (n + run - 1) / run;
+        split(std::min<std::size_t>(runs, threads_), [&](std::size_t, std::size_t) {
+            for (std::size_t k; (k = next.fetch_add(1)) < runs;) part(k * run, std::min(n, (k + 1) * run));
+        });
+    }
+
     template <class Part>
     void split(std::size_t n, const Part& part) {
         const std::size_t parts = std::min<std::size_t>(threads_, n);

@@ -181,21 +181,13 @@ void PrefilteredEnvironment::save(const std::string& dir, const std::string& for
     ms::OutputSet outputs;
     const auto levels = std::uint32_t(data_->result.mips.size());
     const ms::PrefilterFiles specular = ms::add_prefilter_files(outputs, dir, levels, format, encoding);
-    const bool irradiance_texture = format != "exr";
-    const std::size_t irradiance_map = outputs.add(dir + "/irradiance." + format, irradiance_texture);
-    std::optional<std::size_t> irradiance_sidecar;
-    if (format == "dds") irradiance_sidecar = outputs.add(dir + "/irradiance.dds.json");
+    const ms::lutfmt::TextureFiles irradiance_map = ms::add_irradiance_map(outputs, dir, format, encoding);
     const std::size_t irradiance_png = outputs.add(dir + "/irradiance_preview.png");
     const std::size_t sh_json = outputs.add(dir + "/sh.json");
     const std::size_t ibl_json = outputs.add(dir + "/ibl.json");
     const ms::IrradianceResult& irr = data_->irradiance;
     ms::write_prefilter_files(outputs, specular, data_->result, data_->specular_metadata, exposure);
-    if (irradiance_texture)
-        ms::write_irradiance_cube(outputs, irradiance_map, irradiance_sidecar, ms::env::cubemap_from_image(irr.irradiance_cross),
-                                  format, encoding, data_->irradiance_metadata);
-    else
-        ms::env::write_exr_file(outputs.temp_path(irradiance_map), outputs.target(irradiance_map).named, irr.irradiance_cross,
-                                data_->irradiance_metadata);
+    ms::write_irradiance_map(outputs, irradiance_map, irr.irradiance_cross, encoding, data_->irradiance_metadata);
     ms::env::write_png_file(outputs.temp_path(irradiance_png), ms::env::cross_preview_canvas(irr.irradiance_cross, exposure, kShCrossCaption));
     outputs.stream(sh_json) << data_->irradiance_metadata.dump(2) << "\n";
     outputs.stream(ibl_json) << nlohmann::json{{"specular", data_->specular_metadata}, {"irradiance", data_->irradiance_metadata}}.dump(2)

@@ -39,8 +39,8 @@ void check_shader_path(const std::string& path, const char* option, std::initial
 }  // namespace
 
 void add_bake_output_options(CLI::App* cmd, BakeOutputArgs& a) {
-    cmd->add_option("--format", a.format, "LUT file format; must agree with --out's extension: exr, ktx2, dds, header, inc, png")
-        ->check(CLI::IsMember({"exr", "ktx2", "dds", "header", "inc", "png"}));
+    cmd->add_option("--format", a.format, "LUT file format; must agree with --out's extension: " + lutfmt::format_list(lutfmt::TextureUse::lut))
+        ->check(CLI::IsMember(lutfmt::format_names(lutfmt::TextureUse::lut)));
     cmd->add_option("--encoding", a.encoding,
                     "stored values: float32, float16 (= --half), unorm8, unorm16 (default: float32; png: unorm8)")
         ->check(CLI::IsMember({"float32", "float16", "unorm8", "unorm16", "float", "half", "rgba8", "rgba16"}));

@@ -232,7 +232,7 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--layout", a->layout, "seed-3d (v, NdotL, NdotV; RGBA = roughness 0.1 0.4 0.7 1), seed-2d (NdotV = 1) or custom")
         ->check(CLI::IsMember({"seed-3d", "seed-2d", "custom"}))
         ->capture_default_str();
-    cmd->add_option("--out", a->out, "output LUT file: .exr, .ktx2, .dds, .h/.hpp/.inc or .png (see --format)")->required();
+    cmd->add_option("--out", a->out, "output LUT file: " + lutfmt::extension_list(lutfmt::TextureUse::lut) + " (see --format)")->required();
     add_bake_output_options(cmd, a->outputs);
     cmd->add_option("--size", a->size, "texels on every axis")->transform(decimal_range(1, 4096))->capture_default_str();
     cmd->add_option("--size-visibility,--visibility-count", a->size_visibility, "texels on the visibility axis (--visibility-count: the name repr bake and the library use)")->transform(decimal_range(1, 4096));

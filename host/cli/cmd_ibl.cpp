@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "lut/formats/texture_format.hpp"
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "jobs/ibl_run.hpp"
@@ -42,7 +43,9 @@ void add_environment_options(CLI::App* app, EnvironmentFiles& e, const std::stri
 // --format exr|ktx2|dds and --encoding float16|float32 of a cubemap output (prefilter, irradiance).
 void add_cubemap_format_options(CLI::App* app, std::string& format, std::string& encoding, const std::string& format_help,
                                 const std::string& encoding_help) {
-    app->add_option("--format", format, format_help)->check(CLI::IsMember({"exr", "ktx2", "dds"}))->capture_default_str();
+    app->add_option("--format", format, format_help)
+        ->check(CLI::IsMember(lutfmt::format_names(lutfmt::TextureUse::cubemap)))
+        ->capture_default_str();
     app->add_option("--encoding", encoding, encoding_help)->check(CLI::IsMember({"float16", "float32"}))->capture_default_str();
 }
 void add_exposure_option(CLI::App* app, double& exposure, const std::string& what) {
@@ -157,7 +160,10 @@ void add_ibl_command(CLI::App& app) {
 
     auto d = std::make_shared<DfgArgs>();
     auto* dfg = ibl->add_subcommand("dfg", "bake the DFG LUT (x = NdotV, y = roughness; R, G, B = scale, bias, E) to OpenEXR, KTX2 or DDS");
-    dfg->add_option("--out", d->job.out, "output .exr, .ktx2, .dds (RG for 2 channels, else RGBA; metadata in <file>.json), .png (16-bit), .h (C header) or .inc (C initialiser list)")->required();
+    dfg->add_option("--out", d->job.out, "output file, the format by the extension: " + lutfmt::extension_list(lutfmt::TextureUse::dfg) +
+                                             " (KTX2 / DDS: RG for 2 channels, else RGBA, DDS metadata in <file>.json; PNG 16-bit; "
+                                             ".h: C header, .inc: C initialiser list)")
+        ->required();
     dfg->add_option("--method", d->method, "exact (Gauss-Legendre, ~1e-12), sampled (the VNDF kernel, error bars) or quadrature (the independent check)")
         ->check(CLI::IsMember({"exact", "sampled", "quadrature"}))
         ->capture_default_str();
@@ -200,7 +206,9 @@ void add_ibl_command(CLI::App& app) {
     add_environment_options(sh, s->job.environment, "equirectangular (2:1) or cross (4:3, 3:4) environment, .exr or Radiance .hdr, or a .ktx2 / .dds cubemap (its base level)",
                             " (docs/ibl.md: orientation)");
     sh->add_option("--out", s->job.out, "output JSON: coefficients, convolved irradiance coefficients, provenance")->required();
-    sh->add_option("--irradiance", s->job.irradiance, "also write the irradiance cubemap (E / pi) as a horizontal-cross .exr");
+    sh->add_option("--irradiance", s->job.irradiance, "also write the irradiance cubemap (E / pi), the format by the extension: " +
+                                                          lutfmt::extension_list(lutfmt::TextureUse::cubemap) +
+                                                          " (.exr: a horizontal cross; .ktx2 / .dds: a cubemap, RGBA16F, A = 1)");
     sh->add_option("--face-size", s->job.face_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
     sh->add_option("--preview", s->job.preview, "PNG of the irradiance cross (Reinhard tone map, sRGB)");
     sh->add_option("--shader", s->job.shader, "also write the irradiance as shader constants and a function (.glsl or .hlsl; cmgen --sh-shader's form)");
@@ -258,7 +266,7 @@ void add_ibl_command(CLI::App& app) {
                                "or exr (DIR/specular_m<m>.exr crosses, one per mip)",
                                "ktx2 / dds texels: float16 (RGBA16F) or float32");
     pf->add_option("--irradiance-size", p->job.irradiance_size, "irradiance cubemap face size")->transform(decimal_range(1, 1024))->capture_default_str();
-    pf->add_option("--dfg-size", p->job.dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (exr, ktx2 or dds)")
+    pf->add_option("--dfg-size", p->job.dfg_size, "also bake the DFG LUT (N x N, default settings) into DIR/dfg.<format> (" + lutfmt::format_list(lutfmt::TextureUse::cubemap) + ")")
         ->transform(decimal_range(0, 4096));
     add_exposure_option(pf, p->job.exposure, "previews");
     add_quiet_flag(pf, p->quiet, "no progress or summary");

@@ -86,7 +86,7 @@ void run_lut_export(const LutExportArgs& a) {
     // The output is checked before the input is read: nothing is written on a bad request.
     const lutfmt::LutOutput output = lutfmt::resolve_lut_output(a.out, a.format, a.encoding, a.half);
     check_writable_destination(a.out);
-    if (output.format == lutfmt::LutFormat::dds) check_writable_destination(a.out + ".json");
+    if (lutfmt::format_info(output.format).sidecar) check_writable_destination(a.out + ".json");
     LutFile lut = open_or_bad_input(a.file, from);
     lut = lutfmt::lut_for_export(std::move(lut), from, json_safe(a.file));
     // The bake's command line stays the LUT's provenance; the export's is recorded beside the source.
@@ -102,7 +102,7 @@ void add_lut_command(CLI::App& app) {
 
     auto i = std::make_shared<LutInfoArgs>();
     auto* info = lut_cmd->add_subcommand("info", "print a LUT file's format, layout, error budget and provenance");
-    info->add_option("file", i->file, "a LUT written by `microshadow bake` (.exr, .ktx2, .dds, .h, .inc or .png)")->required();
+    info->add_option("file", i->file, "a LUT written by `microshadow bake` (" + lutfmt::extension_list(lutfmt::TextureUse::lut) + ")")->required();
     info->add_flag("--metadata,--json", i->metadata, "also print the whole metadata record (JSON)");
     info->callback([i] {
         lutfmt::LutFileInfo format;
@@ -114,9 +114,9 @@ void add_lut_command(CLI::App& app) {
     auto x = std::make_shared<LutExportArgs>();
     auto* exp = lut_cmd->add_subcommand("export", "write a LUT file again in another format or encoding");
     exp->add_option("file", x->file, "a LUT written by `microshadow bake` (any of its formats)")->required();
-    exp->add_option("--out", x->out, "the new file: .exr, .ktx2, .dds (+ .dds.json), .h/.hpp, .inc or .png")->required();
-    exp->add_option("--format", x->format, "must agree with --out's extension: exr, ktx2, dds, header, inc, png")
-        ->check(CLI::IsMember({"exr", "ktx2", "dds", "header", "inc", "png"}));
+    exp->add_option("--out", x->out, "the new file: " + lutfmt::extension_list(lutfmt::TextureUse::lut) + " (.dds: + .dds.json)")->required();
+    exp->add_option("--format", x->format, "must agree with --out's extension: " + lutfmt::format_list(lutfmt::TextureUse::lut))
+        ->check(CLI::IsMember(lutfmt::format_names(lutfmt::TextureUse::lut)));
     exp->add_option("--encoding", x->encoding, "stored values: float32, float16 (= --half), unorm8, unorm16 (default: float32; png: unorm8)")
         ->check(CLI::IsMember({"float32", "float16", "unorm8", "unorm16", "float", "half", "rgba8", "rgba16"}));
     exp->add_flag("--half", x->half, "--encoding float16");

@@ -178,8 +178,9 @@ void add_repr_command(CLI::App& app) {
         ->check(CLI::IsMember(repr::preset_names()));
     bake->add_option("--kind", a->kind, "a custom layout: azimuth-axis or azimuth-harmonics")->check(CLI::IsMember(repr::representation_kinds()));
     bake->add_option("--out", a->out,
-                     "the representation file: .exr (opened by eval --compare and sweeps), or the 3D texture alone as "
-                     ".ktx2 or .dds (+ .dds.json metadata); default PRESET.exr for a preset");
+                     "the representation file, the format by the extension: " + lutfmt::extension_list(lutfmt::TextureUse::representation) +
+                         " (.exr: the atlas that eval --compare and sweeps open; .ktx2 / .dds: the 3D texture alone, .dds with "
+                         ".dds.json metadata); default PRESET.exr for a preset");
     bake->add_option("--visibility-count", a->visibility, "visibility texels")->transform(decimal_range(2, 256))->capture_default_str();
     bake->add_option("--n-dot-l-count", a->n_dot_l, "NdotL texels")->transform(decimal_range(2, 256))->capture_default_str();
     bake->add_option("--n-dot-v-count", a->n_dot_v, "NdotV texels")->transform(decimal_range(2, 256))->capture_default_str();
@@ -243,7 +244,7 @@ void add_repr_command(CLI::App& app) {
     auto x = std::make_shared<ReprFileArgs>();
     auto* exp = repr_cmd->add_subcommand("export", "write a representation file's 3D texture as KTX2 or DDS (or EXR)");
     exp->add_option("file", x->file, "a file written by `microshadow repr bake`")->required();
-    exp->add_option("--out", x->out, ".ktx2, .dds (+ .dds.json metadata) or .exr")->required();
+    exp->add_option("--out", x->out, lutfmt::extension_list(lutfmt::TextureUse::representation) + " (.dds: + .dds.json metadata)")->required();
     exp->add_flag("--half", x->half, "EXR: HALF channels (KTX2 and DDS are RGBA16F, what an engine uploads, by default)");
     exp->add_flag("--float", x->float32, "KTX2, DDS: RGBA32F in place of the default RGBA16F");
     exp->callback([x] {

@@ -87,4 +87,34 @@ CubemapFile read_cubemap_file(const std::string& path) {
     return out;
 }
 
+lutfmt::TextureData image_texture(const Image& image, const nlohmann::json& metadata) {
+    lutfmt::TextureData t;
+    t.width = image.width;
+    t.height = image.height;
+    t.channels = image.channels;
+    t.channel_names = image.channel_names;
+    t.levels = {image.data};
+    t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
+    return t;
+}
+
+lutfmt::TextureData cubemap_texture(const std::vector<const Cubemap*>& levels, const nlohmann::json& metadata) {
+    if (levels.empty()) throw std::invalid_argument("cubemap: no levels");
+    lutfmt::TextureData t;
+    t.width = t.height = levels[0]->size;
+    t.faces = 6;
+    t.channels = 3;
+    t.alpha = 1.0f;
+    for (std::size_t m = 0; m < levels.size(); ++m) {
+        if (levels[m]->size != lutfmt::level_size(t.width, std::uint32_t(m)))
+            throw std::invalid_argument("cubemap: mip " + std::to_string(m) + " is not half the size of the one above");
+        std::vector<float> level;
+        for (int f = 0; f < 6; ++f) level.insert(level.end(), levels[m]->faces[f].data.begin(), levels[m]->faces[f].data.end());
+        t.levels.push_back(std::move(level));
+    }
+    t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
+    t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
+    return t;
+}
+
 }  // namespace ms::env

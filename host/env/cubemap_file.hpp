@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "env/cubemap.hpp"
+#include "env/image.hpp"
+#include "lut/formats/texture.hpp"
 
 namespace ms::env {
 
@@ -32,5 +34,12 @@ struct CubemapFile {
 //     that is not is named with its level, face (+X ...), texel (x, y) and channel. A is not data (the
 //     writers store 1) and is not read.
 CubemapFile read_cubemap_file(const std::string& path);
+
+// What the IBL jobs write, as the one texture writer takes it (lut/formats/texture_writer.hpp):
+// an image (a horizontal cross, an EXR: its channels named as the image names them, the metadata with
+// its typed copies), and a cubemap's mip chain (KTX2 faceCount 6 / DDS cube: faces +X -X +Y -Y +Z -Z,
+// RGB with A = 1; the metadata records the faces, the padding and the encoding).
+lutfmt::TextureData image_texture(const Image& image, const nlohmann::json& metadata);
+lutfmt::TextureData cubemap_texture(const std::vector<const Cubemap*>& levels, const nlohmann::json& metadata);
 
 }  // namespace ms::env

@@ -264,13 +264,20 @@ void OutputSet::discard() {
     }
 }
 
+namespace {
+// Whether two output paths name one file. Made absolute first: weakly_canonical of a relative path none
+// of whose parts exists stays relative ("s.exr"), while "./s.exr" resolves "." to the working folder.
+bool same_file(const fs::path& a, const fs::path& b) {
+    std::error_code ec1, ec2, ec3, ec4;
+    return fs::weakly_canonical(fs::absolute(a, ec1), ec2) == fs::weakly_canonical(fs::absolute(b, ec3), ec4);
+}
+}  // namespace
+
 std::size_t OutputSet::add(const std::string& path, bool binary, bool allow_stdout) {
     OutputTarget t = prepare_output(path, allow_stdout);
     for (const auto& e : entries_) {
         if (t.to_stdout && e->target.to_stdout) throw OutputError("two outputs go to standard output");
-        std::error_code ec1, ec2;
-        if (!t.to_stdout && !e->target.to_stdout &&
-            fs::weakly_canonical(t.path, ec1) == fs::weakly_canonical(e->target.path, ec2))
+        if (!t.to_stdout && !e->target.to_stdout && same_file(t.path, e->target.path))
             throw OutputError("outputs " + e->target.named + " and " + path + " name the same file");
     }
     auto e = std::make_unique<Entry>();
@@ -444,8 +451,7 @@ OutputGroup* OutputGroup::current() { return current_group; }
 void OutputGroup::hand_over(Pending p) {
     if (!p.to_stdout)
         for (const auto& q : pending_) {
-            std::error_code e1, e2;
-            if (!q.to_stdout && fs::weakly_canonical(q.path, e1) == fs::weakly_canonical(p.path, e2)) {
+            if (!q.to_stdout && same_file(q.path, p.path)) {
                 platform::remove_file(p.temp);
                 throw OutputError("outputs " + q.named + " and " + p.named + " name the same file");
             }

@@ -10,6 +10,7 @@
 #include "core/cancel.hpp"
 #include "fit/closed_form.hpp"
 #include "io/csv.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "io/text.hpp"
 #include "jobs/design_closed_form.hpp"
 #include "jobs/eval.hpp"
@@ -108,7 +109,9 @@ Candidate representation_candidate(const std::string& name, const std::string& f
     c.provenance["file"] = json_safe(file);
     c.bake = [r](OutputSet& outputs, const std::string& prefix) {
         const std::string source = fs::path(prefix + ".exr").filename().string();
-        r->write(outputs.temp_path(outputs.add(prefix + ".exr", true)), /*half=*/true);
+        const auto exr = lutfmt::TextureFormat::exr;
+        lutfmt::write_texture(outputs, lutfmt::add_texture_files(outputs, prefix + ".exr", exr), r->texture_file(exr, /*half=*/true),
+                              lutfmt::PixelEncoding::float16);
         for (const auto language : {lutshader::ShaderLanguage::glsl, lutshader::ShaderLanguage::hlsl})
             outputs.stream(outputs.add(prefix + "." + lutshader::to_string(language)))
                 << lutshader::compose(r->shader(language, source), language, lutshader::default_prefix(prefix + ".glsl"));

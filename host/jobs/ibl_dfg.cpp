@@ -19,6 +19,7 @@
 #include "io/png_file.hpp"
 #include "io/text.hpp"
 #include "lut/formats/texture.hpp"
+#include "lut/formats/texture_writer.hpp"
 
 namespace ms {
 
@@ -250,37 +251,27 @@ nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result
     return m;
 }
 
-namespace {
-std::string extension(const std::string& path) {
-    const auto dot = path.find_last_of('.');
-    std::string ext = dot == std::string::npos ? "" : path.substr(dot);
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    return ext;
-}
-}  // namespace
-
 void check_dfg_lut_format(const std::string& path) {
-    const std::string ext = extension(path);
-    if (ext == ".exr" || ext == ".h" || ext == ".inc" || ext == ".png" || ext == ".ktx2" || ext == ".dds") return;
-    throw std::invalid_argument("DFG LUT " + path +
-                                ": the extension picks the format: .exr, .ktx2, .dds, .png (16-bit), .h (C header) or .inc (C initialiser list)");
+    (void)lutfmt::texture_format_for_path(path, lutfmt::TextureUse::dfg);
 }
 
 void check_dfg_lut_output(const std::string& path, const std::vector<DfgChannel>& channels, const std::string& symbol) {
-    check_dfg_lut_format(path);
-    if (extension(path) == ".png" && has_sheen(channels))
-        throw std::invalid_argument("DFG LUT " + path + ": a PNG holds [0, 1] and the sheen channel exceeds 1 at grazing views; use .exr, .ktx2, .dds, .h or .inc");
+    const lutfmt::TextureFormat format = lutfmt::texture_format_for_path(path, lutfmt::TextureUse::dfg);
+    if (format == lutfmt::TextureFormat::png && has_sheen(channels)) {
+        std::vector<std::string> others;
+        for (lutfmt::TextureFormat f : lutfmt::formats_for(lutfmt::TextureUse::dfg))
+            if (f != lutfmt::TextureFormat::png) others.push_back(lutfmt::format_info(f).extensions.front());
+        std::string list;
+        for (std::size_t i = 0; i < others.size(); ++i) list += (i == 0 ? "" : i + 1 == others.size() ? " or " : ", ") + others[i];
+        throw std::invalid_argument("DFG LUT " + path + ": a PNG holds [0, 1] and the sheen channel exceeds 1 at grazing views; use " + list);
+    }
     const bool identifier = !symbol.empty() && !std::isdigit(static_cast<unsigned char>(symbol[0])) &&
                             std::all_of(symbol.begin(), symbol.end(), [](unsigned char c) { return std::isalnum(c) || c == '_'; });
     if (!identifier) throw std::invalid_argument("--symbol: '" + symbol + "' is not a C identifier (letters, digits, _; not starting with a digit)");
 }
 
 DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path) {
-    check_dfg_lut_format(path);
-    DfgLutFiles files;
-    files.lut = outputs.add(path, /*binary=*/true);
-    if (extension(path) == ".dds") files.sidecar = outputs.add(path + ".json");
-    return files;
+    return lutfmt::add_texture_files(outputs, path, lutfmt::texture_format_for_path(path, lutfmt::TextureUse::dfg));
 }
 
 namespace {
@@ -310,142 +301,79 @@ nlohmann::json stored_metadata(const nlohmann::json& metadata, const std::vector
     return m;
 }
 
-// The metadata as a C comment ("*/" inside it broken up).
-void write_c_comment(std::ostream& out, const nlohmann::json& metadata) {
-    std::string meta = metadata.dump(2);
-    for (std::size_t p = meta.find("*/"); p != std::string::npos; p = meta.find("*/", p)) meta.replace(p, 2, "* /");
-    out << "/* microshadow DFG LUT (generated; do not edit)\n" << meta << "\n*/\n";
-}
-
-// The texels as C initialiser rows: floats with 9 significant digits (a float round trip), or with
-// `half` the IEEE binary16 bits in hex (cmgen's .inc convention for RG16F / RGB16F uploads).
-void write_c_values(std::ostream& out, const DfgBakeResult& result, bool half, bool braces) {
-    const std::size_t nc = result.channels.size();
-    const std::vector<float> data = channel_data(result);
-    char buf[48];
-    for (std::uint32_t y = 0; y < result.height; ++y) {
-        out << (braces ? "  {" : "  ");
-        for (std::uint32_t x = 0; x < result.width; ++x) {
-            if (braces) out << "{";
-            for (std::size_t c = 0; c < nc; ++c) {
-                const float v = data[(std::size_t(y) * result.width + x) * nc + c];
-                if (half) std::snprintf(buf, sizeof buf, "0x%04x", unsigned(lutfmt::float_to_half(v)));
-                else std::snprintf(buf, sizeof buf, "%.9gf", v);
-                out << buf << (c + 1 < nc ? ", " : "");
-            }
-            if (braces) out << "}";
-            if (braces ? x + 1 < result.width : true) out << ", ";
-        }
-        out << (braces ? "}" : "") << (braces && y + 1 < result.height ? "," : "") << "\n";
-    }
-}
-
 }  // namespace
 
 void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
                    bool half, const std::string& symbol) {
-    const std::string path = outputs.target(files.lut).named;
-    const std::string ext = extension(path);
+    using lutfmt::TextureFormat;
+    const TextureFormat format = files.format;
     const std::size_t nc = result.channels.size();
-    // Every format records the bound of what it stores (stored_metadata): the encoding it rounds to.
-    const lutfmt::PixelEncoding stored_encoding = ext == ".png" ? lutfmt::PixelEncoding::unorm16
-                                                  : half        ? lutfmt::PixelEncoding::float16
-                                                                : lutfmt::PixelEncoding::float32;
-    const nlohmann::json stored = stored_metadata(metadata, channel_data(result), stored_encoding);
-    if (ext == ".h") {
-        // A C/C++ header: the metadata as a comment, then the texels [roughness][NdotV][channel] under
-        // `symbol`, with SYMBOL_WIDTH / _HEIGHT / _CHANNELS.
-        std::ostream& out = outputs.stream(files.lut);
-        write_c_comment(out, stored);
-        const std::string macro = to_upper(symbol);
-        out << "#pragma once\n\n";
-        out << "/* channels: " << channels_string(result.channels) << (half ? " (IEEE binary16 bits)" : "") << " */\n";
-        out << "#define " << macro << "_WIDTH " << result.width << "  /* NdotV */\n";
-        out << "#define " << macro << "_HEIGHT " << result.height << "  /* roughness */\n";
-        out << "#define " << macro << "_CHANNELS " << nc << "\n\n";
-        out << "static const " << (half ? "unsigned short " : "float ") << symbol << "[" << macro << "_HEIGHT][" << macro
-            << "_WIDTH][" << nc << "] = {\n";
-        write_c_values(out, result, half, /*braces=*/true);
-        out << "};\n";
-        return;
-    }
-    if (ext == ".inc") {
-        // An initialiser list to #include inside an array definition (cmgen's DFG .inc): the metadata
-        // as a comment, then width x height x channels values, rows of NdotV, roughness increasing.
-        std::ostream& out = outputs.stream(files.lut);
-        write_c_comment(out, stored);
-        out << "/* " << result.width << " x " << result.height << " texels (NdotV across, roughness down), channels "
-            << channels_string(result.channels) << (half ? ", IEEE binary16 bits" : ", floats") << " */\n";
-        write_c_values(out, result, half, /*braces=*/false);
-        return;
-    }
-    if (ext == ".png") {
-        // 16-bit PNG, RGB (1-3 channels; unused ones 0) or RGBA (4), q = round(v * 65535) with v
-        // clamped to [0, 1]; the metadata in an iTXt chunk "microshadow".
-        const int png_channels = nc == 4 ? 4 : 3;
-        const std::vector<float> data = channel_data(result);
-        std::vector<std::uint8_t> pixels(std::size_t(result.width) * result.height * png_channels * 2, 0);
-        for (std::size_t i = 0; i < result.values.size(); ++i)
-            for (std::size_t c = 0; c < nc; ++c) {
-                const std::uint32_t q = lutfmt::to_unorm(data[i * nc + c], 16);
-                pixels[(i * png_channels + c) * 2] = std::uint8_t(q >> 8);  // PNG samples are big-endian
-                pixels[(i * png_channels + c) * 2 + 1] = std::uint8_t(q & 0xff);
-            }
-        nlohmann::json meta = stored;
-        meta["file_format"] = "png16";
-        meta["quantisation"] = {{"kind", "unorm16"}, {"max_abs", meta["storage_rounding"]["max_abs"]}};
-        if (nc < 3) meta["unused_channels_zero"] = true;
-        PngImage image;
-        image.width = result.width;
-        image.height = result.height;
-        image.channels = png_channels;
-        image.bits = 16;
-        image.pixels = pixels.data();
-        image.linear_data = true;  // DFG data, not sRGB colour
-        write_png(outputs.temp_path(files.lut), image, "microshadow", meta.dump());
-        return;
-    }
-    if (ext == ".exr") {
-        const char* names[4] = {"R", "G", "B", "A"};
-        std::vector<std::string> channel_names(names, names + nc);
-        env::Image img(result.width, result.height, channel_names);
-        const std::vector<float> data = channel_data(result);
-        for (std::uint32_t y = 0; y < result.height; ++y)
-            for (std::uint32_t x = 0; x < result.width; ++x)
-                for (std::size_t c = 0; c < nc; ++c) img.at(x, y, int(c)) = data[(std::size_t(y) * result.width + x) * nc + c];
-        env::write_exr_file(outputs.temp_path(files.lut), path, img, stored, half);
-        return;
-    }
-    // KTX2 / DDS (lut/formats/texture.hpp): a 2D texture, x = NdotV, y = roughness; two channels are
-    // stored as RG (RG16F / RG32F), the others as RGBA with the last channel repeated.
-    const bool ktx2 = ext == ".ktx2";
-    const lutfmt::PixelEncoding encoding = half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32;
+    // A PNG is 16-bit; every other format float32, or float16 with `half`.
+    const lutfmt::PixelEncoding encoding = format == TextureFormat::png ? lutfmt::PixelEncoding::unorm16
+                                           : half                        ? lutfmt::PixelEncoding::float16
+                                                                         : lutfmt::PixelEncoding::float32;
+    // A 2D texture, x = NdotV, y = roughness, the result's channels per texel.
     lutfmt::TextureData t;
     t.width = result.width;
     t.height = result.height;
     t.channels = std::uint32_t(nc);
-    t.stored_components = nc == 2 ? 2 : 4;
     t.levels.push_back(channel_data(result));
     const std::vector<float>& data = t.levels[0];
-    t.metadata = stored;
-    t.metadata["file_format"] = ktx2 ? "ktx2-2d" : "dds-2d";
-    t.metadata["texture_channels"] = t.stored_components;
-    if (t.stored_components > nc) {
-        nlohmann::json padded = nlohmann::json::array();
-        for (std::size_t c = nc; c < 4; ++c) padded.push_back(std::string(1, "RGBA"[c]));
-        t.metadata["padded_channels"] = padded;
-        t.metadata["padding"] = std::string("channels after ") + "RGBA"[nc - 1] + " repeat it (" + to_string(result.channels.back()) + ")";
+    // Every format records the bound of what it stores (stored_metadata): the encoding it rounds to.
+    t.metadata = stored_metadata(metadata, data, encoding);
+    switch (format) {
+        case TextureFormat::exr: break;
+        case TextureFormat::png:
+            // RGB (1-3 channels; unused ones 0) or RGBA (4), q = round(v * 65535) with v clamped to [0, 1].
+            t.metadata["file_format"] = "png16";
+            t.metadata["quantisation"] = {{"kind", "unorm16"}, {"max_abs", t.metadata["storage_rounding"]["max_abs"]}};
+            if (nc < 3) t.metadata["unused_channels_zero"] = true;
+            break;
+        case TextureFormat::header:
+        case TextureFormat::inc: {
+            // The C source convention of every texture (texture_writer.hpp), under `symbol`.
+            t.metadata["file_format"] = format == TextureFormat::header ? "c-header" : "c-inc";
+            t.c_identifier = symbol;
+            const std::string ID = to_upper(symbol);
+            // x is NdotV itself or sqrt(NdotV) (the metadata's "parameterization").
+            const std::string x_axis = t.metadata.value("parameterization", std::string("linear")) == "linear" ? "linear" : "x = sqrt(NdotV)";
+            t.c_comment = {"microshadow DFG LUT, written by microshadow " + std::string(MICROSHADOW_VERSION) + ". Generated: do not edit.",
+                           "2D texture: width " + std::to_string(result.width) + " (NdotV, " + x_axis + "), height " +
+                               std::to_string(result.height) + " (roughness, increasing downwards); " + std::to_string(nc) +
+                               " components per texel (" + channels_string(result.channels) + "), " + lutfmt::to_string(encoding) + ".",
+                           "index = (y * width + x) * " + std::to_string(nc) +
+                               " + c; sample with linear filtering, clamp-to-edge, no mips. alpha = roughness^2.",
+                           "The metadata (" + symbol + "_metadata, or the microshadow-metadata line of an .inc) records the axes and the error bound."};
+            t.c_defines = {"#define " + ID + "_WIDTH " + std::to_string(result.width) + "u  /* NdotV texels */",
+                           "#define " + ID + "_HEIGHT " + std::to_string(result.height) + "u  /* roughness texels */",
+                           "#define " + ID + "_DEPTH 1u  /* a 2D texture */",
+                           "#define " + ID + "_COMPONENTS " + std::to_string(nc) + "u  /* " + channels_string(result.channels) + " */"};
+            break;
+        }
+        case TextureFormat::ktx2:
+        case TextureFormat::dds: {
+            // Two channels are stored as RG (RG16F / RG32F), the others as RGBA with the last channel repeated.
+            const bool ktx2 = format == TextureFormat::ktx2;
+            t.stored_components = nc == 2 ? 2 : 4;
+            t.metadata["file_format"] = ktx2 ? "ktx2-2d" : "dds-2d";
+            t.metadata["texture_channels"] = t.stored_components;
+            if (t.stored_components > nc) {
+                nlohmann::json padded = nlohmann::json::array();
+                for (std::size_t c = nc; c < 4; ++c) padded.push_back(std::string(1, "RGBA"[c]));
+                t.metadata["padded_channels"] = padded;
+                t.metadata["padding"] = std::string("channels after ") + "RGBA"[nc - 1] + " repeat it (" + to_string(result.channels.back()) + ")";
+            }
+            if (ktx2) t.metadata["ktx2_orientation"] = "rd";
+            // The sampling term of the error budget: the largest per-texel replicate standard error (or the
+            // quadrature's error estimate).
+            if (!t.metadata.contains("max_error") && t.metadata.contains("max_std_error"))
+                t.metadata["max_error"] = std::max(t.metadata["max_std_error"].get<double>(),
+                                                   t.metadata.value("max_quadrature_error_estimate", 0.0));
+            lutfmt::add_error_budget(t.metadata, data, encoding);
+            break;
+        }
     }
-    if (ktx2) t.metadata["ktx2_orientation"] = "rd";
-    // The sampling term of the error budget: the largest per-texel replicate standard error (or the
-    // quadrature's error estimate).
-    if (!t.metadata.contains("max_error") && t.metadata.contains("max_std_error"))
-        t.metadata["max_error"] = std::max(t.metadata["max_std_error"].get<double>(),
-                                           t.metadata.value("max_quadrature_error_estimate", 0.0));
-    lutfmt::add_error_budget(t.metadata, data, encoding);
-    const std::vector<std::uint8_t> bytes = ktx2 ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
-    outputs.stream(files.lut).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-    if (!ktx2) outputs.stream(files.sidecar.value()) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
+    lutfmt::write_texture(outputs, files, t, encoding);
 }
 
 void write_dfg_lut(const std::string& path, const DfgBakeResult& result, const nlohmann::json& metadata, bool half,

@@ -21,6 +21,7 @@
 #include "grid/axis.hpp"
 #include "integrands/dfg/dfg_integrand.hpp"
 #include "integrands/lut_slice/lut_slice_spec.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms {
@@ -98,29 +99,27 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callback
 
 nlohmann::json dfg_metadata(const DfgBakeSpec& spec, const DfgBakeResult& result);
 
-// Writes the LUT, the format by the extension, the channels in the result's order (R G B A; default
-// scale, bias, E): OpenEXR (".exr"; FLOAT or HALF), KTX2 (".ktx2") or DDS (".dds", metadata in
-// "<file>.json"): a 2D texture, x = NdotV, y = roughness, RG for two channels (RG16F / RG32F), else
-// RGBA with the last channel repeated, float32 or float16 with `half` (lut/formats/texture.hpp; the
+// Writes the LUT, the format by the extension (lut/formats/texture_format.hpp, any case; others are
+// refused), through the one texture writer (lut/formats/texture_writer.hpp), the channels in the
+// result's order (R G B A; default scale, bias, E): OpenEXR (".exr"; FLOAT or HALF), KTX2 (".ktx2") or
+// DDS (".dds", metadata in "<file>.json"): a 2D texture, x = NdotV, y = roughness, RG for two channels
+// (RG16F / RG32F), else RGBA with the last channel repeated, float32 or float16 with `half` (the
 // metadata gains the error budget with the float16 rounding); a 16-bit PNG (".png", RGB or RGBA,
-// metadata in iTXt "microshadow"); a C header (".h": the metadata as a comment,
-// float symbol[height][width][channels], or unsigned short half bits with `half`) or a C initialiser
-// list (".inc", the same values without a declaration). Other extensions are refused. Every file's
-// "max_error_bound_99.9" bounds the values it stores: the computed values' bound (kept as
-// "computed_error_bound_99.9") plus their rounding to the stored encoding ("storage_rounding": float32,
-// float16 with `half`, unorm16 in a PNG).
+// metadata in iTXt "microshadow"); C source in the one convention of every texture (".h" / ".hpp":
+// SYMBOL_WIDTH, _HEIGHT, _DEPTH (1), _COMPONENTS, `symbol`_metadata and the flat array
+// `symbol`_data[(y * width + x) * components + c], floats, or uint16_t half bits with `half`; ".inc":
+// the values alone, the metadata on a comment line). Every file's "max_error_bound_99.9" bounds the
+// values it stores: the computed values' bound (kept as "computed_error_bound_99.9") plus their
+// rounding to the stored encoding ("storage_rounding": float32, float16 with `half`, unorm16 in a PNG).
 void check_dfg_lut_format(const std::string& path);  // throws std::invalid_argument before any work
 // The format and what it can hold (a PNG cannot hold sheen, which exceeds 1), and the C symbol.
 void check_dfg_lut_output(const std::string& path, const std::vector<DfgChannel>& channels, const std::string& symbol);
 // The LUT's files as entries of an output set (io/atomic_file.hpp), added before any work so a bad or
 // colliding destination is refused first: the file, and for DDS its "<file>.json".
-struct DfgLutFiles {
-    std::size_t lut = 0;
-    std::optional<std::size_t> sidecar;
-};
+using DfgLutFiles = lutfmt::TextureFiles;
 DfgLutFiles add_dfg_lut_files(OutputSet& outputs, const std::string& path);
 // Writes the LUT into those entries' temporaries (the caller commits the set).
-// `symbol` names the array of a ".h" file (and its SYMBOL_WIDTH / _HEIGHT / _CHANNELS macros).
+// `symbol` names the C source's identifiers (SYMBOL_WIDTH ..., symbol_data, symbol_metadata).
 void write_dfg_lut(OutputSet& outputs, const DfgLutFiles& files, const DfgBakeResult& result, const nlohmann::json& metadata,
                    bool half = false, const std::string& symbol = "microshadow_dfg");
 // One LUT on its own, committed at once.

@@ -7,11 +7,13 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/error_stats.hpp"
 #include "core/types.hpp"
 #include "env/preview.hpp"
 #include "env/sh.hpp"
 #include "integrands/irradiance/irradiance_integrand.hpp"
 #include "io/atomic_file.hpp"
+#include "env/cubemap_file.hpp"
 #include "jobs/ibl_env.hpp"
 #include "lut/formats/texture.hpp"
 #include "schedule/scheduler.hpp"
@@ -126,7 +128,8 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
         for (std::uint32_t y = 0; y < source.size; ++y)
             for (std::uint32_t x = 0; x < source.size; ++x)
                 for (int c = 0; c < 3; ++c) power[c] += source.texel(f, x, y)[c] * env::cube_texel_solid_angle(x, y, source.size);
-    double largest = 0, ss = 0;
+    double largest = 0;
+    ErrorStats sh_error;  // |SH irradiance - map| over every texel and channel (core/error_stats.hpp)
     std::size_t k = 0;
     std::vector<std::array<double, 3>> sh_values;
     for (int f = 0; f < 6; ++f)
@@ -141,12 +144,12 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
                     if (value > 0) r.max_relative_bound = std::max(r.max_relative_bound, v.error_bound[c] / v.irradiance[c]);
                     largest = std::max(largest, std::abs(value));
                     const double diff = std::abs(e_sh[c] / kPi - value);
-                    r.sh_max_abs = std::max(r.sh_max_abs, diff);
-                    ss += diff * diff;
+                    sh_error.add(diff);
                 }
             }
+    r.sh_max_abs = sh_error.max_abs();
     r.sh_max_relative = largest > 0 ? r.sh_max_abs / largest : r.sh_max_abs;
-    r.sh_rms_relative = largest > 0 ? std::sqrt(ss / (3.0 * k)) / largest : 0;
+    r.sh_rms_relative = largest > 0 ? sh_error.rms() / largest : 0;
     r.sh_truncation_bound = 3.0 / 32 * std::max({power[0], power[1], power[2]}) / kPi;
     r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return r;
@@ -155,6 +158,7 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
 IrradianceVerification verify_irradiance_map(const env::Cubemap& source, const IrradianceMapResult& result, std::uint32_t k,
                                              std::uint64_t seed) {
     IrradianceVerification v;
+    ErrorStats error;  // |map - exact| over the checked texels and channels
     std::mt19937_64 rng(seed);
     const std::uint32_t n = result.map.size;
     for (std::uint32_t i = 0; i < k; ++i) {
@@ -166,7 +170,7 @@ IrradianceVerification verify_irradiance_map(const env::Cubemap& source, const I
             const double diff = std::abs(double(result.map.texel(f, x, y)[c]) - exact[c] / kPi);
             // The map is stored as float: half an ulp of its value on top of the kernel's bound.
             const double bound = double(result.bound.texel(f, x, y)[c]) + std::abs(exact[c] / kPi) * 6e-8;
-            v.max_abs = std::max(v.max_abs, diff);
+            error.add(diff);
             const double ratio = bound > 0 ? diff / bound : (diff > 0 ? 1e30 : 0);
             if (ratio > v.worst_ratio) {
                 v.worst_ratio = ratio;
@@ -180,6 +184,7 @@ IrradianceVerification verify_irradiance_map(const env::Cubemap& source, const I
         v.failed += failed;
         ++v.checked;
     }
+    v.max_abs = error.max_abs();
     return v;
 }
 
@@ -221,58 +226,48 @@ lutfmt::PixelEncoding irradiance_encoding(const std::string& encoding_name) {
 }
 }  // namespace
 
+lutfmt::TextureFiles add_irradiance_map(OutputSet& outputs, const std::string& dir, const std::string& format,
+                                        const std::string& encoding) {
+    const lutfmt::TextureFormat f = lutfmt::parse_texture_format(format, lutfmt::TextureUse::cubemap);
+    if (f != lutfmt::TextureFormat::exr) irradiance_encoding(encoding);
+    return lutfmt::add_texture_files(outputs, lutfmt::file_name(dir + "/irradiance", f), f);
+}
+
+void write_irradiance_map(OutputSet& outputs, const lutfmt::TextureFiles& files, const env::Image& cross, const std::string& encoding_name,
+                          const nlohmann::json& metadata) {
+    if (files.format == lutfmt::TextureFormat::exr) {
+        lutfmt::write_texture(outputs, files, env::image_texture(cross, metadata), lutfmt::PixelEncoding::float32);
+        return;
+    }
+    // One cubemap level, RGBA with A = 1.
+    const lutfmt::PixelEncoding encoding = irradiance_encoding(encoding_name);
+    const env::Cubemap cube = env::cubemap_from_image(cross);
+    lutfmt::TextureData t = env::cubemap_texture({&cube}, metadata);
+    t.metadata["file_format"] = lutfmt::to_string(files.format) + "-cubemap";
+    t.metadata["padding"] = "A = 1";
+    t.metadata["encoding"] = lutfmt::to_string(encoding);
+    lutfmt::write_texture(outputs, files, t, encoding);
+}
+
 IrradianceFiles add_irradiance_files(OutputSet& outputs, const std::string& dir, const std::string& format,
                                      const std::string& encoding) {
     IrradianceFiles files;
-    files.format = format;
     files.encoding = encoding;
-    if (format == "exr") {
-        files.map = outputs.add(dir + "/irradiance.exr");
-    } else if (format == "ktx2" || format == "dds") {
-        irradiance_encoding(encoding);
-        files.map = outputs.add(dir + "/irradiance." + format, /*binary=*/true);
-        if (format == "dds") files.sidecar = outputs.add(dir + "/irradiance.dds.json");
-    } else {
-        throw std::invalid_argument("irradiance format " + format + ": exr, ktx2 or dds");
-    }
+    files.map = add_irradiance_map(outputs, dir, format, encoding);
     files.json = outputs.add(dir + "/irradiance.json");
     files.preview = outputs.add(dir + "/irradiance_preview.png");
     return files;
 }
 
-void write_irradiance_cube(OutputSet& outputs, std::size_t map, std::optional<std::size_t> sidecar, const env::Cubemap& cube,
-                           const std::string& format, const std::string& encoding_name, const nlohmann::json& metadata) {
-    const lutfmt::PixelEncoding encoding = irradiance_encoding(encoding_name);
-    lutfmt::TextureData t;
-    t.width = t.height = cube.size;
-    t.faces = 6;
-    t.channels = 3;
-    t.alpha = 1.0f;
-    std::vector<float> level;
-    for (int f = 0; f < 6; ++f) level.insert(level.end(), cube.faces[f].data.begin(), cube.faces[f].data.end());
-    t.levels.push_back(std::move(level));
-    t.metadata = metadata;
-    t.metadata["file_format"] = format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
-    t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
-    t.metadata["padding"] = "A = 1";
-    t.metadata["encoding"] = lutfmt::to_string(encoding);
-    const std::vector<std::uint8_t> bytes = format == "ktx2" ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
-    outputs.stream(map).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-    if (sidecar) outputs.stream(*sidecar) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
-}
-
 void write_irradiance_files(OutputSet& outputs, const IrradianceFiles& files, const IrradianceMapResult& r,
                             const nlohmann::json& metadata, double exposure) {
-    if (files.format == "exr") {
-        env::write_exr_file(outputs.temp_path(files.map), outputs.target(files.map).named, env::cross_image(r.map), metadata);
-    } else {
-        write_irradiance_cube(outputs, files.map, files.sidecar, r.map, files.format, files.encoding, metadata);
-    }
+    const env::Image cross = env::cross_image(r.map);
+    write_irradiance_map(outputs, files.map, cross, files.encoding, metadata);
     outputs.stream(files.json) << metadata.dump(2) << "\n";
     char caption[160];
     std::snprintf(caption, sizeof caption, "irradiance E / pi by direct convolution (%u^2 source), cross: +Y top; -X, +Z, +X, -Z; -Y bottom",
                   r.convolution_size);
-    env::write_png_file(outputs.temp_path(files.preview), env::cross_preview_canvas(env::cross_image(r.map), exposure, caption));
+    env::write_png_file(outputs.temp_path(files.preview), env::cross_preview_canvas(cross, exposure, caption));
 }
 
 std::vector<std::string> stale_irradiance_files(const std::string& dir, const std::set<std::string>& written) {

@@ -16,7 +16,9 @@
 #include <vector>
 
 #include "env/cubemap.hpp"
+#include "env/image.hpp"
 #include "env/irradiance.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms {
@@ -70,24 +72,26 @@ IrradianceVerification verify_irradiance_map(const env::Cubemap& source, const I
                                              std::uint64_t seed = 1);
 
 nlohmann::json irradiance_map_metadata(const IrradianceMapSpec& spec, const IrradianceMapResult& result);
+// The irradiance map E / pi in DIR as the one texture writer writes it (lut/formats/texture_writer.hpp),
+// the format a cubemap --format name (lut/formats/texture_format.hpp: exr, ktx2 or dds): DIR/irradiance.exr
+// (a horizontal cross) or DIR/irradiance.ktx2 / .dds (one cubemap level, RGBA, A = 1, faces +X -X +Y -Y +Z
+// -Z, float16 or float32; .dds with its "<file>.json"). `ibl irradiance` and `ibl prefilter` write their
+// irradiance with these. std::invalid_argument for another format or encoding.
+lutfmt::TextureFiles add_irradiance_map(OutputSet& outputs, const std::string& dir, const std::string& format,
+                                        const std::string& encoding);
+void write_irradiance_map(OutputSet& outputs, const lutfmt::TextureFiles& files, const env::Image& cross, const std::string& encoding,
+                          const nlohmann::json& metadata);
 // The files of `ibl irradiance` in DIR, as entries of one output set (io/atomic_file.hpp), added before
-// any work so a bad or colliding destination is refused first: DIR/irradiance.exr (horizontal cross) or
-// DIR/irradiance.ktx2 / .dds (one cubemap level, RGBA, A = 1, float16 or float32; .dds with its
-// "<file>.json"), DIR/irradiance.json and DIR/irradiance_preview.png.
+// any work so a bad or colliding destination is refused first: the map above, DIR/irradiance.json and
+// DIR/irradiance_preview.png.
 struct IrradianceFiles {
-    std::string format, encoding;
-    std::size_t map = 0, json = 0, preview = 0;
-    std::optional<std::size_t> sidecar;
+    std::string encoding;
+    lutfmt::TextureFiles map;
+    std::size_t json = 0, preview = 0;
 };
-// format: exr, ktx2 or dds; encoding (ktx2 / dds): float16 or float32; else std::invalid_argument.
 IrradianceFiles add_irradiance_files(OutputSet& outputs, const std::string& dir, const std::string& format,
                                      const std::string& encoding = "float16");
 // Writes them into the set's temporaries (the caller commits the set). `exposure`: the preview's.
-// One cubemap level (E / pi) as KTX2 or DDS ("ktx2" | "dds"; encoding "float16" | "float32"): RGBA, A = 1,
-// faces +X -X +Y -Y +Z -Z, into the set's entry `map` (and a DDS's "<file>.json" into `sidecar`).
-// `ibl irradiance` and `ibl prefilter --format ktx2|dds` write their irradiance with it.
-void write_irradiance_cube(OutputSet& outputs, std::size_t map, std::optional<std::size_t> sidecar, const env::Cubemap& cube,
-                           const std::string& format, const std::string& encoding, const nlohmann::json& metadata);
 void write_irradiance_files(OutputSet& outputs, const IrradianceFiles& files, const IrradianceMapResult& result,
                             const nlohmann::json& metadata, double exposure = 1.0);
 // An earlier run's irradiance.<format> (and irradiance.dds.json) of another format than this run's.

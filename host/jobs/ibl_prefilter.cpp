@@ -18,7 +18,9 @@
 #include <time.h>
 
 #include "core/cancel.hpp"
+#include "core/error_stats.hpp"
 #include "core/estimate.hpp"
+#include "env/cubemap_file.hpp"
 #include "env/preview.hpp"
 #include "io/atomic_file.hpp"
 #include "jobs/ibl_env.hpp"
@@ -302,9 +304,11 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
     const double alpha = 0.01;
     v.z_bound = student_t_quantile(1 - alpha / (3.0 * k), int(std::max(2u, result.replicates)) - 1);
     std::mt19937_64 rng(seed);
-    double ss = 0, ss_se = 0;
-    std::size_t count = 0;
-    std::vector<double> ss_mip(result.mips.size(), 0.0), se_mip(result.mips.size(), 0.0), n_mip(result.mips.size(), 0.0);
+    // The relative errors and the relative replicate standard errors, over all checks and per mip
+    // (core/error_stats.hpp: the one summary every report uses).
+    ErrorStats relative, relative_se;
+    double worst_relative = 0;
+    std::vector<ErrorStats> relative_by_mip(result.mips.size()), relative_se_by_mip(result.mips.size());
     for (std::uint32_t i = 0; i < k; ++i) {
         const std::uint32_t m = 1 + std::uint32_t(rng() % (result.mips.size() - 1));
         const std::uint32_t n = result.mips[m].size;
@@ -325,13 +329,15 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
         for (int c = 0; c < 3; ++c) {
             const double diff = std::abs(double(got[c]) - ref[c]);
             const double rel = diff / scale;
-            ss += rel * rel;
-            ++count;
+            relative.add(rel);
+            relative_by_mip[m].add(rel);
             std::ostringstream where;
             where << "mip " << m << " face " << f << " texel (" << x << ", " << y << ") channel " << c << ": " << got[c] << " vs oracle "
                   << ref[c];
-            if (rel > v.max_relative) {
-                v.max_relative = rel;
+            // The first check with the largest error names the worst texel (strictly larger than the
+            // largest before it; max_relative itself comes from the summary below).
+            if (rel > worst_relative) {
+                worst_relative = rel;
                 v.worst_texel = where.str();
             }
             // The float the file stores is within 2^-24 |value| of the estimate; twice that for the oracle's own rounding.
@@ -343,19 +349,18 @@ PrefilterVerification verify_prefilter(const env::Cubemap& source, const Prefilt
                 where << " (se " << se[c] << ", bound " << bound[c] << ")";
                 v.worst_z_texel = where.str();
             }
-            ss_se += (se[c] / scale) * (se[c] / scale);
-            ss_mip[m] += rel * rel;
-            se_mip[m] += (se[c] / scale) * (se[c] / scale);
-            n_mip[m] += 1;
+            relative_se.add(se[c] / scale);
+            relative_se_by_mip[m].add(se[c] / scale);
         }
         ++v.checked;
     }
     v.passed = v.worst_z <= v.z_bound;
-    v.rms_relative = std::sqrt(ss / double(count));
-    v.rms_relative_std_error = std::sqrt(ss_se / double(count));
+    v.max_relative = relative.max_abs();
+    v.rms_relative = relative.rms();
+    v.rms_relative_std_error = relative_se.rms();
     for (std::size_t m = 0; m < result.mips.size(); ++m) {
-        v.rms_relative_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(ss_mip[m] / n_mip[m]) : 0);
-        v.rms_std_error_by_mip.push_back(n_mip[m] > 0 ? std::sqrt(se_mip[m] / n_mip[m]) : 0);
+        v.rms_relative_by_mip.push_back(relative_by_mip[m].rms());
+        v.rms_std_error_by_mip.push_back(relative_se_by_mip[m].rms());
     }
     return v;
 }
@@ -433,32 +438,23 @@ lutfmt::PixelEncoding cubemap_encoding(const std::string& encoding_name) {
     return encoding;
 }
 
-lutfmt::TextureData prefilter_texture(const PrefilterResult& result, const nlohmann::json& metadata, const std::string& format,
+lutfmt::TextureData prefilter_texture(const PrefilterResult& result, const nlohmann::json& metadata, lutfmt::TextureFormat format,
                                       lutfmt::PixelEncoding encoding) {
     if (result.mips.empty()) throw std::invalid_argument("cubemap: no mips");
-    lutfmt::TextureData t;
-    t.width = t.height = result.mips[0].size;
-    t.faces = 6;
-    t.channels = 3;
-    t.alpha = 1.0f;
+    std::vector<const env::Cubemap*> levels;
+    for (const env::Cubemap& mip : result.mips) levels.push_back(&mip);
+    lutfmt::TextureData t = env::cubemap_texture(levels, metadata);
+    // The float16 rounding of the stored values, absolute and relative.
     double max_abs = 0, max_rel = 0;
-    for (std::size_t m = 0; m < result.mips.size(); ++m) {
-        if (result.mips[m].size != lutfmt::level_size(t.width, std::uint32_t(m)))
-            throw std::invalid_argument("cubemap: mip " + std::to_string(m) + " is not half the size of the one above");
-        std::vector<float> level;
-        for (int f = 0; f < 6; ++f) level.insert(level.end(), result.mips[m].faces[f].data.begin(), result.mips[m].faces[f].data.end());
-        if (encoding == lutfmt::PixelEncoding::float16)
+    if (encoding == lutfmt::PixelEncoding::float16)
+        for (const auto& level : t.levels)
             for (float v : level) {
                 const double err = std::abs(double(lutfmt::half_to_float(lutfmt::float_to_half(v))) - v);
                 max_abs = std::max(max_abs, err);
                 if (v != 0) max_rel = std::max(max_rel, err / std::abs(double(v)));
             }
-        t.levels.push_back(std::move(level));
-    }
-    t.metadata = metadata.is_object() ? metadata : nlohmann::json::object();
-    t.metadata["file_format"] = format == "ktx2" ? "ktx2-cubemap" : "dds-cubemap";
+    t.metadata["file_format"] = lutfmt::to_string(format) + "-cubemap";
     t.metadata["mip_roughness"] = result.roughness;
-    t.metadata["faces"] = {"+X", "-X", "+Y", "-Y", "+Z", "-Z"};
     t.metadata["texture_channels"] = 4;
     t.metadata["padding"] = "A = 1 (RGB radiance)";
     t.metadata["encoding"] = lutfmt::to_string(encoding);
@@ -520,16 +516,15 @@ bool is_mip_file(const std::string& name) {
 PrefilterFiles add_prefilter_files(OutputSet& outputs, const std::string& dir, std::uint32_t levels, const std::string& format,
                                    const std::string& encoding) {
     PrefilterFiles files;
-    files.format = format;
+    files.format = lutfmt::parse_texture_format(format, lutfmt::TextureUse::cubemap);
     files.encoding = encoding;
-    if (format == "exr") {
-        for (std::uint32_t m = 0; m < levels; ++m) files.mips.push_back(outputs.add(dir + "/specular_m" + std::to_string(m) + ".exr"));
-    } else if (format == "ktx2" || format == "dds") {
-        cubemap_encoding(encoding);
-        files.cubemap = outputs.add(dir + "/specular." + format, /*binary=*/true);
-        if (format == "dds") files.cubemap_sidecar = outputs.add(dir + "/specular.dds.json");
+    if (files.format == lutfmt::TextureFormat::exr) {
+        // An EXR holds one image: a cross per mip.
+        for (std::uint32_t m = 0; m < levels; ++m)
+            files.mips.push_back(lutfmt::add_texture_files(outputs, dir + "/specular_m" + std::to_string(m) + ".exr", files.format));
     } else {
-        throw std::invalid_argument("cubemap format " + format + ": exr, ktx2 or dds");
+        cubemap_encoding(encoding);
+        files.cubemap = lutfmt::add_texture_files(outputs, lutfmt::file_name(dir + "/specular", files.format), files.format);
     }
     files.preview = outputs.add(dir + "/specular_preview.png");
     return files;
@@ -537,7 +532,7 @@ PrefilterFiles add_prefilter_files(OutputSet& outputs, const std::string& dir, s
 
 void write_prefilter_files(OutputSet& outputs, const PrefilterFiles& files, const PrefilterResult& result,
                            const nlohmann::json& metadata, double exposure) {
-    if (files.format == "exr") {
+    if (files.format == lutfmt::TextureFormat::exr) {
         if (files.mips.size() != result.mips.size())
             throw std::logic_error("write_prefilter_files: " + std::to_string(files.mips.size()) + " mip files for " +
                                    std::to_string(result.mips.size()) + " mips");
@@ -546,15 +541,12 @@ void write_prefilter_files(OutputSet& outputs, const PrefilterFiles& files, cons
             nlohmann::json meta = metadata;
             meta["mip"] = m;
             meta["mip_roughness"] = result.roughness[m];
-            env::write_exr_file(outputs.temp_path(files.mips[m]), outputs.target(files.mips[m]).named, env::cross_image(result.mips[m]), meta);
+            lutfmt::write_texture(outputs, files.mips[m], env::image_texture(env::cross_image(result.mips[m]), meta),
+                                  lutfmt::PixelEncoding::float32);
         }
     } else {
         const lutfmt::PixelEncoding encoding = cubemap_encoding(files.encoding);
-        const lutfmt::TextureData t = prefilter_texture(result, metadata, files.format, encoding);
-        const std::vector<std::uint8_t> bytes =
-            files.format == "ktx2" ? lutfmt::encode_ktx2_texture(t, encoding) : lutfmt::encode_dds_texture(t, encoding);
-        outputs.stream(files.cubemap.value()).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-        if (files.cubemap_sidecar) outputs.stream(*files.cubemap_sidecar) << lutfmt::dds_sidecar_json(t, encoding).dump(2) << "\n";
+        lutfmt::write_texture(outputs, files.cubemap.value(), prefilter_texture(result, metadata, files.format, encoding), encoding);
     }
     env::write_png_file(outputs.temp_path(files.preview), prefilter_preview_canvas(result, exposure));
 }

@@ -16,6 +16,7 @@
 #include "core/types.hpp"
 #include "env/cubemap.hpp"
 #include "env/prefilter.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace ms {
@@ -128,9 +129,10 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
 //     "quantisation" (the measured max absolute and relative rounding error over the RGB data);
 //   DIR/specular_preview.png: the chain unfolded (crosses side by side, each mip magnified to the base size).
 struct PrefilterFiles {
-    std::string format, encoding;
-    std::vector<std::size_t> mips;                         // exr
-    std::optional<std::size_t> cubemap, cubemap_sidecar;   // ktx2 / dds (sidecar: dds)
+    lutfmt::TextureFormat format = lutfmt::TextureFormat::exr;
+    std::string encoding;
+    std::vector<lutfmt::TextureFiles> mips;      // exr: a cross per mip
+    std::optional<lutfmt::TextureFiles> cubemap;  // ktx2 / dds: the chain (and a DDS's sidecar)
     std::size_t preview = 0;
 };
 // format: exr, ktx2 or dds; encoding (ktx2 / dds): float16 or float32; else std::invalid_argument.

@@ -164,7 +164,11 @@ ShJobResult run_sh_job(const ShJobSpec& spec) {
     check_environment(spec.environment);
     OutputSet outputs;  // all of the files or none; two at one path refused here
     const std::size_t json = outputs.add(spec.out);
-    const std::size_t irradiance = add_if_given(outputs, spec.irradiance);
+    // The irradiance cubemap in the format its extension picks (.exr: a cross; .ktx2 / .dds: a cubemap, float16).
+    std::optional<lutfmt::TextureFiles> irradiance;
+    if (!spec.irradiance.empty())
+        irradiance = lutfmt::add_texture_files(outputs, spec.irradiance,
+                                               lutfmt::texture_format_for_path(spec.irradiance, lutfmt::TextureUse::cubemap));
     const std::size_t preview = add_if_given(outputs, spec.preview);
     if (!spec.shader.empty()) check_sh_shader_output(spec.shader, spec.symbol);
     const std::size_t shader = add_if_given(outputs, spec.shader);
@@ -183,7 +187,7 @@ ShJobResult run_sh_job(const ShJobSpec& spec) {
     const std::string source = environment_name(spec.environment);
     const nlohmann::json meta = irradiance_metadata(r.irradiance, source, spec.command_line);
     outputs.stream(json) << meta.dump(2) << "\n";
-    if (irradiance != kNoFile) env::write_exr_file(outputs.temp_path(irradiance), spec.irradiance, r.irradiance.irradiance_cross, meta);
+    if (irradiance) write_irradiance_map(outputs, *irradiance, r.irradiance.irradiance_cross, "float16", meta);
     if (preview != kNoFile)
         env::write_png_file(outputs.temp_path(preview), env::cross_preview_canvas(r.irradiance.irradiance_cross, 1.0, kShCrossCaption));
     if (shader != kNoFile)
@@ -231,17 +235,14 @@ PrefilterJobResult run_prefilter_job(const PrefilterJobSpec& job, const JobCallb
     OutputSet outputs;
     const PrefilterFiles specular = add_prefilter_files(outputs, job.out, levels, job.format, job.encoding);
     // The SH irradiance in the chain's format: a cross for exr, one cubemap level for ktx2 / dds.
-    const bool irradiance_texture = job.format != "exr";
-    const std::size_t irradiance_map = outputs.add(job.out + "/irradiance." + job.format, /*binary=*/irradiance_texture);
-    std::optional<std::size_t> irradiance_sidecar;
-    if (job.format == "dds") irradiance_sidecar = outputs.add(job.out + "/irradiance.dds.json");
+    const lutfmt::TextureFiles irradiance_map = add_irradiance_map(outputs, job.out, job.format, job.encoding);
     const std::size_t irradiance_png = outputs.add(job.out + "/irradiance_preview.png");
     const std::size_t sh_json = outputs.add(job.out + "/sh.json");
     const std::size_t ibl_json = outputs.add(job.out + "/ibl.json");
     DfgLutFiles dfg_files;
     std::size_t dfg_preview = kNoFile;
     if (job.dfg_size > 0) {
-        dfg_files = add_dfg_lut_files(outputs, job.out + "/dfg." + job.format);
+        dfg_files = add_dfg_lut_files(outputs, lutfmt::file_name(job.out + "/dfg", specular.format));
         dfg_preview = outputs.add(job.out + "/dfg_preview.png");
     }
     const std::size_t file_count = dfg_preview != kNoFile ? dfg_preview + 1 : ibl_json + 1;
@@ -277,11 +278,7 @@ PrefilterJobResult run_prefilter_job(const PrefilterJobSpec& job, const JobCallb
 
     write_prefilter_files(outputs, specular, r.result, r.metadata, job.exposure);
     const env::Image& cross = r.irradiance.irradiance_cross;
-    if (irradiance_texture)
-        write_irradiance_cube(outputs, irradiance_map, irradiance_sidecar, env::cubemap_from_image(cross), job.format, job.encoding,
-                              r.irradiance_metadata);
-    else
-        env::write_exr_file(outputs.temp_path(irradiance_map), outputs.target(irradiance_map).named, cross, r.irradiance_metadata);
+    write_irradiance_map(outputs, irradiance_map, cross, job.encoding, r.irradiance_metadata);
     env::write_png_file(outputs.temp_path(irradiance_png), env::cross_preview_canvas(cross, job.exposure, kShCrossCaption));
     outputs.stream(sh_json) << r.irradiance_metadata.dump(2) << "\n";
     outputs.stream(ibl_json) << nlohmann::json{{"specular", r.metadata}, {"irradiance", r.irradiance_metadata}}.dump(2) << "\n";

@@ -26,27 +26,6 @@ namespace ms::repr {
 AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
                          const std::function<void(std::size_t, std::size_t)>& progress = {});
 
-// Bakes the anisotropic term's representation (AnisotropicBakeSpec, repr/anisotropic.cpp): per slab
-// of projected-roughness nodes (view, light) the term of surfaces at every (dphi, rho) configuration
-// and texel, and the least-squares series fitted to them. The metadata records preset_name (when not
-// empty) and `domain` (without one: the nodes' roughness per axis, ratio <= spec.max_ratio).
-// std::invalid_argument for a spec out of range. No command, preset or library call bakes this kind
-// (the anisotropic preset is anisotropic-corrected-harmonics, baked by bake_preset): it is kept with the
-// kind itself (repr/anisotropic.cpp), whose files still read and whose tests build them here.
-std::unique_ptr<Representation> bake_anisotropic(const AnisotropicBakeSpec& spec, TermBackend& backend,
-                                                 const std::function<void(std::size_t, std::size_t)>& progress = {},
-                                                 const std::string& preset_name = "",
-                                                 std::optional<LookupDomain> domain = std::nullopt);
-
-// The surfaces bake_anisotropic fits for a slab of projected alphas (alpha_v, alpha_l) = node^2: the
-// relative azimuth dphi and slope correlation rho, the surface's alphas along its principal axes and
-// the angle of its first axis from V's azimuth (its query: V at azimuth -axis_angle, L at
-// dphi - axis_angle in the surface's frame).
-struct AnisotropicSurface {
-    double dphi, rho, alpha_x, alpha_y, axis_angle;
-};
-std::vector<AnisotropicSurface> anisotropic_surfaces(const AnisotropicBakeSpec& spec, double alpha_v, double alpha_l);
-
 // Bakes a preset with the exact method (its default tolerance) on `backend` and builds it; the bake's
 // metadata records the preset's name and domain.
 std::unique_ptr<Representation> bake_preset(const Preset& p, TermBackend& backend, const std::string& command_line,

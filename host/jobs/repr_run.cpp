@@ -15,35 +15,19 @@
 namespace ms::repr {
 
 ReprFormat repr_format(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    if (ext == ".exr") return ReprFormat::exr;
-    if (ext == ".ktx2") return ReprFormat::ktx2;
-    if (ext == ".dds") return ReprFormat::dds;
-    throw std::invalid_argument("a representation is written as .exr, .ktx2 or .dds, not " + path);
+    const auto format = lutfmt::format_for_extension(path);
+    if (format && lutfmt::format_allowed(*format, lutfmt::TextureUse::representation)) return *format;
+    // One message for every front end (the CLI, the C++ API and Python name the formats the same way).
+    throw std::invalid_argument("a representation is written as " + lutfmt::extension_list(lutfmt::TextureUse::representation) +
+                                ", not " + path);
 }
 
-ReprFileOutput::ReprFileOutput(OutputSet& outputs, const std::string& path) : format_(repr_format(path)) {
-    file_ = outputs.add(path, true);
-    if (format_ == ReprFormat::dds) sidecar_ = outputs.add(path + ".json");
-}
+ReprFileOutput::ReprFileOutput(OutputSet& outputs, const std::string& path)
+    : files_(lutfmt::add_texture_files(outputs, path, repr_format(path))) {}
 
 void ReprFileOutput::write(OutputSet& outputs, const Representation& r, bool half) const {
-    const std::string temp = outputs.temp_path(file_);
-    if (format_ == ReprFormat::exr) return r.write(temp, half);
-    if (format_ == ReprFormat::ktx2) return r.write_ktx2(temp, half);
-    // The DDS writer puts the metadata beside its path: moved into the set's own `<path>.json`.
-    try {
-        r.write_dds(temp, half);
-    } catch (...) {
-        std::error_code ec;  // the writer's own sidecar of the temporary must not stay behind
-        std::filesystem::remove(temp + ".json", ec);
-        throw;
-    }
-    std::ifstream in(temp + ".json", std::ios::binary);
-    outputs.stream(sidecar_) << in.rdbuf();
-    in.close();
-    std::filesystem::remove(temp + ".json");
+    lutfmt::write_texture(outputs, files_, r.texture_file(files_.format, half),
+                          half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
 }
 
 std::string cost_line(const Representation& r) {

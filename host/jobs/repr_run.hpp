@@ -15,28 +15,28 @@
 #include "io/atomic_file.hpp"
 #include "jobs/job_callbacks.hpp"
 #include "jobs/repr_bake.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::repr {
 
-// The representation file formats, by the path's extension (any case): the OpenEXR atlas (what
-// `eval --compare` and sweeps open), or the 3D texture alone as an engine loads it (KTX2, DDS +
-// `<file>.json`). std::invalid_argument naming the path otherwise.
-enum class ReprFormat { exr, ktx2, dds };
+// The representation file formats, by the path's extension (any case; lut/formats/texture_format.hpp):
+// the OpenEXR atlas (what `eval --compare` and sweeps open), or the 3D texture alone as an engine loads
+// it (KTX2, DDS + `<file>.json`). std::invalid_argument naming the path otherwise.
+using ReprFormat = lutfmt::TextureFormat;
 ReprFormat repr_format(const std::string& path);
 
 // The outputs of one representation file in `outputs` (a DDS adds its metadata sidecar `<path>.json`).
 class ReprFileOutput {
 public:
     ReprFileOutput(OutputSet& outputs, const std::string& path);
-    ReprFormat format() const { return format_; }
+    ReprFormat format() const { return files_.format; }
     // Writes the file into its temporary (16-bit channels when `half`, else 32-bit); all appear
     // together at outputs.commit().
     void write(OutputSet& outputs, const Representation& r, bool half) const;
 
 private:
-    ReprFormat format_;
-    std::size_t file_ = 0, sidecar_ = 0;
+    lutfmt::TextureFiles files_;
 };
 
 struct ReprBakeJobSpec {

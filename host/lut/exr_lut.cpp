@@ -23,6 +23,7 @@
 #include "io/exr_preflight.hpp"
 #include "io/text.hpp"
 #include "lut/formats/encoding.hpp"
+#include "lut/formats/texture_writer.hpp"
 
 namespace ms {
 
@@ -114,21 +115,28 @@ void write_lut(const std::string& path, const std::vector<LutAxis>& axes, const 
     meta["file_format"] = "exr";
     lutfmt::add_error_budget(meta, data, half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
 
-    Imf::Header header = exr::image_header(width, height, exr_names, half);
-    exr::insert_metadata(header, meta);
+    // The image for the one texture writer (lut/formats/texture_writer.hpp): the atlas, NdotV slices
+    // one under the other.
+    lutfmt::TextureData t;
+    t.width = std::uint32_t(width);
+    t.height = std::uint32_t(height);
+    t.channels = std::uint32_t(channels.size());
+    t.levels = {data};
+    t.metadata = std::move(meta);
+    t.channel_names = exr_names;
     // A 4-channel image written as PNG (or TIFF, ...) by OpenImageIO gets its 4th channel as alpha
     // whatever its name, and OpenImageIO divides by it unless the data say they are unassociated:
     // this attribute (read by OpenImageIO from any EXR) says so; nothing is premultiplied here.
-    header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
+    t.exr_attributes.push_back({"oiio:UnassociatedAlpha", 1});
     for (std::size_t i = 0; i < 3; ++i) {
         const std::string p = std::string("microshadow.axis.") + kAxisNames[i] + ".";
-        header.insert(p + "min", Imf::DoubleAttribute(axes[i].min));
-        header.insert(p + "max", Imf::DoubleAttribute(axes[i].max));
-        header.insert(p + "count", Imf::IntAttribute(int(axes[i].count)));
-        header.insert(p + "texel", Imf::StringAttribute(to_string(axes[i].texel)));
+        t.exr_attributes.push_back({p + "min", axes[i].min});
+        t.exr_attributes.push_back({p + "max", axes[i].max});
+        t.exr_attributes.push_back({p + "count", int(axes[i].count)});
+        t.exr_attributes.push_back({p + "texel", to_string(axes[i].texel)});
     }
-    for (const auto& c : channels) header.insert("microshadow.roughness." + c.name, Imf::DoubleAttribute(c.roughness));
-    exr::write_interleaved(path, header, exr_names, data, channels.size(), half);
+    for (const auto& c : channels) t.exr_attributes.push_back({"microshadow.roughness." + c.name, c.roughness});
+    lutfmt::write_exr_texture(path, t, half);
 }
 
 namespace {

@@ -21,12 +21,10 @@ namespace ms::repr {
 struct Preset {
     std::string name;
     std::string summary;  // one line for help and metadata
-    std::string kind;     // "azimuth-harmonics", "azimuth-axis", "anisotropic-harmonics", "anisotropic-mapped-harmonics" or "anisotropic-corrected-harmonics"
+    std::string kind;     // "azimuth-harmonics", "azimuth-axis", "anisotropic-mapped-harmonics" or "anisotropic-corrected-harmonics"
     ReprGrid grid;
     std::uint32_t azimuth_nodes = 9;
-    // anisotropic-harmonics: the surfaces fitted per slab (AnisotropicBakeSpec); max_ratio also bounds
-    // the anisotropic preset's domain (alpha_ratio).
-    std::uint32_t azimuth_configs = 8, correlation_configs = 4;
+    // The largest alpha ratio of the anisotropic preset's domain (alpha_ratio) and correction queries.
     double max_ratio = 25;
     // anisotropic-corrected-harmonics: the random anisotropic queries of the domain its correction is
     // fitted to, their seed, and the fit's conjugate-gradient iterations (jobs/repr_bake.cpp).

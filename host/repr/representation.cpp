@@ -26,10 +26,16 @@
 #include "platform/files.hpp"
 #include "lut/formats/lut_reader.hpp"
 #include "lut/formats/texture_reader.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "repr/presets.hpp"
 #include "repr/texture_repr.hpp"
 
 namespace ms::repr {
+
+void Representation::write(const std::string& path, bool half) const {
+    const lutfmt::TextureFormat format = lutfmt::texture_format_for_path(path, lutfmt::TextureUse::representation);
+    lutfmt::write_texture(path, format, texture_file(format, half), half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
+}
 
 namespace {
 // A representation's texture is a few hundred KiB (docs/representations.md); 2^24 texels (256 MiB as RGBA
@@ -166,8 +172,8 @@ bool is_ktx2(const std::string& path) {
     return ok;
 }
 
-// A KTX2 file of `Representation::write_ktx2` read back: the "microshadow" metadata of its key/value
-// data and its one level as RGBA floats. Only what write_ktx2 writes is accepted (RGBA16F or RGBA32F,
+// A KTX2 file of `Representation::write` read back: the "microshadow" metadata of its key/value
+// data and its one level as RGBA floats. Only what write writes as KTX2 is accepted (RGBA16F or RGBA32F,
 // one face, one level, no array, no supercompression); every offset and length is checked against the
 // file's size before it is read. Throws std::runtime_error saying what is wrong.
 struct Ktx2Representation {
@@ -273,7 +279,7 @@ std::unique_ptr<Representation> make_representation(const nlohmann::json& meta, 
     return r;
 }
 
-// A DDS of `Representation::write_dds` read back: its metadata from the sidecar `<file>.json`, its
+// A DDS of `Representation::write` read back: its metadata from the sidecar `<file>.json`, its
 // one level through lut/formats/texture_reader.hpp (every size checked against the file).
 Ktx2Representation read_dds_representation(const std::string& path) {
     lutfmt::TextureFile f = lutfmt::read_dds_texture(path, kMaxReprTexels);

@@ -27,6 +27,8 @@
 #include "core/lookup_domain.hpp"
 #include "core/types.hpp"
 #include "approx/approximation.hpp"
+#include "lut/formats/texture.hpp"
+#include "lut/formats/texture_format.hpp"
 #include "lut/shader/language.hpp"
 
 namespace ms::repr {
@@ -191,16 +193,16 @@ public:
     virtual std::uint32_t texture_height() const = 0;
     virtual std::uint32_t texture_depth() const = 0;
     virtual const std::vector<float>& texels() const = 0;  // RGBA interleaved, x fastest, then y, then z
-    // Writes the OpenEXR atlas (depth slices stacked down the rows) atomically; half = HALF channels.
-    virtual void write(const std::string& path, bool half) const = 0;
-    // The texture alone as a GPU texture file, what an engine loads (RGBA16F with half, else RGBA32F;
-    // one level, linear data): KTX2 with the EXR's metadata in the key/value data (key "microshadow",
-    // "file_format": "ktx2"), or DDS (DX10 header) with the metadata beside it in `<file>.json`. The
-    // texels, dimensions and x/y/z order are texels()'s, which the generated shader samples: a 3D
-    // texture width x height x depth, KTXorientation "rdi". Written atomically through
-    // lut/formats/texture.hpp; std::runtime_error naming the file on I/O errors.
-    virtual void write_ktx2(const std::string& path, bool half) const = 0;
-    virtual void write_dds(const std::string& path, bool half) const = 0;
+    // The representation's file as the one texture writer takes it (lut/formats/texture_writer.hpp),
+    // 16-bit floats with `half`, else 32-bit: `exr` the atlas (depth slices stacked down the rows, the
+    // meaningful channels named), `ktx2` / `dds` the texture alone as an engine loads it (RGBA; texels(),
+    // dimensions and x/y/z order as the generated shader samples them: a 3D texture width x height x
+    // depth, KTXorientation "rdi"; the metadata in KTX2's key/value data, key "microshadow", or in DDS's
+    // `<file>.json`).
+    virtual lutfmt::TextureData texture_file(lutfmt::TextureFormat format, bool half) const = 0;
+    // Writes the file at `path`, the format by its extension (.exr, .ktx2 or .dds, any case),
+    // atomically. std::invalid_argument for another extension; std::runtime_error naming the file on I/O errors.
+    void write(const std::string& path, bool half) const;
     virtual const ReprGrid& grid() const = 0;
 };
 
@@ -211,16 +213,8 @@ public:
 // alpha_y and tangent-relative azimuths (an isotropic caller's roughness and relative azimuth when the
 // alphas are unset); its shader's entry point takes V and L in the tangent frame and alpha_x, alpha_y.
 // The grid: geometric roughness nodes (both axes; projected alpha = node^2), the edge-roughness NdotL
-// warp. The bake is jobs/repr_bake.hpp's bake_anisotropic.
-struct AnisotropicBakeSpec {
-    ReprGrid grid;
-    std::uint32_t azimuth_configs = 8;      // dphi at the centres of this many cells of (0, pi)
-    std::uint32_t correlation_configs = 4;  // rho at this many points of its allowed interval
-    double max_ratio = 25;                  // alpha_x / alpha_y (either way) of the surfaces fitted
-    SamplingPlan plan;
-    TermOptions term;                       // term.ao_weighting must equal grid.weighting
-    std::string command_line;
-};
+// warp. No command bakes this kind any more (the anisotropic preset is anisotropic-corrected-harmonics);
+// files of it still open, look up and generate their shaders.
 // From coefficients already computed (RGBA, x fastest; a bake's texture, or a test's): width
 // visibility x nodes, height NdotL, depth NdotV x nodes. metadata's "coefficient_bound" is the channel
 // range (the largest |value|, at least 1, when absent).
@@ -274,8 +268,8 @@ CorrectionStencil correction_stencil(const Representation& representation, const
 std::unique_ptr<Representation> build_representation(const std::string& kind, const AzimuthBake& bake);
 std::vector<std::string> representation_kinds();
 
-// Reads a representation file: the OpenEXR of write(), the KTX2 of write_ktx2() (its metadata from
-// the key/value data) or the DDS of write_dds() (its metadata from `<file>.json`). Throws
+// Reads a representation file written by write(): the OpenEXR, the KTX2 (its metadata from
+// the key/value data) or the DDS (its metadata from `<file>.json`). Throws
 // std::runtime_error naming the file and problem (for a LUT: the commands that read LUTs).
 std::unique_ptr<Representation> open_representation(const std::string& path);
 // True when the file is an OpenEXR, KTX2 or DDS whose "microshadow" metadata has "kind": "representation".

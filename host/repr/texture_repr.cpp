@@ -1,14 +1,5 @@
 #include "repr/texture_repr.hpp"
 
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfIntAttribute.h>
-#include <ImfOutputFile.h>
-#include <ImfStringAttribute.h>
-
-#include <Imath/half.h>
-
 #include <algorithm>
 #include <cctype>
 #include <cmath>
@@ -165,40 +156,27 @@ nlohmann::json TextureRepresentation::file_metadata(const std::string& file_form
     return meta;
 }
 
-namespace {
-// The texture as the shared texture writers take it: already RGBA (channel_names() says which channels
-// hold data; the rest repeat the last, as the texture holds them), one level.
-lutfmt::TextureData texture_data(const Texture3D& t, nlohmann::json meta) {
+lutfmt::TextureData TextureRepresentation::texture_file(lutfmt::TextureFormat format, bool half) const {
+    if (!lutfmt::format_allowed(format, lutfmt::TextureUse::representation))
+        throw std::invalid_argument("a representation is written as " + lutfmt::extension_list(lutfmt::TextureUse::representation) +
+                                    ", not " + lutfmt::to_string(format));
+    // The texture as it is held: already RGBA (channel_names() says which channels hold data; the rest
+    // repeat the last), one level.
     lutfmt::TextureData d;
-    d.width = t.width, d.height = t.height, d.depth = t.depth;
+    d.width = texture_.width, d.height = texture_.height, d.depth = texture_.depth;
     d.channels = 4;
-    d.levels = {t.texels};
-    d.metadata = std::move(meta);
+    d.levels = {texture_.texels};
+    d.metadata = file_metadata(lutfmt::to_string(format), half);
+    if (format == lutfmt::TextureFormat::exr) {
+        // The atlas: depth slice z occupies rows [z * height, (z + 1) * height); the EXR names only the
+        // meaningful channels, and records the metadata as one attribute.
+        d.channel_names = channel_names();
+        d.exr_typed_metadata = false;
+        d.exr_attributes = {{"microshadow.kind", std::string("representation")},
+                            {"microshadow.representation", kind()},
+                            {"oiio:UnassociatedAlpha", 1}};
+    }
     return d;
-}
-}  // namespace
-
-void TextureRepresentation::write_ktx2(const std::string& path, bool half) const {
-    lutfmt::write_ktx2_texture(path, texture_data(texture_, file_metadata("ktx2", half)),
-                               half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
-}
-
-void TextureRepresentation::write_dds(const std::string& path, bool half) const {
-    lutfmt::write_dds_texture(path, texture_data(texture_, file_metadata("dds", half)),
-                              half ? lutfmt::PixelEncoding::float16 : lutfmt::PixelEncoding::float32);
-}
-
-void TextureRepresentation::write(const std::string& path, bool half) const {
-    const auto names = channel_names();
-    const std::size_t width = texture_.width, height = std::size_t(texture_.height) * texture_.depth;
-    const nlohmann::json meta = file_metadata("exr", half);
-    // The atlas: depth slice z occupies rows [z * height, (z + 1) * height).
-    Imf::Header header = exr::image_header(std::uint32_t(width), std::uint32_t(height), names, half);
-    header.insert("microshadow", Imf::StringAttribute(meta.dump()));
-    header.insert("microshadow.kind", Imf::StringAttribute("representation"));
-    header.insert("microshadow.representation", Imf::StringAttribute(kind()));
-    header.insert("oiio:UnassociatedAlpha", Imf::IntAttribute(1));
-    exr::write_interleaved(path, header, names, texture_.texels, 4, half);
 }
 
 std::string shader_literal(double v) {

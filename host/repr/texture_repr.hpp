@@ -36,9 +36,7 @@ public:
     const ReprGrid& grid() const override { return grid_; }
     nlohmann::json provenance() const override;
     approx::Cost cost() const override;
-    void write(const std::string& path, bool half) const override;
-    void write_ktx2(const std::string& path, bool half) const override;
-    void write_dds(const std::string& path, bool half) const override;
+    lutfmt::TextureData texture_file(lutfmt::TextureFormat format, bool half) const override;
     const nlohmann::json& metadata() const { return metadata_; }
     // The metadata's "domain", or without one the grid's: its roughness nodes' range, any visibility,
     // NdotL and NdotV (core/lookup_domain.hpp).

@@ -90,7 +90,7 @@ def test_ibl_dfg_takes_the_clis_method_channels_axis_and_symbol(cli, tmp_path):
     dfg.save(tmp_path / "py.h", symbol="cloth_dfg")
     cli("ibl", "dfg", "--out", tmp_path / "cli.h", "--size", "4", "--method", "exact", "--channels", "bias,E,sheen",
         "--parameterization", "sqrt-n-dot-v", "--symbol", "cloth_dfg", "-q")
-    assert "static const float cloth_dfg[CLOTH_DFG_HEIGHT]" in (tmp_path / "py.h").read_text()
+    assert "static const float cloth_dfg_data[CLOTH_DFG_DEPTH * CLOTH_DFG_HEIGHT * CLOTH_DFG_WIDTH * 3u]" in (tmp_path / "py.h").read_text()
     assert _header_array(tmp_path / "py.h") == _header_array(tmp_path / "cli.h")
     # Bad values are refused with the option's name, before any work.
     with pytest.raises(ValueError, match="method"):

@@ -205,4 +205,33 @@ TEST_F(EnvCubemapFile, IblShTakesAKtx2CubeAsItsEnvironment) {
     EXPECT_EQ(refused.exit_code, 2) << refused.output;
 }
 
+// `ibl sh --irradiance F`: the extension picks the format, as for every texture output: a .ktx2 (any case)
+// is the cubemap of the .exr cross's texels rounded to float16; an extension no cubemap format has is
+// refused before any work, with nothing written.
+TEST_F(EnvCubemapFile, IblShWritesItsIrradianceInTheFormatItsExtensionPicks) {
+    lutfmt::write_ktx2_texture(path("c.ktx2"), chain(8, 4), lutfmt::PixelEncoding::float32);
+    const std::string cli = std::string(MICROSHADOW_CLI) + " ibl sh " + path("c.ktx2") + " --face-size 4 --quiet";
+    for (const char* out : {"irr.exr", "irr.KTX2"}) {
+        const auto res = ms::testing::run_shell(cli + " --out " + path(std::string(out) + ".json") + " --irradiance " + path(out) + " 2>&1");
+        ASSERT_EQ(res.exit_code, 0) << res.output;
+    }
+    const env::Cubemap cross = env::cubemap_from_image(env::read_exr_rgb(path("irr.exr")));
+    const env::CubemapFile cube = env::read_cubemap_file(path("irr.KTX2"));
+    ASSERT_EQ(cube.levels.size(), 1u);
+    ASSERT_EQ(cube.levels[0].size, 4u);
+    EXPECT_EQ(cube.encoding, "float16");
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < 4; ++y)
+            for (std::uint32_t x = 0; x < 4; ++x)
+                for (int c = 0; c < 3; ++c)
+                    EXPECT_EQ(cube.levels[0].texel(f, x, y)[c],
+                              lutfmt::half_to_float(lutfmt::float_to_half(cross.texel(f, x, y)[c])))
+                        << "face " << f << " (" << x << ", " << y << ") channel " << c;
+    const auto refused = ms::testing::run_shell(cli + " --out " + path("p.json") + " --irradiance " + path("irr.png") + " 2>&1");
+    EXPECT_EQ(refused.exit_code, 2) << refused.output;
+    EXPECT_NE(refused.output.find(".exr, .ktx2 or .dds"), std::string::npos) << refused.output;
+    EXPECT_FALSE(std::filesystem::exists(path("p.json")));
+    EXPECT_FALSE(std::filesystem::exists(path("irr.png")));
+}
+
 }  // namespace

@@ -454,8 +454,8 @@ TEST(ReprKtx2Test, TextureEqualsTheExrAndTheGeneratedShaderSamplesIt) {
         const auto rep = repr::build_representation(c.kind, synthetic_bake(c.grid, c.nodes, 11));
         const std::string base = dir + "/" + c.name;
         rep->write(base + "_half.exr", true);
-        rep->write_ktx2(base + "_half.ktx2", true);
-        rep->write_ktx2(base + ".ktx2", false);
+        rep->write(base + "_half.ktx2", true);
+        rep->write(base + ".ktx2", false);
         const auto exr = repr::open_representation(base + "_half.exr");
         for (int half = 0; half < 2; ++half) {
             const Ktx2File k = read_ktx2(half ? base + "_half.ktx2" : base + ".ktx2");

@@ -223,8 +223,8 @@ TEST_F(IblDfgFormats, FilamentLayoutInEveryFormatReadsBackEqualToTheExr) {
 
     std::ifstream hf(path("d.h"));
     const std::string header((std::istreambuf_iterator<char>(hf)), std::istreambuf_iterator<char>());
-    EXPECT_NE(header.find("static const float cloth_dfg[CLOTH_DFG_HEIGHT][CLOTH_DFG_WIDTH][3]"), std::string::npos);
-    EXPECT_NE(header.find("#define CLOTH_DFG_CHANNELS 3"), std::string::npos);
+    EXPECT_NE(header.find("static const float cloth_dfg_data[CLOTH_DFG_DEPTH * CLOTH_DFG_HEIGHT * CLOTH_DFG_WIDTH * 3u]"), std::string::npos);
+    EXPECT_NE(header.find("#define CLOTH_DFG_COMPONENTS 3u"), std::string::npos);
     const std::vector<float> hv = read_c_values(header, true);
     ASSERT_EQ(hv.size(), 6u * 5 * 3);
     std::ifstream incf(path("d.inc"));
@@ -234,7 +234,7 @@ TEST_F(IblDfgFormats, FilamentLayoutInEveryFormatReadsBackEqualToTheExr) {
     ASSERT_EQ(iv.size(), 6u * 5 * 3);
     std::ifstream hhf(path("h.h"));
     const std::string hh((std::istreambuf_iterator<char>(hhf)), std::istreambuf_iterator<char>());
-    EXPECT_NE(hh.find("static const unsigned short dfg_half[DFG_HALF_HEIGHT][DFG_HALF_WIDTH][3]"), std::string::npos);
+    EXPECT_NE(hh.find("static const uint16_t dfg_half_data[DFG_HALF_DEPTH * DFG_HALF_HEIGHT * DFG_HALF_WIDTH * 3u]"), std::string::npos);
     const std::vector<float> hhv = read_c_values(hh, true);
     ASSERT_EQ(hhv.size(), 6u * 5 * 3);
     for (std::uint32_t y = 0; y < 5; ++y)
@@ -245,6 +245,33 @@ TEST_F(IblDfgFormats, FilamentLayoutInEveryFormatReadsBackEqualToTheExr) {
                 EXPECT_EQ(iv[i], exr.at(x, y, c));
                 EXPECT_EQ(hhv[i], as_half(exr.at(x, y, c)));
             }
+}
+
+// The C source is the one convention of every texture (lut/formats/texture_writer.hpp) and compiles in
+// C99 and C++17 even where texels are exactly 0 or 1 (endpoints: roughness 0 at NdotV = 1 has scale 1,
+// bias 0); the extension picks the format in any case.
+TEST_F(IblDfgFormats, CSourceCompilesWithExactTexelsAndExtensionsAreCaseInsensitive) {
+    spec_ = DfgBakeSpec{};
+    spec_.n_dot_v.count = 4;
+    spec_.roughness.count = 3;
+    spec_.n_dot_v.texel = spec_.roughness.texel = TexelConvention::endpoints;
+    spec_.method = DfgMethod::exact;
+    spec_.channels = parse_dfg_channels("scale,bias");
+    const DfgBakeResult r = bake_dfg(spec_);
+    ASSERT_EQ(float(r.channel(3, 0, DfgChannel::scale)), 1.0f);
+    ASSERT_EQ(float(r.channel(3, 0, DfgChannel::bias)), 0.0f);
+    const nlohmann::json meta = dfg_metadata(spec_, r);
+    write_dfg_lut(path("dfg.h"), r, meta, false, "my_dfg");
+    write_dfg_lut(path("dfg.inc"), r, meta);
+    write_dfg_lut(path("DFG.EXR"), r, meta);
+    EXPECT_EQ(read_exr(path("DFG.EXR")).names, (std::vector<std::string>{"R", "G"}));
+    std::ofstream(path("use.c")) << "#include \"dfg.h\"\nint main(void) { return (int)(my_dfg_data[MY_DFG_COMPONENTS * (MY_DFG_WIDTH - 1)] - 1.0f) + (int)sizeof my_dfg_metadata * 0; }\n";
+    std::ofstream(path("use.cpp")) << "static const float dfg[] = {\n#include \"dfg.inc\"\n};\nstatic_assert(sizeof dfg == 4 * 3 * 2 * sizeof(float), \"size\");\n"
+                                      "int main() { return static_cast<int>(dfg[6] - 1.0f); }\n";
+    for (const std::string cc : {"cc -std=c99 -Wall -Werror -fsyntax-only " + path("use.c"), "c++ -std=c++17 -Wall -Werror -fsyntax-only " + path("use.cpp")}) {
+        const auto res = ms::testing::run_shell(cc + " 2>&1");
+        EXPECT_EQ(res.exit_code, 0) << cc << "\n" << res.output;
+    }
 }
 
 // Two channels (scale, bias: the split sum without E, as UE4, three.js and the glTF sampler store it):

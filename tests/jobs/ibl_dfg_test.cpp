@@ -17,6 +17,7 @@
 #include "integrands/dfg/dfg_integrand.hpp"
 #include "integrands/dfg/dfg_quadrature.hpp"
 #include "jobs/ibl_dfg.hpp"
+#include "lut/formats/texture_writer.hpp"
 #include "schedule/scheduler.hpp"
 
 namespace {
@@ -212,11 +213,13 @@ TEST_F(IblDfgBake, CliWritesTheExrWithMetadataAndPreview) {
     ASSERT_EQ(hdr.exit_code, 0) << hdr.output;
     std::ifstream h(path("dfg.h"));
     const std::string text((std::istreambuf_iterator<char>(h)), std::istreambuf_iterator<char>());
-    EXPECT_NE(text.find("\"layout\": \"dfg\""), std::string::npos);
-    EXPECT_NE(text.find("static const float microshadow_dfg[MICROSHADOW_DFG_HEIGHT][MICROSHADOW_DFG_WIDTH][3]"), std::string::npos);
-    char first[32];
-    std::snprintf(first, sizeof first, "{%.9gf", img.at(0, 0, 0));
-    EXPECT_NE(text.find(first), std::string::npos) << first;  // same seed, same bits
+    EXPECT_NE(text.find("#define MICROSHADOW_DFG_WIDTH 8u"), std::string::npos);
+    EXPECT_NE(text.find("static const char microshadow_dfg_metadata[]"), std::string::npos);
+    // The first value of the array (texture_writer.hpp's C convention): same seed, same bits.
+    const std::string first = "static const float microshadow_dfg_data[MICROSHADOW_DFG_DEPTH * MICROSHADOW_DFG_HEIGHT * "
+                              "MICROSHADOW_DFG_WIDTH * 3u] = {\n    " +
+                              ms::lutfmt::c_float_literal(img.at(0, 0, 0));
+    EXPECT_NE(text.find(first), std::string::npos) << first;
     // An extension with no writer is refused with a message naming the formats (KTX2 / DDS: ibl_formats_test).
     const auto tga = run_shell(std::string(MICROSHADOW_CLI) + " ibl dfg --out " + path("dfg.tga") +
                                " --size 4 --samples 1024 --quiet 2>&1");

@@ -113,6 +113,56 @@ TEST(IblPrefilterTolerance, VerifyCatchesABiasedEstimator) {
     EXPECT_GT(v.worst_z, v.z_bound);
 }
 
+// The verification's summary is the RMS and maximum of the relative errors, over all checks and per mip:
+// a grey source (whose prefiltered value the oracle gives exactly) against mips d_m too high, with replicate
+// errors s_m, gives RMS d_m and s_m in each drawn mip and the largest drawn d_m as the maximum.
+TEST(IblPrefilterTolerance, TheSummaryIsTheRmsAndMaximumOfTheRelativeErrorsPerMip) {
+    const std::uint32_t n = 8;
+    const float grey = 0.5f;
+    env::Cubemap src(n);
+    for (int f = 0; f < 6; ++f)
+        for (std::uint32_t y = 0; y < n; ++y)
+            for (std::uint32_t x = 0; x < n; ++x)
+                for (int c = 0; c < 3; ++c) src.texel(f, x, y)[c] = grey;
+    const double too_high[4] = {0, 0.01, 0.02, 0.04}, std_error[4] = {0, 0.001, 0.002, 0.003};
+    PrefilterResult r;
+    r.replicates = 8;
+    for (std::uint32_t m = 0; m < 4; ++m) {
+        const std::uint32_t size = n >> m;
+        env::Cubemap value(size), se(size), bound(size);
+        for (int f = 0; f < 6; ++f)
+            for (std::uint32_t y = 0; y < size; ++y)
+                for (std::uint32_t x = 0; x < size; ++x)
+                    for (int c = 0; c < 3; ++c) {
+                        value.texel(f, x, y)[c] = float(grey * (1 + too_high[m]));
+                        se.texel(f, x, y)[c] = float(grey * std_error[m]);
+                        bound.texel(f, x, y)[c] = 0;
+                    }
+        r.mips.push_back(std::move(value));
+        r.std_error.push_back(std::move(se));
+        r.explicit_bound.push_back(std::move(bound));
+        r.roughness.push_back(m / 3.0);
+    }
+    const PrefilterVerification v = verify_prefilter(src, r, 60, 7);
+    ASSERT_EQ(v.checked, 60u);
+    ASSERT_EQ(v.rms_relative_by_mip.size(), 4u);
+    EXPECT_EQ(v.rms_relative_by_mip[0], 0.0);  // mip 0 is the source: never drawn
+    // Float storage of the texels: within 2^-23 relative of d_m and s_m.
+    double largest = 0, smallest = 1;
+    for (std::uint32_t m = 1; m < 4; ++m) {
+        ASSERT_GT(v.rms_relative_by_mip[m], 0) << "mip " << m << " never drawn in 60 checks";
+        EXPECT_NEAR(v.rms_relative_by_mip[m], too_high[m], 1e-6) << "mip " << m;
+        EXPECT_NEAR(v.rms_std_error_by_mip[m], std_error[m], 1e-6) << "mip " << m;
+        largest = std::max(largest, too_high[m]);
+        smallest = std::min(smallest, too_high[m]);
+    }
+    EXPECT_NEAR(v.max_relative, largest, 1e-6);
+    // Over all checks: a mean of the mips' squares, so between the smallest and the largest.
+    EXPECT_GT(v.rms_relative, smallest);
+    EXPECT_LT(v.rms_relative, largest);
+    EXPECT_NE(v.worst_texel.find("mip 3"), std::string::npos) << v.worst_texel;
+}
+
 // The OpenCL kernel path: the same rounds, the same split (its explicit part on the host), the oracle within the bars.
 TEST(IblPrefilterTolerance, KernelPathMeetsTheToleranceToo) {
     const env::Cubemap src = sun_sky(8);

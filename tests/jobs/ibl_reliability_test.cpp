@@ -295,7 +295,7 @@ TEST_F(IblReliability, TwoOutputsAtOnePathAreRefusedBeforeAnyWork) {
     std::ofstream(path("s.json")) << "previous\n";
     const std::vector<std::string> colliding = {
         "ibl sh sky.exr --out a.json --irradiance s.exr --preview s.exr -q",
-        "ibl sh sky.exr --out s.json --irradiance s.json -q",
+        "ibl sh sky.exr --out s.exr --irradiance ./s.exr -q",
         "ibl sh sky.exr --out s.json --preview ./s.json -q",
         "ibl dfg --method sampled --out d.exr --preview d.exr --size 4 --samples 64 -q",
         "ibl dfg --method sampled --out d.dds --preview d.dds.json --size 4 --samples 64 -q",

@@ -16,12 +16,15 @@
 
 #include "lut/exr_lut.hpp"
 #include "lut/formats/encoding.hpp"
+#include "lut/formats/texture.hpp"
 
 namespace ms::lutfmt {
 
 // The identifier prefix for a path ("out/lut3d-32.h" -> "lut3d_32").
 std::string c_identifier_for(const std::string& path);
 
-void write_c_header(const std::string& path, const LutFile& lut, PixelEncoding encoding, bool inc_only);
+// The LUT as the TextureData texture_writer.hpp writes as a C header (or, `inc_only`, an initialiser
+// list): the comment and #defines above, the identifier from `path`.
+TextureData c_lut_texture(const std::string& path, const LutFile& lut, PixelEncoding encoding, bool inc_only);
 
 }  // namespace ms::lutfmt

@@ -24,7 +24,7 @@ std::uint32_t dxgi_format_rg(PixelEncoding e) {
     return 0;
 }
 
-void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encoding) {
+TextureData dds_lut_texture(const LutFile& lut, PixelEncoding encoding) {
     check_lut_shape(lut);
     const bool volume = lut.n_dot_v().count > 1;
     TextureData t;
@@ -34,7 +34,7 @@ void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encodi
     t.depth = lut.n_dot_v().count;
     t.channels = 4;
     t.levels = {rgba_padded(lut)};
-    write_dds_texture(path, t, encoding);
+    return t;
 }
 
 }  // namespace ms::lutfmt

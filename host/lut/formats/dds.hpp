@@ -20,6 +20,7 @@
 
 #include "lut/exr_lut.hpp"
 #include "lut/formats/encoding.hpp"
+#include "lut/formats/texture.hpp"
 
 namespace ms::lutfmt {
 
@@ -29,6 +30,7 @@ constexpr std::uint32_t kDxgiR32G32Float = 16, kDxgiR16G16Float = 34, kDxgiR16G1
 std::uint32_t dxgi_format(PixelEncoding);
 std::uint32_t dxgi_format_rg(PixelEncoding);  // the two-component (RG) format of the encoding
 
-void write_dds(const std::string& path, const LutFile& lut, PixelEncoding encoding);
+// The LUT as the TextureData texture_writer.hpp writes as DDS. std::invalid_argument for a bad LUT.
+TextureData dds_lut_texture(const LutFile& lut, PixelEncoding encoding);
 
 }  // namespace ms::lutfmt

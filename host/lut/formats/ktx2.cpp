@@ -24,7 +24,7 @@ std::uint32_t vk_format_rg(PixelEncoding e) {
     return 0;
 }
 
-void write_ktx2(const std::string& path, const LutFile& lut, PixelEncoding encoding) {
+TextureData ktx2_lut_texture(const LutFile& lut, PixelEncoding encoding) {
     check_lut_shape(lut);
     const bool three_d = lut.n_dot_v().count > 1;
     TextureData t;
@@ -36,7 +36,7 @@ void write_ktx2(const std::string& path, const LutFile& lut, PixelEncoding encod
     t.depth = three_d ? lut.n_dot_v().count : 1;
     t.channels = 4;
     t.levels = {rgba_padded(lut)};
-    write_ktx2_texture(path, t, encoding);
+    return t;
 }
 
 }  // namespace ms::lutfmt

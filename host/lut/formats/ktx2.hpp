@@ -28,6 +28,7 @@
 
 #include "lut/exr_lut.hpp"
 #include "lut/formats/encoding.hpp"
+#include "lut/formats/texture.hpp"
 
 namespace ms::lutfmt {
 
@@ -38,7 +39,7 @@ constexpr std::uint32_t kVkR8G8Unorm = 16, kVkR16G16Unorm = 77, kVkR16G16Sfloat 
 std::uint32_t vk_format(PixelEncoding);
 std::uint32_t vk_format_rg(PixelEncoding);  // the two-component (RG) format of the encoding
 
-// The LUT as a TextureData (texture.hpp, which writes the file). Writes atomically. Throws std::invalid_argument (bad LUT) or std::runtime_error (I/O), naming the file.
-void write_ktx2(const std::string& path, const LutFile& lut, PixelEncoding encoding);
+// The LUT as the TextureData texture_writer.hpp writes as KTX2. std::invalid_argument for a bad LUT.
+TextureData ktx2_lut_texture(const LutFile& lut, PixelEncoding encoding);
 
 }  // namespace ms::lutfmt

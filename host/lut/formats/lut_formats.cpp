@@ -1,65 +1,20 @@
 #include "lut/formats/lut_formats.hpp"
 
-#include <algorithm>
-#include <cctype>
-#include <filesystem>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "lut/formats/c_header.hpp"
 #include "lut/formats/dds.hpp"
 #include "lut/formats/ktx2.hpp"
 #include "lut/formats/png_atlas.hpp"
+#include "lut/formats/texture_writer.hpp"
 
 namespace ms::lutfmt {
 
-std::string to_string(LutFormat f) {
-    switch (f) {
-        case LutFormat::exr: return "exr";
-        case LutFormat::ktx2: return "ktx2";
-        case LutFormat::dds: return "dds";
-        case LutFormat::header: return "header";
-        case LutFormat::inc: return "inc";
-        case LutFormat::png: return "png";
-    }
-    return "?";
-}
+LutFormat parse_lut_format(const std::string& s) { return parse_texture_format(s, TextureUse::lut); }
 
-LutFormat parse_lut_format(const std::string& s) {
-    for (LutFormat f : {LutFormat::exr, LutFormat::ktx2, LutFormat::dds, LutFormat::header, LutFormat::inc, LutFormat::png})
-        if (s == to_string(f)) return f;
-    throw std::invalid_argument("--format must be exr, ktx2, dds, header, inc or png, not '" + s + "'");
-}
-
-namespace {
-
-bool extension_is(const std::string& ext, std::initializer_list<const char*> names) {
-    return std::any_of(names.begin(), names.end(), [&](const char* n) { return ext == n; });
-}
-
-}  // namespace
-
-LutFormat lut_format_for_extension(const std::string& path) {
-    std::string ext = std::filesystem::path(path).extension().string();
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-    if (ext == ".exr") return LutFormat::exr;
-    if (ext == ".ktx2") return LutFormat::ktx2;
-    if (ext == ".dds") return LutFormat::dds;
-    if (extension_is(ext, {".h", ".hpp", ".hh"})) return LutFormat::header;
-    if (ext == ".inc") return LutFormat::inc;
-    if (ext == ".png") return LutFormat::png;
-    throw std::invalid_argument(path + ": unknown LUT file extension '" + ext +
-                                "' (use .exr, .ktx2, .dds, .h, .hpp, .inc or .png)");
-}
-
-namespace {
-
-bool supports(LutFormat f, PixelEncoding e) {
-    if (f == LutFormat::exr) return e == PixelEncoding::float32 || e == PixelEncoding::float16;
-    if (f == LutFormat::png) return e == PixelEncoding::unorm8 || e == PixelEncoding::unorm16;
-    return true;
-}
-
-}  // namespace
+LutFormat lut_format_for_extension(const std::string& path) { return texture_format_for_path(path, TextureUse::lut); }
 
 LutOutput resolve_lut_output(const std::string& path, const std::string& format, const std::string& encoding, bool half) {
     LutOutput out;
@@ -74,11 +29,16 @@ LutOutput resolve_lut_output(const std::string& path, const std::string& format,
     } else if (half) {
         out.encoding = PixelEncoding::float16;
     } else {
-        out.encoding = out.format == LutFormat::png ? PixelEncoding::unorm8 : PixelEncoding::float32;
+        out.encoding = format_info(out.format).encodings.front();
     }
-    if (!supports(out.format, out.encoding))
-        throw std::invalid_argument(path + ": the " + to_string(out.format) + " format cannot store " +
-                                    to_string(out.encoding) + (out.format == LutFormat::png ? " (use unorm8 or unorm16)" : " (use float32 or float16)"));
+    if (!format_supports(out.format, out.encoding)) {
+        std::vector<std::string> stored;
+        for (PixelEncoding e : format_info(out.format).encodings) stored.push_back(to_string(e));
+        std::string hint;
+        for (std::size_t i = 0; i < stored.size(); ++i) hint += (i == 0 ? "" : i + 1 == stored.size() ? " or " : ", ") + stored[i];
+        throw std::invalid_argument(path + ": the " + to_string(out.format) + " format cannot store " + to_string(out.encoding) +
+                                    " (use " + hint + ")");
+    }
     return out;
 }
 
@@ -87,21 +47,30 @@ void write_lut_output(const std::string& path, const LutFile& lut, const LutOutp
     // A partial bake marks its unbaked texels NaN (exr_lut.hpp's coverage record): a unorm texel or a
     // C float literal cannot say NaN, and the file would read back as corrupt.
     const bool float_texels = output.encoding == PixelEncoding::float32 || output.encoding == PixelEncoding::float16;
-    const bool binary = output.format == LutFormat::exr || output.format == LutFormat::ktx2 || output.format == LutFormat::dds;
+    const bool binary = format_info(output.format).binary;
     if (is_partial_bake(lut) && !(float_texels && binary))
         throw std::invalid_argument(path + ": a partial bake (unbaked texels are NaN, see \"coverage\" in its metadata) can be "
                                     "written only as .exr, .ktx2 or .dds with float32 or float16, not " + to_string(output.format) +
                                     " " + to_string(output.encoding));
-    switch (output.format) {
-        case LutFormat::exr:
-            write_lut(path, lut.axes, lut.channels, lut.data, lut.metadata, output.encoding == PixelEncoding::float16);
-            return;
-        case LutFormat::ktx2: write_ktx2(path, lut, output.encoding); return;
-        case LutFormat::dds: write_dds(path, lut, output.encoding); return;
-        case LutFormat::header: write_c_header(path, lut, output.encoding, false); return;
-        case LutFormat::inc: write_c_header(path, lut, output.encoding, true); return;
-        case LutFormat::png: write_png_atlas(path, lut, output.encoding); return;
+    // The EXR is write_lut's (exr_lut.hpp: its own metadata and header attributes); every format goes
+    // through the one texture writer.
+    if (output.format == LutFormat::exr) {
+        write_lut(path, lut.axes, lut.channels, lut.data, lut.metadata, output.encoding == PixelEncoding::float16);
+        return;
     }
+    write_texture(path, output.format, lut_texture(path, lut, output), output.encoding);
+}
+
+TextureData lut_texture(const std::string& path, const LutFile& lut, const LutOutput& output) {
+    switch (output.format) {
+        case LutFormat::ktx2: return ktx2_lut_texture(lut, output.encoding);
+        case LutFormat::dds: return dds_lut_texture(lut, output.encoding);
+        case LutFormat::header: return c_lut_texture(path, lut, output.encoding, false);
+        case LutFormat::inc: return c_lut_texture(path, lut, output.encoding, true);
+        case LutFormat::png: return png_lut_texture(lut, output.encoding);
+        case LutFormat::exr: break;
+    }
+    throw std::invalid_argument(path + ": a LUT's EXR is written by write_lut");
 }
 
 LutFile make_lut_file(const std::vector<LutAxis>& axes, const std::vector<LutChannel>& channels, std::vector<float> data,

@@ -9,10 +9,12 @@
 
 #include "lut/exr_lut.hpp"
 #include "lut/formats/encoding.hpp"
+#include "lut/formats/texture.hpp"
 
 namespace ms::lutfmt {
 
-// encoding must be unorm8 or unorm16 (std::invalid_argument otherwise).
-void write_png_atlas(const std::string& path, const LutFile& lut, PixelEncoding encoding);
+// The LUT as the TextureData texture_writer.hpp writes as PNG; encoding must be unorm8 or unorm16
+// (std::invalid_argument otherwise).
+TextureData png_lut_texture(const LutFile& lut, PixelEncoding encoding);
 
 }  // namespace ms::lutfmt

@@ -9,6 +9,7 @@
 #include "lut/formats/binary_writer.hpp"
 #include "lut/formats/dds.hpp"
 #include "lut/formats/ktx2.hpp"
+#include "lut/formats/texture_writer.hpp"
 
 namespace ms::lutfmt {
 
@@ -155,7 +156,7 @@ std::vector<std::uint8_t> encode_ktx2_texture(const TextureData& t, PixelEncodin
 }
 
 void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
-    write_file_atomically(path, encode_ktx2_texture(t, encoding));
+    write_texture(path, TextureFormat::ktx2, t, encoding);
 }
 
 std::vector<std::uint8_t> encode_dds_texture(const TextureData& t, PixelEncoding encoding) {
@@ -213,14 +214,9 @@ nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding) {
 }
 
 void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding) {
-    const std::vector<std::uint8_t> bytes = encode_dds_texture(t, encoding);
-    // The texels and their sidecar are one set: a failure between the two renames (a full disk) must
-    // not leave a new sidecar describing old texels, which every reader would accept.
-    OutputSet outputs;
-    const std::size_t sidecar = outputs.add(path + ".json", true), texels = outputs.add(path, true);
-    outputs.stream(sidecar) << dds_sidecar_json(t, encoding).dump(2) << "\n";
-    outputs.stream(texels).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
-    outputs.commit();
+    // The texels and their sidecar are one set (texture_writer.hpp): a failure between the two renames
+    // (a full disk) must not leave a new sidecar describing old texels, which every reader would accept.
+    write_texture(path, TextureFormat::dds, t, encoding);
 }
 
 }  // namespace ms::lutfmt

@@ -31,6 +31,8 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <utility>
+#include <variant>
 #include <vector>
 
 #include "lut/formats/encoding.hpp"
@@ -50,6 +52,20 @@ struct TextureData {
     std::vector<std::vector<float>> levels;
     nlohmann::json metadata = nlohmann::json::object();  // recorded verbatim ("microshadow" key / sidecar)
     std::string ktx2_orientation;  // KTXorientation; empty: "rd" (2D, cubemap) or "rdi" (3D)
+
+    // What the other formats of texture_writer.hpp need besides the texels (level 0, one face; depth
+    // slices one under the other, so an image of width x height depth):
+    // OpenEXR: a name per data channel (empty: R, G, B, A), header attributes besides the metadata, and
+    // whether the metadata's top-level scalars are also copied as typed "microshadow.<key>" attributes.
+    std::vector<std::string> channel_names;
+    std::vector<std::pair<std::string, std::variant<int, double, std::string>>> exr_attributes;
+    bool exr_typed_metadata = true;
+    // C source (.h / .inc, the one convention of texture_writer.hpp): the identifier (ID_..., id_data,
+    // id_metadata), the opening comment's lines, and the #define lines of a header, which define at least
+    // ID_WIDTH, ID_HEIGHT and ID_DEPTH (the array is ID_DEPTH * ID_HEIGHT * ID_WIDTH * channels values).
+    std::string c_identifier;
+    std::vector<std::string> c_comment;
+    std::vector<std::string> c_defines;
 };
 
 // Level p's size along an axis of base size n.
@@ -70,7 +86,8 @@ nlohmann::json dds_sidecar_json(const TextureData& t, PixelEncoding encoding);
 // `components` equal components (RGBA: 4, RG: 2) in `encoding`; the reader requires these bytes.
 std::vector<std::uint8_t> ktx2_basic_dfd(PixelEncoding encoding, std::uint32_t components);
 
-// Write atomically. std::invalid_argument (bad texture) or std::runtime_error (I/O), naming the file.
+// Write atomically, through the one texture writer (texture_writer.hpp). std::invalid_argument (bad
+// texture) or std::runtime_error (I/O), naming the file.
 void write_ktx2_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);
 void write_dds_texture(const std::string& path, const TextureData& t, PixelEncoding encoding);
 

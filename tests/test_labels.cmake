@@ -105,6 +105,8 @@ set(microshadow_cli_tests
   "^StratifiedBakeCli\\."
   "^SweepCli\\."
   "^SweepIntegrity\\.ASweepBegunOnOneDeviceResumesOnAllOfThem$"
+  "^SweepLegacy\\.(AShardedOldFolderMerges|SweepMergeIsMerge)"
+  "^SweepTolerance\\."
   "^IblReliability\\.(Sigterm|ARerunWithFewerMips|TwoOutputs|AnOutFolder|NumericOptions|.*Failover)"
   "^SceneReliability\\.(Sigterm|FailingDeviceOfTwo|OutputProblems|FittedSceneLut|LutsNamedAAndAError)"
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")

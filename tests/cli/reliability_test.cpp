@@ -515,7 +515,7 @@ TEST_F(Reliability, AnInterruptedSweepSaysWhatItKeptAndNothingElse) {
     ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
     // Wait for the first finished chunk, then interrupt.
     const auto start = std::chrono::steady_clock::now();
-    while (!fs::exists(dir_ / "o" / "manifest.json") && std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
+    while (!fs::exists(dir_ / "o" / "items" / "item-0000000000.bin") && std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
     kill(pid, SIGINT);
     int status = 0;

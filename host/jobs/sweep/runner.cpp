@@ -2,24 +2,17 @@
 
 #include "approx/analytic.hpp"
 
-#include "core/digest.hpp"
-
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cinttypes>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <deque>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <sstream>
 
 #include "analytic/part1_terms.hpp"
@@ -29,7 +22,6 @@
 #include "integrands/term/term_integrand.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
-#include "io/input_file.hpp"
 #include "io/text.hpp"
 #include "jobs/cache_keys.hpp"
 #include "jobs/compare.hpp"

@@ -6,7 +6,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <condition_variable>
+#include <deque>
 #include <filesystem>
+#include <mutex>
+#include <thread>
 #include <fstream>
 #include <sstream>
 
@@ -20,6 +24,7 @@
 #include "jobs/sweep/runner.hpp"
 #include "jobs/sweep/spec.hpp"
 #include "oracle/oracle.hpp"
+#include "schedule/distributed.hpp"
 #include "test_files.hpp"
 
 namespace ms {
@@ -166,6 +171,128 @@ TEST(SweepIntegrity, MergeNamesADamagedShardChunkAndARerunRepairsIt) {
     EXPECT_EQ(sweep::run_sweep(spec, c).computed, 1u);
     sweep::merge_shards({s0.string(), s1.string()}, out.string(), "test");
     EXPECT_EQ(slurp_file(out / "sweep.csv"), slurp_file(clean / "sweep.csv"));
+}
+
+// An MPI world in one process: the ranks are threads sharing a queue of items and one of results, as
+// cli/mpi_world's MPI messages carry them between processes.
+class ThreadWorld {
+public:
+    explicit ThreadWorld(int ranks) : ranks_(ranks) {}
+    class Rank final : public schedule::ItemTransport {
+    public:
+        Rank(ThreadWorld& world, int rank) : w_(world), rank_(rank) {}
+        int rank() const override { return rank_; }
+        int ranks() const override { return w_.ranks_; }
+        void coordinate(std::deque<std::uint64_t> pending, const std::function<void(std::uint64_t, const std::string&)>& on_result,
+                        const std::function<void(std::uint64_t, std::uint64_t)>& progress) override {
+            std::unique_lock<std::mutex> lock(w_.mutex_);
+            const std::uint64_t total = pending.size();
+            w_.pending_ = std::move(pending);
+            w_.handed_ = true;
+            w_.changed_.notify_all();
+            std::uint64_t done = 0;
+            while (true) {
+                w_.changed_.wait(lock, [&] { return !w_.results_.empty() || w_.finished_ == w_.ranks_ - 1; });
+                if (w_.results_.empty()) break;
+                auto [id, payload] = std::move(w_.results_.front());
+                w_.results_.pop_front();
+                lock.unlock();
+                on_result(id, payload);
+                if (progress) progress(++done, total);
+                lock.lock();
+            }
+            if (!w_.failure_.empty()) throw std::runtime_error("a rank failed: " + w_.failure_);
+        }
+        bool next_item(std::uint64_t& id) override {
+            std::unique_lock<std::mutex> lock(w_.mutex_);
+            w_.changed_.wait(lock, [&] { return w_.handed_; });
+            if (w_.pending_.empty()) return false;
+            id = w_.pending_.front();
+            w_.pending_.pop_front();
+            return true;
+        }
+        void send_result(std::uint64_t id, const std::string& payload) override {
+            std::lock_guard<std::mutex> lock(w_.mutex_);
+            w_.results_.emplace_back(id, payload);
+            w_.changed_.notify_all();
+        }
+        void finish(const std::string& failure) override {
+            std::lock_guard<std::mutex> lock(w_.mutex_);
+            ++w_.finished_;
+            if (!failure.empty()) w_.failure_ = failure;
+            w_.changed_.notify_all();
+        }
+
+    private:
+        ThreadWorld& w_;
+        int rank_;
+    };
+
+private:
+    int ranks_;
+    std::mutex mutex_;
+    std::condition_variable changed_;
+    std::deque<std::uint64_t> pending_;
+    bool handed_ = false;
+    std::deque<std::pair<std::uint64_t, std::string>> results_;
+    int finished_ = 0;
+    std::string failure_;
+};
+
+// Rank 0 and two computing ranks of a world run `spec` into `out`; the computing ranks write nothing.
+sweep::RunResult run_in_world(const Spec& spec, const fs::path& out, const fs::path& elsewhere) {
+    ThreadWorld world(3);
+    std::vector<std::unique_ptr<ThreadWorld::Rank>> ranks;
+    for (int r = 0; r < 3; ++r) ranks.push_back(std::make_unique<ThreadWorld::Rank>(world, r));
+    std::vector<std::thread> computing;
+    std::vector<std::string> errors(3);
+    for (int r = 1; r < 3; ++r)
+        computing.emplace_back([&, r] {
+            try {
+                auto backend = make_oracle_backend(1);
+                RunConfig c = config(elsewhere, *backend);
+                c.transport = ranks[r].get();
+                sweep::run_sweep(spec, c);
+            } catch (const std::exception& e) {
+                errors[r] = e.what();
+            }
+        });
+    auto backend = make_oracle_backend(1);
+    RunConfig c = config(out, *backend);
+    c.transport = ranks[0].get();
+    sweep::RunResult result;
+    try {
+        result = sweep::run_sweep(spec, c);
+    } catch (const std::exception& e) {
+        errors[0] = e.what();
+    }
+    for (auto& t : computing) t.join();
+    for (const auto& e : errors) EXPECT_EQ(e, "");
+    return result;
+}
+
+TEST(SweepIntegrity, AnMpiWorldGathersTheSameBytesAndResumesFromTheStore) {
+    // The MPI path is the shared item store's (schedule/distributed.hpp): rank 0 keeps the chunks the
+    // other ranks send, checked like stored ones, and resumes from what the folder already holds.
+    const Spec spec = small_spec();
+    auto backend = make_oracle_backend(1);
+    const fs::path clean = fresh_dir("wclean"), out = fresh_dir("world"), elsewhere = fresh_dir("ranks") / "never";
+    ASSERT_TRUE(sweep::run_sweep(spec, config(clean, *backend)).assembled);
+    const sweep::RunResult whole = run_in_world(spec, out, elsewhere);
+    ASSERT_TRUE(whole.assembled);
+    EXPECT_EQ(whole.computed, whole.chunks);
+    EXPECT_EQ(slurp_file(out / "sweep.csv"), slurp_file(clean / "sweep.csv"));
+    EXPECT_FALSE(fs::exists(elsewhere)) << "a computing rank wrote into its --out";
+    // Two chunks finished by one process, the rest by the world.
+    const fs::path half = fresh_dir("whalf");
+    RunConfig c = config(half, *backend);
+    c.max_chunks = 2;
+    ASSERT_FALSE(sweep::run_sweep(spec, c).complete);
+    const sweep::RunResult rest = run_in_world(spec, half, elsewhere);
+    ASSERT_TRUE(rest.assembled);
+    EXPECT_EQ(rest.skipped, 2u);
+    EXPECT_EQ(rest.computed, rest.chunks - 2);
+    EXPECT_EQ(slurp_file(half / "sweep.csv"), slurp_file(clean / "sweep.csv"));
 }
 
 TEST(SweepIntegrity, RestartRemovesEverythingTheOldSweepWrote) {

@@ -111,6 +111,7 @@ set(microshadow_cli_tests
   "^SceneReliability\\.(Sigterm|FailingDeviceOfTwo|OutputProblems|FittedSceneLut|LutsNamedAAndAError)"
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
+  "^SweepTolerance\\."
   "^SceneRender\\."
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"

@@ -104,8 +104,10 @@ struct MergeResult {
 // Assembles the sweep whose shards ran into `shard_dirs` (one folder every shard shared, or one folder a
 // shard; old-format folders are upgraded first) into out_dir/sweep.csv plus summary, byte-identical to an
 // unsharded run, through the shared item store's merge: `microshadow merge` and `sweep --merge` both call
-// it. expected_spec_hash (sweep --merge): the folders must hold that sweep. Throws std::invalid_argument
-// (nothing written) when shards are missing, duplicated, unfinished, damaged or of different sweeps.
+// it. Several folders are gathered into out_dir's own store first (their sound chunks copied there).
+// expected_spec_hash (sweep --merge): the folders must hold that sweep. Throws std::invalid_argument when
+// shards are missing, duplicated, unfinished, damaged or of different sweeps: then no output is written
+// (and an out_dir the merge created is removed).
 MergeResult merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir, const std::string& command_line,
                          const std::string& expected_spec_hash = "", const std::function<void(const std::string&)>& warn = {});
 

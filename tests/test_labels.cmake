@@ -109,10 +109,13 @@ set(microshadow_cli_tests
   "^StratifiedBakeCli\\."
   "^SweepCli\\."
   "^SweepIntegrity\\.ASweepBegunOnOneDeviceResumesOnAllOfThem$"
+  "^SweepLegacy\\.(AShardedOldFolderMerges|SweepMergeIsMerge)"
+  "^SweepTolerance\\."
   "^IblReliability\\.(Sigterm|ARerunWithFewerMips|TwoOutputs|AnOutFolder|NumericOptions|.*Failover)"
   "^SceneReliability\\.(Sigterm|FailingDeviceOfTwo|OutputProblems|FittedSceneLut|LutsNamedAAndAError)"
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
+  "^SweepTolerance\\."
   "^SceneRender\\."
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"

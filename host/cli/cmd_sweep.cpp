@@ -1,5 +1,6 @@
 // microshadow sweep SPEC.toml: a parameter study of the generic term against comparators, streamed
-// to disk in chunks (resumable, shardable). microshadow merge: joins the outputs of --shard runs.
+// to disk in chunks (resumable, shardable: the shared item store). sweep SPEC --merge, or its other
+// spelling microshadow merge, assembles the shards' folder (one code path: sweep::merge_shards).
 
 #include <cerrno>
 #include <cstring>
@@ -25,7 +26,7 @@ namespace fs = std::filesystem;
 struct SweepArgs {
     std::string spec, out, shard;
     std::uint64_t max_chunks = 0;
-    bool restart = false, plot = false, mpi = false, strict_domain = false;
+    bool restart = false, plot = false, mpi = false, strict_domain = false, merge = false, allow_tolerance_miss = false;
     SamplingOptions sampling;
     CLI::App* cmd = nullptr;
 };
@@ -41,6 +42,15 @@ void run_plot(const std::string& out_dir) {
 }
 
 void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunConfig& config, MpiWorld* world);
+
+// What a finished sweep or merge prints: where sweep.csv went and the summary table.
+void print_sweep_summary(const std::string& out_dir) {
+    std::cout << "wrote " << out_dir << "/sweep.csv\n\n";
+    std::ifstream md(out_dir + "/summary.md");
+    std::cout << md.rdbuf();
+}
+
+void warn_sweep(const std::string& w) { std::cerr << "\nsweep: warning: " << w << "\n"; }
 
 void run_sweep_command(SweepArgs& args) {
     sweep::Spec spec = sweep::parse_spec_file(args.spec);
@@ -81,6 +91,19 @@ void run_sweep_command(SweepArgs& args) {
     config.restart = args.restart;
     config.strict_domain = args.strict_domain;
     config.command_line = command_line();
+    if (args.merge) {
+        // The shards' folder assembled: the spec and options name the sweep it must hold.
+        if (args.mpi || !args.shard.empty() || args.max_chunks || args.restart)
+            throw std::invalid_argument("--merge assembles the shards in --out: it takes no --shard, --mpi, --max-chunks or --restart");
+        auto backend = args.sampling.make_backend();
+        config.backend = backend.get();
+        const auto merged = sweep::merge_shards({config.out_dir}, config.out_dir, config.command_line,
+                                                sweep::sweep_cache_key(spec, config).hash(), warn_sweep);
+        if (!args.sampling.quiet) print_sweep_summary(config.out_dir);
+        finish_tolerance_check("sweep", "points", merged.tolerance, args.allow_tolerance_miss);
+        if (args.plot) run_plot(config.out_dir);
+        return;
+    }
     // The MPI world before the devices: only rank 0 touches the output folder.
     std::unique_ptr<MpiWorld> world;
     if (args.mpi) world = std::make_unique<MpiWorld>();
@@ -93,7 +116,7 @@ void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunCon
     if (world) config.transport = &world->transport();
     auto backend = args.sampling.make_backend();
     config.backend = backend.get();
-    config.warn = [&](const std::string& w) { std::cerr << "\nsweep: warning: " << w << "\n"; };
+    config.warn = warn_sweep;
     Progress progress("sweep", args.sampling.quiet || !rank0);
     config.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
 
@@ -120,12 +143,12 @@ void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunCon
     }
     if (!r.assembled) {
         std::cerr << "sweep: shard " << config.shard.index << "/" << config.shard.count << " finished in " << config.out_dir
-                  << "; join the shards with 'microshadow merge --out DIR SHARD_DIRS...'\n";
+                  << "; when every shard has, assemble them with 'microshadow sweep " << args.spec << " --merge --out "
+                  << config.out_dir << "' (or 'microshadow merge --out DIR " << config.out_dir << "')\n";
         return;
     }
-    std::cout << "wrote " << config.out_dir << "/sweep.csv\n\n";
-    std::ifstream md(config.out_dir + "/summary.md");
-    std::cout << md.rdbuf();
+    if (!args.sampling.quiet) print_sweep_summary(config.out_dir);
+    finish_tolerance_check("sweep", "points", r.tolerance, args.allow_tolerance_miss);
     if (args.plot) run_plot(config.out_dir);
 }
 
@@ -146,6 +169,9 @@ void add_sweep_command(CLI::App& app) {
     cmd->add_option("--max-chunks", args->max_chunks, "compute at most this many chunks, then stop (resumable)")
         ->transform(decimal_range(0, std::numeric_limits<std::uint64_t>::max()));
     cmd->add_flag("--restart", args->restart, "discard a previous run of a different sweep in --out");
+    cmd->add_flag("--merge", args->merge,
+                  "assemble the shards that ran into --out (every one must have finished) into sweep.csv and its summary; "
+                  "the same as 'microshadow merge --out DIR DIR'");
     cmd->add_flag("--strict-domain", args->strict_domain,
                   "refuse (exit status 2, nothing written) a sweep whose points lie outside a comparator file's domain (the "
                   "roughness, visibility and NdotV ranges its metadata records); without it they are counted in "
@@ -160,6 +186,7 @@ void add_sweep_command(CLI::App& app) {
                          "a point per core, less than the sampled default's 65536 samples (~45 us a point per core for "
                          "~5e-4)");
     add_tolerance_option(cmd, args->sampling);
+    add_tolerance_miss_option(cmd, args->allow_tolerance_miss);
     cmd->callback([args] { run_sweep_command(*args); });
 }
 
@@ -167,19 +194,20 @@ void add_merge_command(CLI::App& app) {
     struct MergeArgs {
         std::vector<std::string> dirs;
         std::string out;
-        bool quiet = false;
+        bool quiet = false, allow_tolerance_miss = false;
     };
     auto args = std::make_shared<MergeArgs>();
-    auto* cmd = app.add_subcommand("merge", "join the outputs of 'sweep --shard I/N' runs into one sweep.csv");
-    cmd->add_option("shards", args->dirs, "shard output directories")->required()->check(CLI::ExistingDirectory);
-    cmd->add_option("--out,-o", args->out, "output directory")->required();
+    auto* cmd = app.add_subcommand("merge",
+                                   "assemble the folder(s) 'sweep --shard I/N' ran into into one sweep.csv (the same as 'sweep SPEC --merge', "
+                                   "without the spec: the folder says what it holds)");
+    cmd->add_option("shards", args->dirs, "the shards' folder (or one folder a shard)")->required()->check(CLI::ExistingDirectory);
+    cmd->add_option("--out,-o", args->out, "output directory (may be the shards' folder)")->required();
     cmd->add_flag("--quiet,-q", args->quiet, "no summary on stdout");
+    add_tolerance_miss_option(cmd, args->allow_tolerance_miss);
     cmd->callback([args] {
-        sweep::merge_shards(args->dirs, args->out, command_line());
-        if (args->quiet) return;
-        std::cout << "wrote " << args->out << "/sweep.csv\n\n";
-        std::ifstream md(args->out + "/summary.md");
-        std::cout << md.rdbuf();
+        const auto merged = sweep::merge_shards(args->dirs, args->out, command_line(), "", warn_sweep);
+        if (!args->quiet) print_sweep_summary(args->out);
+        finish_tolerance_check("sweep", "points", merged.tolerance, args->allow_tolerance_miss);
     });
 }
 

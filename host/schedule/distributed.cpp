@@ -119,7 +119,7 @@ void merge_items(const ItemPlan& plan, std::uint64_t total, const std::function<
                    " item(s) (the first is " + std::to_string(m.first) + ");";
         throw std::invalid_argument(msg + " rerun those shards (they resume), then merge; nothing was written");
     }
-    report.complete = true;
+    report.complete = report.shard_complete = true;
     report.rerun = store.recorded_reruns();
     report.devices = store.recorded_devices();
 }
@@ -164,7 +164,7 @@ void coordinate_items(const ItemPlan& plan, std::uint64_t total, std::vector<cha
             if (callbacks.progress) callbacks.progress(loaded + d, loaded + t);
         });
     if (plan.store) plan.store->commit();
-    report.complete = true;
+    report.complete = report.shard_complete = true;
 }
 
 // A computing rank's end of the exchange: tell rank 0 how this rank's work ended, and rethrow.
@@ -219,6 +219,7 @@ ItemRunReport run_items(Scheduler& scheduler, Integrand& integrand, const ItemPl
     selection.shard_index = shard.index;
     selection.shard_count = shard.count;
     selection.already_done = [&](std::uint64_t id) { return done[id] != 0; };
+    selection.max_items = plan.max_items;
     RunCallbacks cb = callbacks;
     if (plan.store) {
         // on_done runs one call at a time: each finished item reaches the store before the next is recorded.
@@ -233,8 +234,12 @@ ItemRunReport run_items(Scheduler& scheduler, Integrand& integrand, const ItemPl
         cb.progress = [&](std::uint64_t d, std::uint64_t t) { callbacks.progress(loaded + d, loaded + t); };
     report.run = scheduler.run(integrand, selection, cb);
     report.rerun = report.run.rerun;
-    if (plan.store) plan.store->write_manifest(true, place_labels(scheduler), report.rerun);
-    report.complete = shard.count == 1;
+    // A run held to max_items may stop before its shard is done: its manifest says so, and a rerun resumes.
+    std::uint64_t mine = 0;
+    for (std::uint64_t id = shard.index; id < total; id += shard.count) ++mine;
+    report.shard_complete = report.loaded + report.run.done >= mine;
+    if (plan.store) plan.store->write_manifest(report.shard_complete, place_labels(scheduler), report.rerun);
+    report.complete = shard.count == 1 && report.shard_complete;
     return report;
 }
 
@@ -281,6 +286,7 @@ ItemRunReport run_item_job(const ItemJob& job, const ItemPlan& plan, const std::
     }
     if (manifest) plan.store->write_manifest(true, places, 0);
     if (plan.store) plan.store->commit();
+    report.shard_complete = true;
     report.complete = shard.count == 1;
     return report;
 }

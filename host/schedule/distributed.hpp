@@ -57,12 +57,14 @@ struct ItemPlan {
     bool merge_only = false;            // compute nothing: every item must be in the store already
     ItemTransport* transport = nullptr; // an MPI world (rank 0 coordinates and keeps the store)
     std::function<void(const std::string&)> warn;  // damaged items set aside
+    std::uint64_t max_items = 0;        // > 0: compute at most this many items in this run (run_items; resumable)
 };
 
 struct ItemRunReport {
     RunReport run;                 // of the items this process computed
     std::uint64_t loaded = 0;      // items taken from the store
     bool complete = false;         // every item of the job is in the integrand (this process writes)
+    bool shard_complete = false;   // every item of this process's shard is finished (false: stopped at max_items)
     std::uint64_t rerun = 0;       // reruns after device failures (merge: as the shards recorded them)
     std::vector<std::string> devices;  // merge: the shards' devices (empty: this process's scheduler's)
 };

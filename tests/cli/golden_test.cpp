@@ -330,7 +330,7 @@ TEST_F(Signals, SweepOnTheOracleStopsOnSigint) {
     // A sweep keeps its finished chunks on purpose (rerun to resume): files under out/ may appear, but
     // never sweep.csv, and the previous file beside it stays.
     const std::string log = interrupt("sweep s.toml --out out --backend oracle --method sampled --samples 1048576 -q", SIGINT, "previous.csv",
-                                      {"out/chunks/", "out/manifest"});
+                                      {"out/items/", "out/manifest", "out/sweep-spec.json"});
     EXPECT_FALSE(fs::exists(dir_ / "out" / "sweep.csv"));
     EXPECT_NE(log.find("rerun the same command to resume"), std::string::npos) << log;
 }

@@ -327,11 +327,11 @@ TEST_F(Reliability, NonUtf8FileNamesWorkAndAreEscapedInTheProvenance) {
     const auto meta = nlohmann::json::parse(slurp_file(dir_ / (name + ".json")));
     const std::string recorded = meta.at("command_line").get<std::string>();
     EXPECT_CONTAINS(recorded, "$'r\\xE9.csv'");
-    // The sweep records its spec's name in the manifest.
+    // The sweep records its spec's name in its description.
     write("s\xE9.toml", kTinySpec);
     r = run("sweep " + sq("s\xE9.toml") + " --out o --backend oracle --method sampled --samples 64 -q");
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    EXPECT_CONTAINS(nlohmann::json::parse(slurp_file(dir_ / "o" / "manifest.json")).at("spec").get<std::string>(), "s\\xE9.toml");
+    EXPECT_CONTAINS(nlohmann::json::parse(slurp_file(dir_ / "o" / "sweep-spec.json")).at("spec").get<std::string>(), "s\\xE9.toml");
     // A bake records the command line in the EXR header.
     r = run("bake --layout seed-2d --size 2 --samples 64 -q --out " + sq("l\xE9.exr"));
     ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -515,7 +515,7 @@ TEST_F(Reliability, AnInterruptedSweepSaysWhatItKeptAndNothingElse) {
     ASSERT_EQ(posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ), 0);
     // Wait for the first finished chunk, then interrupt.
     const auto start = std::chrono::steady_clock::now();
-    while (!fs::exists(dir_ / "o" / "manifest.json") && std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
+    while (!fs::exists(dir_ / "o" / "items" / "item-0000000000.bin") && std::chrono::steady_clock::now() - start < std::chrono::seconds(60))
         std::this_thread::sleep_for(std::chrono::milliseconds(20));
     kill(pid, SIGINT);
     int status = 0;
@@ -1164,26 +1164,27 @@ TEST_F(Reliability, AForgedManifestItemCountIsSetAsideAndTheResumeHeals) {
 }
 
 TEST_F(Reliability, ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten) {
-    // A sweep shard's chunk rewritten with term 5.0, nan or -0.5, its digest in the manifest recomputed
-    // (what anyone can do): merge refuses it as bad input and writes nothing, not even its folder.
+    // A sweep shard's chunk rewritten with term 5.0, nan or -0.5, its item's seal recomputed (what anyone
+    // can do): merge refuses it as bad input and writes nothing, not even its folder.
     write("s.toml", "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.9]\nn_dot_l = [0.4, 0.8]\n"
                     "n_dot_v = [0.5, 1.0]\nroughness = [0.3]\n[comparators]\nanalytic = [\"naughty-dog\"]\n");
     for (const char* shard : {"0/2", "1/2"})
         ASSERT_EQ(run("sweep s.toml -q --backend oracle --out split --shard " + std::string(shard)).exit_code, 0);
-    const fs::path chunk = dir_ / "split" / "chunks" / "chunk-0000000000.csv";
-    const fs::path manifest = dir_ / "split" / "manifest.shard-0-of-2.json";
-    const std::string rows = slurp_file(chunk), recorded = slurp_file(manifest);
+    const fs::path chunk = dir_ / "split" / "items" / "item-0000000000.bin";
+    const std::string item = slurp_file(chunk);
+    // The item's header: magic, spec hash, id, payload size, payload digest; then the rows.
+    std::size_t rows_at = 0;
+    for (int line = 0; line < 5; ++line) rows_at = item.find('\n', rows_at) + 1;
+    std::size_t first_lines = 0;
+    for (int line = 0; line < 3; ++line) first_lines = item.find('\n', first_lines) + 1;
     for (const std::string forged : {"5.0", "nan", "-0.5"}) {
         // The second row's term (field 13 of the header point,...,visibility,term,std_error,...).
-        std::string text = rows;
+        std::string text = item.substr(rows_at);
         const std::size_t row = text.find('\n') + 1;
         std::size_t at = row;
         for (int k = 0; k < 12; ++k) at = text.find(',', at) + 1;
         text.replace(at, text.find(',', at) - at, forged);
-        put_bytes(chunk, text);
-        nlohmann::json m = nlohmann::json::parse(recorded);
-        m["digests"]["0"]["fnv1a64"] = ms::hex16(ms::fnv1a(text));
-        put_bytes(manifest, m.dump(1) + "\n");
+        put_bytes(chunk, item.substr(0, first_lines) + std::to_string(text.size()) + "\n" + ms::hex16(ms::fnv1a(text)) + "\n" + text);
         const auto r = run("merge -q --out merged split");
         EXPECT_EQ(r.exit_code, 2) << forged << ": " << r.output;
         EXPECT_CONTAINS(r.output, "values: row of point 1");
@@ -1191,7 +1192,6 @@ TEST_F(Reliability, ForgedSweepRowsAreRefusedByMergeAndNothingIsWritten) {
         EXPECT_FALSE(fs::exists(chunk)) << forged << ": the forged chunk was not set aside";
     }
     // The shard's rerun computes the chunk again; the merge then succeeds.
-    put_bytes(manifest, recorded);
     ASSERT_EQ(run("sweep s.toml -q --backend oracle --out split --shard 0/2").exit_code, 0);
     const auto r = run("merge -q --out merged split");
     EXPECT_EQ(r.exit_code, 0) << r.output;

@@ -140,8 +140,8 @@ TEST_F(ReprSweepTest, RepresentationColumnsEqualEvalCompareAndResumeRefusesAChan
     }();
     EXPECT_NE(summary.find("| harm | all | " + std::to_string(grid.size()) + " |"), std::string::npos) << summary;
     EXPECT_NE(summary.find("| axis | all | "), std::string::npos) << summary;
-    // The manifest records each file comparator's provenance, a representation's with its cost.
-    std::ifstream manifest_in(path("out") + "/manifest.json");
+    // The sweep's description records each file comparator's provenance, a representation's with its cost.
+    std::ifstream manifest_in(path("out") + "/sweep-spec.json");
     const auto manifest = nlohmann::json::parse(manifest_in);
     ASSERT_EQ(manifest.at("comparator_files").size(), 2u);
     EXPECT_EQ(manifest["comparator_files"][0].at("representation"), "azimuth-harmonics");

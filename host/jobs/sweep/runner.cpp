@@ -2,39 +2,34 @@
 
 #include "approx/analytic.hpp"
 
-#include "core/digest.hpp"
-
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cinttypes>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
-#include <deque>
 #include <filesystem>
 #include <fstream>
-#include <iomanip>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <set>
 #include <sstream>
 
 #include "analytic/part1_terms.hpp"
 #include "core/cancel.hpp"
+#include "exact/exact_term.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
 #include "integrands/term/term_integrand.hpp"
 #include "io/atomic_file.hpp"
 #include "io/csv.hpp"
-#include "io/input_file.hpp"
 #include "io/text.hpp"
 #include "jobs/cache_keys.hpp"
 #include "jobs/compare.hpp"
 #include "lut/lookup.hpp"
 #include "jobs/sweep/points.hpp"
+#include "jobs/sweep/store.hpp"
 #include "schedule/chunk_store.hpp"
+#include "schedule/distributed.hpp"
 
 namespace ms::sweep {
 
@@ -42,148 +37,6 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 
 namespace {
-
-// Format 2 records each finished chunk's row count and FNV-1a digest ("digests"); format 1 manifests
-// are still read, and their chunks checked by structure only.
-constexpr const char* kManifestFormat = "microshadow-sweep-manifest/2";
-
-// Manifests and LUT files read whole, with the input checks of io/input_file.hpp (regular files, a size limit).
-std::string read_all(const std::string& path) { return read_input_file(path, std::uint64_t(1) << 31, "file"); }
-
-// A sweep's chunks in the chunk store (schedule/chunk_store.hpp): chunks/chunk-XXXXXXXXXX.csv, the bare
-// rows, their digests recorded in the manifest; damaged ones go to chunks/rejected/.
-schedule::ChunkLayout chunk_layout(const std::string& dir) {
-    schedule::ChunkLayout layout;
-    layout.folder = (fs::path(dir) / "chunks").string();
-    layout.prefix = "chunk-";
-    layout.suffix = ".csv";
-    layout.seal = schedule::ItemSeal::recorded;
-    return layout;
-}
-
-// The manifest's record of a chunk: {rows, fnv1a64}.
-json digest_json(const schedule::ItemDigest& d) { return {{"rows", d.rows}, {"fnv1a64", hex16(d.fnv1a)}}; }
-
-// Checks a chunk's rows: exactly the rows of points [first, last), each with `fields` fields and its
-// point index first. Returns "" when they are, else the reason (a short tag first: "rows", "index",
-// "fields").
-// A stored row's numbers, checked like any input (anyone can recompute a chunk's digest): the query's
-// parameters finite, the term a fraction in [0, 1], its standard error finite and >= 0. The columns are
-// csv_header's: point, form, ao_weighting, then the numbers from roughness to visibility, term, std_error.
-std::string check_row_values(const std::string& line) {
-    constexpr std::size_t kFirstNumber = 3, kTerm = 12, kStdError = 13;
-    std::size_t begin = 0;
-    for (std::size_t field = 0; field <= kStdError; ++field) {
-        const std::size_t end = line.find(',', begin);
-        if (end == std::string::npos && field < kStdError) return "";  // fewer fields: the field count check says so
-        if (field >= kFirstNumber) {
-            const std::string text = line.substr(begin, end == std::string::npos ? std::string::npos : end - begin);
-            char* stop = nullptr;
-            const double v = std::strtod(text.c_str(), &stop);
-            if (text.empty() || *stop != '\0' || !std::isfinite(v)) return "field " + std::to_string(field + 1) + " '" + text + "' is not a finite number";
-            if (field == kTerm && !(v >= 0 && v <= 1)) return "term " + text + " is not a fraction in [0, 1]";
-            if (field == kStdError && !(v >= 0 && v <= 1)) return "std_error " + text + " is not in [0, 1]";
-        }
-        if (end == std::string::npos) break;
-        begin = end + 1;
-    }
-    return "";
-}
-
-std::string check_chunk_text(const std::string& text, std::uint64_t first, std::uint64_t last, std::size_t fields) {
-    std::uint64_t expect = first;
-    std::size_t line_start = 0;
-    while (line_start < text.size()) {
-        const std::size_t end = text.find('\n', line_start);
-        if (end == std::string::npos) return "rows: the last row is cut off (no line end)";
-        const std::string line = text.substr(line_start, end - line_start);
-        line_start = end + 1;
-        if (expect >= last) return "rows: more rows than the chunk's " + std::to_string(last - first);
-        const std::size_t n = std::size_t(std::count(line.begin(), line.end(), ',')) + 1;
-        if (n != fields)
-            return "fields: row of point " + std::to_string(expect) + " has " + std::to_string(n) + " fields, not " +
-                   std::to_string(fields);
-        if (line.compare(0, line.find(','), std::to_string(expect)) != 0)
-            return "index: expected point " + std::to_string(expect) + ", found '" + line.substr(0, line.find(',')) + "'";
-        if (const std::string problem = check_row_values(line); !problem.empty())
-            return "values: row of point " + std::to_string(expect) + ": " + problem;
-        ++expect;
-    }
-    if (expect != last) return "rows: " + std::to_string(expect - first) + " rows, not " + std::to_string(last - first);
-    return "";
-}
-
-// Chunk c of `files` checked against its recorded digest (when the manifest has one: format-1 manifests
-// do not) and its rows. Returns "" when sound; else the warning: the chunk "missing" (listed as
-// finished, but gone), or damaged and set aside (the path, the reason and where it went).
-std::string check_chunk(const schedule::ChunkFiles& files, std::uint64_t c, std::uint64_t first, std::uint64_t last,
-                        std::size_t fields, const json* recorded) {
-    std::error_code ec;
-    if (!fs::exists(files.path(c), ec)) return "missing: the file is gone";
-    std::string warning;
-    const auto rows = files.read(c, &warning, [&](const std::string& text) -> std::string {
-        if (recorded) {
-            const json d = digest_json(schedule::digest_of(text));
-            if (d != *recorded)
-                return "digest: its " + std::to_string(d["rows"].get<std::uint64_t>()) + " rows and digest " +
-                       d["fnv1a64"].get<std::string>() + " are not the " +
-                       std::to_string((*recorded)["rows"].get<std::uint64_t>()) + " rows and digest " +
-                       (*recorded)["fnv1a64"].get<std::string>() + " recorded when it was written";
-        }
-        return check_chunk_text(text, first, last, fields);
-    });
-    return rows ? std::string() : warning;
-}
-
-std::string manifest_name(const Shard& s) {
-    if (s.count == 1) return "manifest.json";
-    return "manifest.shard-" + std::to_string(s.index) + "-of-" + std::to_string(s.count) + ".json";
-}
-
-// Reads a manifest and checks its shape (what every reader below relies on), so a damaged or crafted
-// manifest is refused naming the file, never with a bare JSON type error.
-json read_json(const std::string& path) {
-    json m;
-    try {
-        m = json::parse(read_all(path));
-    } catch (const json::exception& e) {
-        throw std::runtime_error(path + ": not a valid manifest (" + e.what() + "); remove it or use --restart");
-    }
-    auto bad = [&](const std::string& what) {
-        return std::runtime_error(path + ": not a valid manifest (" + what + "); remove it or use --restart");
-    };
-    if (!m.is_object()) throw bad("not a JSON object");
-    if (!m.contains("spec_hash") || !m["spec_hash"].is_string()) throw bad("no spec_hash string");
-    if (m.contains("complete") && !m["complete"].is_boolean()) throw bad("complete is not true or false");
-    if (!m.contains("finished") || !m["finished"].is_array()) throw bad("no finished list");
-    for (const auto& c : m["finished"])
-        if (!c.is_number_unsigned()) throw bad("finished holds " + c.dump() + ", not a chunk number");
-    if (m.contains("digests")) {
-        if (!m["digests"].is_object()) throw bad("digests is not an object");
-        for (const auto& [key, d] : m["digests"].items())
-            if (!d.is_object() || !d.contains("rows") || !d["rows"].is_number_unsigned() || !d.contains("fnv1a64") ||
-                !d["fnv1a64"].is_string())
-                throw bad("digest of chunk " + key + " is not {rows, fnv1a64}");
-    }
-    if (m.contains("shard")) {
-        const json& sh = m["shard"];
-        if (!sh.is_object() || !sh.contains("index") || !sh["index"].is_number_unsigned() || !sh.contains("count") ||
-            !sh["count"].is_number_unsigned() || sh["count"].get<std::uint64_t>() == 0 ||
-            sh["index"].get<std::uint64_t>() >= sh["count"].get<std::uint64_t>() || sh["count"].get<std::uint64_t>() > 1000000)
-            throw bad("shard is not {index, count} with index < count");
-    }
-    for (const char* key : {"header", "format"})
-        if (m.contains(key) && !m[key].is_string()) throw bad(std::string(key) + " is not a string");
-    for (const char* key : {"chunks", "points", "chunk_size"})
-        if (m.contains(key) && !m[key].is_number_unsigned()) throw bad(std::string(key) + " is not a count");
-    return m;
-}
-
-void write_json(const std::string& path, const json& j) {
-    AtomicFile f(path);
-    f.stream() << dump_json(j, 1) << "\n";  // paths may hold bytes that are not UTF-8
-    f.commit();
-}
 
 // The [[comparators.lut]] files opened: a part 2 LUT or a representation (host/repr/):
 // compare::Comparator tells them apart by the file's metadata.
@@ -348,15 +201,15 @@ std::string domain_markdown(const json& provenance) {
     return o;
 }
 
-// Writes sweep.csv from the chunk files (in chunk order), then the summary and provenance.
-// Every chunk is checked first (`check` returns "" or the problem, already set aside and named), so a
-// damaged chunk never reaches sweep.csv: the error names the chunk, and sweep.csv is not written.
-void assemble(const std::string& out_dir, const std::string& header, std::uint64_t chunks,
-              const std::function<std::string(std::uint64_t)>& chunk_file,
-              const std::function<std::string(std::uint64_t)>& check, json provenance) {
-    // A damaged chunk is bad input (exit status 2), as a damaged item of any other store is.
-    for (std::uint64_t c = 0; c < chunks; ++c)
-        if (const std::string problem = check(c); !problem.empty()) throw std::invalid_argument(problem);
+// The sweep's rows, handed over a chunk at a time from the store (checked there like any input);
+// nullopt: chunk c is missing or damaged, `problem` says which and where a damaged one went.
+using ChunkSource = std::function<std::optional<std::string>(std::uint64_t c, std::string& problem)>;
+
+// Writes sweep.csv from the chunks (in chunk order), then the summary and provenance. A missing or
+// damaged chunk never reaches sweep.csv: the error (std::invalid_argument, bad input as a damaged item
+// of any store is) names it with `remedy`, and none of the four outputs is written.
+Summary assemble(const std::string& out_dir, const std::string& header, std::uint64_t chunks, const ChunkSource& chunk,
+                 const std::string& remedy, double tolerance, json provenance) {
     // The four outputs appear together or not at all (one OutputSet): sweep.csv is written to its
     // temporary, summarised from there, and renamed with the summaries and the provenance.
     OutputSet outputs;
@@ -367,9 +220,11 @@ void assemble(const std::string& out_dir, const std::string& header, std::uint64
     std::ostream& out = outputs.stream(csv);
     out << header << "\n";
     for (std::uint64_t c = 0; c < chunks; ++c) {
-        std::ifstream in(chunk_file(c), std::ios::binary);
-        if (!in) throw std::runtime_error(chunk_file(c) + ": missing chunk file");
-        out << in.rdbuf();
+        throw_if_cancelled();
+        std::string problem;
+        const std::optional<std::string> rows = chunk(c, problem);
+        if (!rows) throw std::invalid_argument(problem + "; " + remedy);
+        out << *rows;
     }
     out.flush();
     if (!out) throw std::runtime_error((fs::path(out_dir) / "sweep.csv").string() + ": could not be written");
@@ -377,13 +232,96 @@ void assemble(const std::string& out_dir, const std::string& header, std::uint64
     // the reader must be closed before commit() renames it to sweep.csv.
     const Summary s = [&] {
         std::ifstream in(outputs.temp_path(csv), std::ios::binary);
-        return summarise(in, (fs::path(out_dir) / "sweep.csv").string());
+        return summarise(in, (fs::path(out_dir) / "sweep.csv").string(), tolerance);
     }();
     outputs.stream(md) << summary_markdown(s) << domain_markdown(provenance);
     outputs.stream(sc) << summary_csv(s);
     provenance["max_std_error"] = s.max_std_error;
+    if (s.tolerance.tolerance > 0) {
+        provenance["tolerance_met"] = s.tolerance.met();
+        provenance["points_over_tolerance"] = s.tolerance.over;
+    }
     outputs.stream(js) << dump_json(provenance, 1) << "\n";
     outputs.commit();
+    return s;
+}
+
+// A chunk of the store, checked: its rows for assemble().
+ChunkSource store_chunks(const schedule::ItemStore& store, const std::function<std::string(std::uint64_t, const std::string&)>& check) {
+    return [&store, check](std::uint64_t c, std::string& problem) -> std::optional<std::string> {
+        std::string warning;
+        auto rows = store.load(c, &warning, [&](const std::string& payload) { return check(c, payload); });
+        if (!rows) problem = warning.empty() ? store.files().path(c) + ": missing (the chunk is not in the store)" : warning;
+        return rows;
+    };
+}
+
+// The sweep's chunks as work items of the shared item store: the term integrand (sampled or exact)
+// computes a chunk's estimates, the sink turns them into the chunk's rows, and the rows are the item's
+// payload the store keeps, ranks send and merges read back, checked like any input.
+class SweepChunks final : public schedule::Integrand {
+public:
+    using Check = std::function<std::string(std::uint64_t, const std::string&)>;
+    explicit SweepChunks(Check check) : check_(std::move(check)) {}
+    void set_term(std::unique_ptr<schedule::Integrand> term) { term_ = std::move(term); }
+    // From the term's sink: chunk c's rows, kept until the store (or rank 0) takes them.
+    void put(std::uint64_t c, std::string rows) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        rows_[c] = std::move(rows);
+    }
+
+    std::string name() const override { return "sweep"; }
+    std::uint64_t work_items() const override { return term_->work_items(); }
+    std::unique_ptr<schedule::Worker> device_worker(ocl::Device& device) override { return term_->device_worker(device); }
+    std::unique_ptr<schedule::Worker> oracle_worker() override { return term_->oracle_worker(); }
+    bool distributable() const override { return true; }
+    // Taken once, when the chunk is stored or sent: the rows are not kept twice in memory.
+    std::string save_item(std::uint64_t c) const override {
+        std::lock_guard<std::mutex> lock(mutex_);
+        const auto it = rows_.find(c);
+        if (it == rows_.end()) throw std::logic_error("sweep: chunk " + std::to_string(c) + " was not computed");
+        std::string rows = std::move(it->second);
+        rows_.erase(it);
+        return rows;
+    }
+    // Rows from the store or another rank: the chunk's points in the sweep's fields, or refused.
+    // (sweep.csv is assembled from the store afterwards; nothing else is kept.)
+    void load_item(std::uint64_t c, const std::string& rows) override {
+        if (const std::string problem = check_(c, rows); !problem.empty())
+            throw std::runtime_error("sweep chunk " + std::to_string(c) + " as received: " + problem);
+    }
+    std::string check_item(std::uint64_t c, const std::string& rows) const override { return check_(c, rows); }
+
+private:
+    Check check_;
+    std::unique_ptr<schedule::Integrand> term_;
+    mutable std::mutex mutex_;
+    mutable std::map<std::uint64_t, std::string> rows_;
+};
+
+// The places a scheduler ran on, as the store's manifests record them.
+std::vector<std::string> sweep_places(const schedule::Scheduler& scheduler) {
+    return scheduler.is_oracle() ? std::vector<std::string>{scheduler.name()} : scheduler.device_labels();
+}
+
+// The tolerance a sweep's values are held to: the exact method always has one (its default when none is
+// given); a sampled sweep is one of fixed samples and has none.
+double checked_tolerance(const SamplingPlan& plan) {
+    if (plan.method != Method::exact) return 0;
+    return plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance;
+}
+
+// Everything a previous run left in `dir` goes (--restart): its items, chunks, manifests and outputs.
+void discard_previous_sweep(const fs::path& dir) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) return;
+    for (const char* folder : {"items", "chunks", "figures"}) fs::remove_all(dir / folder);
+    for (const auto& entry : fs::directory_iterator(dir)) {
+        const std::string name = entry.path().filename().string();
+        if ((name.rfind("manifest", 0) == 0 && entry.path().extension() == ".json") || name == "sweep.csv" || name == "sweep.json" ||
+            name == "summary.md" || name == "summary.csv" || name == kSweepDescriptionFile)
+            fs::remove(entry.path());
+    }
 }
 
 std::vector<std::string> split(const std::string& line) {
@@ -420,355 +358,239 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     result.warnings_outside_domain = computer.outside_domain_lines();
     result.points = computer.grid().size();
     result.chunks = (result.points + spec.chunk_size - 1) / spec.chunk_size;
-    // Chunks are the term integrand's work items (one per chunk either way: the exact integrand has the
-    // sampled one's source/sink contract); `sink` receives each computed chunk's estimates.
-    const std::uint64_t chunk_size = spec.chunk_size;
-    auto chunk_end = [&](std::uint64_t c) { return std::min(result.points, (c + 1) * chunk_size); };
-    auto chunk_queries = [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); };
-    auto make_integrand = [&](std::function<void(std::uint64_t, std::vector<Estimate>&&)> sink) -> std::unique_ptr<schedule::Integrand> {
-        if (config.plan.method == Method::exact) {
-            exact_term::ExactConfig exact;
-            exact.tolerance = config.plan.tolerance > 0 ? config.plan.tolerance : exact::kDefaultTolerance;
-            exact.build = config.backend->config().build;
-            exact.force_float = config.plan.single_precision;
-            exact.kernel_on_cpu_devices = config.plan.kernel_on_cpu_devices;
-            return std::make_unique<exact_term::ExactTermIntegrand>(result.chunks, chunk_queries, std::move(sink), exact);
-        }
-        return std::make_unique<term::TermIntegrand>(result.chunks, chunk_queries, std::move(sink), config.plan,
-                                                     config.backend->config());
-    };
-    if (config.transport && !config.transport->coordinator()) {
-        // A computing rank: chunks come from rank 0, their rows (the chunk file's text) go back to it.
-        std::mutex rows_mutex;
-        std::map<std::uint64_t, std::string> rows;  // computed, until on_done sends them
-        auto integrand = make_integrand([&](std::uint64_t c, std::vector<Estimate>&& est) {
-            std::string text = computer.rows(c * chunk_size, chunk_end(c), est);
-            std::lock_guard<std::mutex> lock(rows_mutex);
-            rows[c] = std::move(text);
-        });
-        schedule::WorkSelection selection;
-        selection.next_item = [&](std::uint64_t& c) { return config.transport->next_item(c); };
-        schedule::RunCallbacks callbacks;
-        callbacks.on_done = [&](std::uint64_t c) {
-            std::string text;
-            {
-                std::lock_guard<std::mutex> lock(rows_mutex);
-                text = std::move(rows.at(c));
-                rows.erase(c);
-            }
-            config.transport->send_result(c, text);
-            ++result.computed;
-        };
-        try {
-            config.backend->scheduler().run(*integrand, selection, callbacks);
-        } catch (const Cancelled&) {
-            config.transport->finish("cancelled");
-            throw;
-        } catch (const std::exception& e) {
-            config.transport->finish(e.what());
-            throw;
-        }
-        config.transport->finish("");
-        return result;
-    }
     result.shard_chunks = result.chunks > config.shard.index
                               ? (result.chunks - config.shard.index + config.shard.count - 1) / config.shard.count
                               : 0;
-    result.spec_hash = sweep_cache_key(spec, config).hash();
-
-    const fs::path dir(config.out_dir);
-    fs::create_directories(dir / "chunks");
-    const std::string manifest_path = (dir / manifest_name(config.shard)).string();
-
-    // Every manifest in the directory must describe this sweep: chunk files are shared by name.
-    std::set<std::uint64_t> finished;
-    json digests = json::object();  // chunk id (text) -> {rows, fnv1a64}, recorded as chunks are written
-    bool complete_before = false;
-    for (const auto& entry : fs::directory_iterator(dir)) {
-        const std::string name = entry.path().filename().string();
-        if (name.rfind("manifest", 0) != 0 || entry.path().extension() != ".json") continue;
-        const json m = read_json(entry.path().string());
-        if (m.value("spec_hash", "") != result.spec_hash) {
-            if (!config.restart)
-                throw std::invalid_argument(entry.path().string() +
-                                            ": this directory holds a different sweep (spec, method, sampling, backend or comparator "
-                                            "files changed); use another --out, or --restart to discard it");
-            continue;
-        }
-        if (entry.path().string() == manifest_path) {
-            complete_before = m.value("complete", false);
-            for (std::uint64_t c : m.at("finished")) finished.insert(c);
-            if (m.contains("digests") && m["digests"].is_object()) digests = m["digests"];
-        }
-    }
-    if (config.restart) {
-        // Everything the old sweep wrote goes: a new spec's manifest beside the old sweep.csv, summary
-        // and provenance would describe two different sweeps in one directory.
-        for (const auto& entry : fs::directory_iterator(dir / "chunks"))
-            if (entry.is_regular_file()) fs::remove(entry.path());
-        for (const auto& entry : fs::directory_iterator(dir)) {
-            const std::string name = entry.path().filename().string();
-            if (name.rfind("manifest", 0) == 0 || name == "sweep.csv" || name == "sweep.json" || name == "summary.md" ||
-                name == "summary.csv")
-                fs::remove(entry.path());
-        }
-        fs::remove_all(dir / "figures");
-        finished.clear();
-        digests = json::object();
-        complete_before = false;
-    }
-
-    json manifest = {{"format", kManifestFormat},
-                     {"spec_hash", result.spec_hash},
-                     {"spec", spec.source},
-                     {"name", spec.name},
-                     {"canonical_spec", canonical_text(spec)},
-                     {"header", csv_header(spec)},
-                     {"points", result.points},
-                     {"chunk_size", spec.chunk_size},
-                     {"chunks", result.chunks},
-                     {"shard", {{"index", config.shard.index}, {"count", config.shard.count}}},
-                     {"sampling", sampling_provenance(config.plan)},
-                     {"backend", config.backend->scheduler().results_label()},
-                     {"fast_math", config.backend->config().build.fast_math},
-                     {"double_kernels", config.backend->config().build.double_precision},
-                     {"command_line", config.command_line},
-                     {"comparator_files", computer.file_provenance()},
-                     {"complete", false},
-                     {"finished", json::array()}};
-    auto save_manifest = [&](bool complete) {
-        manifest["finished"] = json(std::vector<std::uint64_t>(finished.begin(), finished.end()));
-        manifest["digests"] = digests;
-        manifest["complete"] = complete;
-        write_json(manifest_path, manifest);
-    };
-
-    const bool unsharded = config.shard.count == 1;
-    const std::string csv_path = (dir / "sweep.csv").string();
-    // (Under MPI rank 0 still runs the exchange, with nothing to hand out, so the other ranks stop.)
-    if (unsharded && complete_before && fs::exists(csv_path) && !config.transport) {
-        result.skipped = result.chunks;
-        result.complete = result.assembled = true;
-        return result;
-    }
-
-    // Chunks are the term integrand's work items: the scheduler deals the unfinished ones of this shard
-    // to the places; each worker writes its chunk file (atomically, in the chunk store) as soon as the
-    // chunk is computed, and the manifest names it only once it is synced, a group at a time
-    // (schedule/chunk_store.hpp), so a kill costs at most recomputing one group of chunks.
-    // Every chunk the manifest lists is checked before it is trusted: a damaged one is set aside (kept in
-    // chunks/rejected/ as evidence), named in the result's warnings, and computed again.
-    schedule::CommitPolicy commit_policy;
-    commit_policy.automatic = false;  // synced where the manifest records them (on_done)
-    schedule::ChunkFiles files(chunk_layout(config.out_dir), commit_policy);
+    const std::uint64_t chunk_size = spec.chunk_size;
+    auto chunk_end = [&](std::uint64_t c) { return std::min(result.points, (c + 1) * chunk_size); };
     const std::string header = csv_header(spec);
     const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
-    for (auto it = finished.begin(); it != finished.end();) {
-        const std::uint64_t c = *it;
-        const std::string key = std::to_string(c);
-        const json* recorded = digests.contains(key) ? &digests[key] : nullptr;
-        const std::string path = files.path(c);
-        const std::string problem = c >= result.chunks ? "" : check_chunk(files, c, c * chunk_size, chunk_end(c), fields, recorded);
-        if (problem.empty()) {
-            ++it;
-            continue;
-        }
-        result.warnings.push_back(problem.rfind("missing", 0) == 0 ? path + ": listed as finished but " + problem.substr(9) +
-                                                                         "; computed again"
-                                                                   : problem + "; computed again");
-        if (config.warn) config.warn(result.warnings.back());
-        digests.erase(key);
-        it = finished.erase(it);
+    const auto check = [&](std::uint64_t c, const std::string& rows) -> std::string {
+        if (c >= result.chunks) return "index: chunk " + std::to_string(c) + " is not a chunk of this sweep";
+        return check_chunk_rows(rows, c * chunk_size, chunk_end(c), fields);
+    };
+
+    // Chunks are the term integrand's work items (one per chunk either way: the exact integrand has the
+    // sampled one's source/sink contract); the sink turns a computed chunk's estimates into its rows.
+    SweepChunks chunks(check);
+    auto chunk_queries = [&](std::uint64_t c) { return computer.queries(c * chunk_size, chunk_end(c)); };
+    auto sink = [&](std::uint64_t c, std::vector<Estimate>&& est) { chunks.put(c, computer.rows(c * chunk_size, chunk_end(c), est)); };
+    if (config.plan.method == Method::exact) {
+        exact_term::ExactConfig exact;
+        exact.tolerance = checked_tolerance(config.plan);
+        exact.build = config.backend->config().build;
+        exact.force_float = config.plan.single_precision;
+        exact.kernel_on_cpu_devices = config.plan.kernel_on_cpu_devices;
+        chunks.set_term(std::make_unique<exact_term::ExactTermIntegrand>(result.chunks, chunk_queries, sink, exact));
+    } else {
+        chunks.set_term(std::make_unique<term::TermIntegrand>(result.chunks, chunk_queries, sink, config.plan, config.backend->config()));
     }
-    std::uint64_t found = 0;
-    for (std::uint64_t c = config.shard.index; c < result.chunks; c += config.shard.count) found += finished.count(c);
-    result.skipped = found;
-    auto chunk_done = [&](std::uint64_t c) { return finished.count(c) > 0; };
-    std::mutex digest_mutex;
-    std::map<std::uint64_t, json> fresh;  // digests of chunks written in this run, until on_done records them
-    auto store_rows = [&](std::uint64_t c, const std::string& rows) {
-        const schedule::ItemDigest d = files.write(c, rows);
-        std::lock_guard<std::mutex> lock(digest_mutex);
-        fresh[c] = digest_json(d);
+
+    // Only rank 0 of an MPI world keeps the store (the other ranks compute and touch no file).
+    const bool rank0 = !config.transport || config.transport->coordinator();
+    const double tolerance = checked_tolerance(config.plan);
+    json description;
+    schedule::StoreKey key{"sweep", "", result.chunks};
+    auto warn = [&](const std::string& w) {
+        result.warnings.push_back(w);
+        if (config.warn) config.warn(w);
     };
-    auto write_chunk = [&](std::uint64_t c, std::vector<Estimate>&& est) {
-        store_rows(c, computer.rows(c * chunk_size, chunk_end(c), est));
-    };
-    std::unique_ptr<schedule::Integrand> integrand = make_integrand(write_chunk);
-    schedule::WorkSelection selection;
-    selection.shard_index = config.shard.index;
-    selection.shard_count = config.shard.count;
-    selection.already_done = chunk_done;
-    selection.max_items = config.max_chunks;
-    schedule::RunCallbacks callbacks;
-    callbacks.on_done = [&](std::uint64_t c) {
-        {
-            std::lock_guard<std::mutex> lock(digest_mutex);
-            digests[std::to_string(c)] = fresh.at(c);
-            fresh.erase(c);
-        }
-        finished.insert(c);
-        // The manifest is rewritten when a group of chunks is synced, not after every chunk: it grows
-        // with the chunk count, and rewriting it per chunk made a long sweep quadratic.
-        if (files.commit_if_due()) save_manifest(false);
-        ++result.computed;
-    };
-    if (config.progress)
-        callbacks.progress = [&](std::uint64_t done, std::uint64_t) { config.progress(found + done, result.shard_chunks); };
-    // The manifest of this run from the start (the chunks found sound), so a run stopped before its
-    // first group still names what it kept; and on the way out of a stopped run, every chunk finished.
-    save_manifest(false);
-    try {
-        if (config.transport) {
-            // Rank 0 of an MPI world: the other ranks compute the unfinished chunks; each one that comes
-            // back is written and recorded exactly as a local place's would be.
-            std::deque<std::uint64_t> pending;
-            for (std::uint64_t c = 0; c < result.chunks; ++c)
-                if (!chunk_done(c)) pending.push_back(c);
-            config.transport->coordinate(
-                std::move(pending),
-                [&](std::uint64_t c, const std::string& rows) {
-                    if (c >= result.chunks) throw std::runtime_error("chunk " + std::to_string(c) + " is not a chunk of this sweep");
-                    // The rows must be the chunk's points in the sweep's fields before they are trusted.
-                    const std::string problem = check_chunk_text(rows, c * chunk_size, chunk_end(c), fields);
-                    if (!problem.empty()) throw std::runtime_error("chunk " + std::to_string(c) + " as received: " + problem);
-                    store_rows(c, rows);
-                    callbacks.on_done(c);
-                },
-                [&](std::uint64_t done, std::uint64_t) {
-                    if (config.progress) config.progress(found + done, result.shard_chunks);
-                });
+    if (rank0) {
+        result.spec_hash = key.spec_hash = sweep_cache_key(spec, config).hash();
+        const fs::path dir(config.out_dir);
+        if (config.restart) {
+            discard_previous_sweep(dir);
         } else {
-            config.backend->scheduler().run(*integrand, selection, callbacks);
+            // A folder of the format before the item store: its sound chunks become items.
+            upgrade_old_sweep_folder(config.out_dir, result.spec_hash, warn);
+            std::error_code ec;
+            if (fs::exists(dir / kSweepDescriptionFile, ec) && read_sweep_description(config.out_dir)["spec_hash"] != result.spec_hash)
+                throw std::invalid_argument((dir / kSweepDescriptionFile).string() +
+                                            ": this directory holds a different sweep (spec, method, sampling, backend or comparator "
+                                            "files changed); use another --out, or --restart to discard it");
         }
-    } catch (...) {
-        try {
-            files.commit();
-            save_manifest(false);
-        } catch (const std::exception&) {
-            // The first error is the one to report; the chunks not recorded are computed again.
+        description = {{"format", kSweepDescriptionFormat},
+                       {"spec_hash", result.spec_hash},
+                       {"spec", spec.source},
+                       {"name", spec.name},
+                       {"canonical_spec", canonical_text(spec)},
+                       {"header", header},
+                       {"points", result.points},
+                       {"chunk_size", spec.chunk_size},
+                       {"chunks", result.chunks},
+                       {"sampling", sampling_provenance(config.plan)},
+                       {"tolerance", tolerance},
+                       {"backend", config.backend->scheduler().results_label()},
+                       {"fast_math", config.backend->config().build.fast_math},
+                       {"double_kernels", config.backend->config().build.double_precision},
+                       {"command_line", config.command_line},
+                       {"comparator_files", computer.file_provenance()}};
+    }
+    // The shared item store in the output folder, for this shard (schedule/distributed.hpp): it refuses a
+    // folder of another sweep (spec, method, sampling, backend or comparator files) or of another split.
+    schedule::DistributionRequest request;
+    request.shard = config.shard;
+    request.shard_given = config.shard.count > 1;
+    request.store = config.out_dir;
+    request.transport = config.transport;
+    schedule::Distribution distribution(request, key, config.out_dir, [&](const std::string& w) { warn(w + "; computed again"); });
+    const schedule::ItemStore* store = distribution.store();
+    if (store) {
+        // (Under MPI rank 0 still runs the exchange, with nothing to hand out, so the other ranks stop.)
+        if (config.shard.count == 1 && !config.transport && store->unfinished_shards().empty() &&
+            fs::exists(fs::path(config.out_dir) / "sweep.csv")) {
+            result.skipped = result.chunks;
+            result.complete = result.assembled = true;
+            // A finished sweep asked again still says whether its values met the tolerance.
+            const std::string csv = (fs::path(config.out_dir) / "sweep.csv").string();
+            std::ifstream in(csv, std::ios::binary);
+            result.tolerance = summarise(in, csv, tolerance).tolerance;
+            return result;
         }
+        write_sweep_description(config.out_dir, description);
+    }
+
+    schedule::ItemPlan plan = distribution.plan();
+    plan.max_items = config.max_chunks;
+    schedule::RunCallbacks callbacks;
+    if (config.progress)
+        callbacks.progress = [&](std::uint64_t done, std::uint64_t) { config.progress(std::min(done, result.shard_chunks), result.shard_chunks); };
+    const schedule::ItemRunReport report = schedule::run_items(config.backend->scheduler(), chunks, plan, callbacks);
+    result.computed = report.run.done;
+    result.skipped = report.loaded;
+    if (!store) return result;  // a computing rank: rank 0 reports and writes
+    // An MPI world's rank 0 records its finished store as a single process's run would.
+    if (config.transport) store->write_manifest(true, sweep_places(config.backend->scheduler()), report.rerun);
+    result.complete = report.shard_complete;
+    if (!result.complete || config.shard.count > 1) return result;
+
+    json provenance = description;
+    provenance["complete"] = true;
+    try {
+        const Summary s = assemble(config.out_dir, header, result.chunks, store_chunks(*store, check),
+                                   "sweep.csv was not written: rerun the same command to compute it again", tolerance, provenance);
+        result.tolerance = s.tolerance;
+    } catch (const std::invalid_argument&) {
+        // A chunk found damaged was set aside: the store is no longer complete, and the rerun computes it.
+        store->write_manifest(false, sweep_places(config.backend->scheduler()), report.rerun);
         throw;
     }
-    files.commit();
-    std::uint64_t mine = 0;
-    for (std::uint64_t c : finished) mine += (c % config.shard.count == config.shard.index && c < result.chunks);
-    result.complete = mine == result.shard_chunks;
-    if (!result.complete) {
-        save_manifest(false);
-        return result;
-    }
-    save_manifest(!unsharded);
-    if (unsharded) {
-        json prov = manifest;
-        prov.erase("finished");
-        prov.erase("digests");
-        prov["complete"] = true;
-        auto check = [&](std::uint64_t c) -> std::string {
-            const std::string key = std::to_string(c);
-            const std::string problem = check_chunk(files, c, c * chunk_size, chunk_end(c), fields,
-                                                    digests.contains(key) ? &digests[key] : nullptr);
-            if (problem.empty()) return "";
-            // Forget it, so the next run computes it again.
-            finished.erase(c);
-            digests.erase(key);
-            save_manifest(false);
-            return (problem.rfind("missing", 0) == 0 ? files.path(c) + ": " + problem : problem) +
-                   "; sweep.csv was not written: rerun the same command to compute it again";
-        };
-        assemble(config.out_dir, csv_header(spec), result.chunks, [&](std::uint64_t c) { return files.path(c); }, check, prov);
-        save_manifest(true);
-        // The chunk files stay: they are the evidence sweep.csv was assembled from, checked against the
-        // digests in the manifest (sweep --restart or removing the directory frees the space).
-        result.assembled = true;
-    }
+    // The items stay: they are the evidence sweep.csv was assembled from (sweep --restart or removing the
+    // directory frees the space).
+    result.assembled = true;
     return result;
 }
 
-void merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir,
-                  const std::string& command_line) {
-    struct Found {
-        std::string dir;
-        json manifest;
-    };
-    std::map<std::uint32_t, Found> shards;
-    std::string hash;
-    std::uint32_t count = 0;
+MergeResult merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir, const std::string& command_line,
+                         const std::string& expected_spec_hash, const std::function<void(const std::string&)>& warn) {
+    if (shard_dirs.empty()) throw std::invalid_argument("merge: no sweep folders given");
+    // Folders of the format before the item store are upgraded first (their chunks become items).
+    json description;
     for (const auto& d : shard_dirs) {
-        if (!fs::is_directory(d)) throw std::invalid_argument(d + ": not a directory");
-        for (const auto& entry : fs::directory_iterator(d)) {
-            const std::string name = entry.path().filename().string();
-            if (name.rfind("manifest.shard-", 0) != 0 || entry.path().extension() != ".json") continue;
-            json m = read_json(entry.path().string());
-            const std::string format = m.value("format", "");
-            if (format != kManifestFormat && format != "microshadow-sweep-manifest/1")
-                throw std::invalid_argument(entry.path().string() + ": not a sweep manifest");
-            for (const char* key : {"shard", "chunks", "header", "points", "chunk_size"})
-                if (!m.contains(key)) throw std::invalid_argument(entry.path().string() + ": a shard manifest without " + key);
-            const std::uint32_t i = m.at("shard").at("index"), n = m.at("shard").at("count");
-            if (hash.empty()) {
-                hash = m.at("spec_hash");
-                count = n;
-            }
-            if (m.at("spec_hash") != hash)
-                throw std::invalid_argument(entry.path().string() + ": shard of a different sweep (spec hash " +
-                                            m.at("spec_hash").get<std::string>() + ", the first shard's is " + hash + ")");
-            if (n != count)
-                throw std::invalid_argument(entry.path().string() + ": the sweep was split into " + std::to_string(n) +
-                                            " shards here but into " + std::to_string(count) + " in the first shard found");
-            if (!m.value("complete", false))
-                throw std::invalid_argument(entry.path().string() + ": shard " + std::to_string(i) + "/" +
-                                            std::to_string(n) + " is not finished; rerun it first");
-            if (shards.count(i) && fs::equivalent(shards[i].dir, d) == false)
-                throw std::invalid_argument("shard " + std::to_string(i) + "/" + std::to_string(n) + " found twice: in " +
-                                            shards[i].dir + " and " + d);
-            shards[i] = {d, m};
-        }
+        std::error_code ec;
+        if (!fs::is_directory(d, ec)) throw std::invalid_argument(d + ": not a directory");
+        upgrade_old_sweep_folder(d, expected_spec_hash, warn);
+        const json found = read_sweep_description(d);
+        if (!expected_spec_hash.empty() && found["spec_hash"] != expected_spec_hash)
+            throw std::invalid_argument(d + ": holds another sweep (spec hash " + found["spec_hash"].get<std::string>() +
+                                        ", this one's is " + expected_spec_hash + "); merge the folder its shards ran in");
+        if (description.is_null()) description = found;
+        else if (found["spec_hash"] != description["spec_hash"])
+            throw std::invalid_argument(d + ": shards of a different sweep (spec hash " + found["spec_hash"].get<std::string>() +
+                                        ", the first folder's is " + description["spec_hash"].get<std::string>() + ")");
     }
-    if (shards.empty()) throw std::invalid_argument("merge: no shard manifests (manifest.shard-I-of-N.json) found");
-    for (std::uint32_t i = 0; i < count; ++i)
-        if (!shards.count(i))
-            throw std::invalid_argument("merge: shard " + std::to_string(i) + "/" + std::to_string(count) + " is missing");
-    const json& first = shards.begin()->second.manifest;
-    const std::uint64_t chunks = first.at("chunks");
-    json prov = first;
-    prov.erase("finished");
-    prov.erase("shard");
-    prov["merged_from"] = shard_dirs;
-    prov["command_line"] = command_line;
-    prov["complete"] = true;
-    prov.erase("digests");
-    const std::string header = first.at("header");
+    const schedule::StoreKey key = sweep_store_key(description);
+    const std::string header = description["header"];
     const std::size_t fields = std::size_t(std::count(header.begin(), header.end(), ',')) + 1;
-    const std::uint64_t points = first.at("points"), chunk_size = first.at("chunk_size");
-    // Each shard's chunks as its own chunk store holds them.
-    std::map<std::uint32_t, std::unique_ptr<schedule::ChunkFiles>> files;
-    for (const auto& [i, shard] : shards) files[i] = std::make_unique<schedule::ChunkFiles>(chunk_layout(shard.dir));
-    auto check = [&](std::uint64_t c) -> std::string {
-        const std::uint32_t i = std::uint32_t(c % count);
-        const Found& shard = shards.at(i);
-        const std::string key = std::to_string(c);
-        const json* recorded =
-            shard.manifest.contains("digests") && shard.manifest["digests"].contains(key) ? &shard.manifest["digests"][key] : nullptr;
-        const std::string path = files.at(i)->path(c);
-        const std::string problem = check_chunk(*files.at(i), c, c * chunk_size, std::min(points, (c + 1) * chunk_size), fields, recorded);
-        if (problem.empty()) return "";
-        return (problem.rfind("missing", 0) == 0 ? path + ": " + problem : problem) + "; rerun shard " +
-               std::to_string(c % count) + "/" + std::to_string(count) + " in " + shard.dir +
-               " (it computes the chunk again), then merge";
+    const std::uint64_t points = description["points"], chunk_size = description["chunk_size"];
+    const auto check = [&](std::uint64_t c, const std::string& rows) -> std::string {
+        if (c >= key.items) return "index: chunk " + std::to_string(c) + " is not a chunk of this sweep";
+        return check_chunk_rows(rows, c * chunk_size, std::min(points, (c + 1) * chunk_size), fields);
     };
-    // A merge refused for a damaged chunk writes nothing: not even the output folder it created.
+    // A merge refused writes nothing: not even the output folder it created.
     std::error_code ec;
-    const bool created = !fs::exists(out_dir, ec) && fs::create_directories(out_dir);
+    const bool created = !fs::exists(out_dir, ec);
     try {
-        assemble(out_dir, header, chunks, [&](std::uint64_t c) { return files.at(std::uint32_t(c % count))->path(c); }, check, prov);
+        fs::create_directories(out_dir);
+        // Shards run in separate folders are gathered into the output folder's store first (each shard's
+        // items from the folder whose manifest says it finished), so that one store holds the whole sweep.
+        std::string store_dir = shard_dirs.front();
+        if (shard_dirs.size() > 1) {
+            store_dir = out_dir;
+            std::map<std::uint32_t, std::string> owner;
+            std::uint32_t count = 0;
+            std::vector<schedule::ItemStore> sources;
+            for (const auto& d : shard_dirs) {
+                sources.push_back(schedule::ItemStore::open_for_merge(d, key, {}, warn));
+                const std::uint32_t n = sources.back().merge_shard_count();
+                if (count && n != count)
+                    throw std::invalid_argument(d + ": the sweep was split into " + std::to_string(n) + " shards here but into " +
+                                                std::to_string(count) + " in " + shard_dirs.front());
+                count = n;
+                const auto unfinished = sources.back().unfinished_shards();
+                for (std::uint32_t i = 0; i < n; ++i) {
+                    if (std::find(unfinished.begin(), unfinished.end(), i) != unfinished.end()) continue;
+                    if (owner.count(i) && !fs::equivalent(owner[i], d))
+                        throw std::invalid_argument("shard " + std::to_string(i) + "/" + std::to_string(n) + " found twice: in " +
+                                                    owner[i] + " and " + d);
+                    owner[i] = d;
+                }
+            }
+            for (std::uint32_t i = 0; i < count; ++i)
+                if (!owner.count(i))
+                    throw std::invalid_argument("merge: shard " + std::to_string(i) + "/" + std::to_string(count) +
+                                                " is missing or unfinished in every folder given; run it first");
+            for (std::size_t k = 0; k < sources.size(); ++k) {
+                if (fs::equivalent(shard_dirs[k], out_dir, ec)) continue;
+                for (std::uint32_t i = 0; i < count; ++i) {
+                    if (owner[i] != shard_dirs[k]) continue;
+                    const schedule::ItemStore gathered(out_dir, key, {i, count}, schedule::CommitPolicy{}, {}, warn);
+                    for (std::uint64_t c = i; c < key.items; c += count) {
+                        std::string warning;
+                        const auto rows = sources[k].load(c, &warning, [&](const std::string& p) { return check(c, p); });
+                        if (!rows) {  // damaged (set aside, and said) or missing: the merge below names its shard
+                            if (warn && !warning.empty()) warn(warning);
+                            continue;
+                        }
+                        gathered.save(c, *rows);
+                    }
+                    gathered.write_manifest(true, sources[k].recorded_devices(), 0);
+                }
+            }
+            write_sweep_description(out_dir, description);
+        }
+        // The shared merge (schedule/distributed.hpp): every chunk in the store and sound, or the shards
+        // to rerun are named (a damaged chunk is set aside, so the rerun computes it).
+        const schedule::ItemStore store = schedule::ItemStore::open_for_merge(store_dir, key, {}, warn);
+        schedule::ItemPlan plan;
+        plan.store = &store;
+        plan.merge_only = true;
+        plan.warn = warn;
+        schedule::ItemJob job;
+        job.name = "sweep";
+        job.items = key.items;
+        job.accept = [](std::uint64_t, const std::string&) {};  // assembled from the store below
+        job.check = check;
+        schedule::run_item_job(job, plan, {});
+        json provenance = description;
+        provenance["merged_from"] = shard_dirs;
+        provenance["command_line"] = command_line;
+        provenance["complete"] = true;
+        MergeResult result;
+        result.spec_hash = key.spec_hash;
+        result.points = points;
+        result.chunks = key.items;
+        const Summary s = assemble(out_dir, header, key.items, store_chunks(store, check),
+                                   "rerun its shard (it computes the chunk again), then merge", description["tolerance"], provenance);
+        result.tolerance = s.tolerance;
+        return result;
     } catch (...) {
-        if (created) fs::remove(out_dir, ec);  // only when empty: what assemble wrote is its own to keep or not
+        if (created) fs::remove_all(out_dir, ec);
         throw;
     }
 }
 
-Summary summarise(std::istream& csv, const std::string& name) {
+Summary summarise(std::istream& csv, const std::string& name, double tolerance) {
     std::string line;
     if (!std::getline(csv, line)) throw std::runtime_error(name + ": empty sweep CSV");
     const auto header = split(line);
@@ -779,6 +601,7 @@ Summary summarise(std::istream& csv, const std::string& name) {
     };
     const std::size_t term = column("term"), se = column("std_error"), rough = column("roughness");
     Summary s;
+    s.tolerance.tolerance = tolerance;
     s.comparators.assign(header.begin() + se + 1, header.end());
     s.errors = GroupedErrorStats(s.comparators.size(), 1);
     std::size_t line_no = 1;
@@ -790,7 +613,9 @@ Summary summarise(std::istream& csv, const std::string& name) {
             throw std::runtime_error(name + ":" + std::to_string(line_no) + ": " + std::to_string(f.size()) +
                                      " fields, the header has " + std::to_string(header.size()));
         const double t = std::stod(f[term]);
-        s.max_std_error = std::max(s.max_std_error, std::stod(f[se]));
+        const double std_error = std::stod(f[se]);
+        s.max_std_error = std::max(s.max_std_error, std_error);
+        s.tolerance.add(std_error);
         const double roughness = std::stod(f[rough]);
         auto group = s.roughness_groups.find(roughness);
         if (group == s.roughness_groups.end()) group = s.roughness_groups.emplace(roughness, s.errors.add_group()).first;
@@ -812,7 +637,8 @@ std::string fmt(double v) {
 std::string summary_markdown(const Summary& s) {
     std::ostringstream o;
     o << "Error of each comparator against the generic term (comparator - term), " << s.points
-      << " points; max std error of the term " << fmt(s.max_std_error) << ".\n\n"
+      << " points; max std error of the term " << fmt(s.max_std_error)
+      << (s.tolerance.tolerance > 0 ? " " + s.tolerance.summary() : std::string()) << ".\n\n"
       << "| comparator | roughness | points | max abs | mean abs | RMS | bias |\n"
       << "|---|---|---|---|---|---|---|\n";
     for (std::size_t k = 0; k < s.comparators.size(); ++k) {

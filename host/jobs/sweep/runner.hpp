@@ -1,15 +1,19 @@
 // Running a sweep: chunked streaming to disk, resume, shards and merge, and the summary table.
 //
-// Output directory layout:
-//   chunks/chunk-XXXXXXXX.csv   finished chunks (CSV rows without header), each written atomically; kept
-//                               after assembly as the evidence sweep.csv was built from
-//   chunks/rejected/            chunks found damaged (wrong digest, rows, point indices or fields), set
-//                               aside and never read again; the run computes them anew
-//   manifest.json               (or manifest.shard-I-of-N.json) spec hash, sampling, finished chunks and
-//                               each one's row count and FNV-1a digest; rewritten atomically after every chunk
-//   sweep.csv                   every point, assembled from the chunks once all are finished
-//   sweep.json                  provenance (command line, spec, sampling, backend)
-//   summary.csv, summary.md     each comparator's error against the generic term
+// Output directory layout: the shared item store of every resumable job (schedule/chunk_store.hpp),
+// chunk c of the sweep its item c (jobs/sweep/store.hpp):
+//   items/item-XXXXXXXXXX.bin    finished chunks (their CSV rows, without header, sealed with the sweep's
+//                                spec hash and digest), each written atomically; kept after assembly as the
+//                                evidence sweep.csv was built from
+//   items/rejected/              chunks found damaged (wrong seal, rows, point indices, fields or values),
+//                                set aside and never read again; the run computes them anew
+//   manifest.shard-I-of-N.json   the store's record of each shard (spec hash, chunk count, finished or not)
+//   sweep-spec.json              what the chunks are: the spec, the CSV header, the counts, the sampling
+//   sweep.csv                    every point, assembled from the chunks once all are finished
+//   sweep.json                   provenance (command line, spec, sampling, backend, tolerance met)
+//   summary.csv, summary.md      each comparator's error against the generic term
+// Every shard writes into the same folder; `merge` (or sweep --merge) assembles it. Folders of the
+// format before the item store are upgraded in place when read (jobs/sweep/store.hpp).
 //
 // Determinism: every point is evaluated with the same randomised point set (the plan's seed), so a
 // point's value depends only on its parameters, the plan and the backend; never on the chunk it
@@ -27,6 +31,7 @@
 #include "core/error_stats.hpp"
 #include "core/types.hpp"
 #include "jobs/eval.hpp"
+#include "jobs/tolerance_check.hpp"
 #include "jobs/sweep/spec.hpp"
 #include "schedule/cache_key.hpp"
 #include "schedule/distributed.hpp"
@@ -68,6 +73,7 @@ struct RunResult {
     bool assembled = false;                        // sweep.csv written (unsharded runs)
     std::string spec_hash;
     std::vector<std::string> warnings;             // chunks found damaged, set aside and computed again
+    ToleranceCheck tolerance;                      // of the assembled points' estimated errors (assembled runs)
 };
 
 // The CSV header of a sweep's output.
@@ -89,11 +95,21 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config);
 schedule::CacheKey sweep_cache_key(const Spec& spec, const RunConfig& config);
 const std::vector<std::string>& sweep_cache_key_exclusions();
 
-// Merges the shard outputs (directories holding manifest.shard-I-of-N.json files and their chunks)
-// into out_dir/sweep.csv plus summary; byte-identical to an unsharded run. Throws std::invalid_argument
-// when shards are missing, duplicated, unfinished or of different sweeps.
-void merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir,
-                  const std::string& command_line);
+struct MergeResult {
+    std::string spec_hash;
+    std::uint64_t points = 0, chunks = 0;
+    ToleranceCheck tolerance;  // of the merged points' estimated errors
+};
+
+// Assembles the sweep whose shards ran into `shard_dirs` (one folder every shard shared, or one folder a
+// shard; old-format folders are upgraded first) into out_dir/sweep.csv plus summary, byte-identical to an
+// unsharded run, through the shared item store's merge: `microshadow merge` and `sweep --merge` both call
+// it. Several folders are gathered into out_dir's own store first (their sound chunks copied there).
+// expected_spec_hash (sweep --merge): the folders must hold that sweep. Throws std::invalid_argument when
+// shards are missing, duplicated, unfinished, damaged or of different sweeps: then no output is written
+// (and an out_dir the merge created is removed).
+MergeResult merge_shards(const std::vector<std::string>& shard_dirs, const std::string& out_dir, const std::string& command_line,
+                         const std::string& expected_spec_hash = "", const std::function<void(const std::string&)>& warn = {});
 
 // Each comparator's error against the generic term (comparator - term), unweighted: count, max |e|,
 // mean |e|, RMS and bias (core/error_stats.hpp), over all points and per roughness.
@@ -103,10 +119,12 @@ struct Summary {
     std::map<double, std::size_t> roughness_groups;  // roughness -> its group, ascending
     double max_std_error = 0;
     std::uint64_t points = 0;
+    ToleranceCheck tolerance;  // each point's std_error against the tolerance (none: 0)
 };
 
-// Streams a sweep CSV (header + rows) into the summary; bounded memory.
-Summary summarise(std::istream& csv, const std::string& name);
+// Streams a sweep CSV (header + rows) into the summary; bounded memory. tolerance > 0: each point's
+// estimated error is held to it (Summary::tolerance).
+Summary summarise(std::istream& csv, const std::string& name, double tolerance = 0);
 // Markdown table (stdout, summary.md) and CSV (summary.csv) forms.
 std::string summary_markdown(const Summary& s);
 std::string summary_csv(const Summary& s);

@@ -90,6 +90,8 @@ set(microshadow_cli_tests
   "^Reliability\\.StaleTemporariesOfAKilledRunAreRemoved$"
   "^Reliability\\.SymlinkedOutputReplacesTheTargetAndKeepsTheLink$"
   "^ReprCliTest\\."
+  "^StatusCli\\."
+  "^LibraryFaultInjection\\."
   "^ReprExportCliTest\\."
   "^ReprSweepTest\\."
   "^Resilience\\."

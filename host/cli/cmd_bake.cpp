@@ -165,7 +165,7 @@ void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
         progress->update(done, total);
     };
     callbacks.warn = [quiet](const std::string& w) {
-        if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "; computed again\n";
+        if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "\n";
     };
     const SceneBakeJobResult r = run_scene_bake_job(job, callbacks);
     if (progress) progress->finish();
@@ -199,7 +199,7 @@ ToleranceCheck run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld
     BakeJobCallbacks callbacks;
     callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
     callbacks.warn = [quiet](const std::string& w) {
-        if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
+        if (!quiet) std::cerr << "\nbake: warning: " << w << "\n";
     };
     const BakeJobResult r = [&] {
         struct Finish {

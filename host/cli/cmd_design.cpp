@@ -194,11 +194,10 @@ void run_design(DesignArgs args, MpiWorld* world) {
                   << (baked.empty() ? std::string() : " and chosen-" + chosen + ".*") << "\n";
     if (args.plot) {
         const fs::path dir = fs::absolute(args.out).lexically_normal();
-        std::vector<std::string> command = python_command();
-        command.insert(command.end(), {find_plot_script("plot_pareto.py"), (dir / "pareto.csv").string(), "--out",
-                                       (dir / "pareto.png").string(), "--title",
-                                       "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"});
-        run_plotter(command, "the tables are written");
+        run_plot_script("plot_pareto.py",
+                        {(dir / "pareto.csv").string(), "--out", (dir / "pareto.png").string(), "--title",
+                         "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"},
+                        "the tables are written");
     }
 }
 

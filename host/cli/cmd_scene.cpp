@@ -75,7 +75,7 @@ void run_scene_command(const SceneArgs& args, MpiWorld* world) {
     const schedule::Distribution distribution(
         request, keeps_items ? scene::scene_store_key(inputs, options, *backend) : schedule::StoreKey{},
         (std::filesystem::path(args.out) / "chunks").string(), [quiet = args.quiet](const std::string& w) {
-            if (!quiet) std::cerr << "\nscene: warning: " << w << "; computed again\n";
+            if (!quiet) std::cerr << "\nscene: warning: " << w << "\n";
         });
     options.items = &distribution.plan();
     const scene::SceneResult result = scene::run_scene(inputs, *backend, options);

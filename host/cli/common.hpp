@@ -135,6 +135,10 @@ private:
 // tolerance asked of it (docs/cli.md): distinct from 1 (failed) and 2 (bad input), so a script can tell
 // "computed, but less accurate than asked" from both.
 constexpr int kExitToleranceNotMet = 3;
+// The exit status of a run that wrote its outputs but whose --plot step failed: the plotter exited with
+// an error or was killed, or no plotter or Python was found (the message says which, and the plotter's
+// own status). Its own number, so that a plotter's status can never read as another of ours (3).
+constexpr int kExitPlotFailed = 4;
 
 // --allow-tolerance-miss, for a command that checks its values against a tolerance.
 void add_tolerance_miss_option(CLI::App* app, bool& allow);

@@ -133,7 +133,7 @@ void run_design(DesignArgs args, MpiWorld* world) {
     spec.choose = args.choose;
     spec.analytic = !args.no_analytic;
     spec.strict_domain = args.strict_domain;
-    spec.backend_label = args.sampling.backend;
+    spec.backend_label = args.sampling.backend_spec().kind_name();
     spec.build = args.sampling.build_config();
     spec.command_line = command_line();
     spec.check_sampling = check_sampling_size;

@@ -36,9 +36,7 @@ void run_scene_command(const SceneArgs& args, MpiWorld* world) {
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
     OpenClBackendConfig config;
     config.build.fast_math = args.fast_math;
-    const std::unique_ptr<TermBackend> backend = make_term_backend(
-        args.backend == "oracle" ? schedule::BackendSpec::oracle() : schedule::BackendSpec::opencl(args.device), config);
-    backend->scheduler().set_fault_injection(fault_injection_from_environment());
+    const std::unique_ptr<TermBackend> backend = make_term_backend(backend_spec(args.backend, args.device), config);
 
     scene::SceneRunOptions options;
     options.skip = !args.no_skip;

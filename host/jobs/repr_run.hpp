@@ -58,7 +58,7 @@ struct ReprBakeJobSpec {
 };
 
 struct ReprBakeJobCallbacks : JobCallbacks {
-    std::function<void(const std::string&)> warn;  // a stored item that was computed again
+    std::function<void(const std::string&)> warn;  // a stored item set aside (the message says what follows)
 };
 
 struct ReprBakeJobResult {

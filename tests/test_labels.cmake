@@ -112,6 +112,7 @@ set(microshadow_cli_tests
   "^ExactJobsTest\\.(SweepCommand|ReprBakeCommand|BakeCommand)")
 set(microshadow_slow_tests
   "^SceneRender\\."
+  "^StatusCli\\.AReprBakeLessAccurateThanAskedIsFlaggedWithExitStatus3$"
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"

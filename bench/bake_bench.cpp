@@ -96,11 +96,11 @@ BakeBenchResult run_bake(const Options& opt, const std::vector<RefEntry>& refere
     BakeBenchResult out;
     out.available = true;
     BakeSpec base = default_bake_spec(LutLayout::seed_3d, size);
-    base.device = opt.device;
+    base.backend.device = opt.device;
     base.command_line = "microshadow_bench (bake benchmark)";
     {
         BakeSpec warm = default_bake_spec(LutLayout::seed_3d, 2);  // compiles the kernels before timing
-        warm.device = opt.device;
+        warm.backend.device = opt.device;
         warm.samples = 256;
         bake_lut(warm);
     }
@@ -312,11 +312,11 @@ BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& 
 
     BakeSpeedResult out;
     BakeSpec base = default_bake_spec(LutLayout::seed_3d, size);
-    base.device = opt.device;
+    base.backend.device = opt.device;
     base.command_line = "microshadow_bench --only bake-speed";
     {  // compile both paths' kernels before timing
         BakeSpec warm = default_bake_spec(LutLayout::seed_3d, 2);
-        warm.device = opt.device;
+        warm.backend.device = opt.device;
         warm.samples = 4096;
         bake_lut(warm);
         warm.azimuth_quadrature = AzimuthQuadrature::stratified;

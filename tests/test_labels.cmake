@@ -94,6 +94,8 @@ set(microshadow_cli_tests
   "^Reliability\\.StaleTemporariesOfAKilledRunAreRemoved$"
   "^Reliability\\.SymlinkedOutputReplacesTheTargetAndKeepsTheLink$"
   "^ReprCliTest\\."
+  "^StatusCli\\."
+  "^LibraryFaultInjection\\."
   "^ReprExportCliTest\\."
   "^ReprSweepTest\\."
   "^Resilience\\."
@@ -117,6 +119,7 @@ set(microshadow_cli_tests
 set(microshadow_slow_tests
   "^SweepTolerance\\."
   "^SceneRender\\."
+  "^StatusCli\\.AReprBakeLessAccurateThanAskedIsFlaggedWithExitStatus3$"
   "^Reliability\\.AFullDiskLeavesEveryOutputAsItWasAndSaysSo$"
   "^Reliability\\.AnOutputSetIsReplacedWholeOrNotAtAllWhenOneFileCannotBeWritten$"
   "^Reliability\\.AnOutputThatIsAnInputIsRefusedAndTheInputKept$"

@@ -33,7 +33,7 @@ DesignTable design(const DesignOptions& o, const Progress& progress) {
     spec.choose = o.choose;
     spec.analytic = o.analytic;
     spec.strict_domain = o.strict_domain;
-    spec.backend_label = o.backend == Backend::oracle ? "oracle" : "opencl";
+    spec.backend_label = detail::backend_spec(o.backend, o.device).kind_name();
     spec.command_line = kDesignCommandLine;
     spec.names = design::OptionNames::library();
     // Every input checked before any work.

@@ -17,6 +17,9 @@ namespace microshadow::detail {
 ms::TermOptions term_options(AoWeighting weighting, Form form);
 ms::AoWeighting to_ms(AoWeighting w);
 ms::Sequence to_ms(Sequence s);
+// The public Backend, device and threads as the one type every job's options hold: the only place the
+// library maps its enum (the fault-injection test hook is then read by the scheduler, as for the CLI).
+ms::schedule::BackendSpec backend_spec(Backend backend, const std::string& device, unsigned threads = 0);
 std::unique_ptr<ms::TermBackend> make_backend(Backend backend, const std::string& device, bool fast_math);
 
 // Runs `job(report)`, where `report(done, total)` forwards to `progress`; when progress returns false

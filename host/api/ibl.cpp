@@ -27,7 +27,7 @@ DfgLut bake_dfg(const DfgOptions& o, const Progress& progress) {
     spec.n_dot_v.texel = spec.roughness.texel = ms::parse_texel_convention(o.texel);
     // The oracle backend is the quadrature, as the CLI's --backend oracle spells it.
     std::string method = o.method;
-    if (o.backend == Backend::oracle) {
+    if (detail::backend_spec(o.backend, o.device).is_oracle()) {
         if (o.method != "sampled" && o.method != "quadrature")
             throw std::invalid_argument("microshadow::bake_dfg: backend oracle contradicts method " + o.method);
         method = "quadrature";
@@ -35,7 +35,7 @@ DfgLut bake_dfg(const DfgOptions& o, const Progress& progress) {
     spec.method = ms::parse_dfg_method(method);
     spec.channels = ms::parse_dfg_channels(o.channels);
     spec.parameterization = ms::parse_dfg_parameterization(o.parameterization);
-    spec.oracle_threads = o.threads;
+    spec.backend = detail::backend_spec(Backend::opencl, o.device, o.threads);  // the method decides the kind (dfg_backend)
     if (spec.method == ms::DfgMethod::sampled) {
         if (o.replicates < 2)
             throw std::invalid_argument("microshadow::bake_dfg: replicates = " + std::to_string(o.replicates) + " (at least 2)");
@@ -47,7 +47,6 @@ DfgLut bake_dfg(const DfgOptions& o, const Progress& progress) {
         throw std::invalid_argument("microshadow::bake_dfg: fast_math builds the kernel of method sampled; method " + method + " has none");
     }
     spec.plan.seed = o.seed;
-    spec.device = o.device;
     spec.routine.build.fast_math = o.fast_math;
     spec.command_line = "microshadow::bake_dfg (library " MICROSHADOW_VERSION ")";
     ms::validate(spec);

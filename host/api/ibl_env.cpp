@@ -134,8 +134,8 @@ PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& prog
     spec.bright_max_texels = o.bright_max;
     spec.bright_min_roughness = o.bright_min_roughness;
     spec.wide_samples_factor = o.wide_samples_factor;
-    spec.threads = o.threads;
-    spec.device = o.device;
+    // PrefilterOptions: no device names the C++ estimator on CPU threads (the oracle kind).
+    spec.backend = detail::backend_spec(o.device.empty() ? Backend::oracle : Backend::opencl, o.device, o.threads);
     spec.source = source_name(o.environment);
     spec.command_line = kIblCommandLine;
     const ms::env::Cubemap source = prefilter_source(o.environment, o.size);
@@ -212,9 +212,7 @@ IrradianceMap irradiance(const IrradianceOptions& o, const Progress& progress) {
     ms::IrradianceMapSpec spec;
     spec.face_size = o.face_size;
     spec.source_size = o.source_size;
-    spec.oracle = o.backend == Backend::oracle;
-    spec.device = o.device;
-    spec.threads = o.threads;
+    spec.backend = detail::backend_spec(o.backend, o.device, o.threads);
     spec.source = source_name(o.environment);
     spec.command_line = kIblCommandLine;
     // As the command: an equirectangular image is resampled to a cubemap, crosses and faces kept.

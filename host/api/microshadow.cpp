@@ -45,12 +45,14 @@ ms::TermOptions term_options(AoWeighting weighting, Form form) {
     return t;
 }
 
+ms::schedule::BackendSpec backend_spec(Backend backend, const std::string& device, unsigned threads) {
+    return ms::schedule::BackendSpec::parse(backend == Backend::oracle ? "oracle" : "opencl", device, threads);
+}
+
 std::unique_ptr<ms::TermBackend> make_backend(Backend backend, const std::string& device, bool fast_math) {
     ms::OpenClBackendConfig config;
     config.build.fast_math = fast_math;
-    return ms::make_term_backend(backend == Backend::oracle ? ms::schedule::BackendSpec::oracle()
-                                                            : ms::schedule::BackendSpec::opencl(device),
-                                 config);
+    return ms::make_term_backend(backend_spec(backend, device), config);
 }
 
 }  // namespace detail
@@ -192,8 +194,7 @@ Lut bake(const BakeOptions& options, const Progress& progress) {
         spec.method = ms::Method::exact;
         if (options.tolerance == 0 && o.tolerance > 0) spec.tolerance = o.tolerance;
     }
-    spec.device = o.device;
-    spec.oracle = o.backend == Backend::oracle;
+    spec.backend = detail::backend_spec(o.backend, o.device);
     spec.command_line = "microshadow::bake (library " + version() + ")";
     ms::validate(spec);
     const ms::BakeResult result = detail::run_with_progress(progress, [&](const auto& report) {

@@ -33,7 +33,7 @@ std::uint64_t half_physical_memory() {
 SceneResult scene(const std::string& description_path, const SceneOptions& o, const Progress& progress) {
     if (o.tolerance != 0 && !(o.tolerance >= 1e-12 && o.tolerance <= 0.5))
         throw std::invalid_argument("microshadow::scene: tolerance = " + std::to_string(o.tolerance) + " (1e-12 to 0.5, or 0: the description's)");
-    if (o.backend == Backend::oracle && o.fast_math)
+    if (detail::backend_spec(o.backend, o.device).is_oracle() && o.fast_math)
         throw std::invalid_argument("microshadow::scene: fast_math builds kernels; the oracle has none");
     const ms::scene::SceneDescription description = ms::scene::load_scene(description_path);
     const ms::scene::SceneInputs inputs = ms::scene::SceneInputs::load(description);

@@ -115,10 +115,9 @@ BakeSpec make_spec(const BakeArgs& a) {
         if (s.tolerance > 0) exact_term::validate_tolerance(s.tolerance);
     }
     s.max_batches = a.max_batches;
-    s.device = a.sampling.device;
+    s.backend = a.sampling.backend_spec();
     s.build = a.sampling.build_config();
-    s.oracle = a.sampling.backend == "oracle";
-    if (s.oracle && s.method == Method::sampled) {
+    if (s.backend.is_oracle() && s.method == Method::sampled) {
         if (a.sampling.double_kernels || a.sampling.fast_math)
             throw std::invalid_argument("--double-kernels and --fast-math build kernels; the oracle bake has none (it is double already)");
         // The oracle integrates every sampled texel on its own: nv times the kernel's work per direction.
@@ -149,7 +148,6 @@ void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
     job.options.serve_error = args.scene_error;
     job.distribution = distribution_request(args.distribution, world);
     job.writer = !world || world->writer();
-    job.fault = fault_injection_from_environment();
     job.command_line = command_line();
     const bool quiet = args.sampling.quiet;
     // One progress line per phase (the scene bake, the full bake, the default LUT, the reference).
@@ -165,7 +163,7 @@ void run_scene_bake_command(const BakeArgs& args, MpiWorld* world) {
         progress->update(done, total);
     };
     callbacks.warn = [quiet](const std::string& w) {
-        if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "; computed again\n";
+        if (!quiet) std::cerr << "\nbake --scene: warning: " << w << "\n";
     };
     const SceneBakeJobResult r = run_scene_bake_job(job, callbacks);
     if (progress) progress->finish();
@@ -193,13 +191,12 @@ ToleranceCheck run_bake_job(const BakeArgs& args, const BakeSpec& spec, MpiWorld
     job.verify_method = parse_method(args.verify_method);
     job.distribution = distribution_request(args.distribution, world);
     job.writer = !world || world->writer();
-    job.fault = fault_injection_from_environment();
     const bool quiet = args.sampling.quiet;
     Progress progress("bake", quiet || !job.writer);
     BakeJobCallbacks callbacks;
     callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
     callbacks.warn = [quiet](const std::string& w) {
-        if (!quiet) std::cerr << "\nbake: warning: " << w << "; computed again\n";
+        if (!quiet) std::cerr << "\nbake: warning: " << w << "\n";
     };
     const BakeJobResult r = [&] {
         struct Finish {

@@ -133,7 +133,7 @@ void run_design(DesignArgs args, MpiWorld* world) {
     spec.choose = args.choose;
     spec.analytic = !args.no_analytic;
     spec.strict_domain = args.strict_domain;
-    spec.backend_label = args.sampling.backend;
+    spec.backend_label = args.sampling.backend_spec().kind_name();
     spec.build = args.sampling.build_config();
     spec.command_line = command_line();
     spec.check_sampling = check_sampling_size;
@@ -194,11 +194,10 @@ void run_design(DesignArgs args, MpiWorld* world) {
                   << (baked.empty() ? std::string() : " and chosen-" + chosen + ".*") << "\n";
     if (args.plot) {
         const fs::path dir = fs::absolute(args.out).lexically_normal();
-        std::vector<std::string> command = python_command();
-        command.insert(command.end(), {find_plot_script("plot_pareto.py"), (dir / "pareto.csv").string(), "--out",
-                                       (dir / "pareto.png").string(), "--title",
-                                       "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"});
-        run_plotter(command, "the tables are written");
+        run_plot_script("plot_pareto.py",
+                        {(dir / "pareto.csv").string(), "--out", (dir / "pareto.png").string(), "--title",
+                         "reference '" + set.definition.name + "', " + std::to_string(set.points.size()) + " points"},
+                        "the tables are written");
     }
 }
 

@@ -55,6 +55,7 @@ void add_exposure_option(CLI::App* app, double& exposure, const std::string& wha
 struct DfgArgs {
     DfgJobSpec job;
     std::string texel = "centres", backend, device = "default";
+    unsigned threads = 0;  // host threads of the methods that run on the host
     std::string method = "sampled", channels = "scale,bias,E", parameterization = "linear";
     std::uint32_t size = 64, size_n_dot_v = 0, size_roughness = 0, replicates = 8;
     std::uint64_t samples = 65536, seed = 0;
@@ -75,7 +76,7 @@ void run_dfg(DfgArgs& a) {
     // --backend opencl|oracle is the older spelling of --method sampled|quadrature.
     std::string method = a.method;
     if (!a.backend.empty()) {
-        const std::string implied = a.backend == "oracle" ? "quadrature" : "sampled";
+        const std::string implied = backend_spec(a.backend, a.device).is_oracle() ? "quadrature" : "sampled";
         if (a.method != "sampled" && a.method != implied)
             throw std::invalid_argument("--backend " + a.backend + " contradicts --method " + a.method);
         method = implied;
@@ -84,7 +85,7 @@ void run_dfg(DfgArgs& a) {
     spec.channels = parse_dfg_channels(a.channels);
     spec.parameterization = parse_dfg_parameterization(a.parameterization);
     if (!a.job.out.empty()) check_dfg_lut_output(a.job.out, spec.channels, a.job.symbol);
-    spec.device = a.device;
+    spec.backend = backend_spec("opencl", a.device, a.threads);  // the method decides the kind (dfg_backend)
     spec.routine.build.fast_math = a.fast_math;
     spec.routine.build.double_precision = a.double_kernels;
     if (spec.method != DfgMethod::sampled && (a.fast_math || a.double_kernels))
@@ -92,7 +93,6 @@ void run_dfg(DfgArgs& a) {
     if (spec.method != DfgMethod::sampled && (a.samples_given || a.replicates_given))
         throw std::invalid_argument("--samples and --replicates set --method sampled; --method " + method + " is deterministic");
     spec.command_line = command_line();
-    spec.fault = fault_injection_from_environment();
     run_with_display("ibl dfg", a.quiet, a.job, run_dfg_job, dfg_job_summary);
 }
 
@@ -113,6 +113,8 @@ struct PrefilterArgs {
     std::uint32_t replicates = 16;
     std::uint64_t samples = 256, seed = 0;
     bool no_fis = false, quiet = false;
+    std::string device;  // empty: the C++ estimator on CPU threads
+    unsigned threads = 0;
 };
 
 void run_prefilter(PrefilterArgs& a) {
@@ -127,8 +129,9 @@ void run_prefilter(PrefilterArgs& a) {
         throw std::invalid_argument("--max-samples " + std::to_string(spec.max_samples) + " is below --samples " + std::to_string(a.samples));
     spec.bright_auto = a.bright == "auto";
     if (a.bright == "off" && spec.bright_threshold > 0) throw std::invalid_argument("--bright off and --bright-threshold together");
+    // Without --device: the C++ estimator on CPU threads (the oracle kind); with it, the kernel there.
+    spec.backend = backend_spec(a.device.empty() ? "oracle" : "opencl", a.device, a.threads);
     spec.command_line = command_line();
-    spec.fault = fault_injection_from_environment();
     // Test hook: a corrupted estimator (every value scaled by 1 + b, bars unchanged) that --verify must catch.
     if (const char* bias = std::getenv("MICROSHADOW_TEST_PREFILTER_BIAS")) {
         char* end = nullptr;
@@ -141,14 +144,14 @@ void run_prefilter(PrefilterArgs& a) {
 
 struct IrradianceArgs {
     IrradianceJobSpec job;
-    std::string backend = "opencl";
+    std::string backend = "opencl", device = "default";
+    unsigned threads = 0;
     bool quiet = false;
 };
 
 void run_irradiance(IrradianceArgs& a) {
-    a.job.map.oracle = a.backend == "oracle";
+    a.job.map.backend = backend_spec(a.backend, a.device, a.threads);
     a.job.map.command_line = command_line();
-    a.job.map.fault = fault_injection_from_environment();
     run_with_display("ibl irradiance", a.quiet, a.job, run_irradiance_job, irradiance_job_summary);
 }
 
@@ -185,7 +188,7 @@ void add_ibl_command(CLI::App& app) {
     add_plan_options(dfg, d->samples, d->replicates, d->seed, dfg_plan);
     add_backend_option(dfg, d->backend, "older spelling of --method: opencl = sampled, oracle = quadrature");
     add_device_option(dfg, d->device, "default, all, an index or part of a name");
-    add_threads_option(dfg, d->job.bake.oracle_threads, "host threads of --method exact / quadrature (0: all)");
+    add_threads_option(dfg, d->threads, "host threads of --method exact / quadrature (0: all)");
     add_verify_option(dfg, d->job.verify, "recompute K random texels by independent methods (exact: the quadrature to 1e-10 and the kernel within its bars); fail, writing nothing, on a disagreement");
     dfg->add_option("--preview", d->job.preview, "also write a PNG of the channels with axes, each on its own scale");
     dfg->add_option("--compare", d->job.compare, "report max and RMS differences from a reference LUT of the same size (e.g. --backend oracle's)");
@@ -257,8 +260,8 @@ void add_ibl_command(CLI::App& app) {
     pf->add_option("--bright-max", ps.bright_max_texels, "at most this many explicit bright texels (the brightest)")
         ->transform(decimal_range(1, 1u << 20))
         ->capture_default_str();
-    add_device_option(pf, ps.device, "run the kernel on OpenCL devices (default, all, N, name); without it, C++ on CPU threads");
-    add_threads_option(pf, ps.threads, "CPU threads (0: all)");
+    add_device_option(pf, p->device, "run the kernel on OpenCL devices (default, all, N, name); without it, C++ on CPU threads");
+    add_threads_option(pf, p->threads, "CPU threads (0: all)");
     add_verify_option(pf, p->job.verify, "compare K random texels with the brute-force oracle; fail (exit 1, nothing written) when one is outside its bars (Bonferroni)");
     pf->add_flag("--verify-report", p->job.verify_report, "with --verify: record the comparison in ibl.json but never fail (benchmarks of estimators whose bars are not honest)");
     add_cubemap_format_options(pf, p->job.format, p->job.encoding,
@@ -284,8 +287,8 @@ void add_ibl_command(CLI::App& app) {
     add_cubemap_format_options(ir, q->job.format, q->job.encoding, "exr (horizontal cross), ktx2 or dds (cubemap, RGBA, A = 1)",
                                "ktx2 / dds texels: float16 or float32");
     add_backend_option(ir, q->backend, "opencl (the kernel) or oracle (exact convolution of the full source, C++ double)");
-    add_device_option(ir, q->job.map.device, "default, all, an index or part of a name");
-    add_threads_option(ir, q->job.map.threads, "oracle threads (0: all)");
+    add_device_option(ir, q->device, "default, all, an index or part of a name");
+    add_threads_option(ir, q->threads, "oracle threads (0: all)");
     add_verify_option(ir, q->job.verify, "compare K random texels with the exact convolution; fail if one exceeds its bound");
     add_exposure_option(ir, q->job.exposure, "preview");
     add_quiet_flag(ir, q->quiet, "no progress or summary");

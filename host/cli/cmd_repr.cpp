@@ -29,7 +29,7 @@ struct ReprBakeArgs {
     std::uint32_t visibility = 16, n_dot_l = 16, n_dot_v = 16, azimuth_nodes = 9, roughness_count = 0;
     std::vector<double> roughness{0.1, 0.4, 0.7, 1.0};
     std::string n_dot_v_warp = "linear", n_dot_l_warp = "linear", visibility_warp = "linear";
-    bool half = false, float32 = false;
+    bool half = false, float32 = false, allow_tolerance_miss = false;
     SamplingOptions sampling;
     CLI::App* cmd = nullptr;
     DistributionArgs distribution;  // --shard --store --merge --mpi (docs/cluster.md)
@@ -57,7 +57,9 @@ const char* const kLayoutOptions[] = {"--kind", "--visibility-count", "--n-dot-l
                                       "--roughness", "--roughness-count", "--n-dot-v-warp", "--n-dot-l-warp", "--visibility-warp",
                                       "--n-dot-l-edge-width", "--domain-visibility", "--domain-n-dot-v"};
 
-void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
+// Returns the written values against their tolerance (nothing asked where nothing was written: a shard,
+// an MPI rank other than 0).
+ToleranceCheck run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
     const bool rank0 = !world || world->writer();
     // No layout option and no preset: the full-range preset, what a renderer that does not know its
     // content's roughness should ship.
@@ -109,15 +111,16 @@ void run_repr_bake(ReprBakeArgs a, MpiWorld* world) {
     repr::ReprBakeJobCallbacks callbacks;
     callbacks.progress = [&](std::uint64_t done, std::uint64_t total) { progress.update(done, total); };
     callbacks.warn = [quiet = a.sampling.quiet](const std::string& w) {
-        if (!quiet) std::cerr << "\nrepr bake: warning: " << w << "; computed again\n";
+        if (!quiet) std::cerr << "\nrepr bake: warning: " << w << "\n";
     };
     const repr::ReprBakeJobResult result = repr::run_repr_bake_job(spec, callbacks);
     progress.finish();
     if (!result.shard_note.empty()) {
         if (!world && !a.sampling.quiet) std::cerr << "repr bake: " << result.shard_note << "\n";
-        return;
+        return {};
     }
     if (!a.sampling.quiet && result.written) std::cerr << repr::repr_bake_job_summary(spec, result);
+    return result.written ? result.tolerance : ToleranceCheck{};
 }
 
 struct ReprFileArgs {
@@ -147,6 +150,9 @@ std::string describe_representation(const repr::Representation& rep, const std::
         o << "\n";
     }
     if (!text("method").empty()) o << "computed by: the " << text("method") << " method\n";
+    if (p.contains("tolerance_met") && p.at("tolerance_met") == false)
+        o << "accuracy: TOLERANCE NOT MET (" << p.value("queries_over_tolerance", std::uint64_t(0))
+          << " texel x node values above the tolerance asked)\n";
     o << "made by: microshadow " << (text("version").empty() ? "?" : text("version"));
     if (!text("command_line").empty()) o << ": " << text("command_line");
     o << "\n";
@@ -219,7 +225,13 @@ void add_repr_command(CLI::App& app) {
                          "less than the sampled default's 65536 samples (~45 us a query per core for ~5e-4)");
     add_tolerance_option(bake, a->sampling);
     add_distribution_options(bake, a->distribution, "roughness nodes", "OUT.chunks");
-    bake->callback([a] { with_distribution(a->distribution, [&](MpiWorld* world) { run_repr_bake(*a, world); }); });
+    add_tolerance_miss_option(bake, a->allow_tolerance_miss);
+    bake->callback([a] {
+        ToleranceCheck tolerance;
+        with_distribution(a->distribution, [&](MpiWorld* world) { tolerance = run_repr_bake(*a, world); });
+        // After the world has ended: a flag is not a failure of the ranks.
+        finish_tolerance_check("repr bake", "texel x node queries", tolerance, a->allow_tolerance_miss);
+    });
 
     auto s = std::make_shared<ReprFileArgs>();
     auto* shader = repr_cmd->add_subcommand("shader", "write the GLSL or HLSL that samples a representation file");

@@ -36,9 +36,7 @@ void run_scene_command(const SceneArgs& args, MpiWorld* world) {
     const scene::SceneInputs inputs = scene::SceneInputs::load(description);
     OpenClBackendConfig config;
     config.build.fast_math = args.fast_math;
-    const std::unique_ptr<TermBackend> backend = make_term_backend(
-        args.backend == "oracle" ? schedule::BackendSpec::oracle() : schedule::BackendSpec::opencl(args.device), config);
-    backend->scheduler().set_fault_injection(fault_injection_from_environment());
+    const std::unique_ptr<TermBackend> backend = make_term_backend(backend_spec(args.backend, args.device), config);
 
     scene::SceneRunOptions options;
     options.skip = !args.no_skip;
@@ -75,7 +73,7 @@ void run_scene_command(const SceneArgs& args, MpiWorld* world) {
     const schedule::Distribution distribution(
         request, keeps_items ? scene::scene_store_key(inputs, options, *backend) : schedule::StoreKey{},
         (std::filesystem::path(args.out) / "chunks").string(), [quiet = args.quiet](const std::string& w) {
-            if (!quiet) std::cerr << "\nscene: warning: " << w << "; computed again\n";
+            if (!quiet) std::cerr << "\nscene: warning: " << w << "\n";
         });
     options.items = &distribution.plan();
     const scene::SceneResult result = scene::run_scene(inputs, *backend, options);

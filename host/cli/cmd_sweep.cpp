@@ -35,10 +35,8 @@ struct SweepArgs {
 void run_plot(const std::string& out_dir) {
     // Absolute paths: a relative directory starting with '-' would read as an option to argparse.
     const fs::path dir = fs::absolute(out_dir).lexically_normal();
-    std::vector<std::string> command = python_command();
-    command.insert(command.end(), {find_plot_script("plot_sweep.py"), "heatmaps", (dir / "sweep.csv").string(), "--out",
-                                   (dir / "figures").string()});
-    run_plotter(command, "the sweep itself is complete in " + out_dir);
+    run_plot_script("plot_sweep.py", {"heatmaps", (dir / "sweep.csv").string(), "--out", (dir / "figures").string()},
+                    "the sweep itself is complete in " + out_dir);
 }
 
 void run_sweep_job(const SweepArgs& args, const sweep::Spec& spec, sweep::RunConfig& config, MpiWorld* world);

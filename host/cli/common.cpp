@@ -125,20 +125,15 @@ SamplingPlan SamplingOptions::plan() const {
     return p;
 }
 
-schedule::FaultInjection fault_injection_from_environment() {
-    schedule::FaultInjection f;
-    const char* env = std::getenv("MICROSHADOW_FAIL_DEVICE");
-    if (!env || !*env) return f;
-    const std::string s(env);
-    const auto colon = s.find(':');
+schedule::BackendSpec backend_spec(const std::string& backend, const std::string& device, unsigned threads) {
     try {
-        f.place = std::stol(s.substr(0, colon));
-        f.after = colon == std::string::npos ? 0 : std::stol(s.substr(colon + 1));
-    } catch (const std::exception&) {
-        throw std::invalid_argument("MICROSHADOW_FAIL_DEVICE must be <place index>:<items>, not '" + s + "'");
+        return schedule::BackendSpec::parse(backend, device, threads);
+    } catch (const std::invalid_argument&) {
+        throw std::invalid_argument("--backend " + backend + ": opencl or oracle");
     }
-    return f;
 }
+
+schedule::BackendSpec SamplingOptions::backend_spec() const { return cli::backend_spec(backend, device); }
 
 ocl::BuildConfig SamplingOptions::build_config() const {
     ocl::BuildConfig b;
@@ -150,10 +145,7 @@ ocl::BuildConfig SamplingOptions::build_config() const {
 std::unique_ptr<TermBackend> SamplingOptions::make_backend() const {
     OpenClBackendConfig config;
     config.build = build_config();
-    std::unique_ptr<TermBackend> made = make_term_backend(
-        backend == "oracle" ? schedule::BackendSpec::oracle() : schedule::BackendSpec::opencl(device), config);
-    made->scheduler().set_fault_injection(fault_injection_from_environment());
-    return made;
+    return make_term_backend(backend_spec(), config);
 }
 
 CLI::Validator decimal_range(std::uint64_t min, std::uint64_t max) {

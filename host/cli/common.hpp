@@ -38,6 +38,8 @@ struct SamplingOptions {
     TermOptions term_options() const;
     // The plan, with samples rounded up to replicates * 2^k (reported on stderr when rounded).
     SamplingPlan plan() const;
+    // --backend and --device as every job holds them (cli::backend_spec).
+    schedule::BackendSpec backend_spec() const;
     std::unique_ptr<TermBackend> make_backend() const;
     ocl::BuildConfig build_config() const;
 };
@@ -101,9 +103,11 @@ void add_quiet_flag(CLI::App* app, bool& quiet, const std::string& help = "no pr
 // keeps the default, each output file's name.
 void add_shader_prefix_option(CLI::App* app, std::string& prefix);
 
-// MICROSHADOW_FAIL_DEVICE=P:N (tests only): place P of a job's scheduler fails on every work item after
-// its first N. Read here, in the CLI, never inside the library. Throws std::invalid_argument if malformed.
-schedule::FaultInjection fault_injection_from_environment();
+// --backend, --device and --threads of any command as the one type every job's options hold: the only
+// place the command line's words become a backend (std::invalid_argument for an unknown --backend).
+// The test hook MICROSHADOW_FAIL_DEVICE is not read here: every scheduler made from the result reads it
+// (schedule::fault_injection_from_environment), on the library's path too.
+schedule::BackendSpec backend_spec(const std::string& backend, const std::string& device, unsigned threads = 0);
 
 // The shard a job runs: --shard I/N when given (`given_text` non-empty), else the Slurm array task's
 // (SLURM_ARRAY_TASK_ID and _COUNT, _MIN, _STEP), else 0/1. Throws std::invalid_argument naming the
@@ -135,6 +139,10 @@ private:
 // tolerance asked of it (docs/cli.md): distinct from 1 (failed) and 2 (bad input), so a script can tell
 // "computed, but less accurate than asked" from both.
 constexpr int kExitToleranceNotMet = 3;
+// The exit status of a run that wrote its outputs but whose --plot step failed: the plotter exited with
+// an error or was killed, or no plotter or Python was found (the message says which, and the plotter's
+// own status). Its own number, so that a plotter's status can never read as another of ours (3).
+constexpr int kExitPlotFailed = 4;
 
 // --allow-tolerance-miss, for a command that checks its values against a tolerance.
 void add_tolerance_miss_option(CLI::App* app, bool& allow);

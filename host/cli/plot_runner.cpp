@@ -84,11 +84,31 @@ void run_plotter(const std::vector<std::string>& args, const std::string& what_i
     }
     if (cancel_requested().load()) throw Cancelled("interrupted: the plotter was stopped; " + what_is_done);
     if (end.exited && end.code == 0) return;
-    // The plotter's own status becomes the command's (128 + N for a signal, as a shell reports it).
-    const int code = end.exited ? end.code : 128 + end.code;
-    throw ExitError(code, "plotting failed (" +
-                              (end.exited ? "exit status " + std::to_string(code) : "killed by signal " + std::to_string(end.code)) +
-                              "): " + shown + "; " + what_is_done);
+    // The plotter's own status is named, not passed through: 3 from a plotter would read as "tolerance
+    // not met", 2 as bad input of ours.
+    throw ExitError(kExitPlotFailed, "plotting failed (" +
+                                         (end.exited ? "exit status " + std::to_string(end.code) : "killed by signal " + std::to_string(end.code)) +
+                                         "): " + shown + "; " + what_is_done);
+}
+
+void run_plot_script(const std::string& script, const std::vector<std::string>& script_args, const std::string& what_is_done) {
+    std::vector<std::string> command;
+    try {
+        command = python_command();
+        command.push_back(find_plot_script(script));
+    } catch (const std::runtime_error& e) {
+        throw ExitError(kExitPlotFailed, std::string(e.what()) + "; " + what_is_done);
+    }
+    command.insert(command.end(), script_args.begin(), script_args.end());
+    try {
+        run_plotter(command, what_is_done);
+    } catch (const ExitError&) {
+        throw;
+    } catch (const Cancelled&) {
+        throw;
+    } catch (const std::runtime_error& e) {  // the plotter could not be started
+        throw ExitError(kExitPlotFailed, std::string(e.what()) + "; " + what_is_done);
+    }
 }
 
 }  // namespace ms::cli

@@ -22,10 +22,17 @@ std::vector<std::string> python_command();
 
 // Runs args[0] (a path, or a program on PATH) with args as its argument vector: no shell, so no file name (a spec
 // called x';touch PWNED;'.toml, an --out with quotes) is ever parsed as a command. The command line is
-// not echoed (the plotter prints the figures it writes). A failing plotter becomes ExitError with its status (128 + N for
-// a signal, as a shell reports it) and the message "plotting failed (...): COMMAND; " + what_is_done.
-// SIGINT or SIGTERM while it runs ends it and throws Cancelled (exit 130 / 143).
-// SIGINT or SIGTERM while it runs ends the plotter and throws Cancelled (exit status 130 / 143).
+// not echoed (the plotter prints the figures it writes). A failing plotter becomes ExitError with
+// kExitPlotFailed (cli/common.hpp) and the message "plotting failed (exit status N | killed by signal
+// N): COMMAND; " + what_is_done: the plotter's own status is named, never passed through, so it cannot
+// read as one of ours (3: tolerance not met). SIGINT or SIGTERM while it runs ends the plotter and
+// throws Cancelled (exit status 130 / 143).
 void run_plotter(const std::vector<std::string>& args, const std::string& what_is_done);
+
+// --plot's whole step after a command has written its outputs: the interpreter (python_command), the
+// script (find_plot_script) and run_plotter with `script_args` after the script's path. Every failure,
+// a missing interpreter or script included, is ExitError with kExitPlotFailed and ends with
+// "; " + what_is_done (the outputs are written); interruption stays Cancelled.
+void run_plot_script(const std::string& script, const std::vector<std::string>& script_args, const std::string& what_is_done);
 
 }  // namespace ms::cli

@@ -17,7 +17,9 @@ namespace ms::env {
 
 struct CubemapFile {
     std::vector<Cubemap> levels;       // base level first; level p is max(1, size >> p) texels a side
-    nlohmann::json metadata;           // the file's "microshadow" JSON (object; empty when it has none)
+    // The file's "microshadow" JSON (object; empty when it has none: a DDS without its `<file>.json`
+    // sidecar is read all the same, since radiance needs no axes and other tools' DDS cubemaps have none).
+    nlohmann::json metadata;
     std::string encoding;              // "float16" or "float32": the stored texels
     std::size_t negative_residue_values = 0;  // as Image::negative_residue_values
 };

@@ -51,14 +51,9 @@ std::uint64_t bake_host_memory(const BakeSpec& spec, std::size_t places) {
     return lut_slice::memory_estimate(lut_slice::make_slice_plan(spec), places).host_bytes;
 }
 
-schedule::Backend bake_backend(const BakeSpec& spec) {
-    return schedule::Backend::from(spec.oracle ? schedule::BackendSpec::oracle(spec.oracle_threads)
-                                               : schedule::BackendSpec::opencl(spec.device));
-}
-
 BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks) {
     validate(spec);  // before any device is touched
-    schedule::Scheduler scheduler(bake_backend(spec));
+    schedule::Scheduler scheduler(spec.backend);
     return bake_lut(spec, scheduler, callbacks);
 }
 
@@ -190,7 +185,7 @@ schedule::CacheKey bake_cache_key(const BakeSpec& spec, const schedule::Schedule
         .add("exact_kernel_on_cpu", spec.exact_kernel_on_cpu)
         // A partial bake's row flags by their digest (one byte a row would make the key text long).
         .add("baked_rows", {spec.baked_rows.size(), hex16(fnv1a(std::string(spec.baked_rows.begin(), spec.baked_rows.end())))})
-        .add("oracle", spec.oracle);
+        .add("oracle", spec.backend.is_oracle());
     add_term_options(key, spec.term);
     add_build(key, spec.build);
     add_results_place(key, scheduler);
@@ -199,8 +194,8 @@ schedule::CacheKey bake_cache_key(const BakeSpec& spec, const schedule::Schedule
 
 const std::vector<std::string>& bake_cache_key_exclusions() {
     static const std::vector<std::string> excluded = {
-        "device: which devices of a kind run the bake; their kind is the key's `results`",
-        "oracle_threads: how many threads share the oracle's slices, not what a slice holds",
+        "backend.device: which devices of a kind run the bake; their kind is the key's `results`",
+        "backend.threads: how many threads share the oracle's slices, not what a slice holds",
         "command_line: provenance only, recorded in the file",
     };
     return excluded;
@@ -247,14 +242,14 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
         std::string devices;
         for (std::size_t i = 0; i < r.devices.size(); ++i) devices += (i ? "; " : "") + r.devices[i];
         m["device"] = devices;
-        m["kernel_precision"] = spec.oracle ? "C++ double" : (spec.exact_single_precision ? "float" : "double where the device has fp64, else float");
-        if (!spec.oracle) {
+        m["kernel_precision"] = spec.backend.is_oracle() ? "C++ double" : (spec.exact_single_precision ? "float" : "double where the device has fp64, else float");
+        if (!spec.backend.is_oracle()) {
             exact_term::ExactConfig engines;
             engines.force_float = spec.exact_single_precision;
             engines.kernel_on_cpu_devices = spec.exact_kernel_on_cpu;
             m["engines"] = exact_term::describe_engines(engines);
         }
-        m["backend"] = spec.oracle ? "oracle" : "opencl";
+        m["backend"] = spec.backend.kind_name();
         m["version"] = MICROSHADOW_VERSION;
         m["program"] = "microshadow " MICROSHADOW_VERSION;
         m["command_line"] = spec.command_line;
@@ -307,7 +302,7 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
     m["device"] = devices;
     m["fast_math"] = spec.build.fast_math;
     m["double_kernels"] = spec.build.double_precision;
-    m["backend"] = spec.oracle ? "oracle" : "opencl";
+    m["backend"] = spec.backend.kind_name();
     m["version"] = MICROSHADOW_VERSION;
     m["program"] = "microshadow " MICROSHADOW_VERSION;
     m["command_line"] = spec.command_line;

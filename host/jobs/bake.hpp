@@ -27,9 +27,9 @@ LutLayout parse_lut_layout(const std::string&);  // "seed-3d" | "seed-2d" | "cus
 // Everything that decides the numbers of a bake (LutSliceSpec), and where it runs.
 struct BakeSpec : LutSliceSpec {
     LutLayout layout = LutLayout::seed_3d;
-    std::string device = "default";  // ocl::select_devices spec: "default|all|N|name"
-    bool oracle = false;             // run on the scalar double oracle (small layouts; nv times the work)
-    unsigned oracle_threads = 0;
+    // OpenCL devices ("default|all|N|name") or the scalar double oracle's threads (small layouts; nv
+    // times the work; the exact method's C++ evaluator).
+    schedule::BackendSpec backend;
     // Filled by callers for provenance only.
     std::string command_line;
 };
@@ -87,15 +87,13 @@ struct BakeCallbacks {
 // The host memory a bake of this spec will need on `places` places (before anything is allocated).
 std::uint64_t bake_host_memory(const BakeSpec& spec, std::size_t places);
 
-// Where a spec's bake runs: its devices (spec.device) or the oracle (spec.oracle).
-schedule::Backend bake_backend(const BakeSpec& spec);
 
 // Runs the bake on the scheduler (the LUT slice integrand, one work item per slice). Throws
 // std::invalid_argument for a bad spec, ocl::Error when every device failed, ms::Cancelled when
 // ms::cancel_requested() was set.
 BakeResult bake_lut(const BakeSpec& spec, schedule::Scheduler& scheduler, const BakeCallbacks& callbacks = {},
                     const schedule::ItemPlan& items = {});
-// The same on a scheduler made from bake_backend(spec).
+// The same on a scheduler made from spec.backend.
 BakeResult bake_lut(const BakeSpec& spec, const BakeCallbacks& callbacks = {});
 
 // The cache key of a bake (schedule/cache_key.hpp): every field of the spec that decides its slices'

@@ -20,7 +20,7 @@ namespace {
 
 // What computed an exact bake's texels: the C++ evaluator (the oracle backend) or the OpenCL kernels.
 std::string exact_engine_summary(const BakeSpec& spec) {
-    if (spec.oracle) return "the C++ evaluator (double)";
+    if (spec.backend.is_oracle()) return "the C++ evaluator (double)";
     exact_term::ExactConfig engines;
     engines.force_float = spec.exact_single_precision;
     engines.kernel_on_cpu_devices = spec.exact_kernel_on_cpu;
@@ -55,7 +55,7 @@ BakeJobResult run_bake_job(const BakeJobSpec& job, const std::function<void(cons
     BakeCallbacks bake_callbacks;
     const auto progress = control.progress();
     bake_callbacks.progress = [&](std::size_t done, std::size_t total) { progress(done, total); };
-    schedule::Scheduler scheduler(bake_backend(spec));
+    schedule::Scheduler scheduler(spec.backend);
     // How the slices are split: a shard of a Slurm array (or --shard), a resumable store, the merge of a
     // store's shards, or the ranks of an MPI world. Checked before any work; nothing is written here.
     const schedule::Distribution distribution(job.distribution, bake_store_key(spec, scheduler), job.out + ".chunks", callbacks.warn);
@@ -64,7 +64,6 @@ BakeJobResult run_bake_job(const BakeJobSpec& job, const std::function<void(cons
         throw std::invalid_argument("this bake needs about " + gib(need) + " of memory (the atlas and each place's tallies), "
                                     "more than the limit of " + gib(memory / 2) + " (half the " + gib(memory) +
                                     " of physical memory); use fewer texels, channels or samples");
-    scheduler.set_fault_injection(job.fault);
     BakeJobResult r;
     r.bake = bake_lut(spec, scheduler, bake_callbacks, distribution.plan());
     const BakeResult& result = r.bake;
@@ -114,7 +113,7 @@ std::string bake_job_summary(const BakeJobSpec& job, const BakeJobResult& r) {
         s << "; largest estimated texel error " << result.max_std_error << " against the tolerance " << result.exact_tolerance;
         if (result.tolerance_met)
             s << " (tolerance met)";
-        else if (spec.exact_single_precision && !spec.oracle)
+        else if (spec.exact_single_precision && !spec.backend.is_oracle())
             s << " (TOLERANCE NOT MET: the float kernel's rounding stops it; leave out --exact-float for the C++ "
                  "evaluator on CPU devices and the double kernel where a device has fp64, or give a looser --tolerance)";
         else
@@ -160,8 +159,7 @@ SceneBakeJobResult run_scene_bake_job(const SceneBakeJobSpec& job, const SceneBa
     OpenClBackendConfig config;
     config.build = base.build;
     const std::unique_ptr<TermBackend> backend = make_term_backend(
-        base.oracle ? schedule::BackendSpec::oracle(base.oracle_threads) : schedule::BackendSpec::opencl(base.device), config);
-    backend->scheduler().set_fault_injection(job.fault);
+        base.backend, config);
     scene::SceneBakeOptions options = job.options;
     options.progress = callbacks.progress;
     const std::vector<scene::LightDomain> domain = scene::scene_domain(inputs);

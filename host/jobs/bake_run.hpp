@@ -31,7 +31,6 @@ struct BakeJobSpec {
     Method verify_method = Method::exact;
     schedule::DistributionRequest distribution;  // one process by default
     bool writer = true;                 // false on MPI ranks other than 0: they compute and touch no output
-    schedule::FaultInjection fault;     // test hook (MICROSHADOW_FAIL_DEVICE)
 };
 
 struct BakeJobResult {
@@ -43,7 +42,7 @@ struct BakeJobResult {
 };
 
 struct BakeJobCallbacks : JobCallbacks {
-    std::function<void(const std::string&)> warn;  // a chunk in the store that was computed again
+    std::function<void(const std::string&)> warn;  // something in the store set aside (the message says what follows)
 };
 
 // Runs the bake; `write_lut` writes the finished LUT file (its formats and shaders), after the preview.
@@ -59,7 +58,6 @@ struct SceneBakeJobSpec {
     scene::SceneBakeOptions options;    // fit, compare, serve_error (progress and items: set by the run)
     schedule::DistributionRequest distribution;
     bool writer = true;
-    schedule::FaultInjection fault;
     std::string command_line;           // provenance
 };
 

@@ -18,6 +18,9 @@ std::string format_rho(double rho) {
 }
 }  // namespace
 
+TermBackend::TermBackend(const schedule::BackendSpec& where, term::RoutineConfig config)
+    : scheduler_(where), config_(std::move(config)) {}
+
 TermBackend::TermBackend(schedule::Backend where, term::RoutineConfig config)
     : scheduler_(std::move(where)), config_(std::move(config)) {}
 
@@ -36,7 +39,7 @@ std::unique_ptr<TermBackend> make_opencl_backend(const std::vector<ocl::DeviceIn
 
 std::unique_ptr<TermBackend> make_term_backend(const schedule::BackendSpec& where, const OpenClBackendConfig& config) {
     // The oracle builds no kernel: its config stays the default (provenance records no build options).
-    return std::make_unique<TermBackend>(schedule::Backend::from(where), where.is_oracle() ? OpenClBackendConfig{} : config);
+    return std::make_unique<TermBackend>(where, where.is_oracle() ? OpenClBackendConfig{} : config);
 }
 
 nlohmann::json exact_provenance(const SamplingPlan& plan) {

@@ -25,6 +25,9 @@ using OpenClBackendConfig = term::RoutineConfig;
 // routine is built. Eval, sweeps, verification and the tests hold one of these.
 class TermBackend {
 public:
+    // Where the user named (the scheduler resolves it: schedule::BackendSpec).
+    TermBackend(const schedule::BackendSpec& where, term::RoutineConfig config = {});
+    // Places chosen by the caller (tests, benchmarks).
     TermBackend(schedule::Backend where, term::RoutineConfig config = {});
     std::string name() const { return scheduler_.name(); }
     schedule::Scheduler& scheduler() { return scheduler_; }

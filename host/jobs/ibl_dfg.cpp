@@ -110,9 +110,10 @@ void validate(const DfgBakeSpec& spec) {
     if (spec.channels.empty() || spec.channels.size() > 4) throw std::invalid_argument("DFG LUT: 1 to 4 channels");
 }
 
-schedule::Backend dfg_backend(const DfgBakeSpec& spec) {
-    return schedule::Backend::from(spec.method != DfgMethod::sampled ? schedule::BackendSpec::oracle(spec.oracle_threads)
-                                                                     : schedule::BackendSpec::opencl(spec.device));
+schedule::BackendSpec dfg_backend(const DfgBakeSpec& spec) {
+    schedule::BackendSpec where = spec.backend;
+    where.kind = spec.method == DfgMethod::sampled ? schedule::Backend::Kind::opencl : schedule::Backend::Kind::oracle;
+    return where;
 }
 
 dfg::DfgPoint dfg_texel_point(const DfgBakeSpec& spec, std::uint32_t x, std::uint32_t y) {
@@ -174,7 +175,7 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
         if (spec.method == DfgMethod::sampled && sheen) {
             // The kernel integrates GGX only: the cloth channel comes from the exact path on host threads.
             dfg::DfgIntegrand cloth(points, result.width, spec.plan, host_routine(spec, dfg::DfgHostRule::exact, true));
-            schedule::Scheduler host(schedule::Backend::oracle(spec.oracle_threads));
+            schedule::Scheduler host(schedule::BackendSpec::oracle(spec.backend.threads));
             host.run(cloth);
             for (std::size_t k = 0; k < points.size(); ++k) values[k].sheen = cloth.values()[k].sheen;
         }
@@ -195,7 +196,6 @@ DfgBakeResult bake_dfg(const DfgBakeSpec& spec, schedule::Scheduler& scheduler, 
 
 DfgBakeResult bake_dfg(const DfgBakeSpec& spec, const DfgBakeCallbacks& callbacks) {
     schedule::Scheduler scheduler(dfg_backend(spec));
-    scheduler.set_fault_injection(spec.fault);
     return bake_dfg(spec, scheduler, callbacks);
 }
 
@@ -440,7 +440,7 @@ std::vector<dfg::DfgValue> run_host(const DfgBakeSpec& spec, const std::vector<d
     config.sheen = sheen;
     config.quadrature_order = quadrature_order;
     dfg::DfgIntegrand integrand(points, 1, spec.plan, config);
-    schedule::Scheduler scheduler(schedule::Backend::from(schedule::BackendSpec::oracle(spec.oracle_threads)));
+    schedule::Scheduler scheduler(schedule::BackendSpec::oracle(spec.backend.threads));
     scheduler.run(integrand);
     return integrand.take_values();
 }
@@ -481,7 +481,7 @@ DfgVerification verify_dfg(const DfgBakeSpec& spec, const DfgBakeResult& result,
         compare_deterministic(v, mine, q20, texels, true, sheen, kDfgExactTolerance, bad);
         // And the sampled kernel, the method with nothing in common with either quadrature.
         dfg::DfgIntegrand kernel(points, 1, spec.plan, spec.routine);
-        schedule::Scheduler device(schedule::Backend::from(schedule::BackendSpec::opencl(spec.device)));
+        schedule::Scheduler device(schedule::BackendSpec::opencl(spec.backend.device));
         device.run(kernel);
         compare_sampled(v, kernel.values(), mine, texels, df, bad);
         v.reference = "the quadrature oracle (order 20) and the VNDF kernel";

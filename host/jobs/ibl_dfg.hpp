@@ -59,13 +59,13 @@ struct DfgBakeSpec {
     Axis roughness{"roughness", 0, 1, 64};
     SamplingPlan plan{Sequence::sobol, 65536, 8, 0};
     dfg::DfgRoutineConfig routine;
-    std::string device = "default";
+    // The devices of the sampled method's kernel (and of the exact method's check against it) and the
+    // host threads of the other methods (0: all); the method decides which runs the bake (dfg_backend).
+    schedule::BackendSpec backend;
     DfgMethod method = DfgMethod::sampled;
     std::vector<DfgChannel> channels{DfgChannel::scale, DfgChannel::bias, DfgChannel::albedo};
     DfgParameterization parameterization = DfgParameterization::linear;
-    unsigned oracle_threads = 0;
     std::string command_line;  // provenance
-    schedule::FaultInjection fault;  // test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE
 };
 
 struct DfgBakeResult {
@@ -90,7 +90,9 @@ struct DfgBakeCallbacks {
 };
 
 void validate(const DfgBakeSpec& spec);
-schedule::Backend dfg_backend(const DfgBakeSpec& spec);
+// Where the bake runs: the spec's backend, of the kind its method needs (sampled: OpenCL devices; the
+// others: host threads).
+schedule::BackendSpec dfg_backend(const DfgBakeSpec& spec);
 // The texel's parameters after the clamps above.
 dfg::DfgPoint dfg_texel_point(const DfgBakeSpec& spec, std::uint32_t x, std::uint32_t y);
 

@@ -90,7 +90,7 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
     // The reduced size: halve while it stays at least the requested size (and divides the source's).
     std::uint32_t conv = source.size;
     while (conv % 2 == 0 && conv / 2 >= std::max<std::uint32_t>(1, spec.source_size)) conv /= 2;
-    r.convolution_size = spec.oracle ? source.size : conv;
+    r.convolution_size = spec.backend.is_oracle() ? source.size : conv;
     const env::ReducedCubemap reduced = env::reduce_cubemap(source, conv);
     const irradiance::Source packed = pack_irradiance_source(reduced);
     const std::uint32_t n = spec.face_size;
@@ -110,16 +110,14 @@ IrradianceMapResult compute_irradiance_map(const env::Cubemap& source, const Irr
         }
         return v;
     });
-    schedule::Scheduler scheduler(schedule::Backend::from(spec.oracle ? schedule::BackendSpec::oracle(spec.threads)
-                                                                      : schedule::BackendSpec::opencl(spec.device)));
-    scheduler.set_fault_injection(spec.fault);
+    schedule::Scheduler scheduler(spec.backend);
     schedule::RunCallbacks cb;
     cb.progress = progress;
     const schedule::RunReport report = scheduler.run(integrand, {}, cb);
     r.rerun_items = report.rerun;
     r.failed_devices = report.failed_places;
-    r.backend = spec.oracle ? "oracle: exact convolution of the full-resolution source (C++ double)"
-                            : "opencl: " + spec.device + " (kernels/irradiance/irradiance.cl, float)";
+    r.backend = spec.backend.is_oracle() ? "oracle: exact convolution of the full-resolution source (C++ double)"
+                                         : "opencl: " + spec.backend.device + " (kernels/irradiance/irradiance.cl, float)";
     r.map = env::Cubemap(n);
     r.bound = env::Cubemap(n);
     const env::Sh9 sh = env::sh_project_cubemap(source);

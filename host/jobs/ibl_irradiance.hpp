@@ -30,11 +30,10 @@ namespace irradiance { struct Source; }
 struct IrradianceMapSpec {
     std::uint32_t face_size = 32;     // output faces
     std::uint32_t source_size = 128;  // the reduced source the kernel convolves (clamped to the source's size)
-    bool oracle = false;              // the oracle backend: the exact convolution of the full-resolution source (CPU threads)
-    std::string device = "default";   // OpenCL devices for the kernel (ocl::select_devices)
-    unsigned threads = 0;             // oracle threads (0: all)
+    // OpenCL devices for the kernel, or the oracle: the exact convolution of the full-resolution source
+    // on its threads (0: all).
+    schedule::BackendSpec backend;
     std::string source, command_line;
-    schedule::FaultInjection fault;   // test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE
 };
 
 struct IrradianceMapResult {

@@ -127,7 +127,7 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
     const std::uint64_t first_samples = round_up_samples(spec.plan.samples, R);
     const std::uint64_t max_samples = std::max(first_samples, round_up_samples(spec.max_samples, R));
     const std::vector<env::Cubemap> chain = env::mip_chain(source);
-    const unsigned threads = spec.threads ? spec.threads : std::max(1u, std::thread::hardware_concurrency());
+    const unsigned threads = spec.backend.threads ? spec.backend.threads : std::max(1u, std::thread::hardware_concurrency());
 
     PrefilterResult r;
     r.replicates = R;
@@ -161,9 +161,9 @@ PrefilterResult prefilter_cubemap(const env::Cubemap& source, const PrefilterSpe
 
     // One scheduler for every round (devices compile their program once): OpenCL devices, or the C++
     // estimator on CPU threads as the scheduler's oracle backend.
-    schedule::Scheduler scheduler(schedule::Backend::from(spec.device.empty() ? schedule::BackendSpec::oracle(threads)
-                                                                              : schedule::BackendSpec::opencl(spec.device)));
-    scheduler.set_fault_injection(spec.fault);
+    schedule::BackendSpec where = spec.backend;
+    where.threads = threads;
+    schedule::Scheduler scheduler(where);
     const prefilter::SourceChain packed_full = pack_chain(chain);
     const prefilter::SourceChain packed_rest = have_split ? pack_chain(split.rest_chain) : prefilter::SourceChain{};
     prefilter::RoutineConfig config;
@@ -421,7 +421,7 @@ nlohmann::json prefilter_metadata(const PrefilterSpec& spec, const PrefilterResu
     m["max_relative_std_error"] = result.max_relative_std_error;
     m["seconds"] = result.seconds;
     m["cpu_seconds"] = result.cpu_seconds;  // the process's CPU time: stable on a shared machine
-    m["device"] = spec.device.empty() ? "CPU threads (C++ double)" : "opencl: " + spec.device + " (kernels/prefilter/prefilter.cl, float)";
+    m["device"] = spec.backend.is_oracle() ? "CPU threads (C++ double)" : "opencl: " + spec.backend.device + " (kernels/prefilter/prefilter.cl, float)";
     m["rerun_items"] = result.rerun_items;  // rerun on another device after one failed (failover)
     m["failed_devices"] = result.failed_devices;
     m["version"] = MICROSHADOW_VERSION;

@@ -52,10 +52,10 @@ struct PrefilterSpec {
     // multiplied by this factor (a power of two): with a fixed sample count (tolerance 0) they hold 6% of an
     // 8-mip chain's texels and most of its variance.
     std::uint32_t wide_samples_factor = 1;
-    unsigned threads = 0;  // 0: every hardware thread
-    std::string device;    // empty: the C++ estimator on CPU threads (the scheduler's oracle backend); else OpenCL devices
+    // The oracle kind (the default): the C++ estimator on CPU threads (backend.threads, 0: every
+    // hardware thread; they also sum the explicit bright texels); opencl: the kernel on those devices.
+    schedule::BackendSpec backend = schedule::BackendSpec::oracle();
     std::string source, command_line;  // provenance
-    schedule::FaultInjection fault;    // test hook (OpenCL devices), set by the CLI from MICROSHADOW_FAIL_DEVICE
     // Test hook, set by the CLI from MICROSHADOW_TEST_PREFILTER_BIAS: every value is multiplied by
     // (1 + test_bias) and its bars are left alone, a corrupted estimator that --verify must catch.
     double test_bias = 0;

@@ -271,7 +271,6 @@ PrefilterJobResult run_prefilter_job(const PrefilterJobSpec& job, const JobCallb
         control.checkpoint();
         dspec.n_dot_v.count = dspec.roughness.count = job.dfg_size;
         dspec.command_line = spec.command_line;
-        dspec.fault = spec.fault;
         r.dfg = bake_dfg(dspec);
     }
     control.checkpoint();

@@ -566,7 +566,7 @@ ReferenceSet load_or_compute(const ReferenceDefinition& def, const CacheConfig& 
     plan.store = store ? &*store : nullptr;
     plan.shard = config.shard;
     plan.transport = config.transport;
-    plan.warn = [&](const std::string& w) { warn(w + (config.merge ? "; rerun its shard, then merge" : "; computed again")); };
+    plan.warn = warn;  // each message says what follows (schedule/distributed.cpp)
     auto first_of = [&](std::uint64_t c) { return std::size_t(c) * chunk; };
     auto count_of = [&](std::uint64_t c) { return std::min(chunk, n - first_of(c)); };
     std::size_t points_done = 0;

@@ -197,6 +197,15 @@ ReprBakeJobResult run_repr_bake_job(ReprBakeJobSpec spec, const ReprBakeJobCallb
         r.chosen_roughness = bake.grid.roughness;
         bake.metadata["roughness_blend_rms"] = r.roughness_blend_rms;
     }
+    // The values the file keeps against the tolerance asked of them: a value less accurate than asked
+    // is flagged in the metadata (and by the command's exit status), never silent.
+    r.tolerance.tolerance = bake_spec.plan.tolerance;
+    for (const float e : bake.std_error) r.tolerance.add(e);
+    if (r.tolerance.tolerance > 0) {
+        if (bake_spec.plan.method == Method::sampled) bake.metadata["tolerance"] = r.tolerance.tolerance;
+        bake.metadata["tolerance_met"] = r.tolerance.met();
+        bake.metadata["queries_over_tolerance"] = r.tolerance.over;
+    }
     r.representation = preset ? build_preset(*preset, bake, *backend) : build_representation(spec.kind, bake);
     if (!write) return r;
     // The archive (EXR) is FLOAT unless half_exr; the engine-facing textures (KTX2, DDS) are RGBA16F,
@@ -227,8 +236,9 @@ std::string repr_bake_job_summary(const ReprBakeJobSpec& spec, const ReprBakeJob
     o << "repr bake: " << r.representation->name() << "\n  " << cost_line(*r.representation) << "\n  "
       << bake.metadata.value("queries", 0) << " texel x node queries in " << bake.metadata.value("seconds", 0.0) << " s ("
       << bake.metadata.value("method", std::string()) << " method), max "
-      << (spec.bake.plan.method == Method::exact ? "estimated error " : "std error ") << bake.metadata.value("max_std_error", 0.0)
-      << "\n";
+      << (spec.bake.plan.method == Method::exact ? "estimated error " : "std error ") << bake.metadata.value("max_std_error", 0.0);
+    const std::string tolerance = r.tolerance.summary();
+    o << (tolerance.empty() ? "" : " " + tolerance) << "\n";
     return o.str();
 }
 

@@ -16,6 +16,7 @@
 #include "jobs/job_callbacks.hpp"
 #include "jobs/repr_bake.hpp"
 #include "lut/formats/texture_writer.hpp"
+#include "jobs/tolerance_check.hpp"
 #include "schedule/distributed.hpp"
 
 namespace ms::repr {
@@ -57,7 +58,7 @@ struct ReprBakeJobSpec {
 };
 
 struct ReprBakeJobCallbacks : JobCallbacks {
-    std::function<void(const std::string&)> warn;  // a stored item that was computed again
+    std::function<void(const std::string&)> warn;  // a stored item set aside (the message says what follows)
 };
 
 struct ReprBakeJobResult {
@@ -67,12 +68,17 @@ struct ReprBakeJobResult {
     std::string shard_note;             // what a finished shard did (when nothing was built)
     std::vector<double> chosen_roughness;  // roughness_count: the nodes kept
     double roughness_blend_rms = 0;     // roughness_count: the N.L-weighted RMS of their blend over the dense nodes
+    // The stored texel x node values' estimated errors against the tolerance asked of them (the exact
+    // method's, always; the sampled method's when given), recorded in the file's metadata as
+    // tolerance_met and queries_over_tolerance. Empty (tolerance 0) on a shard that built nothing.
+    ToleranceCheck tolerance;
 };
 
 // The checks of a spec before any work (std::invalid_argument with the reason).
 void validate(const ReprBakeJobSpec& spec);
 ReprBakeJobResult run_repr_bake_job(ReprBakeJobSpec spec, const ReprBakeJobCallbacks& callbacks = {});
-// The lines the command prints unless --quiet (after any shard note).
+// The lines the command prints unless --quiet (after any shard note); the last says whether the
+// tolerance was met.
 std::string repr_bake_job_summary(const ReprBakeJobSpec& spec, const ReprBakeJobResult& result);
 // "R, N bytes (K KiB), F fetches and about A ALU operations per light" for summaries and `repr info`.
 std::string cost_line(const Representation& r);

@@ -138,8 +138,10 @@ nlohmann::json TextureRepresentation::provenance() const {
         if (metadata_.contains(key)) j[key] = metadata_[key];
     j["domain"] = domain_.to_json();
     // How its texels were computed (exact or sampled): what a comparator column of it stands on.
-    if (metadata_.contains("bake") && metadata_["bake"].is_object() && metadata_["bake"].contains("method"))
-        j["method"] = metadata_["bake"]["method"];
+    // And whether they met the tolerance asked of them (recorded by repr bake; absent when none was asked).
+    if (metadata_.contains("bake") && metadata_["bake"].is_object())
+        for (const char* key : {"method", "tolerance_met", "queries_over_tolerance"})
+            if (metadata_["bake"].contains(key)) j[key] = metadata_["bake"][key];
     return j;
 }
 

@@ -135,7 +135,8 @@ void set_aside_damaged_manifests(const std::string& dir, const StoreKey& key, co
         const std::string problem = "items: the manifest says " + std::to_string(m["items"].get<std::uint64_t>()) +
                                     " items where this job's spec has " + std::to_string(key.items);
         const std::string moved = files.set_aside(path, problem);
-        if (warn) warn(path + ": " + problem + moved);
+        // Nothing is computed again for it: the shard's items are read and checked as before.
+        if (warn) warn(path + ": " + problem + moved + "; its shard's next run writes its manifest again");
     }
 }
 

@@ -79,8 +79,10 @@ std::optional<Shard> slurm_array_shard(const std::function<const char*(const cha
 
 namespace {
 
+// A stored item set aside (`w` names it, the reason and where it went), with what follows: a resume
+// computes it again; a merge cannot, and names the shard to rerun.
 void warn_of(const ItemPlan& plan, const std::string& w) {
-    if (plan.warn && !w.empty()) plan.warn(w);
+    if (plan.warn && !w.empty()) plan.warn(w + (plan.merge_only ? "; rerun its shard, then merge" : "; computed again"));
 }
 
 // A merge: every item from the store, each handed to `accept`; a missing one names its shard, to rerun

@@ -56,7 +56,7 @@ struct ItemPlan {
     Shard shard;                        // with a store: this process's items
     bool merge_only = false;            // compute nothing: every item must be in the store already
     ItemTransport* transport = nullptr; // an MPI world (rank 0 coordinates and keeps the store)
-    std::function<void(const std::string&)> warn;  // damaged items set aside
+    std::function<void(const std::string&)> warn;  // damaged items set aside, each message saying what follows
     std::uint64_t max_items = 0;        // > 0: compute at most this many items in this run (run_items; resumable)
 };
 

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
 #include <deque>
 #include <exception>
 #include <iostream>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <set>
 #include <thread>
@@ -27,6 +29,31 @@ Backend Backend::oracle(unsigned threads) {
     b.kind = Kind::oracle;
     b.oracle_threads = threads;
     return b;
+}
+
+BackendSpec BackendSpec::parse(const std::string& kind, const std::string& device, unsigned threads) {
+    if (kind == "oracle") return oracle(threads);
+    if (kind == "opencl") {
+        BackendSpec spec = opencl(device);
+        spec.threads = threads;
+        return spec;
+    }
+    throw std::invalid_argument("backend '" + kind + "' (opencl or oracle)");
+}
+
+FaultInjection fault_injection_from_environment() {
+    FaultInjection f;
+    const char* env = std::getenv("MICROSHADOW_FAIL_DEVICE");
+    if (!env || !*env) return f;
+    const std::string s(env);
+    const auto colon = s.find(':');
+    try {
+        f.place = std::stol(s.substr(0, colon));
+        f.after = colon == std::string::npos ? 0 : std::stol(s.substr(colon + 1));
+    } catch (const std::exception&) {
+        throw std::invalid_argument("MICROSHADOW_FAIL_DEVICE must be <place index>:<items>, not '" + s + "'");
+    }
+    return f;
 }
 
 Backend Backend::from(const BackendSpec& spec) {
@@ -53,6 +80,11 @@ Scheduler::Scheduler(Backend backend) : backend_(std::move(backend)) {
         if (backend_.devices.empty()) throw ocl::NoDeviceError("no OpenCL device selected");
         for (const auto& d : backend_.devices) devices_.push_back(std::make_unique<ocl::Device>(d));
     }
+}
+
+Scheduler::Scheduler(const BackendSpec& spec) : Scheduler(Backend::from(spec)) {
+    // The hook fails devices: an oracle thread has no device to fail over from (its failure is the job's).
+    if (!is_oracle()) fault_ = fault_injection_from_environment();
 }
 
 Scheduler::~Scheduler() = default;

@@ -42,8 +42,11 @@ struct Backend {
     static Backend from(const BackendSpec& spec);
 };
 
-// Where a job runs, as a user names it (--backend, --device, --threads); every job and the library
-// resolve it with Backend::from, so a device name means the same everywhere.
+// Where a job runs, as a user names it (--backend, --device, --threads): the one type every job's
+// options hold (their `backend` field), the command line's flags become (cli/common.hpp) and the
+// library's options map to (api/facade.hpp). It is resolved in one place, Scheduler's constructor from
+// a BackendSpec: the devices selected (Backend::from, so a device name means the same everywhere) and
+// the test hook MICROSHADOW_FAIL_DEVICE applied (fault_injection_from_environment).
 struct BackendSpec {
     Backend::Kind kind = Backend::Kind::opencl;
     std::string device = "default";  // opencl: default, all, an index or part of a name (ocl::select_devices)
@@ -51,7 +54,12 @@ struct BackendSpec {
 
     static BackendSpec oracle(unsigned threads = 0) { return {Backend::Kind::oracle, "default", threads}; }
     static BackendSpec opencl(std::string device = "default") { return {Backend::Kind::opencl, std::move(device), 0}; }
+    // The words a user writes: kind "opencl" or "oracle" (std::invalid_argument naming both otherwise),
+    // the device and the threads.
+    static BackendSpec parse(const std::string& kind, const std::string& device = "default", unsigned threads = 0);
     bool is_oracle() const { return kind == Backend::Kind::oracle; }
+    // "opencl" or "oracle", as --backend spells it (and outputs record it).
+    const char* kind_name() const { return is_oracle() ? "oracle" : "opencl"; }
 };
 
 struct WorkSelection {
@@ -63,12 +71,17 @@ struct WorkSelection {
     std::function<bool(std::uint64_t& id)> next_item;
 };
 
-// A test hook, set by the CLI from MICROSHADOW_FAIL_DEVICE=P:N (never read inside the library): place P
-// throws a device error on every item after its first N.
+// A test hook: place P throws a device error on every item after its first N, so that failover (the
+// item rerun on the other places, the bits unchanged) can be tested with working devices.
 struct FaultInjection {
     long place = -1;
     long after = 0;
 };
+
+// MICROSHADOW_FAIL_DEVICE=P:N (tests only), read here and nowhere else: every scheduler made from a
+// BackendSpec on OpenCL devices applies it, so the command line, the library and Python all see it.
+// Unset or empty: no fault. Throws std::invalid_argument when malformed.
+FaultInjection fault_injection_from_environment();
 
 struct RunCallbacks {
     std::function<void(std::uint64_t done, std::uint64_t total)> progress;
@@ -84,6 +97,10 @@ struct RunReport {
 
 class Scheduler {
 public:
+    // The places a user named: the one function that resolves a BackendSpec (devices selected, the
+    // fault-injection hook of the environment applied to OpenCL places).
+    explicit Scheduler(const BackendSpec& spec);
+    // Places chosen by the caller (tests, benchmarks): no hook is read.
     explicit Scheduler(Backend backend);
     ~Scheduler();
     Scheduler(const Scheduler&) = delete;

@@ -65,7 +65,7 @@ TEST(LibraryApi, BakeGivesTheBakeJobsTexelsAndSavedFilesOpenAgain) {
     ms::BakeSpec spec = ms::default_bake_spec(ms::LutLayout::custom, 32);
     spec.visibility.count = 5, spec.n_dot_l.count = 3, spec.n_dot_v.count = 2;
     spec.roughness = {0.3, 0.9};
-    spec.samples = 1024, spec.seed = 3, spec.oracle = true;
+    spec.samples = 1024, spec.seed = 3, spec.backend = ms::schedule::BackendSpec::oracle();
     const ms::BakeResult r = ms::bake_lut(spec);
     for (std::uint32_t c = 0; c < 2; ++c)
         for (std::uint32_t z = 0; z < 2; ++z)

@@ -192,12 +192,12 @@ TEST(ExactTerm, ExactBakeAgreesWithTheSampledBake) {
     spec.roughness = {0.2, 0.7};
     spec.samples = 1 << 18;
     spec.replicates = 16;
-    spec.oracle = false;
+    spec.backend.kind = schedule::Backend::Kind::opencl;
     const BakeResult sampled = bake_lut(spec);
     BakeSpec exact_spec = spec;
     exact_spec.method = Method::exact;
     exact_spec.tolerance = 1e-7;  // the float texels' resolution (the spec refuses less)
-    exact_spec.oracle = true;     // the C++ evaluator
+    exact_spec.backend.kind = schedule::Backend::Kind::oracle;    // the C++ evaluator
     const BakeResult exact = bake_lut(exact_spec);
     ASSERT_EQ(sampled.value.size(), exact.value.size());
     const double t = student_t_quantile(1 - 1e-3 / double(exact.value.size()), 15);
@@ -383,7 +383,7 @@ BoundCheck check_whole_bake(std::uint32_t size, double tolerance) {
     BakeSpec spec = default_bake_spec(LutLayout::seed_3d, size);
     spec.method = Method::exact;
     spec.tolerance = tolerance;
-    spec.oracle = true;  // the C++ evaluator
+    spec.backend.kind = schedule::Backend::Kind::oracle;  // the C++ evaluator
     const BakeResult bake = bake_lut(spec);
     EXPECT_TRUE(bake.tolerance_met);
     const std::uint32_t channels = std::uint32_t(spec.roughness.size());
@@ -471,7 +471,7 @@ TEST(ExactBakeBounds, VerifyJudgesAnExactBakeAgainstTheExactMean) {
     BakeSpec spec = default_bake_spec(LutLayout::seed_3d, 12);
     spec.method = Method::exact;
     spec.tolerance = 1e-4;
-    spec.oracle = true;
+    spec.backend.kind = schedule::Backend::Kind::oracle;
     const BakeResult result = bake_lut(spec);
     const BakeVerification right = verify_bake(spec, result, result.value.size(), 0, 2, Method::exact);
     EXPECT_GT(right.checked, 4000u);

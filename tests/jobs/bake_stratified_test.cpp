@@ -98,7 +98,7 @@ BakeSpec stratified_spec() {
     s.azimuth_cells = 8;
     s.samples = 4096;
     s.seed = 23;
-    s.oracle_threads = 2;
+    s.backend.threads = 2;
     return s;
 }
 
@@ -198,7 +198,7 @@ TEST(StratifiedBake, KernelAgreesWithTheOracleOnTheSamePoints) {
     BakeSpec spec = stratified_spec();
     const BakeResult cl = bake_lut(spec);
     EXPECT_EQ(cl.azimuth_cells, 8u);
-    spec.oracle = true;
+    spec.backend.kind = schedule::Backend::Kind::oracle;
     const BakeResult oracle = bake_lut(spec);
     ASSERT_EQ(cl.value.size(), oracle.value.size());
     for (std::size_t i = 0; i < cl.value.size(); ++i)
@@ -208,7 +208,7 @@ TEST(StratifiedBake, KernelAgreesWithTheOracleOnTheSamePoints) {
     const double z = expect_agree(spec, cl, oracle, "opencl vs oracle");
     EXPECT_LT(z, 0.5);
     // --verify (independent points, the oracle at the cells' midpoints) agrees too.
-    spec.oracle = false;
+    spec.backend.kind = schedule::Backend::Kind::opencl;
     const BakeVerification v = verify_bake(spec, cl, 16, 4096, 2);
     EXPECT_EQ(v.failed, 0u) << v.worst_texel;
 }

@@ -138,7 +138,7 @@ TEST(CacheKey, BakeMovesWithEveryOptionThatDecidesASlice) {
         s.baked_rows.assign(std::size_t(s.n_dot_l.count) * 8 * 4, 1);
         s.baked_rows[3] = 0;
     };
-    c["oracle"] = [](BakeSpec& s) { s.oracle = true; };
+    c["oracle"] = [](BakeSpec& s) { s.backend.kind = schedule::Backend::Kind::oracle; };
     c["term.form"] = [](BakeSpec& s) { s.term.form = Form::uncorrelated; };
     c["term.ao_weighting"] = [](BakeSpec& s) { s.term.ao_weighting = AoWeighting::uniform; };
     c["build.fast_math"] = [](BakeSpec& s) { s.build.fast_math = true; };
@@ -158,8 +158,8 @@ TEST(CacheKey, BakeMovesWithEveryOptionThatDecidesASlice) {
         c);
     // Where it runs and what the command line was leave the key as it is (bake_cache_key_exclusions).
     BakeSpec elsewhere = base;
-    elsewhere.device = "all";
-    elsewhere.oracle_threads = 3;
+    elsewhere.backend.device = "all";
+    elsewhere.backend.threads = 3;
     elsewhere.command_line = "microshadow bake --size 8";
     EXPECT_EQ(bake_cache_key(elsewhere, backend->scheduler()).hash(), bake_cache_key(base, backend->scheduler()).hash());
     EXPECT_EQ(bake_cache_key_exclusions().size(), 3u);

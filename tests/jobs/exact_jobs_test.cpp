@@ -333,8 +333,8 @@ BakeSpec small_bake(std::uint32_t azimuth_intervals) {
     s.replicates = kReplicates;
     s.azimuth_intervals = azimuth_intervals;
     s.seed = 13;
-    s.oracle = true;
-    s.oracle_threads = 2;
+    s.backend.kind = schedule::Backend::Kind::oracle;
+    s.backend.threads = 2;
     return s;
 }
 

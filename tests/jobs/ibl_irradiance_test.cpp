@@ -110,8 +110,8 @@ TEST(IblIrradianceKernel, WithinItsBoundOfTheOracle) {
         const IrradianceMapResult kernel = compute_irradiance_map(src, spec);
         ASSERT_EQ(kernel.convolution_size, source_size);
         IrradianceMapSpec ospec = spec;
-        ospec.oracle = true;
-        ospec.threads = 2;
+        ospec.backend.kind = schedule::Backend::Kind::oracle;
+        ospec.backend.threads = 2;
         const IrradianceMapResult oracle = compute_irradiance_map(src, ospec);
         double worst_ratio = 0, worst_rel_diff = 0, largest = 0, largest_bound = 0;
         for (int f = 0; f < 6; ++f)

@@ -56,8 +56,8 @@ TEST_F(IblJobRun, IrradianceReportsProgressAndACancelStopsItWritingNothing) {
     spec.out = path("out/irradiance");  // two folders to make, both removed again on a cancel
     spec.map.face_size = 4;
     spec.map.source_size = 8;
-    spec.map.oracle = true;
-    spec.map.threads = 2;
+    spec.map.backend.kind = schedule::Backend::Kind::oracle;
+    spec.map.backend.threads = 2;
     Seen cancelled;
     EXPECT_THROW(run_irradiance_job(spec, cancelled.callbacks(true)), Cancelled);
     EXPECT_GE(cancelled.reports, 1u);
@@ -84,7 +84,7 @@ TEST_F(IblJobRun, PrefilterReportsProgressAndACancelStopsItWritingNothing) {
     spec.prefilter.levels = 2;
     spec.prefilter.tolerance = 0;
     spec.prefilter.plan.samples = 64;
-    spec.prefilter.threads = 2;
+    spec.prefilter.backend.threads = 2;
     spec.irradiance_size = 4;
     Seen cancelled;
     EXPECT_THROW(run_prefilter_job(spec, cancelled.callbacks(true)), Cancelled);
@@ -106,7 +106,7 @@ TEST_F(IblJobRun, DfgReportsProgressAndACancelStopsItWritingNothing) {
     DfgJobSpec spec;
     spec.bake.method = DfgMethod::exact;
     spec.bake.n_dot_v.count = spec.bake.roughness.count = 4;
-    spec.bake.oracle_threads = 2;
+    spec.bake.backend.threads = 2;
     spec.out = path("dfg.exr");
     spec.preview = path("dfg.png");
     Seen cancelled;
@@ -128,8 +128,8 @@ TEST_F(IblJobRun, BakeJobReportsProgressAndACancelStopsItWritingNothing) {
     BakeJobSpec spec;
     spec.bake = default_bake_spec(LutLayout::custom, 4);
     spec.bake.roughness = {0.5};
-    spec.bake.oracle = true;
-    spec.bake.oracle_threads = 2;
+    spec.bake.backend.kind = schedule::Backend::Kind::oracle;
+    spec.bake.backend.threads = 2;
     spec.bake.samples = 256;
     spec.out = path("lut.exr");
     std::uint64_t writes = 0;

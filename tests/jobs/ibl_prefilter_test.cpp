@@ -55,7 +55,7 @@ TEST(IblPrefilter, RoughnessMappings) {
 TEST(IblPrefilter, ConstantEnvironmentStaysConstant) {
     const env::Cubemap src = make_prefilter_cube(32, [](const env::Dir&) { return std::array<double, 3>{0.5, 2.0, 7.0}; });
     PrefilterSpec spec;
-    spec.threads = 2;
+    spec.backend.threads = 2;
     const PrefilterResult r = prefilter_cubemap(src, spec);
     ASSERT_EQ(r.mips.size(), 4u);  // 32, 16, 8, 4
     for (std::size_t m = 0; m < r.mips.size(); ++m)

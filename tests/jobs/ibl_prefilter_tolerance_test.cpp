@@ -65,7 +65,7 @@ env::Cubemap sun_sky(std::uint32_t n) {
 TEST(IblPrefilterTolerance, EveryTexelMeetsItsBarAndTheOracleAgrees) {
     const env::Cubemap src = sun_sky(16);
     PrefilterSpec spec;
-    spec.threads = 2;
+    spec.backend.threads = 2;
     spec.tolerance = 0.05;
     const PrefilterResult r = prefilter_cubemap(src, spec);
     EXPECT_GT(r.bright_texels, 0u);  // the sun, chosen automatically
@@ -101,7 +101,7 @@ TEST(IblPrefilterTolerance, EveryTexelMeetsItsBarAndTheOracleAgrees) {
 TEST(IblPrefilterTolerance, VerifyCatchesABiasedEstimator) {
     const env::Cubemap src = sun_sky(8);
     PrefilterSpec spec;
-    spec.threads = 2;
+    spec.backend.threads = 2;
     spec.tolerance = 0.05;
     const PrefilterResult clean = prefilter_cubemap(src, spec);
     const PrefilterVerification ok = verify_prefilter(src, clean, 32);
@@ -168,7 +168,7 @@ TEST(IblPrefilterTolerance, KernelPathMeetsTheToleranceToo) {
     const env::Cubemap src = sun_sky(8);
     PrefilterSpec spec;
     spec.tolerance = 0.05;
-    spec.device = "default";
+    spec.backend.kind = schedule::Backend::Kind::opencl;  // the kernel on the default device
     const PrefilterResult r = prefilter_cubemap(src, spec);
     EXPECT_GT(r.bright_texels, 0u);
     EXPECT_EQ(r.unconverged, check_every_bar(r, spec.tolerance));

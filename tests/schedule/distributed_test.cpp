@@ -47,8 +47,8 @@ BakeSpec small_bake() {
     s.roughness = {0.3, 0.8};
     s.samples = 1024;
     s.seed = 7;
-    s.oracle = true;
-    s.oracle_threads = 1;
+    s.backend.kind = schedule::Backend::Kind::oracle;
+    s.backend.threads = 1;
     return s;
 }
 
@@ -152,7 +152,7 @@ TEST_F(Distributed, ShardedBakeMergesToTheUnsplitBake) {
         BakeSpec spec = small_bake();
         spec.method = method;
         if (method == Method::exact) spec.tolerance = 1e-4;
-        schedule::Scheduler scheduler(bake_backend(spec));
+        schedule::Scheduler scheduler(spec.backend);
         const BakeResult whole = bake_lut(spec, scheduler);
         const std::string dir = path(std::string("store-") + to_string(method));
         const schedule::StoreKey key = bake_store_key(spec, scheduler);
@@ -209,7 +209,7 @@ TEST_F(Distributed, ShardedBakeMergesToTheUnsplitBake) {
 // An interrupted unsplit bake with a store resumes: the finished slices are read back, the rest computed.
 TEST_F(Distributed, StoreResumesAnInterruptedBake) {
     const BakeSpec spec = small_bake();
-    schedule::Scheduler scheduler(bake_backend(spec));
+    schedule::Scheduler scheduler(spec.backend);
     const BakeResult whole = bake_lut(spec, scheduler);
     const schedule::StoreKey key = bake_store_key(spec, scheduler);
     const std::string dir = path("store");

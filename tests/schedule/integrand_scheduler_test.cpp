@@ -680,7 +680,7 @@ BakeSpec small_custom_spec(bool azimuth_mean) {
     s.azimuth_degrees = 60;
     s.samples = 4096;
     s.seed = 21;
-    s.oracle_threads = 2;
+    s.backend.threads = 2;
     return s;
 }
 
@@ -689,7 +689,7 @@ TEST(BakeOnTheOracle, AgreesWithTheKernelRoutineTexelByTexel) {
     for (const bool mean : {false, true}) {
         BakeSpec spec = small_custom_spec(mean);
         const BakeResult cl = bake_lut(spec);
-        spec.oracle = true;
+        spec.backend.kind = schedule::Backend::Kind::oracle;
         const BakeResult oracle = bake_lut(spec);
         ASSERT_EQ(cl.value.size(), oracle.value.size());
         ASSERT_EQ(cl.value.size(), 4u * 3 * 2 * 2);

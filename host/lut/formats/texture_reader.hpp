@@ -6,7 +6,10 @@
 // levels, no array layers, no supercompression. Every offset and length is checked against the
 // file's size before it is read, and the texel count against a caller's limit before anything is
 // allocated. The metadata is the KTX2 key/value entry "microshadow" (JSON), or for a DDS the sidecar
-// `<file>.json` the writer puts beside it (a DDS without its sidecar is refused: it has no axes).
+// `<file>.json` the writer puts beside it. A DDS without its sidecar reads with empty metadata: what
+// that means is the caller's to say. The LUT reader refuses it (a LUT without its axes cannot be read,
+// lut/formats/lut_reader.cpp); the cubemap reader takes it (radiance needs no axes, and engines' DDS
+// cubemaps have no sidecar: env/cubemap_file.hpp).
 #pragma once
 
 #include <cstdint>

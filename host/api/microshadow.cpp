@@ -314,7 +314,7 @@ LookupFile repr_bake(const ReprBakeOptions& a, const Progress& progress) {
     bake.plan.single_precision = o.exact_float;
     if (o.method == Method::exact) {
         bake.plan.method = ms::Method::exact;
-        if (bake.plan.tolerance == 0) bake.plan.tolerance = ms::exact::kDefaultTolerance;
+        if (bake.plan.tolerance == 0) bake.plan.tolerance = ms::repr::kReferenceTolerance;
         ms::exact_term::validate_tolerance(bake.plan.tolerance);
     }
     bake.command_line = "microshadow::repr_bake (library " + version() + ")";

@@ -103,7 +103,7 @@ TermOptions SamplingOptions::term_options() const {
     return t;
 }
 
-SamplingPlan SamplingOptions::plan() const {
+SamplingPlan SamplingOptions::plan(double exact_default) const {
     SamplingPlan p;
     p.sequence = parse_sequence(sequence);
     p.replicates = replicates;
@@ -114,7 +114,7 @@ SamplingPlan SamplingOptions::plan() const {
     p.kernel_on_cpu_devices = exact_kernel;
     p.tolerance = tolerance;
     if (p.method == Method::exact) {
-        if (p.tolerance == 0) p.tolerance = exact::kDefaultTolerance;
+        if (p.tolerance == 0) p.tolerance = exact_default > 0 ? exact_default : exact::kDefaultTolerance;
         exact_term::validate_tolerance(p.tolerance);
         return p;  // no point set is made: the sampling fields are unused
     }

@@ -37,7 +37,9 @@ struct SamplingOptions {
 
     TermOptions term_options() const;
     // The plan, with samples rounded up to replicates * 2^k (reported on stderr when rounded).
-    SamplingPlan plan() const;
+    // The plan these options ask for; the exact method's tolerance defaults to `exact_default` (0: the
+    // exact method's own default, 1e-10) when --tolerance is not given.
+    SamplingPlan plan(double exact_default = 0) const;
     // --backend and --device as every job holds them (cli::backend_spec).
     schedule::BackendSpec backend_spec() const;
     std::unique_ptr<TermBackend> make_backend() const;

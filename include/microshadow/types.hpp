@@ -70,7 +70,7 @@ struct SamplingOptions {
     AoWeighting ao_weighting = AoWeighting::cosine;
     Form form = Form::height_correlated;
     // The estimated absolute error asked of each value. exact: the quadrature's estimate (0: 1e-10 for
-    // evaluate, 1e-6 for bake). sampled evaluate: the replicate standard error, reached by quadrupling the
+    // evaluate, 1e-9 for repr_bake, 1e-6 for bake). sampled evaluate: the replicate standard error, reached by quadrupling the
     // samples of the queries above it (0: one pass of `samples`); sampled bake: BakeOptions::tolerance.
     double tolerance = 0;
     Sequence sequence = Sequence::sobol;  // sampled only

@@ -73,10 +73,7 @@ def test_repr_formats_and_bad_options(representation, tmp_path):
 
 def test_repr_bake_preset_gives_the_clis_preset_file(cli, tmp_path):
     # The default preset, as `repr bake --preset full-range` bakes it (the exact term at its 512 KiB grid).
-    # A few of its values miss the exact method's 1e-10 (estimates up to ~2.4e-10): flagged, exit 3 without
-    # --allow-tolerance-miss; the file is the same either way.
-    cli("repr", "bake", "--preset", "full-range", "--backend", "oracle", "--out", tmp_path / "cli.exr", "-q",
-        "--allow-tolerance-miss")
+    cli("repr", "bake", "--preset", "full-range", "--backend", "oracle", "--out", tmp_path / "cli.exr", "-q")
     back = ms.open(tmp_path / "cli.exr")
     rep = ms.repr_bake(preset="full-range", backend="oracle")
     assert rep.kind == back.kind == "azimuth-harmonics"

@@ -112,7 +112,7 @@ void check_bake_against_per_value_path(bool azimuth_mean, double tolerance) {
     BakeSpec spec = default_bake_spec(LutLayout::seed_3d, 8);
     spec.method = Method::exact;
     spec.tolerance = tolerance;
-    spec.oracle = true;
+    spec.backend = schedule::BackendSpec::oracle();
     spec.azimuth_mean = azimuth_mean;
     spec.azimuth_degrees = 50;
     const BakeResult bake = bake_lut(spec);

@@ -211,9 +211,7 @@ protected:
 // `repr bake` with no options bakes the full-range preset (its file records the preset and its domain);
 // a preset's name is a comparator for eval (baked in memory); layout options beside --preset are refused.
 TEST_F(PresetTest, BakeWithoutOptionsIsFullRangeAndPresetNamesAreComparators) {
-    // Measured: 9 of the preset's 589,824 values have an estimated error above the exact method's 1e-10
-    // (at most 2.4e-10): flagged with exit status 3 (tests/cli/status_cli_test.cpp); the file is written.
-    const auto bake = run_shell("cd " + dir_.string() + " && " + MICROSHADOW_CLI + " repr bake -q --allow-tolerance-miss 2>&1");
+    const auto bake = run_shell("cd " + dir_.string() + " && " + MICROSHADOW_CLI + " repr bake -q 2>&1");
     ASSERT_EQ(bake.exit_code, 0) << bake.output;
     const auto rep = ms::repr::open_representation(path("full-range.exr"));
     const auto* tex = dynamic_cast<const ms::repr::TextureRepresentation*>(rep.get());

@@ -135,6 +135,10 @@ TEST(SweepIntegrity, EveryKindOfChunkDamageIsSetAsideAndRecomputed) {
             EXPECT_EQ(slurp_file(dir / "sweep.csv"), expected) << what;
             ASSERT_EQ(told.size(), 1u) << what;
             EXPECT_NE(told[0].find("item-0000000001.bin"), std::string::npos) << told[0];
+            // Says what follows, once (the store's message carries it; the sweep adds nothing).
+            const std::size_t said = told[0].find("; computed again");
+            EXPECT_NE(said, std::string::npos) << told[0];
+            EXPECT_EQ(told[0].find("computed again", said + 2 + 1), std::string::npos) << told[0];
             EXPECT_EQ(r.warnings, told);
             // The evidence is kept, apart from the chunks the sweep reads.
             EXPECT_TRUE(set_aside(dir, "item-0000000001.bin")) << what;

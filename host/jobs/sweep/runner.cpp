@@ -433,7 +433,8 @@ RunResult run_sweep(const Spec& spec, const RunConfig& config) {
     request.shard_given = config.shard.count > 1;
     request.store = config.out_dir;
     request.transport = config.transport;
-    schedule::Distribution distribution(request, key, config.out_dir, [&](const std::string& w) { warn(w + "; computed again"); });
+    // (The store's warnings say what follows them: computed again, or the shard to rerun.)
+    schedule::Distribution distribution(request, key, config.out_dir, warn);
     const schedule::ItemStore* store = distribution.store();
     if (store) {
         // (Under MPI rank 0 still runs the exchange, with nothing to hand out, so the other ranks stop.)

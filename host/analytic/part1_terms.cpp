@@ -107,6 +107,12 @@ std::string to_string(AnalyticTerm t) {
     throw std::invalid_argument("to_string: invalid AnalyticTerm value");
 }
 
+std::vector<std::string> analytic_term_names() {
+    std::vector<std::string> names;
+    for (AnalyticTerm t : kAllAnalyticTerms) names.push_back(to_string(t));
+    return names;
+}
+
 AnalyticTerm parse_analytic_term(const std::string& s) {
     for (AnalyticTerm t : kAllAnalyticTerms)
         if (to_string(t) == s) return t;

@@ -17,6 +17,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "core/types.hpp"
 
@@ -117,6 +118,8 @@ inline constexpr std::array<AnalyticTerm, 6> kAllAnalyticTerms = {
 };
 
 std::string to_string(AnalyticTerm);
+// Every term's name, in declaration order (what a scene compares against by default, what help lists).
+std::vector<std::string> analytic_term_names();
 // Parse the names above; throws std::invalid_argument listing the valid names.
 AnalyticTerm parse_analytic_term(const std::string&);
 

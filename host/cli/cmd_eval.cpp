@@ -1,6 +1,7 @@
 // microshadow eval: the generic term for every query of a CSV file.
 #include <iostream>
 
+#include "analytic/part1_terms.hpp"
 #include "cli/common.hpp"
 #include "cli/progress.hpp"
 #include "jobs/eval_run.hpp"
@@ -47,10 +48,11 @@ void add_eval_command(CLI::App& app) {
     cmd->add_option("--in", args->in, "query CSV: " "visibility,alpha_x,alpha_y,wi_x,wi_y,wi_z,wo_x,wo_y,wo_z")->required();
     cmd->add_option("--out", args->out, "result CSV: the input columns plus term,std_error (and the --compare columns), and its provenance in OUT.json "
                                        "(a symlink is followed; '-' writes the CSV to standard output, without the .json)")->required();
+    std::string analytic_terms;  // the registry's names, so that the help lists every term there is
+    for (const std::string& name : analytic::analytic_term_names()) analytic_terms += (analytic_terms.empty() ? "" : ", ") + name;
     cmd->add_option("--compare", args->compare,
                     "add a comparator column and its error column <name>_error = comparator - term (repeatable): "
-                    "one of part 1's analytic terms (reference-step, naughty-dog, naughty-dog-ao-fresnel, activision, "
-                    "activision-adjusted, pz-analytic), a baked LUT file (.exr, column named after the file stem) or "
+                    "one of part 1's analytic terms (" + analytic_terms + "), a baked LUT file (.exr, column named after the file stem) or "
                     "NAME=FILE; each reads visibility, NdotL = wo_z, NdotV = wi_z (normalised) and the "
                     "isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), as sweeps do; the anisotropic preset (or a file of it) reads alpha_x, alpha_y and the azimuths of wi and wo from the tangent");
     cmd->add_flag("--strict-domain", args->strict_domain,

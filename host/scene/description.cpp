@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "analytic/part1_terms.hpp"
 #include "io/csv.hpp"
 #include "io/input_file.hpp"
 #include "scene/image_io.hpp"
@@ -400,7 +401,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
     if ((t = table_at(c, root, "comparators"))) {
         reject_unknown(c, *t, "comparators.", {"analytic", "seed_3d", "seed_2d", "lut_size", "lut_samples", "luts"});
         if (const toml::node* n = t->get("analytic")) d.comparators.analytic = strings(c, *n, "comparators.analytic");
-        else d.comparators.analytic = {"reference-step", "naughty-dog", "naughty-dog-ao-fresnel", "activision", "activision-adjusted", "pz-analytic"};
+        else d.comparators.analytic = analytic::analytic_term_names();
         if (const toml::node* n = t->get("seed_3d")) d.comparators.seed_3d = boolean(c, *n, "comparators.seed_3d");
         if (const toml::node* n = t->get("seed_2d")) d.comparators.seed_2d = boolean(c, *n, "comparators.seed_2d");
         if (const toml::node* n = t->get("lut_size")) d.comparators.lut_size = std::uint32_t(positive(c, *n, "comparators.lut_size", 256));
@@ -408,7 +409,7 @@ SceneDescription parse_scene(const std::string& text, const std::string& source_
         if (const toml::node* n = t->get("luts"))
             for (const auto& f : strings(c, *n, "comparators.luts")) d.comparators.luts.push_back(c.path(f));
     } else {
-        d.comparators.analytic = {"reference-step", "naughty-dog", "naughty-dog-ao-fresnel", "activision", "activision-adjusted", "pz-analytic"};
+        d.comparators.analytic = analytic::analytic_term_names();
     }
 
     if ((t = table_at(c, root, "sampling"))) {

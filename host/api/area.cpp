@@ -26,13 +26,13 @@ ms::area::AreaQuery to_ms(const AreaQuery& q, ms::area::Lobe lobe, std::size_t i
     out.alpha_y = q.alpha_y;
     out.wi = to_ms(q.wi);
     out.lobe = lobe;
-    out.light.shape = q.shape == LightShape::sphere ? ms::area::LightShape::sphere : ms::area::LightShape::rect;
-    if (q.shape == LightShape::sphere) {
-        out.light.sphere.centre = to_ms(q.centre);
-        if (!(q.half_angle_degrees > 0 && q.half_angle_degrees < 90))
-            throw std::invalid_argument(where + "half_angle_degrees = " + std::to_string(q.half_angle_degrees) +
+    out.light.shape = q.light == LightShape::sphere ? ms::area::LightShape::sphere : ms::area::LightShape::rect;
+    if (q.light == LightShape::sphere) {
+        out.light.sphere.centre = to_ms(q.light_direction);
+        if (!(q.half_angle_deg > 0 && q.half_angle_deg < 90))
+            throw std::invalid_argument(where + "half_angle_deg = " + std::to_string(q.half_angle_deg) +
                                         " must be in (0, 90) degrees");
-        out.light.sphere.half_angle = ms::area::radians(q.half_angle_degrees);
+        out.light.sphere.half_angle = ms::area::radians(q.half_angle_deg);
     } else {
         for (int k = 0; k < 4; ++k) out.light.rect.corners[k] = to_ms(q.corners[k]);
     }

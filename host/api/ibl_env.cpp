@@ -117,6 +117,8 @@ PrefilteredEnvironment::PrefilteredEnvironment(std::shared_ptr<const Data> data)
 }
 
 PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& progress) {
+    if (o.bright != "auto" && o.bright != "off")
+        throw std::invalid_argument("microshadow::prefilter: bright = '" + o.bright + "' (auto or off)");
     check_source(o.environment, "microshadow::prefilter");
     if (o.replicates < 2) throw std::invalid_argument("microshadow::prefilter: replicates = " + std::to_string(o.replicates) + " (at least 2)");
     ms::PrefilterSpec spec;
@@ -125,11 +127,11 @@ PrefilteredEnvironment prefilter(const PrefilterOptions& o, const Progress& prog
     spec.plan.replicates = o.replicates;
     spec.plan.samples = ms::round_up_samples(o.samples, o.replicates);
     spec.plan.seed = o.seed;
-    spec.options.filtered = o.filtered;
+    spec.options.filtered = o.fis;
     spec.options.lod_bias = o.lod_bias;
     spec.tolerance = o.tolerance;
     spec.max_samples = std::max(o.max_samples, o.samples);
-    spec.bright_auto = o.bright_auto;
+    spec.bright_auto = o.bright == "auto";
     spec.bright_threshold = o.bright_threshold;
     spec.bright_max_texels = o.bright_max;
     spec.bright_min_roughness = o.bright_min_roughness;

@@ -126,11 +126,11 @@ SweepTable run(ms::sweep::Spec spec, const SweepOptions& o, const Progress& prog
 
     std::optional<TemporaryDirectory> temporary;
     ms::sweep::RunConfig config;
-    if (o.out_dir.empty()) {
+    if (o.out.empty()) {
         temporary.emplace();
         config.out_dir = temporary->path().string();
     } else {
-        config.out_dir = o.out_dir;
+        config.out_dir = o.out;
     }
     config.plan = plan;
     config.defaults = detail::term_options(o.ao_weighting.value_or(AoWeighting::cosine),

@@ -53,8 +53,8 @@ BakeSpec make_spec(const BakeArgs& a) {
         for (const char* o : {"--roughness", "--visibility-range", "--n-dot-l-range", "--n-dot-v-range"})
             if (given(a.cmd, o)) throw std::invalid_argument(std::string(o) + " needs --layout custom");
     }
-    if (layout == LutLayout::seed_2d && given(a.cmd, "--size-n-dot-v"))
-        throw std::invalid_argument("--size-n-dot-v does not apply to seed-2d (the NdotV = 1 slice)");
+    if (layout == LutLayout::seed_2d && given(a.cmd, "--n-dot-v-count"))
+        throw std::invalid_argument("--n-dot-v-count does not apply to seed-2d (the NdotV = 1 slice)");
     if (given(a.cmd, "--samples") && given(a.cmd, "--tolerance"))
         throw std::invalid_argument("give --samples or --tolerance, not both (--tolerance adds batches of the default size)");
 
@@ -232,9 +232,12 @@ void add_bake_command(CLI::App& app) {
     cmd->add_option("--out", a->out, "output LUT file: " + lutfmt::extension_list(lutfmt::TextureUse::lut) + " (see --format)")->required();
     add_bake_output_options(cmd, a->outputs);
     cmd->add_option("--size", a->size, "texels on every axis")->transform(decimal_range(1, 4096))->capture_default_str();
-    cmd->add_option("--size-visibility,--visibility-count", a->size_visibility, "texels on the visibility axis (--visibility-count: the name repr bake and the library use)")->transform(decimal_range(1, 4096));
-    cmd->add_option("--size-n-dot-l,--n-dot-l-count", a->size_n_dot_l, "texels on the NdotL axis")->transform(decimal_range(1, 4096));
-    cmd->add_option("--size-n-dot-v,--n-dot-v-count", a->size_n_dot_v, "texels on the NdotV axis")->transform(decimal_range(1, 4096));
+    add_hidden_alias(cmd, "--size-visibility",
+                     cmd->add_option("--visibility-count", a->size_visibility, "texels on the visibility axis (default: --size)")->transform(decimal_range(1, 4096)));
+    add_hidden_alias(cmd, "--size-n-dot-l",
+                     cmd->add_option("--n-dot-l-count", a->size_n_dot_l, "texels on the NdotL axis (default: --size)")->transform(decimal_range(1, 4096)));
+    add_hidden_alias(cmd, "--size-n-dot-v",
+                     cmd->add_option("--n-dot-v-count", a->size_n_dot_v, "texels on the NdotV axis (default: --size)")->transform(decimal_range(1, 4096)));
     cmd->add_option("--texel", a->texel, "texel parameters: centres (i + 0.5) / n or endpoints i / (n - 1)")
         ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
         ->capture_default_str();

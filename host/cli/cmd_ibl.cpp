@@ -177,8 +177,10 @@ void add_ibl_command(CLI::App& app) {
         ->capture_default_str();
     dfg->add_option("--symbol", d->job.symbol, "C array name of a .h output (macros SYMBOL_WIDTH, _HEIGHT, _CHANNELS)")->capture_default_str();
     dfg->add_option("--size", d->size, "texels on both axes")->transform(decimal_range(1, 4096))->capture_default_str();
-    dfg->add_option("--size-n-dot-v,--n-dot-v-count", d->size_n_dot_v, "texels on the NdotV axis (--n-dot-v-count: the name of the library and Python)")->transform(decimal_range(1, 4096));
-    dfg->add_option("--size-roughness,--roughness-count", d->size_roughness, "texels on the roughness axis (--roughness-count: the name of the library and Python)")->transform(decimal_range(1, 4096));
+    add_hidden_alias(dfg, "--size-n-dot-v",
+                     dfg->add_option("--n-dot-v-count", d->size_n_dot_v, "texels on the NdotV axis (default: --size)")->transform(decimal_range(1, 4096)));
+    add_hidden_alias(dfg, "--size-roughness",
+                     dfg->add_option("--roughness-count", d->size_roughness, "texels on the roughness axis (default: --size)")->transform(decimal_range(1, 4096)));
     dfg->add_option("--texel", d->texel, "centres (i + 0.5) / n or endpoints i / (n - 1)")
         ->check(CLI::IsMember({"centres", "centers", "endpoints"}))
         ->capture_default_str();

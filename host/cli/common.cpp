@@ -288,6 +288,28 @@ void add_verify_option(CLI::App* app, std::uint32_t& k, const std::string& help)
 
 void add_quiet_flag(CLI::App* app, bool& quiet, const std::string& help) { app->add_flag("-q,--quiet", quiet, help); }
 
+void add_hidden_alias(CLI::App* app, const std::string& old_name, CLI::Option* current) {
+    // CLI11 lists every name of an option in --help, so the old name is an option of its own in the hidden
+    // group "" whose callback feeds `current`: current's validators and transforms then apply as usual.
+    auto* alias = app->add_option(
+        old_name,
+        [old_name, current](const CLI::results_t& values) {
+            if (current->count() > 0) throw CLI::ExcludesError(old_name, current->get_name());
+            for (const std::string& value : values) current->add_result(value);
+            try {
+                current->run_callback();
+            } catch (const CLI::ValidationError& e) {
+                // Name the flag as the user typed it: "--size-visibility: ..." rather than the current name.
+                std::string message = e.what();
+                if (message.rfind(current->get_name(), 0) == 0) message.replace(0, current->get_name().size(), old_name);
+                throw CLI::ValidationError(message);
+            }
+            return true;
+        },
+        "older spelling of " + current->get_name());
+    alias->group("");
+}
+
 schedule::Shard resolve_shard(const std::string& given_text) {
     if (!given_text.empty()) return schedule::parse_shard(given_text, "--shard");
     if (const auto task = schedule::slurm_array_shard([](const char* name) { return std::getenv(name); })) return *task;

@@ -101,6 +101,10 @@ void add_threads_option(CLI::App* app, unsigned& threads, const std::string& hel
 void add_verify_option(CLI::App* app, std::uint32_t& k, const std::string& help);
 // -q / --quiet.
 void add_quiet_flag(CLI::App* app, bool& quiet, const std::string& help = "no progress or summary on stderr");
+// An older spelling of the option `current` (e.g. --size-visibility for --visibility-count), kept working
+// but left out of --help: its value is handed to `current`, checked and stored as if `current` had been
+// given; giving both is an error.
+void add_hidden_alias(CLI::App* app, const std::string& old_name, CLI::Option* current);
 // --shader-prefix: the prefix of every name a generated shader defines (lut/shader/compose.hpp); empty
 // keeps the default, each output file's name.
 void add_shader_prefix_option(CLI::App* app, std::string& prefix);

@@ -14,14 +14,15 @@ enum class LightShape { sphere, rect };
 // alpha) or Lambert.
 enum class Lobe { ggx, lambert };
 
-// One shaded point and its light, in the tangent frame (normal +z), the columns of `area eval`'s CSV.
+// One shaded point and its light, in the tangent frame (normal +z): the columns of `area eval`'s CSV
+// (light_direction: light_x, light_y, light_z) and the keywords of Python's area_eval.
 struct AreaQuery {
     double visibility = 1;
     double alpha_x = 0.5, alpha_y = 0.5;
     Direction wi{0, 0, 1};
-    LightShape shape = LightShape::sphere;
-    Direction centre{0, 0, 1};        // sphere: the direction to its centre
-    double half_angle_degrees = 10;   // sphere: its angular radius, in (0, 90)
+    LightShape light = LightShape::sphere;
+    Direction light_direction{0, 0, 1};  // sphere: the direction to its centre
+    double half_angle_deg = 10;          // sphere: its angular radius in degrees, in (0, 90)
     std::array<Direction, 4> corners{};  // rect: the corners in order, relative to the shaded point
 };
 

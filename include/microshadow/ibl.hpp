@@ -90,14 +90,14 @@ struct PrefilterOptions {
     std::uint64_t max_samples = 1u << 16;  // with a tolerance, at most this many per texel
     std::uint32_t replicates = 16;
     std::uint64_t seed = 0;
-    bool filtered = true;            // false: every sample read from the full-resolution source
+    bool fis = true;                 // filtered importance sampling; false (`--no-fis`): every sample read from the full-resolution source
     double lod_bias = 0;
-    bool bright_auto = true;         // bright texels summed explicitly, chosen for the tolerance
-    double bright_threshold = 0;     // > 0: sum texels brighter than this x the mean radiance explicitly (instead of bright_auto)
+    std::string bright = "auto";    // "auto": bright texels summed explicitly, chosen for the tolerance; "off"
+    double bright_threshold = 0;     // > 0: sum texels brighter than this x the mean radiance explicitly (instead of bright's choice)
     double bright_min_roughness = 0;
     std::uint32_t wide_samples_factor = 1;
     std::uint64_t bright_max = 4096;
-    std::string device;              // empty: C++ on CPU threads; else OpenCL devices
+    std::string device;              // empty (Python: None, CLI: no --device): C++ on CPU threads; else OpenCL devices
     unsigned threads = 0;            // CPU threads (0: all)
     std::uint32_t verify = 0;        // > 0: compare this many random texels with the brute-force oracle; throws when one is outside its bars
     std::uint32_t irradiance_size = 32;  // the SH irradiance cubemap's face size

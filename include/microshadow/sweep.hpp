@@ -13,7 +13,7 @@ namespace microshadow {
 
 // The spec's [sampling] values are defaults; a field set here wins, as a command-line option does.
 struct SweepOptions {
-    std::string out_dir;  // where the chunks, sweep.csv and the summary go (empty: a temporary directory, removed)
+    std::string out;  // the output directory: chunks, sweep.csv and the summary (empty: a temporary one, removed)
     std::optional<Method> method;          // default: the spec's, else exact
     std::optional<double> tolerance;
     std::optional<std::uint64_t> samples;

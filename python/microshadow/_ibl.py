@@ -166,7 +166,7 @@ def ibl_prefilter(
     max_samples: int = 1 << 16,
     replicates: int = 16,
     seed: int = 0,
-    no_fis: bool = False,
+    fis: bool = True,
     lod_bias: float = 0.0,
     bright: str = "auto",
     bright_threshold: float = 0.0,
@@ -178,6 +178,7 @@ def ibl_prefilter(
     verify: int = 0,
     irradiance_size: int = 32,
     progress: ProgressArg = None,
+    no_fis: Optional[bool] = None,
 ) -> PrefilteredEnvironment:
     """The GGX-prefiltered specular mip chain and the SH irradiance of an environment: ``microshadow ibl
     prefilter`` without its files (call ``.save(out)``); docs/ibl.md.
@@ -191,7 +192,8 @@ def ibl_prefilter(
             explicit part's bound) is at most this, 0 to 1 (0: a fixed `samples` per texel); docs/ibl.md.
         samples: GGX samples per texel, 16 to 2^20 (all replicates; the first round's with a tolerance);
             max_samples: with a tolerance, at most this many per texel; replicates: 2 to 64; seed.
-        no_fis: read every sample from the full-resolution source (no filtered importance sampling).
+        fis: filtered importance sampling; False reads every sample from the full-resolution source
+            (``--no-fis``; no_fis=True is the deprecated spelling of fis=False).
         lod_bias: filtered importance sampling's LOD bias, -16 to 16.
         bright: "auto" sums the bright texels explicitly, chosen for the tolerance (at most bright_max), or
             "off"; bright_threshold: > 0 takes those brighter than this x the mean radiance instead; on the mips
@@ -202,6 +204,10 @@ def ibl_prefilter(
         irradiance_size: the SH irradiance cubemap's face size.
         progress: True prints progress on stderr; a callable gets (texels done, texels).
     """
+    if no_fis is not None:
+        if fis is not True:
+            raise TypeError("ibl_prefilter() got both no_fis= and fis= (give fis= only)")
+        fis = not _deprecated_alias("ibl_prefilter", "no_fis", "fis", bool(no_fis), None)
     image, files = _environment(environment, faces)
     _choice("mapping", mapping, ("cmgen", "linear"))
     _count("size", size, 0, 4096)
@@ -225,8 +231,8 @@ def ibl_prefilter(
     options = _options.build(
         "PrefilterOptions", environment=_options.environment(image, files), size=int(size), levels=int(levels),
         mapping=mapping, tolerance=_real("tolerance", tolerance, 0, 1), samples=int(samples),
-        max_samples=int(max_samples), replicates=int(replicates), seed=int(seed), filtered=not no_fis,
-        lod_bias=_real("lod_bias", lod_bias, -16, 16), bright_auto=bright == "auto",
+        max_samples=int(max_samples), replicates=int(replicates), seed=int(seed), fis=bool(fis),
+        lod_bias=_real("lod_bias", lod_bias, -16, 16), bright=bright,
         bright_threshold=_real("bright_threshold", bright_threshold, 0, 1e12),
         bright_min_roughness=_real("bright_min_roughness", bright_min_roughness, 0, 1),
         wide_samples_factor=int(wide_samples_factor), bright_max=int(bright_max),

@@ -73,7 +73,7 @@ def sweep(
     if spec_path and not os.path.isfile(spec_path):
         raise FileNotFoundError(f"{spec_path}: no such file")
     options = _options.build(
-        "SweepOptions", out_dir="" if out is None else os.fspath(out), method=method,
+        "SweepOptions", out="" if out is None else os.fspath(out), method=method,
         tolerance=None if tolerance is None else float(tolerance), samples=None if samples is None else int(samples),
         replicates=None if replicates is None else int(replicates), seed=None if seed is None else int(seed),
         sequence=sequence, form=form, ao_weighting=ao_weighting, fast_math=bool(fast_math),

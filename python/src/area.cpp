@@ -21,10 +21,10 @@ std::vector<AreaQuery> area_queries(const Doubles& surface, const Doubles& light
         q.alpha_x = s[1];
         q.alpha_y = s[2];
         q.wi = {s[3], s[4], s[5]};
-        q.shape = shape;
+        q.light = shape;
         if (shape == LightShape::sphere) {
-            q.centre = {l[0], l[1], l[2]};
-            q.half_angle_degrees = l[3];
+            q.light_direction = {l[0], l[1], l[2]};
+            q.half_angle_deg = l[3];
         } else {
             for (int k = 0; k < 4; ++k) q.corners[k] = {l[3 * k], l[3 * k + 1], l[3 * k + 2]};
         }

@@ -157,7 +157,7 @@ void bind_options(py::module_& m) {
 
     py::class_<SweepOptions> sweep(m, "SweepOptions");
     sweep.def(py::init<>())
-        .def_readwrite("out_dir", &SweepOptions::out_dir)
+        .def_readwrite("out", &SweepOptions::out)
         .def_readwrite("tolerance", &SweepOptions::tolerance)
         .def_readwrite("samples", &SweepOptions::samples)
         .def_readwrite("replicates", &SweepOptions::replicates)
@@ -169,7 +169,7 @@ void bind_options(py::module_& m) {
     optional_enum_field(sweep, "form", &SweepOptions::form, form_names());
     optional_enum_field(sweep, "ao_weighting", &SweepOptions::ao_weighting, ao_weighting_names());
     backend_fields(sweep);
-    sweep.attr("_fields") = py::make_tuple("out_dir", "method", "tolerance", "samples", "replicates", "seed", "sequence", "form",
+    sweep.attr("_fields") = py::make_tuple("out", "method", "tolerance", "samples", "replicates", "seed", "sequence", "form",
                                            "ao_weighting", "backend", "device", "fast_math", "exact_float");
     describe(sweep, "SweepOptions");
 
@@ -211,9 +211,9 @@ void bind_options(py::module_& m) {
         .def_readwrite("max_samples", &PrefilterOptions::max_samples)
         .def_readwrite("replicates", &PrefilterOptions::replicates)
         .def_readwrite("seed", &PrefilterOptions::seed)
-        .def_readwrite("filtered", &PrefilterOptions::filtered)
+        .def_readwrite("fis", &PrefilterOptions::fis)
         .def_readwrite("lod_bias", &PrefilterOptions::lod_bias)
-        .def_readwrite("bright_auto", &PrefilterOptions::bright_auto)
+        .def_readwrite("bright", &PrefilterOptions::bright)
         .def_readwrite("bright_threshold", &PrefilterOptions::bright_threshold)
         .def_readwrite("bright_min_roughness", &PrefilterOptions::bright_min_roughness)
         .def_readwrite("wide_samples_factor", &PrefilterOptions::wide_samples_factor)
@@ -223,8 +223,8 @@ void bind_options(py::module_& m) {
         .def_readwrite("verify", &PrefilterOptions::verify)
         .def_readwrite("irradiance_size", &PrefilterOptions::irradiance_size);
     prefilter.attr("_fields") = py::make_tuple(
-        "environment", "size", "levels", "mapping", "tolerance", "samples", "max_samples", "replicates", "seed", "filtered",
-        "lod_bias", "bright_auto", "bright_threshold", "bright_min_roughness", "wide_samples_factor", "bright_max", "device",
+        "environment", "size", "levels", "mapping", "tolerance", "samples", "max_samples", "replicates", "seed", "fis",
+        "lod_bias", "bright", "bright_threshold", "bright_min_roughness", "wide_samples_factor", "bright_max", "device",
         "threads", "verify", "irradiance_size");
     describe(prefilter, "PrefilterOptions");
 

@@ -148,3 +148,18 @@ def test_prefilter_progress_and_interrupt(environment, tmp_path):
     seen = []
     ms.ibl_prefilter(environment, samples=16, progress=lambda d, t: seen.append((d, t)))
     assert seen and seen[-1][0] == seen[-1][1]
+
+
+def test_prefilter_fis_is_the_cli_no_fis_and_no_fis_still_works_with_a_warning(cli, environment, tmp_path):
+    cli("ibl", "prefilter", environment, "--out", tmp_path / "cli", "--samples", "16", "--levels", "2", "--irradiance-size", "2",
+        "--format", "exr", "--no-fis", "-q")
+    unfiltered = ms.ibl_prefilter(environment, samples=16, levels=2, irradiance_size=2, fis=False)
+    assert np.array_equal(unfiltered.mips[1], cross_faces(tmp_path / "cli" / "specular_m1.exr"))
+    assert not np.array_equal(unfiltered.mips[1], ms.ibl_prefilter(environment, samples=16, levels=2, irradiance_size=2).mips[1])
+    with pytest.warns(DeprecationWarning, match=r"ibl_prefilter\(no_fis=\) is deprecated: use fis="):
+        old = ms.ibl_prefilter(environment, samples=16, levels=2, irradiance_size=2, no_fis=True)
+    assert np.array_equal(old.mips[1], unfiltered.mips[1])
+    with pytest.raises(TypeError, match="both no_fis= and fis="):
+        ms.ibl_prefilter(environment, fis=False, no_fis=True)
+    with pytest.raises(ValueError, match="bright"):
+        ms.ibl_prefilter(environment, bright="Auto")

@@ -122,6 +122,16 @@ TEST(LibraryApi, BadOptionsAreRefusedWithTheFieldNamed) {
     layout.layout = "seed-4d";
     EXPECT_THROW(microshadow::bake(layout), std::invalid_argument);
     EXPECT_THROW(microshadow::open_lut("/nonexistent/l.exr"), std::runtime_error);
+    // PrefilterOptions::bright takes what `ibl prefilter --bright` and Python's bright= take.
+    microshadow::PrefilterOptions prefilter;
+    prefilter.environment.image = "/nonexistent/sky.exr";
+    prefilter.bright = "Auto";
+    try {
+        microshadow::prefilter(prefilter);
+        ADD_FAILURE() << "bright = 'Auto' accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("bright = 'Auto' (auto or off)"), std::string::npos) << e.what();
+    }
     EXPECT_EQ(microshadow::version(), MICROSHADOW_VERSION);
 }
 

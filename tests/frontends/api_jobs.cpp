@@ -121,9 +121,9 @@ int run(int argc, char** argv) {
             q.alpha_x = s[1];
             q.alpha_y = s[2];
             q.wi = {s[3], s[4], s[5]};
-            q.shape = LightShape::sphere;
-            q.centre = {l[0], l[1], l[2]};
-            q.half_angle_degrees = l[3];
+            q.light = LightShape::sphere;
+            q.light_direction = {l[0], l[1], l[2]};
+            q.half_angle_deg = l[3];
         }
         std::vector<double> out;
         for (const AreaEstimate& e : area_evaluate(queries, o)) out.insert(out.end(), {e.value, e.std_error, e.inner_error});

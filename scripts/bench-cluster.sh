@@ -22,7 +22,7 @@ mpirun=(mpirun --oversubscribe)
 [ "$(id -u)" -eq 0 ] && mpirun+=(--allow-run-as-root)
 
 # 2 channels x (slices / 2) NdotV values of 4 x 4 texels, 256 samples: each item is ~a millisecond of work.
-args=(bake --layout custom --size 4 --size-n-dot-v $((slices / 2)) --roughness 0.3,0.8 --samples 256 --seed 1 --quiet)
+args=(bake --layout custom --size 4 --n-dot-v-count $((slices / 2)) --roughness 0.3,0.8 --samples 256 --seed 1 --quiet)
 # "WALL CPU" of a command (bash's time: real, and user + sys of the shell's children).
 measure() {
   local TIMEFORMAT='%R %U %S' out
@@ -41,7 +41,7 @@ load() { cut -d' ' -f1 /proc/loadavg; }
 echo "machine: $(nproc) cores; $(uptime)"
 "$bin" "${args[@]}" --out "$work/warm.exr"  # the kernels' program cache
 # The fixed cost of starting a process (device discovery, program cache), run on a one-slice bake.
-one=(bake --layout custom --size 4 --size-n-dot-v 1 --roughness 0.3 --samples 256 --seed 1 --quiet)
+one=(bake --layout custom --size 4 --n-dot-v-count 1 --roughness 0.3 --samples 256 --seed 1 --quiet)
 read -r start_s _ < <(median "$bin" "${one[@]}" --out "$work/one.exr")
 printf '| run | load before | wall s | CPU s | items/s | items/s after start-up |\n|---|---|---|---|---|---|\n'
 row() {  # label, start-up wall s, command...
@@ -65,7 +65,7 @@ done
 # and renamed, and the items are synced in groups (64 items or 1 s, chunk_store.hpp). Measured through a
 # store fill: a bake of 256 such slices into a store, minus the same bake without one.
 big_items=256
-big=(bake --layout custom --size 64 --size-n-dot-v $((big_items / 2)) --roughness 0.3,0.8 --samples 64 --seed 1 --quiet)
+big=(bake --layout custom --size 64 --n-dot-v-count $((big_items / 2)) --roughness 0.3,0.8 --samples 64 --seed 1 --quiet)
 "$bin" "${big[@]}" --out "$work/big-warm.exr"
 read -r without without_cpu < <(median "$bin" "${big[@]}" --out "$work/big.exr")
 read -r with with_cpu < <(median sh -c 'rm -rf "$1" && shift && exec "$@"' sh "$work/big-store" "$bin" "${big[@]}" --out "$work/big-s.exr" --store "$work/big-store")

@@ -242,7 +242,7 @@ wait_for_queue() {  # up to 5 minutes: CI runs this stage beside a compiler on b
 # A task killed mid-run (SIGKILL once two of its slices are in the store) and requeued resumes: the rerun
 # finds those slices, computes the rest, and the merge equals one process.
 requeue_part() {
-  local s=$1 args=(bake --layout custom --size 6 --size-n-dot-v 8 --roughness 0.3,0.8 --samples 131072 --seed 9 --quiet)
+  local s=$1 args=(bake --layout custom --size 6 --n-dot-v-count 8 --roughness 0.3,0.8 --samples 131072 --seed 9 --quiet)
   local out=$work/requeue.exr store=$work/requeue.exr.chunks array
   "$bin" "${args[@]}" --out "$work/requeue-one.exr"
   # The first run of task 1 starts the bake, waits for two of its slices (odd ids) and kills it.

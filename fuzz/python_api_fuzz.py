@@ -295,8 +295,8 @@ def t_evaluate(f: Fuzzer, n):
 
 def t_evaluate_iso(f: Fuzzer, n):
     kw = dict(visibility=np.full(n, 0.5), n_dot_l=np.full(n, 0.6), n_dot_v=np.full(n, 0.7), roughness=np.full(n, 0.5),
-              relative_azimuth=np.full(n, 30.0), **FAST)
-    f._mutate(kw, dict(visibility=(n,), n_dot_l=(n,), n_dot_v=(n,), roughness=(n,), relative_azimuth=(n,),
+              relative_azimuth_deg=np.full(n, 30.0), **FAST)
+    f._mutate(kw, dict(visibility=(n,), n_dot_l=(n,), n_dot_v=(n,), roughness=(n,), relative_azimuth_deg=(n,),
                        tolerance="number", method="string"))
     pos = [kw.pop(k) for k in ("visibility", "n_dot_l", "n_dot_v")]
     return "evaluate_iso", kw, lambda: ms.evaluate_iso(*pos, **kw), lambda r: _term("evaluate_iso", r)
@@ -324,8 +324,8 @@ def t_analytic(f: Fuzzer, n):
 def t_lookup(f: Fuzzer, n):
     table = f.rng.choice([f.lut, f.representation])
     kw = dict(visibility=np.full(n, 0.5), n_dot_l=np.full(n, 0.6), n_dot_v=np.full(n, 0.7), roughness=np.full(n, 0.5),
-              relative_azimuth=np.full(n, 30.0))
-    f._mutate(kw, dict(visibility=(n,), n_dot_l=(n,), n_dot_v=(n,), roughness=(n,), relative_azimuth=(n,)))
+              relative_azimuth_deg=np.full(n, 30.0))
+    f._mutate(kw, dict(visibility=(n,), n_dot_l=(n,), n_dot_v=(n,), roughness=(n,), relative_azimuth_deg=(n,)))
     pos = [kw.pop(k) for k in ("visibility", "n_dot_l", "n_dot_v")]
     return f"{type(table).__name__}.lookup", kw, lambda: table.lookup(*pos, **kw), lambda r: _finite("lookup", r)
 

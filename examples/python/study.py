@@ -77,14 +77,14 @@ def main() -> int:
     n_dot_l = rng.uniform(0.0, 1.0, queries)
     azimuth = rng.uniform(0.0, 180.0, queries)
     t0 = time.monotonic()
-    term, error_bar = ms.evaluate_iso(v, n_dot_l, n_dot_v, roughness=roughness, relative_azimuth=azimuth, method="exact",
+    term, error_bar = ms.evaluate_iso(v, n_dot_l, n_dot_v, roughness=roughness, relative_azimuth_deg=azimuth, method="exact",
                                       tolerance=1e-6,
                                       backend=args.backend)
     print(f"{queries} exact terms in {time.monotonic() - t0:.1f} s (max estimated error {error_bar.max():.1e})")
 
     errors = {
         "seed LUT": lut.lookup(v, n_dot_l, n_dot_v, roughness=roughness) - term,
-        "harmonics": rep.lookup(v, n_dot_l, n_dot_v, roughness=roughness, relative_azimuth=azimuth) - term,
+        "harmonics": rep.lookup(v, n_dot_l, n_dot_v, roughness=roughness, relative_azimuth_deg=azimuth) - term,
     }
     weights = np.maximum(n_dot_l, 0)
     print(f"\n{'':12} {'max |e|':>9} {'RMS':>9} {'N.L RMS':>9}")

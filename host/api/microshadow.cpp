@@ -76,7 +76,7 @@ std::unique_ptr<ms::TermBackend> make_backend(const SamplingOptions& o) {
 void check_lookup_inputs(double visibility, double n_dot_l, double n_dot_v, double roughness, double azimuth) {
     const std::pair<const char*, double> inputs[] = {
         {"visibility", visibility}, {"n_dot_l", n_dot_l}, {"n_dot_v", n_dot_v}, {"roughness", roughness},
-        {"relative_azimuth_degrees", azimuth}};
+        {"relative_azimuth_deg", azimuth}};
     for (const auto& [name, value] : inputs)
         if (std::isnan(value)) throw std::invalid_argument(std::string("lookup: ") + name + " = nan: not a number");
 }
@@ -121,7 +121,7 @@ std::vector<Estimate> evaluate(const std::vector<Query>& queries, const Sampling
 
 Roughness Roughness::from_alpha(double alpha) { return Roughness(std::sqrt(alpha)); }
 
-Query isotropic_query(double visibility, double n_dot_l, double n_dot_v, Roughness roughness, double relative_azimuth_degrees) {
+Query isotropic_query(double visibility, double n_dot_l, double n_dot_v, Roughness roughness, double relative_azimuth_deg) {
     // The sweeps' directions (jobs/sweep/points.cpp: to_query) with phi_i = 0, so that the same
     // parameters give the same query bits here and in a sweep.
     constexpr double kDegree = M_PI / 180.0;
@@ -133,7 +133,7 @@ Query isotropic_query(double visibility, double n_dot_l, double n_dot_v, Roughne
     q.visibility = visibility;
     q.alpha_x = q.alpha_y = roughness.alpha();
     q.wi = direction(n_dot_v, 0.0);
-    q.wo = direction(n_dot_l, relative_azimuth_degrees * kDegree);
+    q.wo = direction(n_dot_l, relative_azimuth_deg * kDegree);
     return q;
 }
 
@@ -400,15 +400,15 @@ const Lut& LookupFile::lut() const {
 }
 
 double LookupFile::lookup(double visibility, double n_dot_l, double n_dot_v, Roughness roughness,
-                          double relative_azimuth_degrees) const {
-    check_lookup_inputs(visibility, n_dot_l, n_dot_v, roughness.value, relative_azimuth_degrees);
+                          double relative_azimuth_deg) const {
+    check_lookup_inputs(visibility, n_dot_l, n_dot_v, roughness.value, relative_azimuth_deg);
     if (data_->lut) return data_->lut->lookup(visibility, n_dot_l, n_dot_v, roughness);
     ms::approx::Inputs in;
     in.visibility = visibility;
     in.n_dot_l = n_dot_l;
     in.n_dot_v = n_dot_v;
     in.roughness = roughness.value;
-    in.relative_azimuth = relative_azimuth_degrees * (M_PI / 180.0);
+    in.relative_azimuth = relative_azimuth_deg * (M_PI / 180.0);
     return (*data_->representation)(in);
 }
 

@@ -16,8 +16,8 @@ std::vector<Estimate> evaluate(const std::vector<Query>& queries, const Sampling
 // isotropic call takes them (Lut::lookup, LookupFile::lookup, AnalyticInputs): alpha_x = alpha_y =
 // roughness.alpha(), the view wi = (sqrt(1 - n_dot_v^2), 0, n_dot_v) and the light at the relative
 // azimuth (degrees; 0: on the view's side) wo = (s cos phi, s sin phi, n_dot_l), s = sqrt(1 - n_dot_l^2)
-// (the directions of a sweep point with phi_i = 0 and delta_phi = relative_azimuth_degrees).
+// (the directions of a sweep point with phi_i = 0 and delta_phi = relative_azimuth_deg).
 Query isotropic_query(double visibility, double n_dot_l, double n_dot_v, Roughness roughness,
-                      double relative_azimuth_degrees = 0);
+                      double relative_azimuth_deg = 0);
 
 }  // namespace microshadow

@@ -69,7 +69,7 @@ Lut open_lut(const std::string& path);
 // isotropic-equivalent roughness (alpha_x alpha_y)^(1/4), and the relative azimuth between the
 // tangent-plane projections of wi and wo in degrees in [0, 180] (0 when either is along the normal).
 struct LookupInputs {
-    double visibility = 1, n_dot_l = 1, n_dot_v = 1, roughness = 0.5, relative_azimuth_degrees = 0;
+    double visibility = 1, n_dot_l = 1, n_dot_v = 1, roughness = 0.5, relative_azimuth_deg = 0;
 };
 LookupInputs lookup_inputs(const Query& query);
 
@@ -84,7 +84,7 @@ public:
     // std::invalid_argument naming the input when one is not a number (NaN), std::domain_error where
     // a partial bake left the LUT unbaked.
     double lookup(double visibility, double n_dot_l, double n_dot_v, Roughness roughness,
-                  double relative_azimuth_degrees = 0) const;
+                  double relative_azimuth_deg = 0) const;
     // The file's "microshadow" metadata as JSON.
     std::string metadata_json() const;
     // The LUT itself (kind() == "lut"); std::logic_error for a representation.

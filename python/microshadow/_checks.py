@@ -221,6 +221,18 @@ def _sampling(method, tolerance, samples, replicates, seed, sequence, form, ao_w
     return t
 
 
+def _renamed_keyword(function: str, old: str, new: str, old_value, new_value):
+    """The value of keyword `new` (None: not given) when its deprecated spelling `old` may have been given
+    instead: DeprecationWarning for `old`, TypeError when both are. For array arguments, whose truth is
+    not a test of being given."""
+    if old_value is None:
+        return new_value
+    warnings.warn(f"{function}({old}=) is deprecated: use {new}=", DeprecationWarning, stacklevel=3)
+    if new_value is not None:
+        raise TypeError(f"{function}() got both {old}= and {new}= (give {new}= only)")
+    return old_value
+
+
 def _deprecated_alias(function: str, old: str, new: str, old_value, new_value):
     """The value of keyword `new` when its deprecated spelling `old` may have been given instead:
     DeprecationWarning for `old`, TypeError when both are."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from typing import Dict, Tuple
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
@@ -10,8 +10,8 @@ from . import _microshadow as _core
 from . import _options
 from ._files import _lookup_rows
 from ._checks import (_BYTES_PER_QUERY, _array, ArrayLike, _broadcast, _broadcast_shape, _check_finite, _check_memory,
-                     _check_range, _column, _directions, _index, _progress, ProgressArg, _rows, _sampling,
-                     _scalar_or_vector, _shown)
+                     _check_range, _column, _directions, _index, _progress, ProgressArg, _renamed_keyword, _rows,
+                     _sampling, _scalar_or_vector, _shown)
 
 
 def _query_rows(visibility, alpha_x, alpha_y, wi, wo) -> np.ndarray:
@@ -131,13 +131,14 @@ def evaluate_iso(
     n_dot_v: ArrayLike,
     *,
     roughness: ArrayLike,
-    relative_azimuth: ArrayLike = 0.0,
+    relative_azimuth_deg: Optional[ArrayLike] = None,
+    relative_azimuth: Optional[ArrayLike] = None,
     **options,
 ) -> Tuple[np.ndarray, np.ndarray]:
     """The term of an isotropic surface in the LUTs' parameters: :func:`evaluate` on its query.
 
     The parameters come in the order of every isotropic call (:meth:`Lut.lookup`, :func:`analytic`, the
-    C++ isotropic_query): visibility, n_dot_l, n_dot_v, then roughness and relative_azimuth as keywords
+    C++ isotropic_query): visibility, n_dot_l, n_dot_v, then roughness and relative_azimuth_deg as keywords
     (so that an alpha is never passed for the roughness by position).
 
     Args:
@@ -145,9 +146,10 @@ def evaluate_iso(
         n_dot_l: cosine of the light in [-1, 1] (below 0 the term is 0).
         n_dot_v: cosine of the view in (0, 1]; wi = (sqrt(1 - n_dot_v^2), 0, n_dot_v).
         roughness: perceptual roughness in (0, 1] (alpha_x = alpha_y = roughness^2).
-        relative_azimuth: the light's azimuth from the view's, in degrees (0: on the view's side,
-            180: opposite); wo = (s cos phi, s sin phi, n_dot_l) with s = sqrt(1 - n_dot_l^2): the
-            directions of a sweep point with phi_i = 0 and delta_phi = relative_azimuth.
+        relative_azimuth_deg: the light's azimuth from the view's, in degrees (0, the default: on the
+            view's side, 180: opposite); wo = (s cos phi, s sin phi, n_dot_l) with s = sqrt(1 - n_dot_l^2):
+            the directions of a sweep point with phi_i = 0 and delta_phi = relative_azimuth_deg.
+        relative_azimuth: the older name of relative_azimuth_deg (DeprecationWarning).
         **options: :func:`evaluate`'s keyword options (method, tolerance, samples, ...).
 
     All arguments broadcast against each other (any shapes, as :meth:`Lut.lookup`). Returns (term,
@@ -156,17 +158,21 @@ def evaluate_iso(
     for key in options:
         if key not in _EVALUATE_OPTIONS:
             raise TypeError(f"evaluate_iso() got an unexpected keyword argument {key!r}")
+    azimuth_deg = _renamed_keyword("evaluate_iso", "relative_azimuth", "relative_azimuth_deg", relative_azimuth,
+                                   relative_azimuth_deg)
+    if azimuth_deg is None:
+        azimuth_deg = 0.0
     given = {"visibility": _array("visibility", visibility), "n_dot_l": _array("n_dot_l", n_dot_l),
              "n_dot_v": _array("n_dot_v", n_dot_v), "roughness": _array("roughness", roughness),
-             "relative_azimuth": _array("relative_azimuth", relative_azimuth)}
+             "relative_azimuth_deg": _array("relative_azimuth_deg", azimuth_deg)}
     _broadcast_shape("evaluate_iso", given, _BYTES_PER_QUERY)
     # Each argument checked as given (the message indexes it in its own shape), then broadcast.
     _check_range("visibility", given["visibility"], 0.0, 1.0)
     _check_range("n_dot_l", given["n_dot_l"], -1.0, 1.0)
     _check_range("n_dot_v", given["n_dot_v"], 0.0, 1.0, lo_open=True)
     _check_range("roughness", given["roughness"], 0.0, 1.0, lo_open=True)
-    _check_finite("relative_azimuth", given["relative_azimuth"])
-    rows, shape = _lookup_rows("evaluate_iso", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
+    _check_finite("relative_azimuth_deg", given["relative_azimuth_deg"])
+    rows, shape = _lookup_rows("evaluate_iso", visibility, n_dot_l, n_dot_v, roughness, azimuth_deg)
     queries = _core.isotropic_rows(np.ascontiguousarray(rows)) if rows.shape[0] else np.empty((0, 9))
     merged = dict(_EVALUATE_DEFAULTS)
     merged.update(options)
@@ -184,11 +190,11 @@ def lookup_inputs(
 ) -> Dict[str, np.ndarray]:
     """What a LUT lookup and the analytic terms read of queries, as ``eval --compare`` and the sweeps
     compute it: "visibility", "n_dot_l" (wo_z) and "n_dot_v" (wi_z) of the normalised directions,
-    "roughness" = (alpha_x alpha_y)^(1/4) and "relative_azimuth" in degrees in [0, 180]. The arguments
+    "roughness" = (alpha_x alpha_y)^(1/4) and "relative_azimuth_deg" in degrees in [0, 180]. The arguments
     are :func:`evaluate`'s; returns a dict of (N,) arrays, ready for ``lut.lookup(**inputs)``."""
     rows = _query_rows(visibility, alpha_x, alpha_y, wi, wo)
     out = _core.lookup_input_rows(rows) if rows.shape[0] else np.empty((0, 5))
-    names = ("visibility", "n_dot_l", "n_dot_v", "roughness", "relative_azimuth")
+    names = ("visibility", "n_dot_l", "n_dot_v", "roughness", "relative_azimuth_deg")
     return {name: np.ascontiguousarray(out[:, k]) for k, name in enumerate(names)}
 
 

@@ -9,17 +9,17 @@ from typing import Optional, Tuple, Union
 import numpy as np
 
 from . import _microshadow as _core
-from ._checks import _broadcast_shape, _array, ArrayLike, _choice, _index, PathArg
+from ._checks import _broadcast_shape, _array, ArrayLike, _choice, _index, PathArg, _renamed_keyword
 
 
-def _lookup_rows(name_prefix: str, visibility, n_dot_l, n_dot_v, roughness, relative_azimuth) -> Tuple[np.ndarray, Tuple[int, ...]]:
+def _lookup_rows(name_prefix: str, visibility, n_dot_l, n_dot_v, roughness, relative_azimuth_deg) -> Tuple[np.ndarray, Tuple[int, ...]]:
     """The (N, 5) rows of a lookup and the broadcast shape of its arguments (any shapes that broadcast)."""
     arrays = {
         "visibility": _array("visibility", visibility),
         "n_dot_l": _array("n_dot_l", n_dot_l),
         "n_dot_v": _array("n_dot_v", n_dot_v),
         "roughness": _array("roughness", roughness),
-        "relative_azimuth": _array("relative_azimuth", 0.0 if relative_azimuth is None else relative_azimuth),
+        "relative_azimuth_deg": _array("relative_azimuth_deg", 0.0 if relative_azimuth_deg is None else relative_azimuth_deg),
     }
     shape = _broadcast_shape(name_prefix, arrays)
     for name, a in arrays.items():
@@ -63,15 +63,19 @@ class Lut:
     keeps_azimuth = False
 
     def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, *, roughness: ArrayLike,
+               relative_azimuth_deg: Optional[ArrayLike] = None,
                relative_azimuth: Optional[ArrayLike] = None) -> np.ndarray:
         """The renderer's lookup: linear filtering, clamp to edge, linear blend between roughness channels.
 
         The arguments broadcast against each other (any shapes); roughness (keyword only, so that an
         alpha is never passed for it by position) is the perceptual roughness, alpha = roughness^2 (an
         anisotropic surface uses (alpha_x alpha_y)^(1/4)). A LUT stores the azimuth's mean, so
-        relative_azimuth is accepted and ignored. Returns float64 of the broadcast shape.
+        relative_azimuth_deg is accepted and ignored (relative_azimuth: its older name, DeprecationWarning).
+        Returns float64 of the broadcast shape.
         """
-        rows, shape = _lookup_rows("Lut.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
+        relative_azimuth_deg = _renamed_keyword("Lut.lookup", "relative_azimuth", "relative_azimuth_deg", relative_azimuth,
+                                                relative_azimuth_deg)
+        rows, shape = _lookup_rows("Lut.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth_deg)
         return self._native.lookup_rows(np.ascontiguousarray(rows)).reshape(shape)
 
     def save(self, path: PathArg, encoding: Optional[str] = None) -> None:
@@ -115,14 +119,17 @@ class Representation:
         self._native.save(p, bool(half))
 
     def lookup(self, visibility: ArrayLike, n_dot_l: ArrayLike, n_dot_v: ArrayLike, *, roughness: ArrayLike,
+               relative_azimuth_deg: Optional[ArrayLike] = None,
                relative_azimuth: Optional[ArrayLike] = None) -> np.ndarray:
         """The renderer's lookup (the generated shader's arithmetic, in double) at the relative azimuth in
         degrees (0: light on the view's side, 180: opposite). The arguments broadcast; roughness (the
-        perceptual roughness) and relative_azimuth are keywords, relative_azimuth required (this file
-        keeps the azimuth)."""
-        if relative_azimuth is None:
-            raise ValueError(f"relative_azimuth: required by a {self.kind} representation (it keeps the azimuth)")
-        rows, shape = _lookup_rows("Representation.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth)
+        perceptual roughness) and relative_azimuth_deg are keywords, relative_azimuth_deg required (this
+        file keeps the azimuth; relative_azimuth: its older name, DeprecationWarning)."""
+        relative_azimuth_deg = _renamed_keyword("Representation.lookup", "relative_azimuth", "relative_azimuth_deg",
+                                                relative_azimuth, relative_azimuth_deg)
+        if relative_azimuth_deg is None:
+            raise ValueError(f"relative_azimuth_deg: required by a {self.kind} representation (it keeps the azimuth)")
+        rows, shape = _lookup_rows("Representation.lookup", visibility, n_dot_l, n_dot_v, roughness, relative_azimuth_deg)
         return self._native.lookup_rows(np.ascontiguousarray(rows)).reshape(shape)
 
     def __repr__(self) -> str:

@@ -30,7 +30,7 @@ py::array_t<double> lookup_input_rows(const Doubles& rows) {
     const double* r = rows.data();
     for (std::size_t i = 0; i < n; ++i, r += 9) {
         const LookupInputs in = lookup_inputs({r[0], r[1], r[2], {r[3], r[4], r[5]}, {r[6], r[7], r[8]}});
-        const double row[5] = {in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.relative_azimuth_degrees};
+        const double row[5] = {in.visibility, in.n_dot_l, in.n_dot_v, in.roughness, in.relative_azimuth_deg};
         std::memcpy(&flat[5 * i], row, sizeof row);
     }
     return to_array(flat, {py::ssize_t(n), 5});

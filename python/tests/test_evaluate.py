@@ -73,7 +73,7 @@ def test_evaluate_iso_is_evaluate_on_the_sweeps_directions():
     v = np.array([0.4, 0.7, 0.9])
     r = np.array([0.3, 0.6, 1.0])
     nv, nl, phi = 0.7, np.array([0.2, 0.5, 0.9]), np.array([0.0, 90.0, 180.0])
-    term, err = ms.evaluate_iso(v, nl, nv, roughness=r, relative_azimuth=phi, backend="oracle", tolerance=1e-8)
+    term, err = ms.evaluate_iso(v, nl, nv, roughness=r, relative_azimuth_deg=phi, backend="oracle", tolerance=1e-8)
     s_v, s_l = np.sqrt(1 - nv * nv), np.sqrt(1 - nl * nl)
     rad = np.radians(phi)
     wi = np.tile([s_v, 0.0, nv], (3, 1))
@@ -119,7 +119,7 @@ def test_evaluate_iso_takes_the_lookups_order_and_broadcasts_like_it():
         (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, roughness=[0.5, 0.0]), r"roughness\[1\] = 0.0: outside \(0, 1\]"),
         (lambda: ms.evaluate_iso(0.5, 0.5, [1.0, 0.0], roughness=0.5), r"n_dot_v\[1\] = 0.0: outside \(0, 1\]"),
         (lambda: ms.evaluate_iso(0.5, [0.2, 1.2], 0.5, roughness=0.5), r"n_dot_l\[1\] = 1.2: outside \[-1, 1\]"),
-        (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, roughness=0.5, relative_azimuth=[0.0, np.nan]), r"relative_azimuth\[1\] = nan"),
+        (lambda: ms.evaluate_iso(0.5, 0.5, 0.5, roughness=0.5, relative_azimuth_deg=[0.0, np.nan]), r"relative_azimuth_deg\[1\] = nan"),
     ],
 )
 def test_bad_input_is_a_value_error_naming_the_argument_and_index(call, message):
@@ -197,13 +197,13 @@ def test_ctrl_c_stops_a_long_call_with_keyboard_interrupt():
     timer.start()
     try:
         with pytest.raises(KeyboardInterrupt):
-            ms.evaluate_iso(0.6, nl, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle")
+            ms.evaluate_iso(0.6, nl, 0.7, roughness=0.5, relative_azimuth_deg=60.0, backend="oracle")
     finally:
         timer.cancel()
         signal.signal(signal.SIGINT, previous)
     elapsed = time.monotonic() - start
     assert elapsed < 3.0, f"stopped only after {elapsed:.1f} s"
-    term, _ = ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle")
+    term, _ = ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth_deg=60.0, backend="oracle")
     assert term > 0  # scalars broadcast to a 0-d array, as a lookup gives
 
 
@@ -220,7 +220,7 @@ def test_a_long_call_releases_the_gil():
         reports.append(done)
 
     def work():
-        ms.evaluate_iso(0.6, nl, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle", tolerance=1e-8,
+        ms.evaluate_iso(0.6, nl, 0.7, roughness=0.5, relative_azimuth_deg=60.0, backend="oracle", tolerance=1e-8,
                         progress=progress)
         state["done"] = True
 
@@ -233,3 +233,16 @@ def test_a_long_call_releases_the_gil():
     worker.join()
     assert reports[-1] == n
     assert counted > 10_000, f"the main thread ran {counted} steps during the call"
+
+
+def test_relative_azimuth_deg_is_the_one_name_and_the_older_one_still_works_with_a_warning():
+    # One spelling in C++ (LookupInputs::relative_azimuth_deg), the design CSV and Python; the older
+    # Python keyword gives the same values with a DeprecationWarning, and both at once are refused.
+    new, _ = ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth_deg=60.0, backend="oracle", tolerance=1e-8)
+    with pytest.warns(DeprecationWarning, match=r"relative_azimuth=\) is deprecated: use relative_azimuth_deg="):
+        old, _ = ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth=60.0, backend="oracle", tolerance=1e-8)
+    assert old == new
+    with pytest.raises(TypeError, match="both relative_azimuth= and relative_azimuth_deg="):
+        ms.evaluate_iso(0.6, 0.5, 0.7, roughness=0.5, relative_azimuth=60.0, relative_azimuth_deg=60.0)
+    inputs = ms.lookup_inputs(0.6, 0.3, 0.3, [0.6, 0.0, 0.8], [-0.6, 0.0, 0.8])
+    assert set(inputs) == {"visibility", "n_dot_l", "n_dot_v", "roughness", "relative_azimuth_deg"}

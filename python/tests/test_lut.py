@@ -53,7 +53,7 @@ def test_lookup_broadcasts_and_refuses_nan(lut):
     grid = lut.lookup(np.linspace(0, 1, 5)[:, None], np.linspace(0, 1, 3)[None, :], 0.8, roughness=0.5)
     assert grid.shape == (5, 3)
     assert grid[0, 0] == lut.lookup(0.0, 0.0, 0.8, roughness=0.5)
-    assert lut.lookup(0.5, 0.5, 0.5, roughness=0.5, relative_azimuth=30.0) == lut.lookup(0.5, 0.5, 0.5, roughness=0.5)
+    assert lut.lookup(0.5, 0.5, 0.5, roughness=0.5, relative_azimuth_deg=30.0) == lut.lookup(0.5, 0.5, 0.5, roughness=0.5)
     with pytest.raises(ValueError, match=r"n_dot_v\[2\] = nan"):
         lut.lookup(0.5, 0.5, [0.5, 0.6, np.nan], roughness=0.5)
     with pytest.raises(ValueError, match="do not broadcast"):

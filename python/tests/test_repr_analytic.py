@@ -32,7 +32,7 @@ def test_lookup_inputs_are_the_normalised_directions_and_their_azimuth():
     np.testing.assert_allclose(got["n_dot_v"], [1.0, 0.8])
     np.testing.assert_allclose(got["n_dot_l"], [0.8, 0.8])
     np.testing.assert_allclose(got["roughness"], [0.3, np.sqrt(0.12)])
-    np.testing.assert_allclose(got["relative_azimuth"], [0.0, 90.0])  # wi along the normal: 0
+    np.testing.assert_allclose(got["relative_azimuth_deg"], [0.0, 90.0])  # wi along the normal: 0
     np.testing.assert_array_equal(got["visibility"], [0.5, 0.7])
 
 
@@ -55,7 +55,7 @@ def test_representation_lookup_is_the_clis_compare_column(cli, representation, t
     got = ms.open(tmp_path / "h.exr").lookup(**ms.lookup_inputs(*queries))
     # The CLI reads the azimuth in radians from atan2; here it goes through degrees and back.
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
-    with pytest.raises(ValueError, match="relative_azimuth: required"):
+    with pytest.raises(ValueError, match="relative_azimuth_deg: required"):
         representation.lookup(0.5, 0.5, 0.5, roughness=0.5)
 
 

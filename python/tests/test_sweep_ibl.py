@@ -41,7 +41,7 @@ def test_sweep_gives_the_clis_table(cli, tmp_path):
 def test_sweep_terms_are_evaluate_iso_at_the_same_points():
     table = ms.sweep(toml=SPEC, tolerance=1e-6, backend="oracle")
     term, err = ms.evaluate_iso(table["visibility"], table["n_dot_l"], table["n_dot_v"], roughness=table["roughness"],
-                                relative_azimuth=table["delta_phi"], backend="oracle", tolerance=1e-6)
+                                relative_azimuth_deg=table["delta_phi"], backend="oracle", tolerance=1e-6)
     np.testing.assert_array_equal(term, table["term"])
     np.testing.assert_array_equal(err, table["std_error"])
 

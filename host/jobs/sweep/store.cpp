@@ -233,10 +233,11 @@ std::uint64_t upgrade_old_sweep_folder(const std::string& dir, const std::string
             std::error_code missing;
             if (!fs::exists(old_chunks.path(c), missing)) continue;  // listed, but gone: computed again
             std::string warning;
+            const json& manifest = m;  // (a structured binding cannot be captured by a lambda in C++17)
             const auto rows = old_chunks.read(c, &warning, [&](const std::string& text) -> std::string {
                 // Format 2 recorded each chunk's row count and digest; format 1 chunks are checked by their rows alone.
-                if (m.contains("digests") && m["digests"].contains(key)) {
-                    const json& recorded = m["digests"][key];
+                if (manifest.contains("digests") && manifest["digests"].contains(key)) {
+                    const json& recorded = manifest["digests"][key];
                     const schedule::ItemDigest d = schedule::digest_of(text);
                     if (d.rows != recorded["rows"].get<std::uint64_t>() || hex16(d.fnv1a) != recorded["fnv1a64"].get<std::string>())
                         return "digest: its " + std::to_string(d.rows) + " rows and digest " + hex16(d.fnv1a) + " are not the " +

@@ -1,11 +1,12 @@
-// libFuzzer target: the files a sweep resumes from. The first input byte picks the
-// file the rest replaces in a finished, unassembled sweep directory: 0..63 chunk 1, 64..127 chunk 1
-// with its digest in the manifest recomputed (a forged chunk: anyone can recompute a digest, so only
-// the checks of the rows' values stand between it and sweep.csv), 128..255 the manifest. Contract:
-// run_sweep either assembles exactly the sweep.csv of a clean run (a damaged chunk is set aside and
-// computed again) - for a forged chunk, a sweep.csv whose every term is a fraction in [0, 1] with a
-// standard error in [0, 1] - or refuses with std::invalid_argument / std::runtime_error naming a file;
-// it never crashes, never hangs, and never assembles other bytes.
+// libFuzzer target: the files a sweep resumes from. The first input byte picks the file the rest
+// replaces in a stopped sweep's item store (items 0 and 1 of 3 finished): 0..63 the rows of item 1
+// under its old seal, 64..127 the rows of item 1 sealed again (size and FNV-1a 64 recomputed: a forged
+// item, since anyone can recompute a digest, so only the checks of the rows' values stand between it
+// and sweep.csv), 128..191 the store's manifest, 192..255 sweep-spec.json. Contract: run_sweep either
+// assembles exactly the sweep.csv of a clean run (a damaged item is set aside and computed again) - for
+// a forged item, a sweep.csv whose every term is a fraction in [0, 1] with a standard error in [0, 1] -
+// or refuses with std::invalid_argument / std::runtime_error naming a file; it never crashes, never
+// hangs, and never assembles other bytes.
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -13,7 +14,6 @@
 #include <sstream>
 #include <string>
 
-#include <nlohmann/json.hpp>
 
 #include "core/digest.hpp"
 #include "fuzz_common.hpp"
@@ -34,11 +34,11 @@ std::string slurp(const fs::path& p) {
 
 struct Fixture {
     ms::sweep::Spec spec = ms::sweep::parse_spec(
-        "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.7]\nn_dot_l = [0.5, 0.9]\nroughness = [0.4, 0.8]\n",
+        "[sweep]\nchunk_size = 4\n[parameters]\nvisibility = [0.3, 0.7]\nn_dot_l = [0.5, 0.7, 0.9]\nroughness = [0.4, 0.8]\n",
         "fuzz.toml");
     std::unique_ptr<ms::TermBackend> backend = ms::make_oracle_backend(1);
     fs::path root = fs::path(ms::fuzz::scratch_path("_sweep"));
-    fs::path state = root / "state";  // a sweep stopped before assembling: both chunks and the manifest
+    fs::path state = root / "state";  // a sweep stopped before assembling: items 0 and 1 of 3, the manifest
     std::string clean_csv;
 
     ms::sweep::RunConfig config(const fs::path& dir) const {
@@ -54,7 +54,7 @@ struct Fixture {
         ms::sweep::run_sweep(spec, config(root / "clean"));
         clean_csv = slurp(root / "clean" / "sweep.csv");
         ms::sweep::RunConfig c = config(state);
-        c.max_chunks = 2;  // both chunks finished, not yet assembled
+        c.max_chunks = 2;  // two of the three chunks finished, not yet assembled
         ms::sweep::run_sweep(spec, c);
     }
 };
@@ -67,17 +67,25 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const fs::path dir = f.root / "run";
     fs::remove_all(dir);
     fs::copy(f.state, dir, fs::copy_options::recursive);
-    const fs::path target = data[0] < 128 ? dir / "chunks" / "chunk-0000000001.csv" : dir / "manifest.json";
-    ms::fuzz::write_scratch(target.string(), data + 1, size - 1);
     const bool forged = data[0] >= 64 && data[0] < 128;
-    if (forged) {
-        // The manifest's record of chunk 1 made to match the new bytes (rows and FNV-1a 64).
-        nlohmann::json m = nlohmann::json::parse(slurp(dir / "manifest.json"));
-        const std::string text = slurp(target);
-        std::uint64_t rows = 0;
-        for (char c : text) rows += c == '\n';
-        m["digests"]["1"] = {{"rows", rows}, {"fnv1a64", ms::hex16(ms::fnv1a(text))}};
-        std::ofstream(dir / "manifest.json", std::ios::binary | std::ios::trunc) << m.dump();
+    const std::string input(reinterpret_cast<const char*>(data + 1), size - 1);
+    if (data[0] < 128) {
+        // An item: five header lines (magic, spec hash, id, payload size, FNV-1a 64), then the rows.
+        const fs::path item = dir / "items" / "item-0000000001.bin";
+        const std::string old = slurp(item);
+        std::size_t rows_at = 0;
+        for (int line = 0; line < 5; ++line) rows_at = old.find('\n', rows_at) + 1;
+        std::string header = old.substr(0, rows_at);
+        if (forged) {
+            std::size_t at = 0;
+            for (int line = 0; line < 3; ++line) at = header.find('\n', at) + 1;
+            header = header.substr(0, at) + std::to_string(input.size()) + "\n" + ms::hex16(ms::fnv1a(input)) + "\n";
+        }
+        const std::string bytes = header + input;
+        ms::fuzz::write_scratch(item.string(), reinterpret_cast<const std::uint8_t*>(bytes.data()), bytes.size());
+    } else {
+        const fs::path target = data[0] < 192 ? dir / "manifest.shard-0-of-1.json" : dir / "sweep-spec.json";
+        ms::fuzz::write_scratch(target.string(), data + 1, size - 1);
     }
     try {
         const ms::sweep::RunResult r = ms::sweep::run_sweep(f.spec, f.config(dir));

@@ -18,10 +18,12 @@ export MICROSHADOW_API_JOBS=${MICROSHADOW_API_JOBS:-$root/build/tests/microshado
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-$root/build-python-venv.pocl}
 mkdir -p "$POCL_CACHE_DIR"
 
-# A fresh venv, as on a first run of the README; `python3` is the chosen interpreter.
+# A fresh venv, as on a first run of the README; `python3` is the chosen interpreter. The venv's own
+# python links to the `python3` it was made with, so that link stays (in an ignored build folder): the
+# Python fuzz stage runs in this venv after the others.
 rm -rf .venv
-bin=$(mktemp -d)
-trap 'rm -rf "$bin"' EXIT
+bin=$root/build-python-venv.bin
+rm -rf "$bin" && mkdir -p "$bin"
 ln -s "$python" "$bin/python3"
 # scikit-build-core reads CMAKE_ARGS: the Release build's flags, so that ccache serves its objects.
 PATH="$bin:$PATH" CMAKE_ARGS="${MICROSHADOW_CMAKE_ARGS:-}" bash scripts/check-readme.sh --python

@@ -117,7 +117,7 @@ AnalyticTerm parse_analytic_term(const std::string& s) {
     for (AnalyticTerm t : kAllAnalyticTerms)
         if (to_string(t) == s) return t;
     std::string names;
-    for (AnalyticTerm t : kAllAnalyticTerms) names += (names.empty() ? "" : ", ") + to_string(t);
+    for (const std::string& name : analytic_term_names()) names += (names.empty() ? "" : ", ") + name;
     throw std::invalid_argument("unknown analytic term '" + s + "' (expected one of " + names + ")");
 }
 

@@ -34,10 +34,10 @@ ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance = 
 // [0, pi] of the term at (visibility, alpha, NdotV, NdotL, phi), a mean of ratios. Integrated between the
 // azimuths where the term is not analytic (the cone round wo touching the great circle normal to wi, the
 // three circles meeting in a point, and the ends), each interval in a cosine substitution that makes a
-// square-root onset at either end analytic, by Gauss-Legendre pieces graded away from the same events'
-// complex solutions and bisected until the high rule on a piece agrees with the high rule on its two
-// halves to the piece's share of the tolerance. `error` sums, over the pieces, that difference (the whole
-// piece's error, which bounds the halves'), the values' own estimated errors and a rounding allowance.
+// square-root onset at either end analytic, by Gauss-Kronrod pieces graded away from the same events'
+// complex solutions and bisected until the Kronrod and Gauss sums on a piece agree to the piece's share
+// of the tolerance. `error` sums, over the pieces, that difference (the Gauss rule's error, which bounds
+// the Kronrod rule's), the values' own estimated errors and a rounding allowance.
 ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, double n_dot_l, AoWeighting weighting,
                               double tolerance = kDefaultTolerance);
 
@@ -48,9 +48,10 @@ ExactValue exact_azimuth_mean(double visibility, double alpha, double n_dot_v, d
 ExactValue azimuth_mean_of(const std::function<ExactValue(double)>& term, double c, double s, double n_dot_v,
                            double n_dot_l, double tolerance);
 
-// The Gauss-Legendre rules on the azimuth pieces of a mean for a tolerance of the mean: the C++
-// evaluator takes `nodes` on each piece and on its two halves, pieces kept clear of complex singularities
-// by the Bernstein ellipse of parameter `rho`; the OpenCL kernel takes the nested pair (high, low).
+// The rules on the azimuth pieces of a mean for a tolerance of the mean: the C++ evaluator takes the
+// Gauss-Kronrod pair of `nodes` Gauss nodes (2 nodes + 1 points) on each piece, pieces kept clear of
+// complex singularities by the Bernstein ellipse of parameter `rho`; the OpenCL kernel takes the nested
+// pair (high, low).
 struct AzimuthRule {
     int high, low;
     int nodes;

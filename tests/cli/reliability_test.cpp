@@ -33,6 +33,7 @@
 #include <thread>
 
 #include "cli_runner.hpp"
+#include "opencl_platform.hpp"
 #include "core/digest.hpp"
 #include "io/atomic_file.hpp"
 #include "io/bounded_json.hpp"
@@ -379,6 +380,7 @@ TEST_F(Reliability, AnUnwritableHomeStillFindsTheDevice) {
 }
 
 TEST_F(Reliability, DamagedKernelCacheEntriesAreNamedInsteadOfAborting) {
+    MS_SKIP_UNLESS_POCL();
     const std::string env = "env POCL_CACHE_DIR=" + sq((dir_ / "cache").string());
     const std::string eval = "eval --method sampled --in " + kQueries + " --out r.csv --samples 256 -q";
     ASSERT_EQ(run(eval, env).exit_code, 0);  // fills the cache

@@ -16,6 +16,7 @@
 
 #include "jobs/bake.hpp"
 #include "cli_runner.hpp"
+#include "opencl_platform.hpp"
 #include "jobs/verify.hpp"
 #include "core/cone.hpp"
 #include "core/estimate.hpp"
@@ -331,6 +332,7 @@ TEST_F(BakeTest, AdaptiveAzimuthRowsMatchFixedGridsBitForBit) {
 
 // The CLI with two PoCL devices (POCL_DEVICES must be set before the ICD loads, hence a subprocess).
 TEST_F(BakeTest, TwoDevicesAndFaultInjectionGiveTheSameData) {
+    MS_SKIP_UNLESS_POCL();
     const std::string args = " bake --layout custom --size 6 --size-n-dot-v 8 --roughness 0.2,0.8 --samples 2048 -q --out ";
     auto one = run("", args + path("one.exr"));
     ASSERT_EQ(one.exit_code, 0) << one.output;

@@ -235,15 +235,14 @@ private:
 }  // namespace
 
 AzimuthRule azimuth_rule_for(double tolerance) {
-    // The low rule must integrate the substitution's Jacobian sin u on [0, pi] well below the tolerance
-    // (Gauss-Legendre's relative error there: 3 nodes 1.4e-3, 4 nodes 1.6e-5, 6 nodes 4e-10, 8 nodes 3e-15),
-    // or its difference to the high rule would never fall below the tolerance however small the piece.
-    // The C++ rule: the Gauss-Kronrod pair of 8 Gauss nodes (17 points; the Gauss rule of 6 nodes let a
-    // difference understate the error by up to 0.7x on 1,000 random texels, 8 kept it below 0.21x), of
-    // 12 (25 points) below 1e-8, and the grading rho = 2 (3.5 spent 60 % more terms for no better ratio).
-    if (tolerance >= 1e-5) return {6, 4, 8, 2.0};
-    if (tolerance >= 1e-8) return {8, 6, 8, 2.0};
-    return {12, 8, 12, 2.5};
+    // The Gauss rule must integrate the substitution's Jacobian sin u on [0, pi] well below the tolerance
+    // (Gauss-Legendre's relative error there: 4 nodes 1.6e-5, 6 nodes 4e-10, 8 nodes 3e-15), or its
+    // difference to the Kronrod rule would never fall below the tolerance however small the piece. The
+    // pair of 8 Gauss nodes (17 points; a Gauss rule of 6 nodes let its difference to the halves understate
+    // the error by up to 0.7x on 1,000 random texels, 8 kept it below 0.21x), of 12 (25 points) below 1e-8,
+    // and the grading rho = 2 (3.5 spent 60 % more terms for no better ratio).
+    if (tolerance >= 1e-8) return {8, 2.0};
+    return {12, 2.5};
 }
 
 ExactValue exact_term(const Query& q, AoWeighting weighting, double tolerance) {

@@ -50,10 +50,9 @@ ExactValue azimuth_mean_of(const std::function<ExactValue(double)>& term, double
 
 // The rules on the azimuth pieces of a mean for a tolerance of the mean: the C++ evaluator takes the
 // Gauss-Kronrod pair of `nodes` Gauss nodes (2 nodes + 1 points) on each piece, pieces kept clear of
-// complex singularities by the Bernstein ellipse of parameter `rho`; the OpenCL kernel takes the nested
-// pair (high, low).
+// complex singularities by the Bernstein ellipse of parameter `rho`; the OpenCL kernel takes the same
+// pair on pieces bisected in the azimuth itself.
 struct AzimuthRule {
-    int high, low;
     int nodes;
     double rho;
 };

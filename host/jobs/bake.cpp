@@ -186,6 +186,7 @@ schedule::CacheKey bake_cache_key(const BakeSpec& spec, const schedule::Schedule
         // A partial bake's row flags by their digest (one byte a row would make the key text long).
         .add("baked_rows", {spec.baked_rows.size(), hex16(fnv1a(std::string(spec.baked_rows.begin(), spec.baked_rows.end())))})
         .add("oracle", spec.backend.is_oracle());
+    if (spec.method == Method::exact) add_exact_rules(key, spec.tolerance);
     add_term_options(key, spec.term);
     add_build(key, spec.build);
     add_results_place(key, scheduler);
@@ -214,11 +215,13 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
         m["azimuth"] = spec.azimuth_mean ? nlohmann::json("mean") : nlohmann::json(spec.azimuth_degrees);
         if (spec.azimuth_mean) {
             const exact::AzimuthRule azimuth = exact::azimuth_rule_for(r.exact_tolerance);
-            m["azimuth_quadrature"] = "Gauss-Legendre " + std::to_string(azimuth.nodes) +
-                                      " nodes on pieces of [0, 180] degrees between the azimuths where the term is not "
-                                      "analytic, cosine-substituted, graded from complex events (rho = " +
-                                      std::to_string(azimuth.rho).substr(0, 3) +
-                                      "), bisected until a piece agrees with its two halves to its share of the tolerance";
+            m["azimuth_quadrature"] =
+                "pieces of [0, 180] degrees between the azimuths where the term is not analytic, cosine-substituted, "
+                "graded from complex events (rho = " + std::to_string(azimuth.rho).substr(0, 3) +
+                "), the Gauss-Kronrod pair of " + std::to_string(azimuth.nodes) + " and " +
+                std::to_string(2 * azimuth.nodes + 1) + " points on each piece (the value the Kronrod sum, the estimate "
+                "its difference to the Gauss sum), bisected until that difference is within the piece's share of the "
+                "tolerance";
         }
         m["rule"] = "boundary integral; arcs in closed form (partial fractions over the circle quartic's roots, on the "
                     "C++ evaluator solved once per visibility, NdotL and roughness row with the view rotated) where its "
@@ -228,8 +231,8 @@ nlohmann::json bake_metadata(const BakeSpec& spec, const BakeResult& r) {
         m["tolerance"] = r.exact_tolerance;
         m["tolerance_met"] = r.tolerance_met;
         m["max_error"] = r.max_std_error;
-        m["max_error_kind"] = "largest per-texel recorded error of the exact method (quadrature estimates: each piece "
-                              "against its halves, the terms' own estimates, plus the float texel's rounding); "
+        m["max_error_kind"] = "largest per-texel recorded error of the exact method (quadrature estimates: each piece's "
+                              "difference of two rules, the terms' own estimates, plus the float texel's rounding); "
                               "tolerance_met compares it with the tolerance";
         m["quadrature_pieces"] = r.exact_quadrature_pieces;
         m["form"] = to_string(spec.term.form);

@@ -107,7 +107,7 @@ std::string bake_job_summary(const BakeJobSpec& job, const BakeJobResult& r) {
         // how far its per-texel estimate is from the tolerance.
         s << "exact method (" << exact_engine_summary(spec) << "): ";
         if (spec.azimuth_mean)
-            s << "azimuth means of T by Gauss-Legendre on " << result.exact_quadrature_pieces << " azimuth pieces";
+            s << "azimuth means of T on " << result.exact_quadrature_pieces << " azimuth pieces";
         else
             s << "T at " << spec.azimuth_degrees << " degrees";
         s << "; largest estimated texel error " << result.max_std_error << " against the tolerance " << result.exact_tolerance;

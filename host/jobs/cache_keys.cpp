@@ -14,12 +14,18 @@ void add_sampling_plan(schedule::CacheKey& key, const SamplingPlan& plan) {
         .add("plan.tolerance", plan.tolerance)
         .add("plan.single_precision", plan.single_precision)
         .add("plan.kernel_on_cpu_devices", plan.kernel_on_cpu_devices);
-    if (plan.method == Method::exact) {
-        // The rule the tolerance selects (0: the default tolerance's): the same tolerance under a new
-        // rule gives other bits.
-        const exact::ArcRule rule = exact::arc_rule_for(plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance);
-        key.add("plan.exact_rule", {rule.high, rule.low, rule.rho});
-    }
+    if (plan.method == Method::exact) add_exact_rules(key, plan.tolerance > 0 ? plan.tolerance : exact::kDefaultTolerance);
+}
+
+void add_exact_rules(schedule::CacheKey& key, double tolerance) {
+    // The rules the tolerance selects: the same tolerance under a new rule gives other bits, so results
+    // cached under an earlier rule (the azimuth means' were once a Gauss rule on each piece and its
+    // halves) are not reused.
+    const exact::ArcRule rule = exact::arc_rule_for(tolerance);
+    key.add("plan.exact_rule", {rule.high, rule.low, rule.rho});
+    const exact::AzimuthRule azimuth = exact::azimuth_rule_for(tolerance);
+    key.add("plan.exact_azimuth_rule", "gauss-kronrod " + std::to_string(azimuth.nodes) + "/" +
+                                           std::to_string(2 * azimuth.nodes + 1) + " rho " + std::to_string(azimuth.rho));
 }
 
 void add_term_options(schedule::CacheKey& key, const TermOptions& term) {

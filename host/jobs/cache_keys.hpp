@@ -15,9 +15,12 @@
 namespace ms {
 
 // plan.method, plan.samples, plan.replicates, plan.seed, plan.sequence, plan.tolerance,
-// plan.single_precision, plan.kernel_on_cpu_devices, and for the exact method plan.exact_rule (the
-// Gauss-Legendre rule its tolerance selects: a change of the rule moves the key).
+// plan.single_precision, plan.kernel_on_cpu_devices, and for the exact method plan.exact_rule and
+// plan.exact_azimuth_rule (the arcs' and the azimuth means' rules its tolerance selects: a change of a
+// rule moves the key).
 void add_sampling_plan(schedule::CacheKey& key, const SamplingPlan& plan);
+// plan.exact_rule and plan.exact_azimuth_rule alone, for jobs that keep their own tolerance field.
+void add_exact_rules(schedule::CacheKey& key, double tolerance);
 // term.form, term.ao_weighting.
 void add_term_options(schedule::CacheKey& key, const TermOptions& term);
 // build.fast_math, build.double_precision, build.defines: the kernels' build (--fast-math,

@@ -15,7 +15,7 @@ struct BakeVerification {
     std::size_t failed = 0;
     double worst_z = 0;          // max of the texels' z-scores (below)
     double worst_abs_diff = 0;   // max |lut - reference|
-    double threshold = 0;        // the Student-t quantile a z-score may not exceed
+    double threshold = 0;        // the Student-t quantile a z-score may not exceed (1 for an exact bake)
     double max_reference_error = 0;  // exact reference: the largest estimated error of a reference value
     std::string worst_texel;     // "channel c, visibility i, n_dot_l j, n_dot_v k: lut x reference y"
 };
@@ -31,6 +31,9 @@ struct BakeVerification {
 // degrees of freedom at confidence 1 - 0.001 / count (Bonferroni: the whole check fails by chance with
 // probability <= 0.001 when the bake is right). The reference carries no sampling noise, so the check
 // is as sharp as the bake's own error bar.
+//
+// An exact bake against the exact reference: its recorded error is an estimated bound, so a texel fails
+// when |lut - exact| > e_lut + e_exact + float rounding (the limit on z is 1).
 //
 // reference = sampled: the scalar double oracle on a point set with an independent seed and `samples`
 // samples (0: the bake's batch size), at the reference grid for adaptive bakes; a texel fails when

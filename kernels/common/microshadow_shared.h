@@ -140,9 +140,11 @@ typedef struct ms_exact_texel {
     float pad1, pad2; /* 48 bytes */
 } ms_exact_texel;
 
-/* The rules of one launch: Gauss-Legendre node counts and their offsets in the rule buffer (n nodes
- * at [at, at + n), their weights at [at + n, at + 2n)), the Bernstein-ellipse parameter of the arc
- * splitting and the requested absolute tolerance of each value. */
+/* The rules of one launch: node counts and their offsets in the rule buffer (n nodes at [at, at + n),
+ * their weights at [at + n, at + 2n)), the Bernstein-ellipse parameter of the arc splitting and the
+ * requested absolute tolerance of each value. The arcs' rules are two Gauss-Legendre rules; the azimuth
+ * pieces' are one Gauss-Kronrod pair: the same 2n + 1 nodes twice, with the Kronrod weights (high)
+ * and with the Gauss weights, zero at the Kronrod-only nodes (low). */
 typedef struct ms_exact_rule {
     ms_i32 arc_high, arc_low, arc_high_at, arc_low_at;
     ms_i32 azimuth_high, azimuth_low, azimuth_high_at, azimuth_low_at;

@@ -11,7 +11,8 @@
  * by Gauss-Legendre pieces split until the roots' poles of 1 / |v|^2 lie outside each piece's
  * Bernstein ellipse, then while the difference to a lower-order rule (the error estimate) exceeds the
  * piece's share of the tolerance. The azimuth mean integrates T between its non-analytic azimuths in a cosine
- * substitution, with the same high/low pair.
+ * substitution, by a Gauss-Kronrod pair: the Kronrod sum is the value, its difference to the Gauss sum
+ * (the Gauss rule's error, which bounds the Kronrod rule's) the estimate.
  *
  * OpenCL C has no recursion: the host's recursive bisections are depth-first walks over explicit
  * stacks of piece ends (pieces are finished left to right, so a piece's start is the previous one's
@@ -880,23 +881,29 @@ inline real3 exact_lut_light(real n_dot_l, real phi)
     return (real3)(sl * c, sl * s, n_dot_l);
 }
 
-/* One rule of the azimuth pair over [lo, hi] in the substitution phi = mid - half_width cos u, u in [0, pi]. */
-inline real exact_azimuth_rule(int n, int at, real mid, real half_width, real alpha, real3 wi, real c, real s2, real n_dot_l,
+/* The azimuth pieces' Gauss-Kronrod pair over [lo, hi] in the substitution phi = mid - half_width cos u,
+ * u in [0, pi]: both sums from one evaluation of T at each of the 2n + 1 nodes (the high rule's weights
+ * are the Kronrod weights, the low rule's the Gauss weights on the same nodes). */
+inline real exact_azimuth_pair(real mid, real half_width, real alpha, real3 wi, real c, real s2, real n_dot_l,
                                real value_tolerance, const exact_rules* rule, __global const real* gauss,
-                               real* value_error, uint* flags)
+                               real* gauss_sum, real* value_error, uint* flags)
 {
-    real sum = MS_R(0.0);
+    const int n = rule->azimuth_high, kronrod_at = rule->azimuth_high_at, gauss_at = rule->azimuth_low_at;
+    real sum = MS_R(0.0), low = MS_R(0.0);
     for (int i = 0; i < n; ++i) {
-        const real u = MS_R(0.5) * MS_EXACT_PI * (MS_R(1.0) + gauss[at + i]);
+        const real u = MS_R(0.5) * MS_EXACT_PI * (MS_R(1.0) + gauss[kronrod_at + i]);
         real cu;
         const real su = sincos(u, &cu);
         const real jacobian = half_width * su * MS_R(0.5) * MS_EXACT_PI;
         const exact_sum v =
             exact_term_of(alpha, alpha, wi, exact_lut_light(n_dot_l, mid - half_width * cu), c, s2, value_tolerance, rule, gauss);
-        sum += gauss[at + n + i] * jacobian * v.value;
-        *value_error += gauss[at + n + i] * jacobian * v.error;
+        const real wk = gauss[kronrod_at + n + i] * jacobian;
+        sum += wk * v.value;
+        low += gauss[gauss_at + n + i] * jacobian * v.value;
+        *value_error += wk * v.error;
         *flags |= v.flags;
     }
+    *gauss_sum = low;
     return sum;
 }
 
@@ -949,14 +956,13 @@ __kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint 
             const real hi = stack_hi[top - 1];
             const int depth = stack_depth[top - 1];
             const real mid = MS_R(0.5) * (lo + hi), half_width = MS_R(0.5) * (hi - lo);
-            real error_high = MS_R(0.0), error_low = MS_R(0.0);
-            const real high = exact_azimuth_rule(rules.azimuth_high, rules.azimuth_high_at, mid, half_width, alpha, wi, c, s2,
-                                                 n_dot_l, value_tolerance, &rules, gauss, &error_high, &result.flags);
-            const real low = exact_azimuth_rule(rules.azimuth_low, rules.azimuth_low_at, mid, half_width, alpha, wi, c, s2,
-                                                n_dot_l, value_tolerance, &rules, gauss, &error_low, &result.flags);
+            real error_high = MS_R(0.0), low = MS_R(0.0);
+            const real high = exact_azimuth_pair(mid, half_width, alpha, wi, c, s2, n_dot_l, value_tolerance, &rules, gauss,
+                                                 &low, &error_high, &result.flags);
             const real estimate = fabs(high - low);
-            /* A difference at the level of the values' own errors or of rounding cannot be split away. */
-            const real floor_level = error_high + error_low + MS_R(1e3) * MS_EXACT_EPS * (hi - lo);
+            /* A difference at the level of the values' own errors or of rounding cannot be split away (the
+             * Gauss sum's value errors are at most twice the Kronrod sum's: its weights at most ~2x). */
+            const real floor_level = MS_R(3.0) * error_high + MS_R(1e3) * MS_EXACT_EPS * (hi - lo);
             /* As the C++ evaluator: pieces of at least 1e-7 rad, at most 512 pieces per mean. */
             if (estimate > MS_R(0.5) * tolerance * (hi - lo) && estimate > floor_level && depth < MS_EXACT_AZIMUTH_DEPTH &&
                 hi - lo > (real)1e-7 && (int)result.pieces + depth < 512) {

@@ -177,6 +177,8 @@ void add_plan_changes(Changes<Options>& c, const std::function<SamplingPlan&(Opt
     c["plan.tolerance"] = [plan](Options& o) { plan(o).tolerance = 1e-7; };
     // The exact rule a tolerance selects (a coarser one at 1e-4 than at the default 1e-10).
     c["plan.exact_rule/with the tolerance"] = [plan](Options& o) { plan(o).tolerance = 1e-4; };
+    // The azimuth means' pair (8 Gauss nodes from 1e-8 up, 12 below).
+    c["plan.exact_azimuth_rule/with the tolerance"] = [plan](Options& o) { plan(o).tolerance = 1e-8; };
     c["plan.single_precision"] = [plan](Options& o) { plan(o).single_precision = true; };
     c["plan.kernel_on_cpu_devices"] = [plan](Options& o) { plan(o).kernel_on_cpu_devices = true; };
     c["term.form"] = [term](Options& o) { term(o).form = Form::uncorrelated; };

@@ -6,6 +6,7 @@
 
 #include "core/cone.hpp"
 #include "exact/cap_region.hpp"
+#include "exact/gauss_kronrod.hpp"
 #include "exact/gauss_legendre.hpp"
 #include "microshadow_shared.h"
 
@@ -36,8 +37,8 @@ Vec3 unit(const Vec3& a) {
     return {b.x * inv, b.y * inv, b.z * inv};
 }
 
-// The Gauss-Legendre rules of a launch, packed as the kernel reads them (nodes then weights per rule),
-// in the kernel's precision, with the launch's rule description.
+// The rules of a launch, packed as the kernel reads them (nodes then weights per rule), in the kernel's
+// precision, with the launch's rule description.
 struct LaunchRules {
     ms_exact_rule rule{};
     std::vector<double> table;
@@ -51,21 +52,31 @@ int append_rule(std::vector<double>& table, int n) {
     return at;
 }
 
+// The Gauss-Kronrod pair of `gauss_nodes` as two rules on the same 2n + 1 nodes: the Kronrod weights
+// and the Gauss weights (zero at the Kronrod-only nodes), so that the kernel evaluates each node once.
+void append_kronrod_pair(std::vector<double>& table, int gauss_nodes, int& points, int& kronrod_at, int& gauss_at) {
+    const KronrodRule& pair = gauss_kronrod(gauss_nodes);
+    points = pair.points;
+    kronrod_at = static_cast<int>(table.size());
+    table.insert(table.end(), pair.nodes, pair.nodes + pair.points);
+    table.insert(table.end(), pair.kronrod_weights, pair.kronrod_weights + pair.points);
+    gauss_at = static_cast<int>(table.size());
+    table.insert(table.end(), pair.nodes, pair.nodes + pair.points);
+    table.insert(table.end(), pair.gauss_weights, pair.gauss_weights + pair.points);
+}
+
 // `tolerance` is the tolerance of each output value; the arc rule is the one the C++ evaluator uses for
 // the terms it integrates (the mean's terms get a quarter of the mean's tolerance).
 LaunchRules launch_rules(double tolerance, double term_tolerance) {
     LaunchRules r;
     const ArcRule arc = arc_rule_for(term_tolerance);
     const AzimuthRule azimuth = azimuth_rule_for(tolerance);
-    const int az_high = azimuth.high, az_low = azimuth.low;
     r.rule.arc_high = arc.high;
     r.rule.arc_low = arc.low;
     r.rule.arc_high_at = append_rule(r.table, arc.high);
     r.rule.arc_low_at = append_rule(r.table, arc.low);
-    r.rule.azimuth_high = az_high;
-    r.rule.azimuth_low = az_low;
-    r.rule.azimuth_high_at = append_rule(r.table, az_high);
-    r.rule.azimuth_low_at = append_rule(r.table, az_low);
+    append_kronrod_pair(r.table, azimuth.nodes, r.rule.azimuth_high, r.rule.azimuth_high_at, r.rule.azimuth_low_at);
+    r.rule.azimuth_low = r.rule.azimuth_high;
     r.rule.arc_rho = static_cast<float>(arc.rho);  // 3, 3.5 or 4: exact in float
     split(tolerance, r.rule.tolerance_hi, r.rule.tolerance_lo);
     return r;

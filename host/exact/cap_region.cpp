@@ -25,8 +25,9 @@
 //    alpha_x = alpha_y = 1 (v = m, |v|^2 = c^2 + s^2 = 1);
 //  - (both of the hemisphere's three circles are great circles, so P(hemisphere) is closed-form.)
 // Every other arc integrates in closed form by partial fractions over the roots of the quartic below
-// (closed_form_arc); where that form's error bound (roots and rounding) exceeds the arc's share of the
-// tolerance, or the quartic degenerates, the arc is integrated by Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
+// (closed_form_arc); where that form's error bound (roots and rounding) does not fit into the tolerance
+// beside the other arcs' (boundary_integral), or the quartic degenerates, the arc is integrated by
+// Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
 // polynomial of degree 2: with z = e^{i psi}, z^2 |v|^2 is a quartic whose roots come in pairs z, 1/conj(z),
 // and each root inside the unit disc is a pole of the integrand at psi = arg z + i (-ln |z|). For smooth
 // or strongly anisotropic surfaces those poles come within ~alpha (or ~alpha_y / alpha_x) of the real
@@ -184,15 +185,15 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
 namespace {
 
 // The poles of 1 / |v(psi)|^2 in the upper half plane (one period): the roots inside the unit disc.
-std::vector<std::complex<double>> poles_of(const CircleQuartic& quartic) {
-    std::vector<std::complex<double>> poles;
+PoleList poles_of(const CircleQuartic& quartic) {
+    PoleList poles;
     for (int i = 0; i < quartic.root_count; ++i) {
         const std::complex<double> z = quartic.roots[i];
         const double m2 = std::norm(z);
         if (!(m2 < 1) || m2 == 0) continue;
         const double im = -0.5 * std::log(m2);
         if (im > 12) continue;  // farther than any piece's ellipse can reach
-        poles.emplace_back(std::arg(z), im);
+        poles.items[poles.count++] = {std::arg(z), im};
     }
     return poles;
 }
@@ -358,7 +359,7 @@ struct PieceSum {
 
 // The pole translate (by 2 pi k) nearest to [lo, hi] that lies inside the piece's Bernstein ellipse of
 // parameter rho, if any: its real part (where a graded split puts the piece boundary).
-bool pole_near_piece(double lo, double hi, const std::vector<std::complex<double>>& poles, double rho, double& real_part) {
+bool pole_near_piece(double lo, double hi, const PoleList& poles, double rho, double& real_part) {
     bool found = false;
     double best = std::numeric_limits<double>::infinity();
     const double mid = 0.5 * (lo + hi);
@@ -379,7 +380,7 @@ bool pole_near_piece(double lo, double hi, const std::vector<std::complex<double
 // lies well inside, otherwise graded towards the pole by the ratio 1 : 1.7 (a pole at distance e above
 // an end needs pieces growing geometrically away from it; for rho = 4 a ratio up to 2.78 keeps it
 // outside, bisection would spend log(2.78) / log(2) = 1.5x more pieces).
-void integrate_piece(const ArcIntegrand& f, const std::vector<std::complex<double>>& poles, double lo, double hi,
+void integrate_piece(const ArcIntegrand& f, const PoleList& poles, double lo, double hi,
                      const ArcRule& rule, double tolerance_per_radian, int depth, PieceSum& out) {
     const double half = 0.5 * (hi - lo), mid = 0.5 * (hi + lo);
     double pole_x = 0;
@@ -553,6 +554,31 @@ Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
     return m;
 }
 
+namespace {
+
+constexpr std::size_t kMaxCaps = 6;
+
+// What boundary_integral keeps of a circle between finding its arcs and integrating those left to quadrature.
+struct CircleWork {
+    const PreparedCircle* known = nullptr;
+    Vec3 p, q, r;
+    ArcIntegrand f{};
+    CircleQuartic own_quartic;
+    ClosedFormRoots own_roots;
+    PoleList own_poles;
+    bool poles_found = false;
+};
+
+// An arc of a circle with a non-constant |v|^2, with its closed form where that is usable.
+struct PendingArc {
+    std::size_t circle = 0;
+    Interval arc{0, 0};
+    bool closed = false;
+    double value = 0, error = 0;
+};
+
+}  // namespace
+
 BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared) {
     return boundary_integral(surface, caps.data(), caps.size(), rule, absolute_tolerance, prepared);
@@ -560,6 +586,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
 
 BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::size_t cap_count, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared) {
+    if (cap_count > kMaxCaps) throw std::length_error("boundary_integral: too many caps (at most 6)");
     // Coincident caps (wo = e_z, wo = wi, wi = e_z) would each exclude the other's circle (C = R = 0):
     // keep one of each.
     for (std::size_t i = 0; i < cap_count; ++i)
@@ -575,9 +602,15 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
     auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
     BoundaryIntegral result;
     double rounding = 0;
-    const double tolerance_per_radian = absolute_tolerance / (kTwoPi * cap_count);
     // |v|^2 = |S^-1 m|^2 >= min(1, 1 / alpha_x^2, 1 / alpha_y^2) for unit m; the factor covers m's rounding.
     const double min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (ax * ax), 1 / (ay * ay)});
+    // First every circle's arcs: great circles and constant |v|^2 in closed form at once, the other arcs
+    // by the closed form where it is usable, with its error bound; which of those bounds are accepted,
+    // and the tolerance of the arcs left to quadrature, is decided over the whole boundary below.
+    CircleWork circles[kMaxCaps];
+    PendingArc pending[kMaxCaps * ArcList::kCapacity];
+    std::size_t pending_count = 0;
+    double general_length = 0;  // of the arcs that are neither on great circles nor of constant |v|^2
     for (std::size_t k = 0; k < cap_count; ++k) {
         const Cap& cap = caps[k];
         // The prepared circle stands for this cap when it has the same axis and cosine (bit for bit: its
@@ -593,8 +626,12 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
         ArcList arcs;
         boundary_arcs(caps, cap_count, k, e1, e2, arcs);
         if (arcs.empty()) continue;
-        const Vec3 p = known ? known->p : scale(unstretch(cap.n), cap.c);
-        const Vec3 q = known ? known->q : scale(unstretch(e1), cap.s), r = known ? known->r : scale(unstretch(e2), cap.s);
+        CircleWork& w = circles[k];
+        w.known = known;
+        w.p = known ? known->p : scale(unstretch(cap.n), cap.c);
+        w.q = known ? known->q : scale(unstretch(e1), cap.s);
+        w.r = known ? known->r : scale(unstretch(e2), cap.s);
+        const Vec3 &p = w.p, &q = w.q, &r = w.r;
         if (cap.c == 0) {
             const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
             const double weight = dot(a, axis);
@@ -605,7 +642,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             }
             continue;
         }
-        const double k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
+        w.f = ArcIntegrand{p, q, r, dot(a, cross(q, r)), dot(a, cross(p, r)), dot(a, cross(p, q))};
+        const double k_const = w.f.k, bc = w.f.bc, bs = w.f.bs;
         // |v|^2 is constant round e_z on an isotropic surface, and on every circle when S = I (alpha 1: v = m,
         // |v|^2 = c^2 + s^2 = 1), where the quartic degenerates.
         const bool constant_norm = (ax == ay && cap.n.x == 0 && cap.n.y == 0) || (ax == 1 && ay == 1);
@@ -621,37 +659,75 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             }
             continue;
         }
-        const ArcIntegrand f{p, q, r, k_const, bc, bs};
-        CircleQuartic own_quartic;
-        ClosedFormRoots own_roots;
         if (!known) {
-            own_quartic = circle_quartic(p, q, r);
-            if (rule.closed_form) own_roots = closed_form_roots(own_quartic, min_norm2);
+            w.own_quartic = circle_quartic(p, q, r);
+            if (rule.closed_form) w.own_roots = closed_form_roots(w.own_quartic, min_norm2);
         }
-        const CircleQuartic& quartic = known ? known->quartic : own_quartic;
-        const ClosedFormRoots& roots = known ? known->closed : own_roots;
+        const ClosedFormRoots& roots = known ? known->closed : w.own_roots;
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
-        PieceSum sum;
-        std::vector<std::complex<double>> poles;
-        bool poles_found = false;
         for (const Interval& arc : arcs) {
-            if (rule.closed_form) {
-                const ClosedFormArc closed =
-                    closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
-                // The closed form where its bound meets the arc's share of the tolerance, quadrature elsewhere.
-                if (closed.usable && closed.error <= tolerance_per_radian * (arc.hi - arc.lo)) {
-                    sum.value += closed.value;
-                    sum.error += closed.error;
-                    continue;
-                }
-            }
-            if (!poles_found && !known) poles = poles_of(quartic), poles_found = true;
-            integrate_piece(f, known ? known->poles : poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
+            PendingArc& item = pending[pending_count++];
+            item.circle = k;
+            item.arc = arc;
+            general_length += arc.hi - arc.lo;
+            if (!rule.closed_form) continue;
+            const ClosedFormArc closed = closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
+            if (!closed.usable) continue;
+            item.closed = true;
+            item.value = closed.value;
+            item.error = closed.error;
         }
-        result.value += sum.value;
-        result.error += sum.error;
-        result.quadrature_pieces += sum.pieces;
     }
+    // The tolerance is shared over the boundary: the closed forms' bounds are accepted in the order of
+    // their error per radian for as long as they leave the arcs after them at least as much tolerance per
+    // radian as they themselves take; those arcs are integrated by quadrature to the rest, spread in
+    // proportion to their length. (Every usable closed form is accepted when their bounds fit together.)
+    // The values' error bounds then sum to at most the tolerance, rounding allowances aside, as with a
+    // fixed share per arc, and an arc whose closed form carries a bound above that share but below what
+    // the other arcs leave unused needs no quadrature.
+    const double rounding_floor = 32 * std::numeric_limits<double>::epsilon() * rounding;
+    // A twentieth is kept back for the allowances added after this choice (quadrature rounding, the
+    // hemisphere's error in the ratio), so that a value asked to a tolerance stays within it.
+    const double budget = 0.95 * absolute_tolerance - rounding_floor;
+    auto density = [](const PendingArc& item) {
+        return item.closed ? item.error / std::max(item.arc.hi - item.arc.lo, 1e-300)
+                           : std::numeric_limits<double>::infinity();
+    };
+    // Insertion sort: a handful of arcs.
+    for (std::size_t i = 1; i < pending_count; ++i)
+        for (std::size_t j = i; j > 0 && density(pending[j]) < density(pending[j - 1]); --j)
+            std::swap(pending[j], pending[j - 1]);
+    std::size_t accepted = 0;
+    double accepted_error = 0, accepted_length = 0;
+    {
+        double sum = 0, length = 0;
+        for (std::size_t i = 0; i < pending_count && pending[i].closed; ++i) {
+            sum += pending[i].error;
+            length += pending[i].arc.hi - pending[i].arc.lo;
+            const double rest = general_length - length;
+            const bool fits = sum <= budget && (i + 1 == pending_count || (rest > 0 && density(pending[i]) * rest <= budget - sum));
+            if (fits) accepted = i + 1, accepted_error = sum, accepted_length = length;
+        }
+    }
+    const double rest_length = general_length - accepted_length;
+    const double tolerance_per_radian =
+        rest_length > 0 ? std::max(0.0, (budget - accepted_error) / rest_length) : 0.0;
+    PieceSum sum;
+    for (std::size_t i = 0; i < pending_count; ++i) {
+        const PendingArc& item = pending[i];
+        if (i < accepted) {
+            sum.value += item.value;
+            sum.error += item.error;
+            continue;
+        }
+        CircleWork& w = circles[item.circle];
+        if (!w.known && !w.poles_found) w.own_poles = poles_of(w.own_quartic), w.poles_found = true;
+        integrate_piece(w.f, w.known ? w.known->poles : w.own_poles, item.arc.lo, item.arc.hi, rule,
+                        tolerance_per_radian, 0, sum);
+    }
+    result.value += sum.value;
+    result.error += sum.error;
+    result.quadrature_pieces += sum.pieces;
     result.error += 32 * std::numeric_limits<double>::epsilon() * rounding;
     return result;
 }

@@ -131,6 +131,61 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
 
 }  // namespace
 
+namespace {
+
+// The roots of x^4 + a3 x^3 + a2 x^2 + a1 x + a0 by Ferrari's method, as starting points of the iteration
+// in circle_quartic (cancellation can cost them digits; the iteration restores them). False where the
+// construction breaks down (a quadruple root, non-finite values): the caller then starts elsewhere.
+bool ferrari_roots(std::complex<double> a3, std::complex<double> a2, std::complex<double> a1,
+                   std::complex<double> a0, std::complex<double>* z) {
+    using cd = std::complex<double>;
+    // x = y - a3 / 4: y^4 + p y^2 + q y + r.
+    const cd shift = 0.25 * a3, a3_2 = a3 * a3;
+    const cd p = a2 - 0.375 * a3_2;
+    const cd q = a1 - 0.5 * a2 * a3 + 0.125 * a3_2 * a3;
+    const cd r = a0 - 0.25 * a1 * a3 + 0.0625 * a2 * a3_2 - (3.0 / 256) * a3_2 * a3_2;
+    // Resolvent cubic m^3 + p m^2 + (p^2 / 4 - r) m - q^2 / 8: for a root m != 0 the quartic is
+    // (y^2 + p / 2 + m)^2 - 2 m (y - q / (4 m))^2, a difference of squares.
+    const cd b1 = 0.25 * p * p - r, b0 = -0.125 * q * q;
+    // m = u - p / 3: u^3 + P u + Q (Cardano), the cube root taken of the larger of the two candidates.
+    const cd P = b1 - p * p / 3.0;
+    const cd Q = (2.0 / 27) * p * p * p - p * b1 / 3.0 + b0;
+    const cd root = std::sqrt(0.25 * Q * Q + P * P * P / 27.0);
+    const cd plus = -0.5 * Q + root, minus = -0.5 * Q - root;
+    const cd radicand = std::norm(plus) >= std::norm(minus) ? plus : minus;
+    cd m = -p / 3.0;
+    if (radicand != cd(0)) {
+        // The three cube roots; the resolvent root of largest modulus keeps 2 m well away from 0.
+        const cd cube = std::polar(std::cbrt(std::abs(radicand)), std::arg(radicand) / 3);
+        const cd turn(-0.5, 0.8660254037844386);
+        cd c = cube;
+        double best = -1;
+        for (int k = 0; k < 3; ++k, c *= turn) {
+            const cd candidate = c - P / (3.0 * c) - p / 3.0;
+            if (std::norm(candidate) > best) best = std::norm(candidate), m = candidate;
+        }
+    }
+    const cd s = std::sqrt(2.0 * m);
+    if (!(std::norm(s) > 0)) return false;
+    const cd half_q_over_s = 0.5 * q / s;
+    // y^2 + s y + (p / 2 + m - q / (2 s)) and y^2 - s y + (p / 2 + m + q / (2 s)); each quadratic's larger
+    // root first, the other as the product over it (no cancellation).
+    const cd linear[2] = {s, -s};
+    const cd constant[2] = {0.5 * p + m - half_q_over_s, 0.5 * p + m + half_q_over_s};
+    for (int k = 0; k < 2; ++k) {
+        const cd disc = std::sqrt(linear[k] * linear[k] - 4.0 * constant[k]);
+        const cd big = -0.5 * (linear[k] + (std::real(std::conj(linear[k]) * disc) >= 0 ? disc : -disc));
+        if (!(std::norm(big) > 0)) return false;
+        z[2 * k] = big - shift;
+        z[2 * k + 1] = constant[k] / big - shift;
+    }
+    for (int i = 0; i < 4; ++i)
+        if (!std::isfinite(z[i].real()) || !std::isfinite(z[i].imag())) return false;
+    return true;
+}
+
+}  // namespace
+
 CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
     using cd = std::complex<double>;
     CircleQuartic out;
@@ -144,17 +199,22 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
     const double negligible = 1e-26 * k0 * k0;  // compared with squared moduli
     if (std::norm(c4) > negligible) {
         // Durand-Kerner on the monic quartic: converges for any start off the real axis and for
-        // well-separated or clustered roots alike (4 unknowns, so each sweep costs ~ 30 flops).
+        // well-separated or clustered roots alike (4 unknowns, so each sweep costs ~ 30 flops). Started
+        // from Ferrari's closed form it needs two or three sweeps instead of about ten.
         const cd inv4 = std::conj(c4) / std::norm(c4);
         const cd a3 = c3 * inv4, a2 = c2 * inv4, a1 = c1 * inv4, a0 = c0 * inv4;
-        const double radius = std::pow(std::abs(a0), 0.25);
         cd* z = out.roots;
-        const cd seed(0.4, 0.9);
-        cd w = 1;
-        for (int i = 0; i < 4; ++i) {
-            z[i] = radius * w;
-            w *= seed;
+        if (!ferrari_roots(a3, a2, a1, a0, z)) {
+            // Distinct points on a spiral of the roots' mean modulus.
+            const double radius = std::pow(std::abs(a0), 0.25);
+            const cd seed(0.4, 0.9);
+            cd w = 1;
+            for (int i = 0; i < 4; ++i) {
+                z[i] = radius * w;
+                w *= seed;
+            }
         }
+        double previous_change = std::numeric_limits<double>::infinity();
         for (int iter = 0; iter < 200; ++iter) {
             double change = 0;
             for (int i = 0; i < 4; ++i) {
@@ -169,7 +229,11 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
                 z[i] -= step;
                 change = std::max(change, std::norm(step) / (1 + std::norm(z[i])));
             }
-            if (change < 1e-30) break;
+            // Converged, or stalled at rounding noise (relative steps of a few ulps that no longer shrink;
+            // a double root converges linearly, its squared steps falling 4x a sweep): the roots' accuracy
+            // is checked afterwards either way (closed_form_roots).
+            if (change < 1e-30 || (change < 1e-24 && change > 0.5 * previous_change)) break;
+            previous_change = change;
         }
         out.root_count = 4;
     } else if (std::norm(c3) > negligible) {

@@ -67,8 +67,11 @@ void basis(const Vec3& n, Vec3& e1, Vec3& e2) {
     e2 = {b, sign + n.y * n.y * a, -n.y};
 }
 
+// An arc psi in [lo, hi] of a circle, with e^{i lo} and e^{i hi} carried along from where the ends were
+// found (the circles' meeting points, in closed form), so that the integrals need no sine or cosine of them.
 struct Interval {
     double lo, hi;
+    std::complex<double> e_lo, e_hi;
 };
 
 // A few intervals without allocation (boundary_integral runs ~10^8 times in a large exact bake): the
@@ -91,7 +94,7 @@ struct ArcList {
 // Into `arcs` (left empty when circle k bounds nothing).
 void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const Vec3& e1, const Vec3& e2, ArcList& arcs) {
     arcs.count = 0;
-    arcs.push({0.0, kTwoPi});
+    arcs.push({0.0, kTwoPi, 1.0, 1.0});
     bool full = true;
     for (std::size_t j = 0; j < cap_count; ++j) {
         if (j == k) continue;
@@ -108,8 +111,12 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
             return;
         }
         const double centre = std::atan2(B, A);
-        const double half = std::acos(C / R);  // C / R in (-1, 1)
-        const Interval allowed{centre - half, centre + half};
+        // half = acos(C / R), C / R in (-1, 1), as an argument: then e^{i half} below is its exact companion
+        // (and sqrt((R - C)(R + C)) keeps the digits of a short arc that 1 - (C / R)^2 would cancel).
+        const double sine_half = std::sqrt((R - C) * (R + C));
+        const double half = std::atan2(sine_half, C);
+        const std::complex<double> e_centre(A / R, B / R), e_half(C / R, sine_half / R);
+        const Interval allowed{centre - half, centre + half, e_centre * std::conj(e_half), e_centre * e_half};
         ArcList next;
         for (const Interval& cur : arcs) {
             if (full) {
@@ -117,9 +124,10 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
                 continue;
             }
             for (int shift = -1; shift <= 1; ++shift) {
-                const double lo = std::max(cur.lo, allowed.lo + shift * kTwoPi);
-                const double hi = std::min(cur.hi, allowed.hi + shift * kTwoPi);
-                if (hi > lo) next.push({lo, hi});
+                const double allowed_lo = allowed.lo + shift * kTwoPi, allowed_hi = allowed.hi + shift * kTwoPi;
+                const bool own_lo = cur.lo >= allowed_lo, own_hi = cur.hi <= allowed_hi;
+                const double lo = own_lo ? cur.lo : allowed_lo, hi = own_hi ? cur.hi : allowed_hi;
+                if (hi > lo) next.push({lo, hi, own_lo ? cur.e_lo : allowed.e_lo, own_hi ? cur.e_hi : allowed.e_hi});
             }
         }
         full = false;
@@ -132,6 +140,24 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
 }  // namespace
 
 namespace {
+
+// Complex helpers for the hot paths, free of the C library's special-value handling (libgcc's complex
+// division and glibc's hypot cost several times the arithmetic): |z| through the squared modulus while
+// that stays in range (else std::abs), a / b through the conjugate, and the principal square root from
+// two real ones, each to a few ulps (every caller checks its results afterwards or bounds their rounding).
+double modulus(const std::complex<double>& z) {
+    const double n = std::norm(z);
+    return n > 1e-290 && n < 1e290 ? std::sqrt(n) : std::abs(z);
+}
+std::complex<double> divide(const std::complex<double>& a, const std::complex<double>& b) {
+    return a * std::conj(b) / std::norm(b);
+}
+std::complex<double> principal_sqrt(const std::complex<double>& z) {
+    const double x = z.real(), y = z.imag();
+    const double t = std::sqrt(0.5 * (modulus(z) + std::fabs(x)));  // no cancellation: both terms >= 0
+    if (t == 0) return 0;
+    return x >= 0 ? std::complex<double>(t, 0.5 * y / t) : std::complex<double>(0.5 * std::fabs(y) / t, std::copysign(t, y));
+}
 
 // The roots of x^4 + a3 x^3 + a2 x^2 + a1 x + a0 by Ferrari's method, as starting points of the iteration
 // in circle_quartic (cancellation can cost them digits; the iteration restores them). False where the
@@ -150,34 +176,34 @@ bool ferrari_roots(std::complex<double> a3, std::complex<double> a2, std::comple
     // m = u - p / 3: u^3 + P u + Q (Cardano), the cube root taken of the larger of the two candidates.
     const cd P = b1 - p * p / 3.0;
     const cd Q = (2.0 / 27) * p * p * p - p * b1 / 3.0 + b0;
-    const cd root = std::sqrt(0.25 * Q * Q + P * P * P / 27.0);
+    const cd root = principal_sqrt(0.25 * Q * Q + P * P * P / 27.0);
     const cd plus = -0.5 * Q + root, minus = -0.5 * Q - root;
     const cd radicand = std::norm(plus) >= std::norm(minus) ? plus : minus;
     cd m = -p / 3.0;
     if (radicand != cd(0)) {
         // The three cube roots; the resolvent root of largest modulus keeps 2 m well away from 0.
-        const cd cube = std::polar(std::cbrt(std::abs(radicand)), std::arg(radicand) / 3);
+        const cd cube = std::polar(std::cbrt(modulus(radicand)), std::arg(radicand) / 3);
         const cd turn(-0.5, 0.8660254037844386);
         cd c = cube;
         double best = -1;
         for (int k = 0; k < 3; ++k, c *= turn) {
-            const cd candidate = c - P / (3.0 * c) - p / 3.0;
+            const cd candidate = c - divide(P, 3.0 * c) - p / 3.0;
             if (std::norm(candidate) > best) best = std::norm(candidate), m = candidate;
         }
     }
-    const cd s = std::sqrt(2.0 * m);
+    const cd s = principal_sqrt(2.0 * m);
     if (!(std::norm(s) > 0)) return false;
-    const cd half_q_over_s = 0.5 * q / s;
+    const cd half_q_over_s = 0.5 * divide(q, s);
     // y^2 + s y + (p / 2 + m - q / (2 s)) and y^2 - s y + (p / 2 + m + q / (2 s)); each quadratic's larger
     // root first, the other as the product over it (no cancellation).
     const cd linear[2] = {s, -s};
     const cd constant[2] = {0.5 * p + m - half_q_over_s, 0.5 * p + m + half_q_over_s};
     for (int k = 0; k < 2; ++k) {
-        const cd disc = std::sqrt(linear[k] * linear[k] - 4.0 * constant[k]);
+        const cd disc = principal_sqrt(linear[k] * linear[k] - 4.0 * constant[k]);
         const cd big = -0.5 * (linear[k] + (std::real(std::conj(linear[k]) * disc) >= 0 ? disc : -disc));
         if (!(std::norm(big) > 0)) return false;
         z[2 * k] = big - shift;
-        z[2 * k + 1] = constant[k] / big - shift;
+        z[2 * k + 1] = divide(constant[k], big) - shift;
     }
     for (int i = 0; i < 4; ++i)
         if (!std::isfinite(z[i].real()) || !std::isfinite(z[i].imag())) return false;
@@ -299,12 +325,12 @@ ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2
     const cd e3 = z[0] * z[1] * z[2] + z[0] * z[1] * z[3] + z[0] * z[2] * z[3] + z[1] * z[2] * z[3];
     const cd e4 = z[0] * z[1] * z[2] * z[3];
     const cd rebuilt[5] = {c4 * e4, -c4 * e3, c4 * e2, -c4 * e1, c4};
-    double expansion_scale = std::abs(c4), coefficient_scale = 0;
-    for (int j = 0; j < 4; ++j) expansion_scale *= 1 + std::abs(z[j]);
+    double expansion_scale = modulus(c4), coefficient_scale = 0;
+    for (int j = 0; j < 4; ++j) expansion_scale *= 1 + modulus(z[j]);
     double delta = 0;
     for (int i = 0; i < 5; ++i) {
-        delta += std::abs(rebuilt[i] - quartic.c[i]);
-        coefficient_scale += std::abs(quartic.c[i]);
+        delta += modulus(rebuilt[i] - quartic.c[i]);
+        coefficient_scale += modulus(quartic.c[i]);
     }
     // The expansion above (a few roundings per term, each term at most expansion_scale) and the
     // coefficients themselves (dot products of p, q, r: a few ulps of sum |c_i| >= k0) were rounded.
@@ -339,8 +365,10 @@ std::complex<double> log_ratio(const std::complex<double>& x_hi, const std::comp
     return {0.5 * std::log(norm_hi / norm_lo), std::atan2(turn.imag(), turn.real())};
 }
 
+// `e_lo`, `e_hi`: e^{i lo} and e^{i hi}.
 ClosedFormArc closed_form_arc(const ClosedFormRoots& prepared, double al0, double al1, double al2, double lo,
-                              double hi, double min_norm2, double speed_bound) {
+                              double hi, std::complex<double> e_lo, std::complex<double> e_hi, double min_norm2,
+                              double speed_bound) {
     using cd = std::complex<double>;
     constexpr double eps = std::numeric_limits<double>::epsilon();
     ClosedFormArc out;
@@ -348,7 +376,6 @@ ClosedFormArc closed_form_arc(const ClosedFormRoots& prepared, double al0, doubl
     const cd* z = prepared.roots;
     const double delta = prepared.delta;
     const cd n2(0.5 * al1, -0.5 * al2), n1(al0, 0), n0(0.5 * al1, 0.5 * al2);
-    const cd e_lo(std::cos(lo), std::sin(lo)), e_hi(std::cos(hi), std::sin(hi));
     cd sum_f = 0, sum_one = 0;
     double rounding_f = 0, rounding_one = 0;
     for (int j = 0; j < 4; ++j) {
@@ -490,18 +517,16 @@ void integrate_piece(const ArcIntegrand& f, const PoleList& poles, double lo, do
 
 // The angle v sweeps round axis n^ while psi runs over [lo, hi] on a great circle, through pieces shorter
 // than pi in psi (antipodal m map to antipodal v, so such a piece sweeps less than pi and atan2 is exact).
-double swept_angle(const Vec3& p_unused, const Vec3& q, const Vec3& r, const Vec3& axis, double lo, double hi) {
-    (void)p_unused;
+double swept_angle(const Vec3& q, const Vec3& r, const Vec3& axis, const Interval& arc) {
+    const double lo = arc.lo, hi = arc.hi;
     if (hi - lo >= kTwoPi * (1 - 1e-15)) return kTwoPi;
     const int pieces = static_cast<int>(std::ceil((hi - lo) / (0.75 * kPi)));
     double total = 0;
-    double psi0 = lo;
-    Vec3 v0 = {q.x * std::cos(psi0) + r.x * std::sin(psi0), q.y * std::cos(psi0) + r.y * std::sin(psi0),
-               q.z * std::cos(psi0) + r.z * std::sin(psi0)};
+    auto point = [&](double c, double s) { return Vec3{q.x * c + r.x * s, q.y * c + r.y * s, q.z * c + r.z * s}; };
+    Vec3 v0 = point(arc.e_lo.real(), arc.e_lo.imag());
     for (int i = 1; i <= pieces; ++i) {
-        const double psi1 = i == pieces ? hi : lo + (hi - lo) * i / pieces;
-        const double c = std::cos(psi1), s = std::sin(psi1);
-        const Vec3 v1{q.x * c + r.x * s, q.y * c + r.y * s, q.z * c + r.z * s};
+        const double psi1 = lo + (hi - lo) * i / pieces;
+        const Vec3 v1 = i == pieces ? point(arc.e_hi.real(), arc.e_hi.imag()) : point(std::cos(psi1), std::sin(psi1));
         total += std::atan2(dot(cross(v0, v1), axis), dot(v0, v1));
         v0 = v1;
     }
@@ -532,7 +557,8 @@ ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo
         // |v'(psi)| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2).
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));
         const ClosedFormArc closed =
-            closed_form_arc(closed_form_roots(quartic, min_norm2), k_const, bc, -bs, lo, hi, min_norm2, speed_bound);
+            closed_form_arc(closed_form_roots(quartic, min_norm2), k_const, bc, -bs, lo, hi, std::polar(1.0, lo),
+                            std::polar(1.0, hi), min_norm2, speed_bound);
         if (closed.usable && closed.error <= absolute_tolerance) {
             out.value = closed.value;
             out.error = closed.error;
@@ -636,7 +662,7 @@ struct CircleWork {
 // An arc of a circle with a non-constant |v|^2, with its closed form where that is usable.
 struct PendingArc {
     std::size_t circle = 0;
-    Interval arc{0, 0};
+    Interval arc{0, 0, 1.0, 1.0};
     bool closed = false;
     double value = 0, error = 0;
 };
@@ -700,7 +726,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
             const double weight = dot(a, axis);
             for (const Interval& arc : arcs) {
-                const double part = weight * swept_angle(p, q, r, axis, arc.lo, arc.hi);
+                const double part = weight * swept_angle(q, r, axis, arc);
                 result.value += part;
                 rounding += std::fabs(part);
             }
@@ -715,8 +741,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             // Constant |v|^2: integrate the trigonometric numerator.
             const double norm2 = dot(p, p) + dot(q, q);
             for (const Interval& arc : arcs) {
-                const double part = (k_const * (arc.hi - arc.lo) + bc * (std::sin(arc.hi) - std::sin(arc.lo)) +
-                                     bs * (std::cos(arc.hi) - std::cos(arc.lo))) /
+                const double part = (k_const * (arc.hi - arc.lo) + bc * (arc.e_hi.imag() - arc.e_lo.imag()) +
+                                     bs * (arc.e_hi.real() - arc.e_lo.real())) /
                                     norm2;
                 result.value += part;
                 rounding += std::fabs(k_const * (arc.hi - arc.lo) / norm2) + (std::fabs(bc) + std::fabs(bs)) * 2 / norm2;
@@ -735,7 +761,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             item.arc = arc;
             general_length += arc.hi - arc.lo;
             if (!rule.closed_form) continue;
-            const ClosedFormArc closed = closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
+            const ClosedFormArc closed =
+                closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, arc.e_lo, arc.e_hi, min_norm2, speed_bound);
             if (!closed.usable) continue;
             item.closed = true;
             item.value = closed.value;

@@ -317,7 +317,20 @@ ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2
     constexpr double eps = std::numeric_limits<double>::epsilon();
     ClosedFormRoots out;
     if (quartic.root_count != 4) return out;  // vanishing leading coefficients: quadrature instead
-    const cd* z = quartic.roots;
+    // The roots come in pairs z, 1 / conj(z) (the quartic is self-inversive: c_{4-i} = conj(c_i)), two
+    // inside the unit disc. The two smallest computed roots are kept and the others taken as their
+    // reflections (P~ below is the polynomial of these rounded values), so that closed_form_arc can take
+    // each outer root's logarithms as the conjugates of its partner's.
+    cd z[4];
+    {
+        int order[4] = {0, 1, 2, 3};
+        std::sort(order, order + 4, [&](int i, int j) { return std::norm(quartic.roots[i]) < std::norm(quartic.roots[j]); });
+        z[0] = quartic.roots[order[0]];
+        z[1] = quartic.roots[order[1]];
+        if (!(std::norm(z[1]) < 1) || !(std::norm(z[0]) > 0)) return out;  // no two roots inside
+        z[2] = z[0] / std::norm(z[0]);
+        z[3] = z[1] / std::norm(z[1]);
+    }
     const cd c4 = quartic.c[4];
     // Coefficients of c4 prod (z - z_j) from the elementary symmetric functions of the roots.
     const cd e1 = z[0] + z[1] + z[2] + z[3];
@@ -378,39 +391,40 @@ ClosedFormArc closed_form_arc(const ClosedFormRoots& prepared, double al0, doubl
     const cd n2(0.5 * al1, -0.5 * al2), n1(al0, 0), n0(0.5 * al1, 0.5 * al2);
     cd sum_f = 0, sum_one = 0;
     double rounding_f = 0, rounding_one = 0;
-    for (int j = 0; j < 4; ++j) {
-        const cd inv_i_derivative = prepared.inv_i_derivative[j];
-        const cd rho_f = ((n2 * z[j] + n1) * z[j] + n0) * inv_i_derivative;
-        const cd rho_one = z[j] * inv_i_derivative;  // numerator of 1 / |v|^2: n1 = 1
-        const bool inside = std::norm(z[j]) < 1;
-        cd w_lo, w_hi;
-        if (inside) {
-            w_lo = z[j] * std::conj(e_lo), w_hi = z[j] * std::conj(e_hi);
-        } else {
-            const cd inv = std::conj(z[j]) / std::norm(z[j]);
-            w_lo = e_lo * inv, w_hi = e_hi * inv;
-        }
+    // Roots 0 and 1 lie inside the unit disc, 2 and 3 are their reflections 1 / conj(z) (closed_form_roots).
+    // For the inner root w = z e^{-i psi}; for its reflection w' = e^{i psi} / z' = conj(w), so 1 - w' is
+    // the conjugate of 1 - w (Re > 0: no branch cut between them) and so are the logarithms' differences.
+    // (z' is the reflection rounded: conj(w) stands for e^{i psi} / z' to a few ulps, as forming that
+    // quotient would, which the rounding bound's 1 / |x| terms cover.)
+    for (int j = 0; j < 2; ++j) {
+        const cd w_lo = z[j] * std::conj(e_lo), w_hi = z[j] * std::conj(e_hi);
         const cd one_minus_lo = 1.0 - w_lo, one_minus_hi = 1.0 - w_hi;
         const double norm_lo = std::norm(one_minus_lo), norm_hi = std::norm(one_minus_hi);
         // |x| >= 1 - |w| > 0 (no root on the unit circle); a ratio of norms that underflows would need a
         // root within 1e-150 of it: the bound below then comes out infinite and the arc takes quadrature.
-        cd dl = log_ratio(one_minus_hi, one_minus_lo, norm_hi, norm_lo);
-        if (inside) dl += cd(0, hi - lo);
-        sum_f += rho_f * dl;
-        sum_one += rho_one * dl;
+        const cd log_difference = log_ratio(one_minus_hi, one_minus_lo, norm_hi, norm_lo);
         // |Log x| <= |log |x|| + pi / 2 <= 0.7 + 1 / |x| + pi / 2 for |x| < 2 (log(1 / t) < 1 / t).
         const double inverse_hi = 1.0 / std::sqrt(norm_hi), inverse_lo = 1.0 / std::sqrt(norm_lo);
-        const double log_size = 2 * (2.3 + inverse_hi + inverse_lo) + (inside ? std::fabs(hi) + std::fabs(lo) : 0.0) +
-                                inverse_hi + inverse_lo;
-        rounding_f += std::sqrt(std::norm(rho_f)) * log_size;
-        rounding_one += std::sqrt(std::norm(rho_one)) * log_size;
+        const double outer_log_size = 2 * (2.3 + inverse_hi + inverse_lo) + inverse_hi + inverse_lo;
+        for (const int root : {j, j + 2}) {
+            const bool inside = root == j;
+            const cd inv_i_derivative = prepared.inv_i_derivative[root];
+            const cd rho_f = ((n2 * z[root] + n1) * z[root] + n0) * inv_i_derivative;
+            const cd rho_one = z[root] * inv_i_derivative;  // numerator of 1 / |v|^2: n1 = 1
+            const cd dl = inside ? log_difference + cd(0, hi - lo) : std::conj(log_difference);
+            sum_f += rho_f * dl;
+            sum_one += rho_one * dl;
+            const double log_size = outer_log_size + (inside ? std::fabs(hi) + std::fabs(lo) : 0.0);
+            rounding_f += std::sqrt(std::norm(rho_f)) * log_size;
+            rounding_one += std::sqrt(std::norm(rho_one)) * log_size;
+        }
     }
     rounding_f *= 32 * eps;
     rounding_one *= 32 * eps;
     const double ratio = delta / (min_norm2 - delta);  // < 1/3
     // integral 1 / |v|^2 <= (closed form + its rounding) / (1 - ratio), from the same bound with N = 1.
     const double integral_one = (std::fabs(sum_one.real()) + rounding_one) / (1 - ratio);
-    const double max_numerator = std::fabs(al0) + std::hypot(al1, al2);
+    const double max_numerator = std::fabs(al0) + std::sqrt(al1 * al1 + al2 * al2);
     const double max_integrand = std::min(max_numerator / min_norm2, speed_bound / std::sqrt(min_norm2));
     out.value = sum_f.real();
     out.error = delta / (1 - delta / min_norm2) * max_integrand * integral_one + rounding_f;

@@ -50,7 +50,8 @@ struct CircleQuartic {
 };
 CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r);
 
-// What the closed form of an arc needs of its circle alone: the roots, 1 / (i P~4'(z_j)) at each, and
+// What the closed form of an arc needs of its circle alone: the roots (0 and 1 inside the unit disc, 2 and 3
+// their reflections 1 / conj(z)), 1 / (i P~4'(z_j)) at each, and
 // delta, the bound on |P~4 - P4| on |z| = 1 of the polynomial the computed roots solve exactly.
 // usable is false when the quartic degenerates (leading terms vanish, coincident roots) or its roots
 // are too inaccurate for the bound (delta >= min_norm2 / 4).

@@ -147,7 +147,7 @@ namespace {
 // two real ones, each to a few ulps (every caller checks its results afterwards or bounds their rounding).
 double modulus(const std::complex<double>& z) {
     const double n = std::norm(z);
-    return n > 1e-290 && n < 1e290 ? std::sqrt(n) : std::abs(z);
+    return n < 1e290 && (n > 1e-290 || n == 0) ? std::sqrt(n) : std::abs(z);
 }
 std::complex<double> divide(const std::complex<double>& a, const std::complex<double>& b) {
     return a * std::conj(b) / std::norm(b);
@@ -323,13 +323,19 @@ ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2
     // each outer root's logarithms as the conjugates of its partner's.
     cd z[4];
     {
-        int order[4] = {0, 1, 2, 3};
-        std::sort(order, order + 4, [&](int i, int j) { return std::norm(quartic.roots[i]) < std::norm(quartic.roots[j]); });
-        z[0] = quartic.roots[order[0]];
-        z[1] = quartic.roots[order[1]];
-        if (!(std::norm(z[1]) < 1) || !(std::norm(z[0]) > 0)) return out;  // no two roots inside
-        z[2] = z[0] / std::norm(z[0]);
-        z[3] = z[1] / std::norm(z[1]);
+        int first = 0, second = 1;  // the indices of the smallest and second smallest moduli
+        double norms[4];
+        for (int j = 0; j < 4; ++j) norms[j] = std::norm(quartic.roots[j]);
+        if (norms[1] < norms[0]) std::swap(first, second);
+        for (int j = 2; j < 4; ++j) {
+            if (norms[j] < norms[first]) second = first, first = j;
+            else if (norms[j] < norms[second]) second = j;
+        }
+        z[0] = quartic.roots[first];
+        z[1] = quartic.roots[second];
+        if (!(norms[second] < 1) || !(norms[first] > 0)) return out;  // no two roots inside
+        z[2] = z[0] / norms[first];
+        z[3] = z[1] / norms[second];
     }
     const cd c4 = quartic.c[4];
     // Coefficients of c4 prod (z - z_j) from the elementary symmetric functions of the roots.

@@ -39,6 +39,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "exact/gauss_legendre.hpp"
@@ -69,9 +70,14 @@ void basis(const Vec3& n, Vec3& e1, Vec3& e2) {
 
 // An arc psi in [lo, hi] of a circle, with e^{i lo} and e^{i hi} carried along from where the ends were
 // found (the circles' meeting points, in closed form), so that the integrals need no sine or cosine of them.
+// (Plain doubles rather than std::complex, whose constructor would zero every array of intervals.)
+struct UnitPoint {
+    double c, s;  // cos psi, sin psi
+    std::complex<double> complex() const { return {c, s}; }
+};
 struct Interval {
     double lo, hi;
-    std::complex<double> e_lo, e_hi;
+    UnitPoint e_lo, e_hi;
 };
 
 // A few intervals without allocation (boundary_integral runs ~10^8 times in a large exact bake): the
@@ -94,7 +100,7 @@ struct ArcList {
 // Into `arcs` (left empty when circle k bounds nothing).
 void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const Vec3& e1, const Vec3& e2, ArcList& arcs) {
     arcs.count = 0;
-    arcs.push({0.0, kTwoPi, 1.0, 1.0});
+    arcs.push({0.0, kTwoPi, {1, 0}, {1, 0}});
     bool full = true;
     for (std::size_t j = 0; j < cap_count; ++j) {
         if (j == k) continue;
@@ -116,7 +122,8 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
         const double sine_half = std::sqrt((R - C) * (R + C));
         const double half = std::atan2(sine_half, C);
         const std::complex<double> e_centre(A / R, B / R), e_half(C / R, sine_half / R);
-        const Interval allowed{centre - half, centre + half, e_centre * std::conj(e_half), e_centre * e_half};
+        const std::complex<double> e_lo = e_centre * std::conj(e_half), e_hi = e_centre * e_half;
+        const Interval allowed{centre - half, centre + half, {e_lo.real(), e_lo.imag()}, {e_hi.real(), e_hi.imag()}};
         ArcList next;
         for (const Interval& cur : arcs) {
             if (full) {
@@ -543,10 +550,10 @@ double swept_angle(const Vec3& q, const Vec3& r, const Vec3& axis, const Interva
     const int pieces = static_cast<int>(std::ceil((hi - lo) / (0.75 * kPi)));
     double total = 0;
     auto point = [&](double c, double s) { return Vec3{q.x * c + r.x * s, q.y * c + r.y * s, q.z * c + r.z * s}; };
-    Vec3 v0 = point(arc.e_lo.real(), arc.e_lo.imag());
+    Vec3 v0 = point(arc.e_lo.c, arc.e_lo.s);
     for (int i = 1; i <= pieces; ++i) {
         const double psi1 = lo + (hi - lo) * i / pieces;
-        const Vec3 v1 = i == pieces ? point(arc.e_hi.real(), arc.e_hi.imag()) : point(std::cos(psi1), std::sin(psi1));
+        const Vec3 v1 = i == pieces ? point(arc.e_hi.c, arc.e_hi.s) : point(std::cos(psi1), std::sin(psi1));
         total += std::atan2(dot(cross(v0, v1), axis), dot(v0, v1));
         v0 = v1;
     }
@@ -668,10 +675,10 @@ namespace {
 
 constexpr std::size_t kMaxCaps = 6;
 
-// What boundary_integral keeps of a circle between finding its arcs and integrating those left to quadrature.
+// What boundary_integral keeps of a circle with a non-constant |v|^2 between finding its arcs and
+// integrating those left to quadrature.
 struct CircleWork {
     const PreparedCircle* known = nullptr;
-    Vec3 p, q, r;
     ArcIntegrand f{};
     CircleQuartic own_quartic;
     ClosedFormRoots own_roots;
@@ -679,12 +686,13 @@ struct CircleWork {
     bool poles_found = false;
 };
 
-// An arc of a circle with a non-constant |v|^2, with its closed form where that is usable.
+// An arc of such a circle, with its closed form where that is usable. (No member initialisers: the
+// array of them is filled as arcs are found, not zeroed on every call.)
 struct PendingArc {
-    std::size_t circle = 0;
-    Interval arc{0, 0, 1.0, 1.0};
-    bool closed = false;
-    double value = 0, error = 0;
+    std::size_t circle;
+    Interval arc;
+    bool closed;
+    double value, error;
 };
 
 }  // namespace
@@ -717,7 +725,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
     // First every circle's arcs: great circles and constant |v|^2 in closed form at once, the other arcs
     // by the closed form where it is usable, with its error bound; which of those bounds are accepted,
     // and the tolerance of the arcs left to quadrature, is decided over the whole boundary below.
-    CircleWork circles[kMaxCaps];
+    std::optional<CircleWork> circles[kMaxCaps];  // constructed for the circles that need one
     PendingArc pending[kMaxCaps * ArcList::kCapacity];
     std::size_t pending_count = 0;
     double general_length = 0;  // of the arcs that are neither on great circles nor of constant |v|^2
@@ -736,12 +744,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
         ArcList arcs;
         boundary_arcs(caps, cap_count, k, e1, e2, arcs);
         if (arcs.empty()) continue;
-        CircleWork& w = circles[k];
-        w.known = known;
-        w.p = known ? known->p : scale(unstretch(cap.n), cap.c);
-        w.q = known ? known->q : scale(unstretch(e1), cap.s);
-        w.r = known ? known->r : scale(unstretch(e2), cap.s);
-        const Vec3 &p = w.p, &q = w.q, &r = w.r;
+        const Vec3 p = known ? known->p : scale(unstretch(cap.n), cap.c);
+        const Vec3 q = known ? known->q : scale(unstretch(e1), cap.s), r = known ? known->r : scale(unstretch(e2), cap.s);
         if (cap.c == 0) {
             const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
             const double weight = dot(a, axis);
@@ -752,8 +756,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             }
             continue;
         }
-        w.f = ArcIntegrand{p, q, r, dot(a, cross(q, r)), dot(a, cross(p, r)), dot(a, cross(p, q))};
-        const double k_const = w.f.k, bc = w.f.bc, bs = w.f.bs;
+        const ArcIntegrand f{p, q, r, dot(a, cross(q, r)), dot(a, cross(p, r)), dot(a, cross(p, q))};
+        const double k_const = f.k, bc = f.bc, bs = f.bs;
         // |v|^2 is constant round e_z on an isotropic surface, and on every circle when S = I (alpha 1: v = m,
         // |v|^2 = c^2 + s^2 = 1), where the quartic degenerates.
         const bool constant_norm = (ax == ay && cap.n.x == 0 && cap.n.y == 0) || (ax == 1 && ay == 1);
@@ -761,14 +765,17 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             // Constant |v|^2: integrate the trigonometric numerator.
             const double norm2 = dot(p, p) + dot(q, q);
             for (const Interval& arc : arcs) {
-                const double part = (k_const * (arc.hi - arc.lo) + bc * (arc.e_hi.imag() - arc.e_lo.imag()) +
-                                     bs * (arc.e_hi.real() - arc.e_lo.real())) /
+                const double part = (k_const * (arc.hi - arc.lo) + bc * (arc.e_hi.s - arc.e_lo.s) +
+                                     bs * (arc.e_hi.c - arc.e_lo.c)) /
                                     norm2;
                 result.value += part;
                 rounding += std::fabs(k_const * (arc.hi - arc.lo) / norm2) + (std::fabs(bc) + std::fabs(bs)) * 2 / norm2;
             }
             continue;
         }
+        CircleWork& w = circles[k].emplace();
+        w.known = known;
+        w.f = f;
         if (!known) {
             w.own_quartic = circle_quartic(p, q, r);
             if (rule.closed_form) w.own_roots = closed_form_roots(w.own_quartic, min_norm2);
@@ -777,12 +784,12 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
         for (const Interval& arc : arcs) {
             PendingArc& item = pending[pending_count++];
-            item.circle = k;
-            item.arc = arc;
+            item = PendingArc{k, arc, false, 0.0, 0.0};
             general_length += arc.hi - arc.lo;
             if (!rule.closed_form) continue;
             const ClosedFormArc closed =
-                closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, arc.e_lo, arc.e_hi, min_norm2, speed_bound);
+                closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, arc.e_lo.complex(), arc.e_hi.complex(), min_norm2,
+                                speed_bound);
             if (!closed.usable) continue;
             item.closed = true;
             item.value = closed.value;
@@ -831,7 +838,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             sum.error += item.error;
             continue;
         }
-        CircleWork& w = circles[item.circle];
+        CircleWork& w = *circles[item.circle];
         if (!w.known && !w.poles_found) w.own_poles = poles_of(w.own_quartic), w.poles_found = true;
         integrate_piece(w.f, w.known ? w.known->poles : w.own_poles, item.arc.lo, item.arc.hi, rule,
                         tolerance_per_radian, 0, sum);

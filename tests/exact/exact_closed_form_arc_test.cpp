@@ -98,6 +98,13 @@ TEST(ExactClosedFormArc, AgreesWithGaussLegendreWithinTheSumOfTheirEstimates) {
     EXPECT_GE(families[kSmooth].closed, 990);
 }
 
+// A direction with z uniform in [0.05, 1), any azimuth.
+Vec3 direction_above_horizon(std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> u(0, 1);
+    const double z = 0.05 + 0.95 * u(rng), phi = 2 * kPi * u(rng), s = std::sqrt(1 - z * z);
+    return {s * std::cos(phi), s * std::sin(phi), z};
+}
+
 TEST(ExactClosedFormArc, BoundaryIntegralsAgreeWithAndWithoutTheClosedForm) {
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> u(0, 1);
@@ -105,10 +112,8 @@ TEST(ExactClosedFormArc, BoundaryIntegralsAgreeWithAndWithoutTheClosedForm) {
     for (int i = 0; i < 400; ++i) {
         const double alpha_x = std::exp(std::log(0.005) * u(rng));
         const double alpha_y = i % 2 ? alpha_x : std::clamp(alpha_x * std::exp(std::log(30.0) * (2 * u(rng) - 1)), 0.003, 1.0);
-        const double cos_i = 0.05 + 0.95 * u(rng), phi_i = 2 * kPi * u(rng), sin_i = std::sqrt(1 - cos_i * cos_i);
-        const Vec3 wi{sin_i * std::cos(phi_i), sin_i * std::sin(phi_i), cos_i};
-        const double cos_o = 0.05 + 0.95 * u(rng), phi_o = 2 * kPi * u(rng), sin_o = std::sqrt(1 - cos_o * cos_o);
-        const Vec3 wo{sin_o * std::cos(phi_o), sin_o * std::sin(phi_o), cos_o};
+        const Vec3 wi = direction_above_horizon(rng);
+        const Vec3 wo = direction_above_horizon(rng);
         const exact::Microsurface surface = exact::make_microsurface(alpha_x, alpha_y, wi);
         // Cone round wo with a cap round e_z, in the VNDF's support (the hemisphere and {m.wi > 0}).
         const double c_cone = 0.05 + 0.9 * u(rng), c_z = 0.05 + 0.9 * u(rng);
@@ -137,10 +142,8 @@ TEST(ExactClosedFormArc, ClosedFormsWhoseBoundsFitTogetherNeedNoQuadrature) {
     for (int i = 0; i < 300; ++i) {
         const double alpha_x = std::exp(std::log(0.002) + std::log(0.05 / 0.002) * u(rng));
         const double alpha_y = i % 2 ? alpha_x : std::clamp(alpha_x * std::exp(std::log(30.0) * (2 * u(rng) - 1)), 0.002, 1.0);
-        const double cos_i = 0.05 + 0.95 * u(rng), phi_i = 2 * kPi * u(rng), sin_i = std::sqrt(1 - cos_i * cos_i);
-        const Vec3 wi{sin_i * std::cos(phi_i), sin_i * std::sin(phi_i), cos_i};
-        const double cos_o = 0.05 + 0.95 * u(rng), phi_o = 2 * kPi * u(rng), sin_o = std::sqrt(1 - cos_o * cos_o);
-        const Vec3 wo{sin_o * std::cos(phi_o), sin_o * std::sin(phi_o), cos_o};
+        const Vec3 wi = direction_above_horizon(rng);
+        const Vec3 wo = direction_above_horizon(rng);
         const exact::Microsurface surface = exact::make_microsurface(alpha_x, alpha_y, wi);
         const double c_cone = 0.05 + 0.9 * u(rng);
         const double s_cone = std::sqrt(1 - c_cone * c_cone);

@@ -675,21 +675,11 @@ namespace {
 
 constexpr std::size_t kMaxCaps = 6;
 
-// What boundary_integral keeps of a circle with a non-constant |v|^2 between finding its arcs and
-// integrating those left to quadrature.
-struct CircleWork {
-    const PreparedCircle* known = nullptr;
-    ArcIntegrand f{};
-    CircleQuartic own_quartic;
-    ClosedFormRoots own_roots;
-    PoleList own_poles;
-    bool poles_found = false;
-};
-
-// An arc of such a circle, with its closed form where that is usable. (No member initialisers: the
-// array of them is filled as arcs are found, not zeroed on every call.)
+// An arc of a circle with a non-constant |v|^2, with its closed form where that is usable. (No member
+// initialisers: the array of them is filled as arcs are found, not zeroed on every call.)
 struct PendingArc {
     std::size_t circle;
+    const PreparedCircle* known;  // the prepared circle standing for it, if any
     Interval arc;
     bool closed;
     double value, error;
@@ -718,6 +708,18 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
     const double ax = surface.alpha_x, ay = surface.alpha_y;
     const Vec3& a = surface.a;
     auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
+    // m(psi) = p' + cos psi e1 + sin psi e2 on a cap's circle, and v = S^-1 m = p + q cos psi + r sin psi: the
+    // prepared circle's where it stands for the cap (bit for bit the same).
+    auto parametrise = [&](const Cap& cap, const PreparedCircle* known, Vec3& e1, Vec3& e2) {
+        if (known) e1 = known->e1, e2 = known->e2;
+        else basis(cap.n, e1, e2);
+    };
+    auto stretch_free = [&](const Cap& cap, const PreparedCircle* known, const Vec3& e1, const Vec3& e2, Vec3& p, Vec3& q,
+                            Vec3& r) {
+        p = known ? known->p : scale(unstretch(cap.n), cap.c);
+        q = known ? known->q : scale(unstretch(e1), cap.s);
+        r = known ? known->r : scale(unstretch(e2), cap.s);
+    };
     BoundaryIntegral result;
     double rounding = 0;
     // |v|^2 = |S^-1 m|^2 >= min(1, 1 / alpha_x^2, 1 / alpha_y^2) for unit m; the factor covers m's rounding.
@@ -725,7 +727,6 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
     // First every circle's arcs: great circles and constant |v|^2 in closed form at once, the other arcs
     // by the closed form where it is usable, with its error bound; which of those bounds are accepted,
     // and the tolerance of the arcs left to quadrature, is decided over the whole boundary below.
-    std::optional<CircleWork> circles[kMaxCaps];  // constructed for the circles that need one
     PendingArc pending[kMaxCaps * ArcList::kCapacity];
     std::size_t pending_count = 0;
     double general_length = 0;  // of the arcs that are neither on great circles nor of constant |v|^2
@@ -738,14 +739,12 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
                                               cap.n.z == prepared->cap.n.z
                                           ? prepared
                                           : nullptr;
-        Vec3 e1, e2;
-        if (known) e1 = known->e1, e2 = known->e2;
-        else basis(cap.n, e1, e2);
+        Vec3 e1, e2, p, q, r;
+        parametrise(cap, known, e1, e2);
         ArcList arcs;
         boundary_arcs(caps, cap_count, k, e1, e2, arcs);
         if (arcs.empty()) continue;
-        const Vec3 p = known ? known->p : scale(unstretch(cap.n), cap.c);
-        const Vec3 q = known ? known->q : scale(unstretch(e1), cap.s), r = known ? known->r : scale(unstretch(e2), cap.s);
+        stretch_free(cap, known, e1, e2, p, q, r);
         if (cap.c == 0) {
             const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
             const double weight = dot(a, axis);
@@ -756,8 +755,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             }
             continue;
         }
-        const ArcIntegrand f{p, q, r, dot(a, cross(q, r)), dot(a, cross(p, r)), dot(a, cross(p, q))};
-        const double k_const = f.k, bc = f.bc, bs = f.bs;
+        const double k_const = dot(a, cross(q, r)), bc = dot(a, cross(p, r)), bs = dot(a, cross(p, q));
         // |v|^2 is constant round e_z on an isotropic surface, and on every circle when S = I (alpha 1: v = m,
         // |v|^2 = c^2 + s^2 = 1), where the quartic degenerates.
         const bool constant_norm = (ax == ay && cap.n.x == 0 && cap.n.y == 0) || (ax == 1 && ay == 1);
@@ -773,22 +771,19 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             }
             continue;
         }
-        CircleWork& w = circles[k].emplace();
-        w.known = known;
-        w.f = f;
-        if (!known) {
-            w.own_quartic = circle_quartic(p, q, r);
-            if (rule.closed_form) w.own_roots = closed_form_roots(w.own_quartic, min_norm2);
-        }
-        const ClosedFormRoots& roots = known ? known->closed : w.own_roots;
+        // The roots serve the closed form only; quadrature finds its poles again below (for the few arcs
+        // it takes). Optional: nothing to construct where a prepared circle has them.
+        std::optional<ClosedFormRoots> own_roots;
+        if (!known && rule.closed_form) own_roots = closed_form_roots(circle_quartic(p, q, r), min_norm2);
+        const ClosedFormRoots* roots = known ? &known->closed : own_roots ? &*own_roots : nullptr;
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
         for (const Interval& arc : arcs) {
             PendingArc& item = pending[pending_count++];
-            item = PendingArc{k, arc, false, 0.0, 0.0};
+            item = PendingArc{k, known, arc, false, 0.0, 0.0};
             general_length += arc.hi - arc.lo;
             if (!rule.closed_form) continue;
             const ClosedFormArc closed =
-                closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, arc.e_lo.complex(), arc.e_hi.complex(), min_norm2,
+                closed_form_arc(*roots, k_const, bc, -bs, arc.lo, arc.hi, arc.e_lo.complex(), arc.e_hi.complex(), min_norm2,
                                 speed_bound);
             if (!closed.usable) continue;
             item.closed = true;
@@ -831,17 +826,26 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
     const double tolerance_per_radian =
         rest_length > 0 ? std::max(0.0, (budget - accepted_error) / rest_length) : 0.0;
     PieceSum sum;
-    for (std::size_t i = 0; i < pending_count; ++i) {
+    for (std::size_t i = 0; i < accepted; ++i) {
+        sum.value += pending[i].value;
+        sum.error += pending[i].error;
+    }
+    // The arcs left to quadrature: their circle's integrand and poles, found again when the circle changes.
+    std::size_t integrand_circle = kMaxCaps;
+    ArcIntegrand f;
+    PoleList poles;
+    for (std::size_t i = accepted; i < pending_count; ++i) {
         const PendingArc& item = pending[i];
-        if (i < accepted) {
-            sum.value += item.value;
-            sum.error += item.error;
-            continue;
+        if (item.circle != integrand_circle) {
+            const Cap& cap = caps[item.circle];
+            Vec3 e1, e2, p, q, r;
+            parametrise(cap, item.known, e1, e2);
+            stretch_free(cap, item.known, e1, e2, p, q, r);
+            f = ArcIntegrand{p, q, r, dot(a, cross(q, r)), dot(a, cross(p, r)), dot(a, cross(p, q))};
+            poles = item.known ? item.known->poles : poles_of(circle_quartic(p, q, r));
+            integrand_circle = item.circle;
         }
-        CircleWork& w = *circles[item.circle];
-        if (!w.known && !w.poles_found) w.own_poles = poles_of(w.own_quartic), w.poles_found = true;
-        integrate_piece(w.f, w.known ? w.known->poles : w.own_poles, item.arc.lo, item.arc.hi, rule,
-                        tolerance_per_radian, 0, sum);
+        integrate_piece(f, poles, item.arc.lo, item.arc.hi, rule, tolerance_per_radian, 0, sum);
     }
     result.value += sum.value;
     result.error += sum.error;

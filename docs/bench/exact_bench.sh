@@ -42,8 +42,8 @@ for part in "${parts[@]}"; do
     echo "method,setting,wall_s,cpu_s,eval_s,us_per_query_core,max_error,rms_error,load" > "$OUT/exact_eval.csv"
     for cfg in "exact-cpp|1e-6|--method exact --tolerance 1e-6 --backend oracle" \
                "exact-cpp|1e-10|--method exact --tolerance 1e-10 --backend oracle" \
-               "exact-opencl-double|1e-6|--method exact --tolerance 1e-6" \
-               "exact-opencl-double|1e-10|--method exact --tolerance 1e-10" \
+               "exact-opencl-double|1e-6|--method exact --tolerance 1e-6 --exact-kernel" \
+               "exact-opencl-double|1e-10|--method exact --tolerance 1e-10 --exact-kernel" \
                "exact-opencl-float|1e-6|--method exact --tolerance 1e-6 --exact-float --allow-tolerance-miss" \
                "sampled-opencl|4096|--method sampled --samples 4096" \
                "sampled-opencl|65536|--method sampled --samples 65536" \

@@ -25,8 +25,9 @@
 //    alpha_x = alpha_y = 1 (v = m, |v|^2 = c^2 + s^2 = 1);
 //  - (both of the hemisphere's three circles are great circles, so P(hemisphere) is closed-form.)
 // Every other arc integrates in closed form by partial fractions over the roots of the quartic below
-// (closed_form_arc); where that form's error bound (roots and rounding) exceeds the arc's share of the
-// tolerance, or the quartic degenerates, the arc is integrated by Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
+// (closed_form_arc); where that form's error bound (roots and rounding) does not fit into the tolerance
+// beside the other arcs' (boundary_integral), or the quartic degenerates, the arc is integrated by
+// Gauss-Legendre on pieces. |v(psi)|^2 is a positive trigonometric
 // polynomial of degree 2: with z = e^{i psi}, z^2 |v|^2 is a quartic whose roots come in pairs z, 1/conj(z),
 // and each root inside the unit disc is a pole of the integrand at psi = arg z + i (-ln |z|). For smooth
 // or strongly anisotropic surfaces those poles come within ~alpha (or ~alpha_y / alpha_x) of the real
@@ -38,6 +39,7 @@
 #include <cmath>
 #include <complex>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 #include "exact/gauss_legendre.hpp"
@@ -66,8 +68,16 @@ void basis(const Vec3& n, Vec3& e1, Vec3& e2) {
     e2 = {b, sign + n.y * n.y * a, -n.y};
 }
 
+// An arc psi in [lo, hi] of a circle, with e^{i lo} and e^{i hi} carried along from where the ends were
+// found (the circles' meeting points, in closed form), so that the integrals need no sine or cosine of them.
+// (Plain doubles rather than std::complex, whose constructor would zero every array of intervals.)
+struct UnitPoint {
+    double c, s;  // cos psi, sin psi
+    std::complex<double> complex() const { return {c, s}; }
+};
 struct Interval {
     double lo, hi;
+    UnitPoint e_lo, e_hi;
 };
 
 // A few intervals without allocation (boundary_integral runs ~10^8 times in a large exact bake): the
@@ -90,7 +100,7 @@ struct ArcList {
 // Into `arcs` (left empty when circle k bounds nothing).
 void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const Vec3& e1, const Vec3& e2, ArcList& arcs) {
     arcs.count = 0;
-    arcs.push({0.0, kTwoPi});
+    arcs.push({0.0, kTwoPi, {1, 0}, {1, 0}});
     bool full = true;
     for (std::size_t j = 0; j < cap_count; ++j) {
         if (j == k) continue;
@@ -107,8 +117,13 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
             return;
         }
         const double centre = std::atan2(B, A);
-        const double half = std::acos(C / R);  // C / R in (-1, 1)
-        const Interval allowed{centre - half, centre + half};
+        // half = acos(C / R), C / R in (-1, 1), as an argument: then e^{i half} below is its exact companion
+        // (and sqrt((R - C)(R + C)) keeps the digits of a short arc that 1 - (C / R)^2 would cancel).
+        const double sine_half = std::sqrt((R - C) * (R + C));
+        const double half = std::atan2(sine_half, C);
+        const std::complex<double> e_centre(A / R, B / R), e_half(C / R, sine_half / R);
+        const std::complex<double> e_lo = e_centre * std::conj(e_half), e_hi = e_centre * e_half;
+        const Interval allowed{centre - half, centre + half, {e_lo.real(), e_lo.imag()}, {e_hi.real(), e_hi.imag()}};
         ArcList next;
         for (const Interval& cur : arcs) {
             if (full) {
@@ -116,9 +131,10 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
                 continue;
             }
             for (int shift = -1; shift <= 1; ++shift) {
-                const double lo = std::max(cur.lo, allowed.lo + shift * kTwoPi);
-                const double hi = std::min(cur.hi, allowed.hi + shift * kTwoPi);
-                if (hi > lo) next.push({lo, hi});
+                const double allowed_lo = allowed.lo + shift * kTwoPi, allowed_hi = allowed.hi + shift * kTwoPi;
+                const bool own_lo = cur.lo >= allowed_lo, own_hi = cur.hi <= allowed_hi;
+                const double lo = own_lo ? cur.lo : allowed_lo, hi = own_hi ? cur.hi : allowed_hi;
+                if (hi > lo) next.push({lo, hi, own_lo ? cur.e_lo : allowed.e_lo, own_hi ? cur.e_hi : allowed.e_hi});
             }
         }
         full = false;
@@ -126,6 +142,79 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
         arcs.count = next.count;
         if (arcs.empty()) return;
     }
+}
+
+}  // namespace
+
+namespace {
+
+// Complex helpers for the hot paths, free of the C library's special-value handling (libgcc's complex
+// division and glibc's hypot cost several times the arithmetic): |z| through the squared modulus while
+// that stays in range (else std::abs), a / b through the conjugate, and the principal square root from
+// two real ones, each to a few ulps (every caller checks its results afterwards or bounds their rounding).
+double modulus(const std::complex<double>& z) {
+    const double n = std::norm(z);
+    return n < 1e290 && (n > 1e-290 || n == 0) ? std::sqrt(n) : std::abs(z);
+}
+std::complex<double> divide(const std::complex<double>& a, const std::complex<double>& b) {
+    return a * std::conj(b) / std::norm(b);
+}
+std::complex<double> principal_sqrt(const std::complex<double>& z) {
+    const double x = z.real(), y = z.imag();
+    const double t = std::sqrt(0.5 * (modulus(z) + std::fabs(x)));  // no cancellation: both terms >= 0
+    if (t == 0) return 0;
+    return x >= 0 ? std::complex<double>(t, 0.5 * y / t) : std::complex<double>(0.5 * std::fabs(y) / t, std::copysign(t, y));
+}
+
+// The roots of x^4 + a3 x^3 + a2 x^2 + a1 x + a0 by Ferrari's method, as starting points of the iteration
+// in circle_quartic (cancellation can cost them digits; the iteration restores them). False where the
+// construction breaks down (a quadruple root, non-finite values): the caller then starts elsewhere.
+bool ferrari_roots(std::complex<double> a3, std::complex<double> a2, std::complex<double> a1,
+                   std::complex<double> a0, std::complex<double>* z) {
+    using cd = std::complex<double>;
+    // x = y - a3 / 4: y^4 + p y^2 + q y + r.
+    const cd shift = 0.25 * a3, a3_2 = a3 * a3;
+    const cd p = a2 - 0.375 * a3_2;
+    const cd q = a1 - 0.5 * a2 * a3 + 0.125 * a3_2 * a3;
+    const cd r = a0 - 0.25 * a1 * a3 + 0.0625 * a2 * a3_2 - (3.0 / 256) * a3_2 * a3_2;
+    // Resolvent cubic m^3 + p m^2 + (p^2 / 4 - r) m - q^2 / 8: for a root m != 0 the quartic is
+    // (y^2 + p / 2 + m)^2 - 2 m (y - q / (4 m))^2, a difference of squares.
+    const cd b1 = 0.25 * p * p - r, b0 = -0.125 * q * q;
+    // m = u - p / 3: u^3 + P u + Q (Cardano), the cube root taken of the larger of the two candidates.
+    const cd P = b1 - p * p / 3.0;
+    const cd Q = (2.0 / 27) * p * p * p - p * b1 / 3.0 + b0;
+    const cd root = principal_sqrt(0.25 * Q * Q + P * P * P / 27.0);
+    const cd plus = -0.5 * Q + root, minus = -0.5 * Q - root;
+    const cd radicand = std::norm(plus) >= std::norm(minus) ? plus : minus;
+    cd m = -p / 3.0;
+    if (radicand != cd(0)) {
+        // The three cube roots; the resolvent root of largest modulus keeps 2 m well away from 0.
+        const cd cube = std::polar(std::cbrt(modulus(radicand)), std::arg(radicand) / 3);
+        const cd turn(-0.5, 0.8660254037844386);
+        cd c = cube;
+        double best = -1;
+        for (int k = 0; k < 3; ++k, c *= turn) {
+            const cd candidate = c - divide(P, 3.0 * c) - p / 3.0;
+            if (std::norm(candidate) > best) best = std::norm(candidate), m = candidate;
+        }
+    }
+    const cd s = principal_sqrt(2.0 * m);
+    if (!(std::norm(s) > 0)) return false;
+    const cd half_q_over_s = 0.5 * divide(q, s);
+    // y^2 + s y + (p / 2 + m - q / (2 s)) and y^2 - s y + (p / 2 + m + q / (2 s)); each quadratic's larger
+    // root first, the other as the product over it (no cancellation).
+    const cd linear[2] = {s, -s};
+    const cd constant[2] = {0.5 * p + m - half_q_over_s, 0.5 * p + m + half_q_over_s};
+    for (int k = 0; k < 2; ++k) {
+        const cd disc = principal_sqrt(linear[k] * linear[k] - 4.0 * constant[k]);
+        const cd big = -0.5 * (linear[k] + (std::real(std::conj(linear[k]) * disc) >= 0 ? disc : -disc));
+        if (!(std::norm(big) > 0)) return false;
+        z[2 * k] = big - shift;
+        z[2 * k + 1] = divide(constant[k], big) - shift;
+    }
+    for (int i = 0; i < 4; ++i)
+        if (!std::isfinite(z[i].real()) || !std::isfinite(z[i].imag())) return false;
+    return true;
 }
 
 }  // namespace
@@ -143,17 +232,22 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
     const double negligible = 1e-26 * k0 * k0;  // compared with squared moduli
     if (std::norm(c4) > negligible) {
         // Durand-Kerner on the monic quartic: converges for any start off the real axis and for
-        // well-separated or clustered roots alike (4 unknowns, so each sweep costs ~ 30 flops).
+        // well-separated or clustered roots alike (4 unknowns, so each sweep costs ~ 30 flops). Started
+        // from Ferrari's closed form it needs two or three sweeps instead of about ten.
         const cd inv4 = std::conj(c4) / std::norm(c4);
         const cd a3 = c3 * inv4, a2 = c2 * inv4, a1 = c1 * inv4, a0 = c0 * inv4;
-        const double radius = std::pow(std::abs(a0), 0.25);
         cd* z = out.roots;
-        const cd seed(0.4, 0.9);
-        cd w = 1;
-        for (int i = 0; i < 4; ++i) {
-            z[i] = radius * w;
-            w *= seed;
+        if (!ferrari_roots(a3, a2, a1, a0, z)) {
+            // Distinct points on a spiral of the roots' mean modulus.
+            const double radius = std::pow(std::abs(a0), 0.25);
+            const cd seed(0.4, 0.9);
+            cd w = 1;
+            for (int i = 0; i < 4; ++i) {
+                z[i] = radius * w;
+                w *= seed;
+            }
         }
+        double previous_change = std::numeric_limits<double>::infinity();
         for (int iter = 0; iter < 200; ++iter) {
             double change = 0;
             for (int i = 0; i < 4; ++i) {
@@ -168,7 +262,11 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
                 z[i] -= step;
                 change = std::max(change, std::norm(step) / (1 + std::norm(z[i])));
             }
-            if (change < 1e-30) break;
+            // Converged, or stalled at rounding noise (relative steps of a few ulps that no longer shrink;
+            // a double root converges linearly, its squared steps falling 4x a sweep): the roots' accuracy
+            // is checked afterwards either way (closed_form_roots).
+            if (change < 1e-30 || (change < 1e-24 && change > 0.5 * previous_change)) break;
+            previous_change = change;
         }
         out.root_count = 4;
     } else if (std::norm(c3) > negligible) {
@@ -184,15 +282,15 @@ CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r) {
 namespace {
 
 // The poles of 1 / |v(psi)|^2 in the upper half plane (one period): the roots inside the unit disc.
-std::vector<std::complex<double>> poles_of(const CircleQuartic& quartic) {
-    std::vector<std::complex<double>> poles;
+PoleList poles_of(const CircleQuartic& quartic) {
+    PoleList poles;
     for (int i = 0; i < quartic.root_count; ++i) {
         const std::complex<double> z = quartic.roots[i];
         const double m2 = std::norm(z);
         if (!(m2 < 1) || m2 == 0) continue;
         const double im = -0.5 * std::log(m2);
         if (im > 12) continue;  // farther than any piece's ellipse can reach
-        poles.emplace_back(std::arg(z), im);
+        poles.items[poles.count++] = {std::arg(z), im};
     }
     return poles;
 }
@@ -226,7 +324,26 @@ ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2
     constexpr double eps = std::numeric_limits<double>::epsilon();
     ClosedFormRoots out;
     if (quartic.root_count != 4) return out;  // vanishing leading coefficients: quadrature instead
-    const cd* z = quartic.roots;
+    // The roots come in pairs z, 1 / conj(z) (the quartic is self-inversive: c_{4-i} = conj(c_i)), two
+    // inside the unit disc. The two smallest computed roots are kept and the others taken as their
+    // reflections (P~ below is the polynomial of these rounded values), so that closed_form_arc can take
+    // each outer root's logarithms as the conjugates of its partner's.
+    cd z[4];
+    {
+        int first = 0, second = 1;  // the indices of the smallest and second smallest moduli
+        double norms[4];
+        for (int j = 0; j < 4; ++j) norms[j] = std::norm(quartic.roots[j]);
+        if (norms[1] < norms[0]) std::swap(first, second);
+        for (int j = 2; j < 4; ++j) {
+            if (norms[j] < norms[first]) second = first, first = j;
+            else if (norms[j] < norms[second]) second = j;
+        }
+        z[0] = quartic.roots[first];
+        z[1] = quartic.roots[second];
+        if (!(norms[second] < 1) || !(norms[first] > 0)) return out;  // no two roots inside
+        z[2] = z[0] / norms[first];
+        z[3] = z[1] / norms[second];
+    }
     const cd c4 = quartic.c[4];
     // Coefficients of c4 prod (z - z_j) from the elementary symmetric functions of the roots.
     const cd e1 = z[0] + z[1] + z[2] + z[3];
@@ -234,12 +351,12 @@ ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2
     const cd e3 = z[0] * z[1] * z[2] + z[0] * z[1] * z[3] + z[0] * z[2] * z[3] + z[1] * z[2] * z[3];
     const cd e4 = z[0] * z[1] * z[2] * z[3];
     const cd rebuilt[5] = {c4 * e4, -c4 * e3, c4 * e2, -c4 * e1, c4};
-    double expansion_scale = std::abs(c4), coefficient_scale = 0;
-    for (int j = 0; j < 4; ++j) expansion_scale *= 1 + std::abs(z[j]);
+    double expansion_scale = modulus(c4), coefficient_scale = 0;
+    for (int j = 0; j < 4; ++j) expansion_scale *= 1 + modulus(z[j]);
     double delta = 0;
     for (int i = 0; i < 5; ++i) {
-        delta += std::abs(rebuilt[i] - quartic.c[i]);
-        coefficient_scale += std::abs(quartic.c[i]);
+        delta += modulus(rebuilt[i] - quartic.c[i]);
+        coefficient_scale += modulus(quartic.c[i]);
     }
     // The expansion above (a few roundings per term, each term at most expansion_scale) and the
     // coefficients themselves (dot products of p, q, r: a few ulps of sum |c_i| >= k0) were rounded.
@@ -274,8 +391,10 @@ std::complex<double> log_ratio(const std::complex<double>& x_hi, const std::comp
     return {0.5 * std::log(norm_hi / norm_lo), std::atan2(turn.imag(), turn.real())};
 }
 
+// `e_lo`, `e_hi`: e^{i lo} and e^{i hi}.
 ClosedFormArc closed_form_arc(const ClosedFormRoots& prepared, double al0, double al1, double al2, double lo,
-                              double hi, double min_norm2, double speed_bound) {
+                              double hi, std::complex<double> e_lo, std::complex<double> e_hi, double min_norm2,
+                              double speed_bound) {
     using cd = std::complex<double>;
     constexpr double eps = std::numeric_limits<double>::epsilon();
     ClosedFormArc out;
@@ -283,42 +402,42 @@ ClosedFormArc closed_form_arc(const ClosedFormRoots& prepared, double al0, doubl
     const cd* z = prepared.roots;
     const double delta = prepared.delta;
     const cd n2(0.5 * al1, -0.5 * al2), n1(al0, 0), n0(0.5 * al1, 0.5 * al2);
-    const cd e_lo(std::cos(lo), std::sin(lo)), e_hi(std::cos(hi), std::sin(hi));
     cd sum_f = 0, sum_one = 0;
     double rounding_f = 0, rounding_one = 0;
-    for (int j = 0; j < 4; ++j) {
-        const cd inv_i_derivative = prepared.inv_i_derivative[j];
-        const cd rho_f = ((n2 * z[j] + n1) * z[j] + n0) * inv_i_derivative;
-        const cd rho_one = z[j] * inv_i_derivative;  // numerator of 1 / |v|^2: n1 = 1
-        const bool inside = std::norm(z[j]) < 1;
-        cd w_lo, w_hi;
-        if (inside) {
-            w_lo = z[j] * std::conj(e_lo), w_hi = z[j] * std::conj(e_hi);
-        } else {
-            const cd inv = std::conj(z[j]) / std::norm(z[j]);
-            w_lo = e_lo * inv, w_hi = e_hi * inv;
-        }
+    // Roots 0 and 1 lie inside the unit disc, 2 and 3 are their reflections 1 / conj(z) (closed_form_roots).
+    // For the inner root w = z e^{-i psi}; for its reflection w' = e^{i psi} / z' = conj(w), so 1 - w' is
+    // the conjugate of 1 - w (Re > 0: no branch cut between them) and so are the logarithms' differences.
+    // (z' is the reflection rounded: conj(w) stands for e^{i psi} / z' to a few ulps, as forming that
+    // quotient would, which the rounding bound's 1 / |x| terms cover.)
+    for (int j = 0; j < 2; ++j) {
+        const cd w_lo = z[j] * std::conj(e_lo), w_hi = z[j] * std::conj(e_hi);
         const cd one_minus_lo = 1.0 - w_lo, one_minus_hi = 1.0 - w_hi;
         const double norm_lo = std::norm(one_minus_lo), norm_hi = std::norm(one_minus_hi);
         // |x| >= 1 - |w| > 0 (no root on the unit circle); a ratio of norms that underflows would need a
         // root within 1e-150 of it: the bound below then comes out infinite and the arc takes quadrature.
-        cd dl = log_ratio(one_minus_hi, one_minus_lo, norm_hi, norm_lo);
-        if (inside) dl += cd(0, hi - lo);
-        sum_f += rho_f * dl;
-        sum_one += rho_one * dl;
+        const cd log_difference = log_ratio(one_minus_hi, one_minus_lo, norm_hi, norm_lo);
         // |Log x| <= |log |x|| + pi / 2 <= 0.7 + 1 / |x| + pi / 2 for |x| < 2 (log(1 / t) < 1 / t).
         const double inverse_hi = 1.0 / std::sqrt(norm_hi), inverse_lo = 1.0 / std::sqrt(norm_lo);
-        const double log_size = 2 * (2.3 + inverse_hi + inverse_lo) + (inside ? std::fabs(hi) + std::fabs(lo) : 0.0) +
-                                inverse_hi + inverse_lo;
-        rounding_f += std::sqrt(std::norm(rho_f)) * log_size;
-        rounding_one += std::sqrt(std::norm(rho_one)) * log_size;
+        const double outer_log_size = 2 * (2.3 + inverse_hi + inverse_lo) + inverse_hi + inverse_lo;
+        for (const int root : {j, j + 2}) {
+            const bool inside = root == j;
+            const cd inv_i_derivative = prepared.inv_i_derivative[root];
+            const cd rho_f = ((n2 * z[root] + n1) * z[root] + n0) * inv_i_derivative;
+            const cd rho_one = z[root] * inv_i_derivative;  // numerator of 1 / |v|^2: n1 = 1
+            const cd dl = inside ? log_difference + cd(0, hi - lo) : std::conj(log_difference);
+            sum_f += rho_f * dl;
+            sum_one += rho_one * dl;
+            const double log_size = outer_log_size + (inside ? std::fabs(hi) + std::fabs(lo) : 0.0);
+            rounding_f += std::sqrt(std::norm(rho_f)) * log_size;
+            rounding_one += std::sqrt(std::norm(rho_one)) * log_size;
+        }
     }
     rounding_f *= 32 * eps;
     rounding_one *= 32 * eps;
     const double ratio = delta / (min_norm2 - delta);  // < 1/3
     // integral 1 / |v|^2 <= (closed form + its rounding) / (1 - ratio), from the same bound with N = 1.
     const double integral_one = (std::fabs(sum_one.real()) + rounding_one) / (1 - ratio);
-    const double max_numerator = std::fabs(al0) + std::hypot(al1, al2);
+    const double max_numerator = std::fabs(al0) + std::sqrt(al1 * al1 + al2 * al2);
     const double max_integrand = std::min(max_numerator / min_norm2, speed_bound / std::sqrt(min_norm2));
     out.value = sum_f.real();
     out.error = delta / (1 - delta / min_norm2) * max_integrand * integral_one + rounding_f;
@@ -358,7 +477,7 @@ struct PieceSum {
 
 // The pole translate (by 2 pi k) nearest to [lo, hi] that lies inside the piece's Bernstein ellipse of
 // parameter rho, if any: its real part (where a graded split puts the piece boundary).
-bool pole_near_piece(double lo, double hi, const std::vector<std::complex<double>>& poles, double rho, double& real_part) {
+bool pole_near_piece(double lo, double hi, const PoleList& poles, double rho, double& real_part) {
     bool found = false;
     double best = std::numeric_limits<double>::infinity();
     const double mid = 0.5 * (lo + hi);
@@ -379,7 +498,7 @@ bool pole_near_piece(double lo, double hi, const std::vector<std::complex<double
 // lies well inside, otherwise graded towards the pole by the ratio 1 : 1.7 (a pole at distance e above
 // an end needs pieces growing geometrically away from it; for rho = 4 a ratio up to 2.78 keeps it
 // outside, bisection would spend log(2.78) / log(2) = 1.5x more pieces).
-void integrate_piece(const ArcIntegrand& f, const std::vector<std::complex<double>>& poles, double lo, double hi,
+void integrate_piece(const ArcIntegrand& f, const PoleList& poles, double lo, double hi,
                      const ArcRule& rule, double tolerance_per_radian, int depth, PieceSum& out) {
     const double half = 0.5 * (hi - lo), mid = 0.5 * (hi + lo);
     double pole_x = 0;
@@ -425,18 +544,16 @@ void integrate_piece(const ArcIntegrand& f, const std::vector<std::complex<doubl
 
 // The angle v sweeps round axis n^ while psi runs over [lo, hi] on a great circle, through pieces shorter
 // than pi in psi (antipodal m map to antipodal v, so such a piece sweeps less than pi and atan2 is exact).
-double swept_angle(const Vec3& p_unused, const Vec3& q, const Vec3& r, const Vec3& axis, double lo, double hi) {
-    (void)p_unused;
+double swept_angle(const Vec3& q, const Vec3& r, const Vec3& axis, const Interval& arc) {
+    const double lo = arc.lo, hi = arc.hi;
     if (hi - lo >= kTwoPi * (1 - 1e-15)) return kTwoPi;
     const int pieces = static_cast<int>(std::ceil((hi - lo) / (0.75 * kPi)));
     double total = 0;
-    double psi0 = lo;
-    Vec3 v0 = {q.x * std::cos(psi0) + r.x * std::sin(psi0), q.y * std::cos(psi0) + r.y * std::sin(psi0),
-               q.z * std::cos(psi0) + r.z * std::sin(psi0)};
+    auto point = [&](double c, double s) { return Vec3{q.x * c + r.x * s, q.y * c + r.y * s, q.z * c + r.z * s}; };
+    Vec3 v0 = point(arc.e_lo.c, arc.e_lo.s);
     for (int i = 1; i <= pieces; ++i) {
-        const double psi1 = i == pieces ? hi : lo + (hi - lo) * i / pieces;
-        const double c = std::cos(psi1), s = std::sin(psi1);
-        const Vec3 v1{q.x * c + r.x * s, q.y * c + r.y * s, q.z * c + r.z * s};
+        const double psi1 = lo + (hi - lo) * i / pieces;
+        const Vec3 v1 = i == pieces ? point(arc.e_hi.c, arc.e_hi.s) : point(std::cos(psi1), std::sin(psi1));
         total += std::atan2(dot(cross(v0, v1), axis), dot(v0, v1));
         v0 = v1;
     }
@@ -467,7 +584,8 @@ ArcIntegral integrate_arc(const Microsurface& surface, const Cap& cap, double lo
         // |v'(psi)| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2).
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));
         const ClosedFormArc closed =
-            closed_form_arc(closed_form_roots(quartic, min_norm2), k_const, bc, -bs, lo, hi, min_norm2, speed_bound);
+            closed_form_arc(closed_form_roots(quartic, min_norm2), k_const, bc, -bs, lo, hi, std::polar(1.0, lo),
+                            std::polar(1.0, hi), min_norm2, speed_bound);
         if (closed.usable && closed.error <= absolute_tolerance) {
             out.value = closed.value;
             out.error = closed.error;
@@ -553,6 +671,22 @@ Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
     return m;
 }
 
+namespace {
+
+constexpr std::size_t kMaxCaps = 6;
+
+// An arc of a circle with a non-constant |v|^2, with its closed form where that is usable. (No member
+// initialisers: the array of them is filled as arcs are found, not zeroed on every call.)
+struct PendingArc {
+    std::size_t circle;
+    const PreparedCircle* known;  // the prepared circle standing for it, if any
+    Interval arc;
+    bool closed;
+    double value, error;
+};
+
+}  // namespace
+
 BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared) {
     return boundary_integral(surface, caps.data(), caps.size(), rule, absolute_tolerance, prepared);
@@ -560,6 +694,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
 
 BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::size_t cap_count, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared) {
+    if (cap_count > kMaxCaps) throw std::length_error("boundary_integral: too many caps (at most 6)");
     // Coincident caps (wo = e_z, wo = wi, wi = e_z) would each exclude the other's circle (C = R = 0):
     // keep one of each.
     for (std::size_t i = 0; i < cap_count; ++i)
@@ -573,11 +708,28 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
     const double ax = surface.alpha_x, ay = surface.alpha_y;
     const Vec3& a = surface.a;
     auto unstretch = [&](const Vec3& m) { return Vec3{m.x / ax, m.y / ay, m.z}; };
+    // m(psi) = p' + cos psi e1 + sin psi e2 on a cap's circle, and v = S^-1 m = p + q cos psi + r sin psi: the
+    // prepared circle's where it stands for the cap (bit for bit the same).
+    auto parametrise = [&](const Cap& cap, const PreparedCircle* known, Vec3& e1, Vec3& e2) {
+        if (known) e1 = known->e1, e2 = known->e2;
+        else basis(cap.n, e1, e2);
+    };
+    auto stretch_free = [&](const Cap& cap, const PreparedCircle* known, const Vec3& e1, const Vec3& e2, Vec3& p, Vec3& q,
+                            Vec3& r) {
+        p = known ? known->p : scale(unstretch(cap.n), cap.c);
+        q = known ? known->q : scale(unstretch(e1), cap.s);
+        r = known ? known->r : scale(unstretch(e2), cap.s);
+    };
     BoundaryIntegral result;
     double rounding = 0;
-    const double tolerance_per_radian = absolute_tolerance / (kTwoPi * cap_count);
     // |v|^2 = |S^-1 m|^2 >= min(1, 1 / alpha_x^2, 1 / alpha_y^2) for unit m; the factor covers m's rounding.
     const double min_norm2 = (1 - 1e-12) * std::min({1.0, 1 / (ax * ax), 1 / (ay * ay)});
+    // First every circle's arcs: great circles and constant |v|^2 in closed form at once, the other arcs
+    // by the closed form where it is usable, with its error bound; which of those bounds are accepted,
+    // and the tolerance of the arcs left to quadrature, is decided over the whole boundary below.
+    PendingArc pending[kMaxCaps * ArcList::kCapacity];
+    std::size_t pending_count = 0;
+    double general_length = 0;  // of the arcs that are neither on great circles nor of constant |v|^2
     for (std::size_t k = 0; k < cap_count; ++k) {
         const Cap& cap = caps[k];
         // The prepared circle stands for this cap when it has the same axis and cosine (bit for bit: its
@@ -587,19 +739,17 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
                                               cap.n.z == prepared->cap.n.z
                                           ? prepared
                                           : nullptr;
-        Vec3 e1, e2;
-        if (known) e1 = known->e1, e2 = known->e2;
-        else basis(cap.n, e1, e2);
+        Vec3 e1, e2, p, q, r;
+        parametrise(cap, known, e1, e2);
         ArcList arcs;
         boundary_arcs(caps, cap_count, k, e1, e2, arcs);
         if (arcs.empty()) continue;
-        const Vec3 p = known ? known->p : scale(unstretch(cap.n), cap.c);
-        const Vec3 q = known ? known->q : scale(unstretch(e1), cap.s), r = known ? known->r : scale(unstretch(e2), cap.s);
+        stretch_free(cap, known, e1, e2, p, q, r);
         if (cap.c == 0) {
             const Vec3 axis = unit(Vec3{ax * cap.n.x, ay * cap.n.y, cap.n.z});
             const double weight = dot(a, axis);
             for (const Interval& arc : arcs) {
-                const double part = weight * swept_angle(p, q, r, axis, arc.lo, arc.hi);
+                const double part = weight * swept_angle(q, r, axis, arc);
                 result.value += part;
                 rounding += std::fabs(part);
             }
@@ -613,45 +763,93 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
             // Constant |v|^2: integrate the trigonometric numerator.
             const double norm2 = dot(p, p) + dot(q, q);
             for (const Interval& arc : arcs) {
-                const double part = (k_const * (arc.hi - arc.lo) + bc * (std::sin(arc.hi) - std::sin(arc.lo)) +
-                                     bs * (std::cos(arc.hi) - std::cos(arc.lo))) /
+                const double part = (k_const * (arc.hi - arc.lo) + bc * (arc.e_hi.s - arc.e_lo.s) +
+                                     bs * (arc.e_hi.c - arc.e_lo.c)) /
                                     norm2;
                 result.value += part;
                 rounding += std::fabs(k_const * (arc.hi - arc.lo) / norm2) + (std::fabs(bc) + std::fabs(bs)) * 2 / norm2;
             }
             continue;
         }
-        const ArcIntegrand f{p, q, r, k_const, bc, bs};
-        CircleQuartic own_quartic;
-        ClosedFormRoots own_roots;
-        if (!known) {
-            own_quartic = circle_quartic(p, q, r);
-            if (rule.closed_form) own_roots = closed_form_roots(own_quartic, min_norm2);
-        }
-        const CircleQuartic& quartic = known ? known->quartic : own_quartic;
-        const ClosedFormRoots& roots = known ? known->closed : own_roots;
+        // The roots serve the closed form only; quadrature finds its poles again below (for the few arcs
+        // it takes). Optional: nothing to construct where a prepared circle has them.
+        std::optional<ClosedFormRoots> own_roots;
+        if (!known && rule.closed_form) own_roots = closed_form_roots(circle_quartic(p, q, r), min_norm2);
+        const ClosedFormRoots* roots = known ? &known->closed : own_roots ? &*own_roots : nullptr;
         const double speed_bound = std::sqrt(dot(q, q) + dot(r, r));  // |v'| = |r cos psi - q sin psi|
-        PieceSum sum;
-        std::vector<std::complex<double>> poles;
-        bool poles_found = false;
         for (const Interval& arc : arcs) {
-            if (rule.closed_form) {
-                const ClosedFormArc closed =
-                    closed_form_arc(roots, k_const, bc, -bs, arc.lo, arc.hi, min_norm2, speed_bound);
-                // The closed form where its bound meets the arc's share of the tolerance, quadrature elsewhere.
-                if (closed.usable && closed.error <= tolerance_per_radian * (arc.hi - arc.lo)) {
-                    sum.value += closed.value;
-                    sum.error += closed.error;
-                    continue;
-                }
-            }
-            if (!poles_found && !known) poles = poles_of(quartic), poles_found = true;
-            integrate_piece(f, known ? known->poles : poles, arc.lo, arc.hi, rule, tolerance_per_radian, 0, sum);
+            PendingArc& item = pending[pending_count++];
+            item = PendingArc{k, known, arc, false, 0.0, 0.0};
+            general_length += arc.hi - arc.lo;
+            if (!rule.closed_form) continue;
+            const ClosedFormArc closed =
+                closed_form_arc(*roots, k_const, bc, -bs, arc.lo, arc.hi, arc.e_lo.complex(), arc.e_hi.complex(), min_norm2,
+                                speed_bound);
+            if (!closed.usable) continue;
+            item.closed = true;
+            item.value = closed.value;
+            item.error = closed.error;
         }
-        result.value += sum.value;
-        result.error += sum.error;
-        result.quadrature_pieces += sum.pieces;
     }
+    // The tolerance is shared over the boundary: the closed forms' bounds are accepted in the order of
+    // their error per radian for as long as they leave the arcs after them at least as much tolerance per
+    // radian as they themselves take; those arcs are integrated by quadrature to the rest, spread in
+    // proportion to their length. (Every usable closed form is accepted when their bounds fit together.)
+    // The values' error bounds then sum to at most the tolerance, rounding allowances aside, as with a
+    // fixed share per arc, and an arc whose closed form carries a bound above that share but below what
+    // the other arcs leave unused needs no quadrature.
+    const double rounding_floor = 32 * std::numeric_limits<double>::epsilon() * rounding;
+    // A twentieth is kept back for the allowances added after this choice (quadrature rounding, the
+    // hemisphere's error in the ratio), so that a value asked to a tolerance stays within it.
+    const double budget = 0.95 * absolute_tolerance - rounding_floor;
+    auto density = [](const PendingArc& item) {
+        return item.closed ? item.error / std::max(item.arc.hi - item.arc.lo, 1e-300)
+                           : std::numeric_limits<double>::infinity();
+    };
+    // Insertion sort: a handful of arcs.
+    for (std::size_t i = 1; i < pending_count; ++i)
+        for (std::size_t j = i; j > 0 && density(pending[j]) < density(pending[j - 1]); --j)
+            std::swap(pending[j], pending[j - 1]);
+    std::size_t accepted = 0;
+    double accepted_error = 0, accepted_length = 0;
+    {
+        double sum = 0, length = 0;
+        for (std::size_t i = 0; i < pending_count && pending[i].closed; ++i) {
+            sum += pending[i].error;
+            length += pending[i].arc.hi - pending[i].arc.lo;
+            const double rest = general_length - length;
+            const bool fits = sum <= budget && (i + 1 == pending_count || (rest > 0 && density(pending[i]) * rest <= budget - sum));
+            if (fits) accepted = i + 1, accepted_error = sum, accepted_length = length;
+        }
+    }
+    const double rest_length = general_length - accepted_length;
+    const double tolerance_per_radian =
+        rest_length > 0 ? std::max(0.0, (budget - accepted_error) / rest_length) : 0.0;
+    PieceSum sum;
+    for (std::size_t i = 0; i < accepted; ++i) {
+        sum.value += pending[i].value;
+        sum.error += pending[i].error;
+    }
+    // The arcs left to quadrature: their circle's integrand and poles, found again when the circle changes.
+    std::size_t integrand_circle = kMaxCaps;
+    ArcIntegrand f;
+    PoleList poles;
+    for (std::size_t i = accepted; i < pending_count; ++i) {
+        const PendingArc& item = pending[i];
+        if (item.circle != integrand_circle) {
+            const Cap& cap = caps[item.circle];
+            Vec3 e1, e2, p, q, r;
+            parametrise(cap, item.known, e1, e2);
+            stretch_free(cap, item.known, e1, e2, p, q, r);
+            f = ArcIntegrand{p, q, r, dot(a, cross(q, r)), dot(a, cross(p, r)), dot(a, cross(p, q))};
+            poles = item.known ? item.known->poles : poles_of(circle_quartic(p, q, r));
+            integrand_circle = item.circle;
+        }
+        integrate_piece(f, poles, item.arc.lo, item.arc.hi, rule, tolerance_per_radian, 0, sum);
+    }
+    result.value += sum.value;
+    result.error += sum.error;
+    result.quadrature_pieces += sum.pieces;
     result.error += 32 * std::numeric_limits<double>::epsilon() * rounding;
     return result;
 }

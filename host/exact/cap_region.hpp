@@ -20,8 +20,9 @@ struct Cap {
 // for the error estimate |Q_high - Q_low|, pieces bisected until every complex pole of the integrand
 // lies outside the Bernstein ellipse of parameter `rho` of its piece, then further while a piece's
 // estimate exceeds its share of the tolerance.
-// An arc whose closed form (partial fractions over the roots of its circle's quartic) carries an error
-// bound within its share of the tolerance takes the closed form instead, unless `closed_form` is off.
+// Arcs take the closed form (partial fractions over the roots of their circle's quartic) instead where its
+// error bound fits into the tolerance (boundary_integral shares it over the whole boundary), unless
+// `closed_form` is off.
 struct ArcRule {
     int high = 12, low = 8;
     double rho = 4;
@@ -49,7 +50,8 @@ struct CircleQuartic {
 };
 CircleQuartic circle_quartic(const Vec3& p, const Vec3& q, const Vec3& r);
 
-// What the closed form of an arc needs of its circle alone: the roots, 1 / (i P~4'(z_j)) at each, and
+// What the closed form of an arc needs of its circle alone: the roots (0 and 1 inside the unit disc, 2 and 3
+// their reflections 1 / conj(z)), 1 / (i P~4'(z_j)) at each, and
 // delta, the bound on |P~4 - P4| on |z| = 1 of the polynomial the computed roots solve exactly.
 // usable is false when the quartic degenerates (leading terms vanish, coincident roots) or its roots
 // are too inaccurate for the bound (delta >= min_norm2 / 4).
@@ -60,6 +62,15 @@ struct ClosedFormRoots {
     double delta = 0;
 };
 ClosedFormRoots closed_form_roots(const CircleQuartic& quartic, double min_norm2);
+
+// The poles of 1 / |v(psi)|^2 in the upper half plane of psi (one period): at most the quartic's two roots
+// inside the unit disc, kept without allocating.
+struct PoleList {
+    std::complex<double> items[4];
+    int count = 0;
+    const std::complex<double>* begin() const { return items; }
+    const std::complex<double>* end() const { return items + count; }
+};
 
 // A cap's circle prepared once for a surface's stretch (it does not depend on wi): the basis and the
 // parametrisation boundary_integral uses, the quartic, its closed-form roots and its poles. Passed to
@@ -73,7 +84,7 @@ struct PreparedCircle {
     Vec3 e1, e2, p, q, r;
     CircleQuartic quartic;
     ClosedFormRoots closed;
-    std::vector<std::complex<double>> poles;  // of 1 / |v|^2 in the upper half plane (for quadrature)
+    PoleList poles;  // of 1 / |v|^2 in the upper half plane (for quadrature)
     double min_norm2 = 1, speed_bound = 0;
 };
 PreparedCircle prepare_circle(double alpha_x, double alpha_y, const Cap& cap);
@@ -86,7 +97,9 @@ struct BoundaryIntegral {
     double error = 0;       // quadrature estimate plus a rounding floor
     int quadrature_pieces = 0;
 };
-// `absolute_tolerance` applies to `value`; pieces share it in proportion to their length. `prepared`
+// `absolute_tolerance` applies to `value`: the closed forms' bounds are accepted where they fit together
+// (the smallest per radian first), the arcs left to quadrature share the rest in proportion to their
+// length. `prepared`
 // (optional) must have been prepared for the surface's alpha_x, alpha_y.
 BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared = nullptr);

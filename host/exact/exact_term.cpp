@@ -7,7 +7,8 @@
 // each intersected with the support {m.wi > 0}, and the term is the ratio of their VNDF probabilities,
 // which cap_region.cpp integrates along the regions' boundaries. The hemisphere's circles are all great
 // circles, so P(hemisphere) is closed-form; the cone's circle round wo (and round e_z on an anisotropic
-// surface) is integrated by pole-aware Gauss-Legendre.
+// surface) is integrated in closed form over its quartic's roots where the bounds fit the tolerance, by
+// pole-aware Gauss-Legendre elsewhere.
 #include "exact/exact_term.hpp"
 
 #include <algorithm>
@@ -48,8 +49,8 @@ ExactValue term_of(double alpha_x, double alpha_y, const Vec3& wi, const Vec3& w
     const Microsurface surface = make_microsurface(alpha_x, alpha_y, wi);
     const ArcRule rule = arc_rule_for(tolerance);
     const Vec3 ez{0, 0, 1};
-    Cap hemisphere_caps[3] = {{ez, 0, 1}, {wo, 0, 1}, {wi, 0, 1}};
-    const BoundaryIntegral hemisphere = boundary_integral(surface, hemisphere_caps, 3, rule, 0);
+    // From the three great circles' meeting points: no arc angles to find (hemisphere_integral).
+    const BoundaryIntegral hemisphere = hemisphere_integral(surface, ez, wo, wi);
     if (!(hemisphere.value > 0)) return out;
     const double s = std::sqrt(s2);
     Cap cone_caps[3] = {{ez, c, s}, {wo, c, s}, {wi, 0, 1}};

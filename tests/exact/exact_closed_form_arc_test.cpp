@@ -98,6 +98,13 @@ TEST(ExactClosedFormArc, AgreesWithGaussLegendreWithinTheSumOfTheirEstimates) {
     EXPECT_GE(families[kSmooth].closed, 990);
 }
 
+// A direction with z uniform in [0.05, 1), any azimuth.
+Vec3 direction_above_horizon(std::mt19937_64& rng) {
+    std::uniform_real_distribution<double> u(0, 1);
+    const double z = 0.05 + 0.95 * u(rng), phi = 2 * kPi * u(rng), s = std::sqrt(1 - z * z);
+    return {s * std::cos(phi), s * std::sin(phi), z};
+}
+
 TEST(ExactClosedFormArc, BoundaryIntegralsAgreeWithAndWithoutTheClosedForm) {
     std::mt19937_64 rng(7);
     std::uniform_real_distribution<double> u(0, 1);
@@ -105,10 +112,8 @@ TEST(ExactClosedFormArc, BoundaryIntegralsAgreeWithAndWithoutTheClosedForm) {
     for (int i = 0; i < 400; ++i) {
         const double alpha_x = std::exp(std::log(0.005) * u(rng));
         const double alpha_y = i % 2 ? alpha_x : std::clamp(alpha_x * std::exp(std::log(30.0) * (2 * u(rng) - 1)), 0.003, 1.0);
-        const double cos_i = 0.05 + 0.95 * u(rng), phi_i = 2 * kPi * u(rng), sin_i = std::sqrt(1 - cos_i * cos_i);
-        const Vec3 wi{sin_i * std::cos(phi_i), sin_i * std::sin(phi_i), cos_i};
-        const double cos_o = 0.05 + 0.95 * u(rng), phi_o = 2 * kPi * u(rng), sin_o = std::sqrt(1 - cos_o * cos_o);
-        const Vec3 wo{sin_o * std::cos(phi_o), sin_o * std::sin(phi_o), cos_o};
+        const Vec3 wi = direction_above_horizon(rng);
+        const Vec3 wo = direction_above_horizon(rng);
         const exact::Microsurface surface = exact::make_microsurface(alpha_x, alpha_y, wi);
         // Cone round wo with a cap round e_z, in the VNDF's support (the hemisphere and {m.wi > 0}).
         const double c_cone = 0.05 + 0.9 * u(rng), c_z = 0.05 + 0.9 * u(rng);
@@ -125,6 +130,42 @@ TEST(ExactClosedFormArc, BoundaryIntegralsAgreeWithAndWithoutTheClosedForm) {
         compared += 1;
     }
     EXPECT_EQ(compared, 400);
+}
+
+// The tolerance is shared over the whole boundary: where the closed forms' bounds fit into it together,
+// no arc takes quadrature, even one whose bound is far above its length's share (smooth surfaces, whose
+// quartics carry bounds near 1e-10), and the values' estimates stay within the tolerance.
+TEST(ExactClosedFormArc, ClosedFormsWhoseBoundsFitTogetherNeedNoQuadrature) {
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> u(0, 1);
+    int checked = 0;
+    for (int i = 0; i < 300; ++i) {
+        const double alpha_x = std::exp(std::log(0.002) + std::log(0.05 / 0.002) * u(rng));
+        const double alpha_y = i % 2 ? alpha_x : std::clamp(alpha_x * std::exp(std::log(30.0) * (2 * u(rng) - 1)), 0.002, 1.0);
+        const Vec3 wi = direction_above_horizon(rng);
+        const Vec3 wo = direction_above_horizon(rng);
+        const exact::Microsurface surface = exact::make_microsurface(alpha_x, alpha_y, wi);
+        const double c_cone = 0.05 + 0.9 * u(rng);
+        const double s_cone = std::sqrt(1 - c_cone * c_cone);
+        const std::vector<exact::Cap> caps = {{wo, c_cone, s_cone}, {Vec3{0, 0, 1}, c_cone, s_cone}, {wi, 0, 1}};
+        const exact::ArcRule rule = exact::arc_rule_for(1e-10);
+        // At a loose tolerance every usable closed form is taken: its error is the sum of their bounds.
+        const exact::BoundaryIntegral loose = exact::boundary_integral(surface, caps, rule, 1e-3);
+        if (loose.quadrature_pieces > 0 || !(loose.error > 0)) continue;  // a degenerate quartic
+        // A tolerance just above that sum (and the twentieth kept back for later allowances).
+        const double tolerance = 1.1 * loose.error / 0.95;
+        const exact::BoundaryIntegral shared = exact::boundary_integral(surface, caps, rule, tolerance);
+        EXPECT_EQ(shared.quadrature_pieces, 0) << "query " << i;
+        EXPECT_LE(shared.error, tolerance) << "query " << i;
+        EXPECT_EQ(shared.value, loose.value) << "query " << i;
+        // Against quadrature on every arc at a tight tolerance: within the two estimates.
+        exact::ArcRule without = exact::arc_rule_for(1e-13);
+        without.closed_form = false;
+        const exact::BoundaryIntegral reference = exact::boundary_integral(surface, caps, without, 1e-13);
+        EXPECT_LE(std::fabs(shared.value - reference.value), shared.error + reference.error) << "query " << i;
+        checked += 1;
+    }
+    EXPECT_GE(checked, 250);
 }
 
 }  // namespace

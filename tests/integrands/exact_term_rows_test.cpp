@@ -35,7 +35,6 @@ Vec3 row_test_direction(double cos_theta, double azimuth) {
 struct RowBatch {
     std::vector<Query> queries;
     std::vector<AoWeighting> weighting;
-    std::vector<double> n_dot_l;  // each query's row NdotL as made (before normalisation)
 };
 RowBatch row_test_batch(unsigned seed, int rows) {
     std::mt19937_64 rng(seed);
@@ -64,7 +63,6 @@ RowBatch row_test_batch(unsigned seed, int rows) {
             q.wo = {wo.x * len_o, wo.y * len_o, wo.z * len_o};
             b.queries.push_back(normalised(q));
             b.weighting.push_back(w);
-            b.n_dot_l.push_back(nl);
         }
     }
     std::vector<std::size_t> perm(b.queries.size());
@@ -74,7 +72,6 @@ RowBatch row_test_batch(unsigned seed, int rows) {
     for (std::size_t i : perm) {
         s.queries.push_back(b.queries[i]);
         s.weighting.push_back(b.weighting[i]);
-        s.n_dot_l.push_back(b.n_dot_l[i]);
     }
     return s;
 }
@@ -109,10 +106,9 @@ TEST(ExactTermRows, GridValuesAgreeWithThePerQueryEvaluatorWithinBothEstimates) 
     }
 }
 
-// The frame: each isotropic value is exactly its row's grid value at (wi.z, azimuth of wo from wi), the
-// row's NdotL that of the row's query with the smallest normalised wo.z (all within a few ulps of the
-// NdotL the row was made with); anisotropic queries and alpha above 1 are exact_term's values. Failed
-// before the grouping (every value was exact_term's).
+// The frame: each isotropic value is exactly the grid value of its row (its own visibility, alpha, wo.z
+// and weighting) at (wi.z, azimuth of wo from wi); anisotropic queries and alpha above 1 are exact_term's
+// values. Failed before the grouping (every value was exact_term's).
 TEST(ExactTermRows, IsotropicQueriesTakeTheirRowsGridValueAtTheRelativeAzimuth) {
     const RowBatch b = row_test_batch(7, 120);
     std::vector<exact::ExactValue> got;
@@ -127,21 +123,12 @@ TEST(ExactTermRows, IsotropicQueriesTakeTheirRowsGridValueAtTheRelativeAzimuth) 
             EXPECT_EQ(got[i].error, want.error) << "query " << i;
             continue;
         }
-        // The row's NdotL: the smallest normalised wo.z among the batch's queries of this row.
-        double row_n_dot_l = q.wo.z;
-        for (std::size_t j = 0; j < b.queries.size(); ++j) {
-            const Query& o = b.queries[j];
-            if (row_test_isotropic(o) && b.weighting[j] == b.weighting[i] && o.visibility == q.visibility &&
-                o.alpha_x == q.alpha_x && b.n_dot_l[j] == b.n_dot_l[i])
-                row_n_dot_l = std::min(row_n_dot_l, o.wo.z);
-        }
-        EXPECT_LE(std::fabs(row_n_dot_l - b.n_dot_l[i]), 4e-16) << "query " << i;
         // The evaluator's relative azimuth is the difference of the two vectors' own azimuths.
         const double phi = exact_term::relative_azimuth(q);
         const double phi_wi = std::atan2(q.wi.y, q.wi.x), phi_wo = std::atan2(q.wo.y, q.wo.x);
         if (std::hypot(q.wi.x, q.wi.y) > 1e-12 && std::hypot(q.wo.x, q.wo.y) > 1e-12)
             EXPECT_LE(std::fabs(std::remainder(phi - (phi_wo - phi_wi), 2 * kPi)), 1e-14) << "query " << i;
-        const exact::AzimuthGrid grid(q.visibility, q.alpha_x, row_n_dot_l, b.weighting[i]);
+        const exact::AzimuthGrid grid(q.visibility, q.alpha_x, q.wo.z, b.weighting[i]);
         const exact::ExactValue want = grid.term(q.wi.z, phi);
         EXPECT_EQ(got[i].term, want.term) << "query " << i;
         EXPECT_EQ(got[i].error, want.error) << "query " << i;
@@ -151,6 +138,23 @@ TEST(ExactTermRows, IsotropicQueriesTakeTheirRowsGridValueAtTheRelativeAzimuth) 
         ++on_grid;
     }
     EXPECT_GT(on_grid, b.queries.size() / 2);
+}
+
+// A value depends on its query alone: each query evaluated in a batch of its own gives the bits it got
+// in the shuffled batch with its row's other queries (a job's values must not depend on how its queries
+// are cut into work items, e.g. a scene's tiles).
+TEST(ExactTermRows, AValueDoesNotDependOnTheRestOfItsBatch) {
+    const RowBatch b = row_test_batch(5, 60);
+    std::vector<exact::ExactValue> together;
+    const auto evaluator = exact_term::make_cpu_evaluator(1);
+    evaluator->terms(b.queries, b.weighting, 1e-9, together);
+    for (std::size_t i = 0; i < b.queries.size(); ++i) {
+        std::vector<exact::ExactValue> alone;
+        evaluator->terms({b.queries[i]}, {b.weighting[i]}, 1e-9, alone);
+        ASSERT_EQ(alone.size(), 1u);
+        EXPECT_EQ(alone[0].term, together[i].term) << "query " << i;
+        EXPECT_EQ(alone[0].error, together[i].error) << "query " << i;
+    }
 }
 
 // A threaded evaluator splits the batch's runs over threads: the same bits as one thread.

@@ -37,19 +37,15 @@ struct RowPlan {
 };
 
 
-// Normalising a query rounds its wo.z by an ulp or two depending on wo's azimuth, so the queries a job
-// made on one row (one NdotL, several azimuths) arrive with NdotL a few ulps apart: they join the row of
-// the first (in sorted order) when within this distance, 4 ulps of 1. The term's change over such a
-// distance is rounding-sized except where it is not differentiable at all (the support's great circle
-// tangent to the cone's circle), which normalising the query moves just as much.
-constexpr double kSameNdotL = 0x1p-50;
-
 RowPlan plan_rows(const std::vector<Query>& queries, const std::vector<AoWeighting>& weighting) {
     RowPlan plan;
     plan.order.resize(queries.size());
     for (std::size_t i = 0; i < queries.size(); ++i) plan.order[i] = i;
-    // Isotropic first, by row key; a stable sort breaks ties by input position, so which query heads a
-    // row (the grid takes its NdotL, the smallest of the row's) does not depend on the sort's implementation.
+    // Isotropic first, by row key. A row's queries have exactly its parameters, so a value depends on
+    // its query alone, never on which others share its batch (a job's results do not depend on how its
+    // queries are cut into work items). Normalising a query can move wo.z by an ulp with wo's azimuth,
+    // splitting a job's row in two or three: measured on repr bake's full-range preset, 96,107 rows
+    // against 50,373 with 4 ulps of slack, ~0.03 s of row precomputation in a ~1 s bake.
     auto key = [&](std::size_t i) {
         const Query& q = queries[i];
         return std::make_tuple(!on_grid(q), int(weighting[i]), q.visibility, q.alpha_x, q.wo.z);
@@ -63,7 +59,7 @@ RowPlan plan_rows(const std::vector<Query>& queries, const std::vector<AoWeighti
             while (end < plan.order.size()) {
                 const Query& q = queries[plan.order[end]];
                 if (!on_grid(q) || weighting[plan.order[end]] != w || q.visibility != head.visibility ||
-                    q.alpha_x != head.alpha_x || !(q.wo.z - head.wo.z <= kSameNdotL))
+                    q.alpha_x != head.alpha_x || q.wo.z != head.wo.z)
                     break;
                 ++end;
             }

@@ -36,9 +36,9 @@ public:
                         double tolerance, std::vector<exact::ExactValue>& out) = 0;
 };
 // The C++ evaluator on the calling thread, or over `threads` threads (the values do not depend on the
-// split). Its terms() groups a call's isotropic queries by row (AO weighting, visibility, alpha, NdotL;
-// NdotL within 4 ulps of the row's smallest, which normalising moves) and evaluates each row through one
-// exact::AzimuthGrid at (wi.z, relative_azimuth) (on_grid queries; the others by exact::exact_term).
+// split). Its terms() groups a call's isotropic queries by row (AO weighting, visibility, alpha, NdotL =
+// wo.z, all equal) and evaluates each row through one exact::AzimuthGrid at (wi.z, relative_azimuth)
+// (on_grid queries; the others by exact::exact_term): each value depends on its query alone.
 std::unique_ptr<Evaluator> make_cpu_evaluator(unsigned threads = 1);
 // Whether the C++ evaluator takes a query through the azimuth grid: isotropic, alpha at most 1.
 bool on_grid(const Query& q);

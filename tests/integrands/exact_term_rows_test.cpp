@@ -5,7 +5,8 @@
 // frame: relative azimuth of wo from wi, in any absolute orientation), that values agree with
 // exact_term within both estimates and with exact_term at a 1000x tighter tolerance within the grid's
 // estimate plus the reference's, that results come back in input order whatever the mix, and that the
-// threaded evaluator returns the same bits as the single-threaded one.
+// threaded evaluator returns the same bits as the single-threaded one; and the exact-rows benchmark's
+// smoke run.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -19,6 +20,11 @@
 #include "exact/azimuth_grid.hpp"
 #include "exact/exact_term.hpp"
 #include "integrands/exact_term/exact_term_integrand.hpp"
+#if __has_include("bench.hpp")  // bench/CMakeLists.txt links the benchmarks into this test binary
+#include <string>
+
+#include "bench.hpp"
+#endif
 
 namespace ms {
 namespace {
@@ -169,6 +175,22 @@ TEST(ExactTermRows, ThreadedEvaluatorReturnsTheSameBits) {
         EXPECT_EQ(one[i].error, three[i].error) << "query " << i;
     }
 }
+
+#if __has_include("bench.hpp")
+// The exact-rows benchmark (bench/exact_rows.cpp) at its smoke size, so it cannot rot; no timing is
+// asserted, but its comparison is: on every set the rows' values agree with exact_term's within the sum
+// of both estimates.
+TEST(ExactTermRows, BenchmarkRunsAndItsValuesAgreeWithinBothEstimates) {
+    bench::Options opt;
+    opt.smoke = true;
+    const bench::Table t = bench::run_exact_rows(opt);
+    ASSERT_EQ(t.rows.size(), 10u);  // 5 sets x 2 tolerances
+    const auto over = std::find(t.columns.begin(), t.columns.end(), "max_difference_over_estimates");
+    ASSERT_NE(over, t.columns.end());
+    for (const auto& row : t.rows)
+        EXPECT_LE(std::stod(row[std::size_t(over - t.columns.begin())]), 1.0) << row[0] << " at " << row[1];
+}
+#endif
 
 }  // namespace
 }  // namespace ms

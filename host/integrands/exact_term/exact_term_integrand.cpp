@@ -23,47 +23,51 @@ namespace {
 // exact_term. An isotropic surface is invariant under rotation about e_z, so an isotropic query is
 // determined by its row, NdotV = wi.z and the relative azimuth of wo from wi.
 //
-// A grid value costs less than exact_term's even for a row of one query (measured at 1e-10 and 1e-6 on
-// 4,000 random isotropic queries: 1.2-1.8 us against 1.6-2.4 us; the grid's hemisphere is closed
-// form), and each further value of a row saves the row's precomputation (~0.7 us), so every isotropic
-// query goes through a grid.
+// A query alone in its row costs about what exact_term costs (bench/exact_rows.cpp: medians 0.88-1.18x
+// over 16,384-query sets of the design region and the whole domain, in the LUT's frame and at random
+// orientations, at 1e-10 and 1e-6; the grid's closed-form hemisphere pays for building the row), and
+// each further value of a row saves the row's precomputation (0.6-0.8 us; rows of 9 cost 0.57-0.59x).
+// So every isotropic query goes through a grid: one path per query keeps each value independent of the
+// rest of its batch (a threshold on the row's size would not).
 struct RowPlan {
     std::vector<std::size_t> order;  // query indices, rows contiguous
     struct Row {
         std::size_t first, last;  // [first, last) of order
-        bool grid;                // isotropic: through an AzimuthGrid of the row's first query
+        bool grid;                // isotropic, one row: through an AzimuthGrid of its parameters
     };
     std::vector<Row> rows;
 };
 
-
 RowPlan plan_rows(const std::vector<Query>& queries, const std::vector<AoWeighting>& weighting) {
-    RowPlan plan;
-    plan.order.resize(queries.size());
-    for (std::size_t i = 0; i < queries.size(); ++i) plan.order[i] = i;
-    // Isotropic first, by row key. A row's queries have exactly its parameters, so a value depends on
-    // its query alone, never on which others share its batch (a job's results do not depend on how its
+    // Isotropic first, by row key, ties by position (a total order: the plan does not depend on the
+    // sort's implementation). A row's queries have exactly its parameters, so a value depends on its
+    // query alone, never on which others share its batch (a job's results do not depend on how its
     // queries are cut into work items). Normalising a query can move wo.z by an ulp with wo's azimuth,
     // splitting a job's row in two or three: measured on repr bake's full-range preset, 96,107 rows
     // against 50,373 with 4 ulps of slack, ~0.03 s of row precomputation in a ~1 s bake.
-    auto key = [&](std::size_t i) {
-        const Query& q = queries[i];
-        return std::make_tuple(!on_grid(q), int(weighting[i]), q.visibility, q.alpha_x, q.wo.z);
+    struct Key {
+        bool off_grid;
+        int weighting;
+        double visibility, alpha, n_dot_l;
+        std::size_t index;
+        auto tied() const { return std::tie(off_grid, weighting, visibility, alpha, n_dot_l); }
     };
-    std::stable_sort(plan.order.begin(), plan.order.end(), [&](std::size_t a, std::size_t b) { return key(a) < key(b); });
-    for (std::size_t k = 0; k < plan.order.size();) {
-        const Query& head = queries[plan.order[k]];
-        const AoWeighting w = weighting[plan.order[k]];
+    std::vector<Key> keys(queries.size());
+    for (std::size_t i = 0; i < queries.size(); ++i) {
+        const Query& q = queries[i];
+        keys[i] = {!on_grid(q), int(weighting[i]), q.visibility, q.alpha_x, q.wo.z, i};
+    }
+    std::sort(keys.begin(), keys.end(), [](const Key& a, const Key& b) {
+        return a.tied() < b.tied() || (a.tied() == b.tied() && a.index < b.index);
+    });
+    RowPlan plan;
+    plan.order.resize(keys.size());
+    for (std::size_t k = 0; k < keys.size(); ++k) plan.order[k] = keys[k].index;
+    // Rows of equal keys; the queries off the grid (sorted last) as one "row" of independent values.
+    for (std::size_t k = 0; k < keys.size();) {
         std::size_t end = k + 1;
-        if (on_grid(head))
-            while (end < plan.order.size()) {
-                const Query& q = queries[plan.order[end]];
-                if (!on_grid(q) || weighting[plan.order[end]] != w || q.visibility != head.visibility ||
-                    q.alpha_x != head.alpha_x || q.wo.z != head.wo.z)
-                    break;
-                ++end;
-            }
-        plan.rows.push_back({k, end, on_grid(head)});
+        while (end < keys.size() && (keys[k].off_grid ? keys[end].off_grid : keys[end].tied() == keys[k].tied())) ++end;
+        plan.rows.push_back({k, end, !keys[k].off_grid});
         k = end;
     }
     return plan;

@@ -4,6 +4,7 @@
 #     bash docs/bench/exact_jobs_bench.sh BEFORE AFTER [REPEATS]
 # Jobs, each at its defaults except where said:
 #   repr-full-range   repr bake --preset full-range (589,824 isotropic queries: 9 azimuth nodes a texel)
+#   repr-realistic    repr bake --preset realistic (589,824 isotropic queries: 8 NdotV x 9 nodes a row)
 #   repr-anisotropic  repr bake --preset anisotropic (the same bake, then 2,000,000 anisotropic queries)
 #   design-reference  the reference set of docs/study/design-realistic.toml by the exact method (16,384
 #                     Halton points; a fresh cache each run; design's default candidates)
@@ -82,6 +83,7 @@ PY
 job_cmd() {  # job_cmd JOB BIN: the command line of JOB with binary BIN
   case $1 in
   repr-full-range)  echo "$2 repr bake --preset full-range --out r.exr -q" ;;
+  repr-realistic)   echo "$2 repr bake --preset realistic --out r.exr -q" ;;
   repr-anisotropic) echo "$2 repr bake --preset anisotropic --out r.exr -q" ;;
   design-reference) echo "$2 design --reference $tmp/design-exact.toml --cache cache --out design -q" ;;
   design-reference-262k) echo "$2 design --reference $tmp/design-exact-262k.toml --cache cache --out design -q" ;;
@@ -92,7 +94,7 @@ job_cmd() {  # job_cmd JOB BIN: the command line of JOB with binary BIN
 
 echo "job,repeat,build,wall_s,cpu_s,stage_s,max_abs_difference,load" > "$OUT"
 for r in $(seq "$REPEATS"); do
-  for job in ${JOBS:-repr-full-range repr-anisotropic design-reference design-reference-262k sweep-isotropic scene-1024}; do
+  for job in ${JOBS:-repr-full-range repr-realistic repr-anisotropic design-reference design-reference-262k sweep-isotropic scene-1024}; do
     # Alternate which build goes first, so that neither always meets the other's cache or load.
     builds="before after"; [ $((r % 2)) -eq 0 ] && builds="after before"
     for b in $builds; do

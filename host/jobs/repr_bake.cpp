@@ -59,9 +59,9 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
     std::vector<Query> queries(n);
     // Where each query's value goes: queries[i] is texel and node at[i] of the bake. Sampled bakes
     // evaluate in the bake's own order (a sampled value depends on its position in the batch); exact
-    // ones with a texel's azimuth nodes next to each other, so that the queries of one (visibility,
-    // alpha, NdotL) row of the exact evaluator's azimuth grid share a batch (under the warps visibility
-    // and NdotL depend on NdotV, so a row is a texel's nodes).
+    // ones by (roughness, NdotL texel, visibility texel, NdotV texel, node), so that the queries of one
+    // (visibility, alpha, NdotL) row of the exact evaluator's azimuth grid share a batch: a texel's nodes,
+    // and every NdotV texel's where the warps make visibility and NdotL independent of NdotV.
     std::vector<std::size_t> at(n);
     const bool texel_major = spec.plan.method == Method::exact;
     std::size_t next = 0;
@@ -77,7 +77,7 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
                         const double phi = g.azimuth_node(k, spec.azimuth_nodes, nv, nl);
                         const std::size_t index = bake.index(r, k, iv, il, ivv);
                         const std::size_t i =
-                            texel_major ? ((((std::size_t(r) * g.n_dot_v + ivv) * g.n_dot_l + il) * g.visibility + iv) *
+                            texel_major ? ((((std::size_t(r) * g.n_dot_l + il) * g.visibility + iv) * g.n_dot_v + ivv) *
                                                spec.azimuth_nodes + k)
                                         : next++;
                         at[i] = index;

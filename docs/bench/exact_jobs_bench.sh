@@ -4,7 +4,7 @@
 #     bash docs/bench/exact_jobs_bench.sh BEFORE AFTER [REPEATS]
 # Jobs, each at its defaults except where said:
 #   repr-full-range   repr bake --preset full-range (589,824 isotropic queries: 9 azimuth nodes a texel)
-#   repr-realistic    repr bake --preset realistic (589,824 isotropic queries: 8 NdotV x 9 nodes a row)
+#   repr-realistic    repr bake --preset realistic (294,912 isotropic queries: 8 NdotV x 9 nodes a row)
 #   repr-anisotropic  repr bake --preset anisotropic (the same bake, then 2,000,000 anisotropic queries)
 #   design-reference  the reference set of docs/study/design-realistic.toml by the exact method (16,384
 #                     Halton points; a fresh cache each run; design's default candidates)

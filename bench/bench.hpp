@@ -123,4 +123,9 @@ struct BakeSpeedResult {
 };
 BakeSpeedResult run_bake_speed(const Options& opt, const std::vector<RefEntry>& reference);
 
+// The exact evaluator's per-query path: isotropic queries through one azimuth grid per row against
+// exact::exact_term per query (one thread, interleaved, 5 repeats): time per query, the ratio and the
+// largest difference (absolute and over the sum of both estimates), on one-a-row and rows-of-9 sets.
+Table run_exact_rows(const Options& opt);
+
 }  // namespace ms::bench

@@ -50,8 +50,8 @@ int main(int argc, char** argv) {
     std::string out_dir, device = "default", reference = ms::bench::default_reference_path(), make_reference;
     std::vector<std::string> only;
     app.add_flag("--all", all, "run every benchmark");
-    app.add_option("--only", only, "run these benchmarks: build-time, throughput, error, bake, bake-speed")
-        ->check(CLI::IsMember({"build-time", "throughput", "error", "bake", "bake-speed"}));
+    app.add_option("--only", only, "run these benchmarks: build-time, throughput, error, bake, bake-speed, exact-rows")
+        ->check(CLI::IsMember({"build-time", "throughput", "error", "bake", "bake-speed", "exact-rows"}));
     ms::bench::Options speed;
     app.add_option("--speed-old-tol", speed.speed_old_tolerances, "bake-speed: --tolerance values, old default")->delimiter(',');
     app.add_option("--speed-new-tol", speed.speed_new_tolerances, "bake-speed: --tolerance values, stratified K=32")->delimiter(',');
@@ -119,6 +119,11 @@ int main(int argc, char** argv) {
             std::cout << "bake: fastest 64^3 x 4 bake at max error <= 1e-3: " << ms::bench::fmt(bb.bake_seconds, 4)
                       << " s (target 2 s); naive per-texel bake: " << ms::bench::fmt(bb.naive_extrapolated, 4)
                       << " s; speed-up " << ms::bench::fmt(bb.speedup, 4) << "x (target 10000x)\n";
+        }
+        if (wants("exact-rows")) {
+            const auto er = ms::bench::run_exact_rows(opt);
+            er.print(std::cout);
+            if (!out_dir.empty()) er.write_csv(csv("exact_rows.csv"));
         }
         // Not part of --all (several minutes): --only bake-speed.
         if (std::find(only.begin(), only.end(), "bake-speed") != only.end()) {

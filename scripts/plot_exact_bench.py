@@ -1,7 +1,11 @@
 #!/usr/bin/env python3
 """Error against run time of the exact and sampled methods, from docs/bench/exact_{eval,bake,scene}.csv
-(docs/bench/exact_bench.sh): one panel per job, log-log, each point labelled with its setting."""
+(docs/bench/exact_bench.sh): one panel per job, log-log, each point labelled with its setting; and the
+jobs' exact stages before and after the per-query azimuth grid, from docs/bench/exact_jobs_grid.csv
+(docs/bench/exact_jobs_bench.sh): median CPU seconds with the range over the repeats."""
 import csv
+import os
+import statistics
 import sys
 
 import matplotlib
@@ -18,7 +22,7 @@ def rows(name):
         return list(csv.DictReader(f))
 
 
-fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+fig, axes = plt.subplots(1, 4, figsize=(20, 4.6))
 colours = {"exact": "tab:blue", "sampled": "tab:orange"}
 # eval: max error against the 1e-13 run.
 ax = axes[0]
@@ -49,9 +53,26 @@ for r in rows("exact_scene.csv"):
     ax.annotate(f"{r['method']} to {r['tolerance']}", (x, y), fontsize=7, xytext=(4, 3), textcoords="offset points")
 ax.set_title("scene: 1024^2 example, one light")
 ax.set_ylabel("largest per-pixel error bound")
-for ax in axes:
+for ax in axes[:3]:
     ax.set_xlabel("wall time (s), 2 CPU cores")
     ax.grid(True, which="both", alpha=0.3)
+# jobs: CPU seconds of each job's run, before and after (median bar, range as the error bar).
+ax = axes[3]
+if os.path.exists(f"{bench}/exact_jobs_grid.csv"):
+    runs = rows("exact_jobs_grid.csv")
+    jobs = list(dict.fromkeys(r["job"] for r in runs))
+    for k, (build, colour) in enumerate((("before", "tab:gray"), ("after", "tab:blue"))):
+        cpu = [[float(r["cpu_s"]) for r in runs if r["job"] == j and r["build"] == build] for j in jobs]
+        med = [statistics.median(c) for c in cpu]
+        err = [[m - min(c) for m, c in zip(med, cpu)], [max(c) - m for m, c in zip(med, cpu)]]
+        ax.bar([i + (k - 0.5) * 0.4 for i in range(len(jobs))], med, 0.4, yerr=err, color=colour, label=build, capsize=2)
+    ax.set_xticks(range(len(jobs)))
+    ax.set_xticklabels(jobs, rotation=30, ha="right", fontsize=7)
+    ax.set_yscale("log")
+    ax.set_ylabel("CPU seconds of the run (user + sys)")
+    ax.set_title("exact references: per-query azimuth grid")
+    ax.legend(fontsize=7)
+    ax.grid(True, axis="y", which="both", alpha=0.3)
 handles = [plt.Line2D([], [], marker="o", ls="", color=c, label=k) for k, c in colours.items()]
 axes[0].legend(handles=handles, loc="center right")
 fig.suptitle("Error against run time: exact method (blue) and VNDF sampling (orange)")

@@ -57,6 +57,14 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
     const auto& g = spec.grid;
     const std::size_t n = std::size_t(g.roughness.size()) * spec.azimuth_nodes * g.n_dot_v * g.n_dot_l * g.visibility;
     std::vector<Query> queries(n);
+    // Where each query's value goes: queries[i] is texel and node at[i] of the bake. Sampled bakes
+    // evaluate in the bake's own order (a sampled value depends on its position in the batch); exact
+    // ones by (roughness, NdotL texel, visibility texel, NdotV texel, node), so that the queries of one
+    // (visibility, alpha, NdotL) row of the exact evaluator's azimuth grid share a batch: a texel's nodes,
+    // and every NdotV texel's where the warps make visibility and NdotL independent of NdotV.
+    std::vector<std::size_t> at(n);
+    const bool texel_major = spec.plan.method == Method::exact;
+    std::size_t next = 0;
     for (std::uint32_t r = 0; r < g.roughness.size(); ++r)
         for (std::uint32_t k = 0; k < spec.azimuth_nodes; ++k) {
             for (std::uint32_t ivv = 0; ivv < g.n_dot_v; ++ivv) {
@@ -67,7 +75,13 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
                         // (node k of this texel: the far-side warp places them by its NdotV and NdotL).
                         const double nl = g.n_dot_l_at(iv, il, r, nv), sl = std::sqrt(std::max(0.0, 1 - nl * nl));
                         const double phi = g.azimuth_node(k, spec.azimuth_nodes, nv, nl);
-                        Query& q = queries[bake.index(r, k, iv, il, ivv)];
+                        const std::size_t index = bake.index(r, k, iv, il, ivv);
+                        const std::size_t i =
+                            texel_major ? ((((std::size_t(r) * g.n_dot_l + il) * g.visibility + iv) * g.n_dot_v + ivv) *
+                                               spec.azimuth_nodes + k)
+                                        : next++;
+                        at[i] = index;
+                        Query& q = queries[i];
                         q.visibility = g.visibility_at(iv, r, nv);
                         q.alpha_x = q.alpha_y = g.roughness[r] * g.roughness[r];
                         q.wi = {std::sqrt(std::max(0.0, 1 - nv * nv)), 0, nv};
@@ -81,8 +95,8 @@ AzimuthBake bake_azimuth(const AzimuthBakeSpec& spec, TermBackend& backend,
     bake.std_error.resize(n);
     double max_se = 0;
     for (std::size_t i = 0; i < n; ++i) {
-        bake.value[i] = float(estimates[i].term);
-        bake.std_error[i] = float(estimates[i].std_error);
+        bake.value[at[i]] = float(estimates[i].term);
+        bake.std_error[at[i]] = float(estimates[i].std_error);
         max_se = std::max(max_se, estimates[i].std_error);
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -35,9 +35,17 @@ public:
     virtual void texels(const std::vector<ExactTexel>& texels, AoWeighting weighting, bool azimuth_mean, double azimuth,
                         double tolerance, std::vector<exact::ExactValue>& out) = 0;
 };
-// The C++ evaluator on the calling thread, or split over `threads` threads (contiguous parts of each
-// call; the values do not depend on the split).
+// The C++ evaluator on the calling thread, or over `threads` threads (the values do not depend on the
+// split). Its terms() groups a call's isotropic queries by row (AO weighting, visibility, alpha, NdotL =
+// wo.z, all equal) and evaluates each row through one exact::AzimuthGrid at (wi.z, relative_azimuth)
+// (on_grid queries; the others by exact::exact_term): each value depends on its query alone.
 std::unique_ptr<Evaluator> make_cpu_evaluator(unsigned threads = 1);
+// Whether the C++ evaluator takes a query through the azimuth grid: isotropic, alpha at most 1.
+bool on_grid(const Query& q);
+// The azimuth of wo measured from wi's, in [-pi, pi]: the azimuth grid's phi (it holds the light at
+// azimuth 0 and turns the view to -phi). With either vector straight up it is 0 (the term does not
+// depend on it then).
+double relative_azimuth(const Query& q);
 // The OpenCL kernel on a device: double when `double_precision` (the device must have cl_khr_fp64),
 // float otherwise.
 std::unique_ptr<Evaluator> make_device_evaluator(ocl::Device& device, const ocl::BuildConfig& build);

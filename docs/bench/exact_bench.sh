@@ -73,7 +73,7 @@ PY
     echo "exact-cpp,1e-6,$(wall exact-cpp-1e-6),$(cpu exact-cpp-1e-6),0,$l" >> "$OUT/exact_bake.csv"
     for cfg in "sampled-opencl|default|--method sampled" \
                "exact-cpp|1e-4|--method exact --tolerance 1e-4 --backend oracle" \
-               "exact-opencl-double|1e-6|--method exact --tolerance 1e-6"; do
+               "exact-opencl-double|1e-6|--method exact --tolerance 1e-6 --exact-kernel"; do
       method=${cfg%%|*}; rest=${cfg#*|}; setting=${rest%%|*}; flags=${rest#*|}; name="$method-$setting"
       l=$(load)
       # shellcheck disable=SC2086

@@ -960,8 +960,8 @@ __kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint 
             const real high = exact_azimuth_pair(mid, half_width, alpha, wi, c, s2, n_dot_l, value_tolerance, &rules, gauss,
                                                  &low, &error_high, &result.flags);
             const real estimate = fabs(high - low);
-            /* A difference at the level of the values' own errors or of rounding cannot be split away (the
-             * Gauss sum's value errors are at most twice the Kronrod sum's: its weights at most ~2x). */
+            /* A difference at the level of the values' own errors or of rounding cannot be split away (both
+             * sums' value errors: the Gauss weights are at most 2.05x the Kronrod weights at their nodes). */
             const real floor_level = MS_R(3.0) * error_high + MS_R(1e3) * MS_EXACT_EPS * (hi - lo);
             /* As the C++ evaluator: pieces of at least 1e-7 rad, at most 512 pieces per mean. */
             if (estimate > MS_R(0.5) * tolerance * (hi - lo) && estimate > floor_level && depth < MS_EXACT_AZIMUTH_DEPTH &&

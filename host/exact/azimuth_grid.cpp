@@ -18,7 +18,13 @@ AzimuthGrid::AzimuthGrid(double visibility, double alpha, double n_dot_l, AoWeig
     if (!(n_dot_l > 0) || visibility <= 0) constant_ = 0;
     else if (visibility >= 1) constant_ = 1;
     else if (in_zero_region(c_, n_dot_l)) constant_ = 0;
-    else wo_circle_ = prepare_circle(alpha, alpha, Cap{wo_, c_, s_});
+    else {
+        const Cap round_z{{0, 0, 1}, c_, s_}, round_wo{wo_, c_, s_};
+        wo_circle_ = prepare_circle(alpha, alpha, round_wo);
+        // The two cone circles meet each other's caps the same way for the whole row.
+        fixed_pairs_[0] = circle_in_cap(round_z, round_wo);
+        fixed_pairs_[1] = circle_in_cap(round_wo, round_z);
+    }
 }
 
 ExactValue AzimuthGrid::term(double n_dot_v, double phi, double tolerance) const {
@@ -37,7 +43,7 @@ ExactValue AzimuthGrid::term(double n_dot_v, double phi, double tolerance) const
     if (!(hemisphere.value > 0)) return out;
     Cap cone_caps[3] = {{ez, c_, s_}, {wo_, c_, s_}, {wi, 0, 1}};
     const BoundaryIntegral cone =
-        boundary_integral(surface, cone_caps, 3, rule, tolerance * hemisphere.value, &wo_circle_);
+        boundary_integral(surface, cone_caps, 3, rule, tolerance * hemisphere.value, &wo_circle_, fixed_pairs_, 2);
     const double t = cone.value / hemisphere.value;
     out.term = std::clamp(t, 0.0, 1.0);
     out.error = (cone.error + std::fabs(t) * hemisphere.error) / hemisphere.value;

@@ -9,7 +9,9 @@
 // angles), and the quartic does not depend on wi: the integrand's numerator a.(v x dv) is linear in
 // a = normalize(S wi), so the quartic's roots and the reciprocal derivatives at them (the partial
 // fractions' residues up to that linear numerator) are computed once per row and serve every wi.
-// What remains per value is finding the arcs and a few complex logarithms at their ends.
+// The two cone circles also meet each other's caps the same way for the whole row, so only the great
+// circle's meetings are found per value. What remains per value is finding those arcs and a few complex
+// logarithms at their ends.
 //
 // The values are the C++ evaluator's (exact_term.hpp) to within both estimates: the same boundary
 // integrals, the same arc rule and fallback (pole-aware Gauss-Legendre where the closed form's bound
@@ -46,6 +48,7 @@ private:
     // What the row's every value is when the cone is empty or the whole hemisphere (-1: neither).
     double constant_ = -1;
     PreparedCircle wo_circle_;
+    CircleInCap fixed_pairs_[2];  // the circle round e_z in the cap round wo, and the other way round
 };
 
 }  // namespace ms::exact

@@ -96,34 +96,63 @@ struct ArcList {
     const Interval* end() const { return items + count; }
 };
 
+// Where circle k meets cap j (CircleInCap): the part of m(psi) = c_k n_k + s_k (cos psi e1 + sin psi e2)
+// with m.n_j > c_j.
+CircleInCap meet(const Cap& ck, const Cap& cj, const Vec3& e1, const Vec3& e2) {
+    CircleInCap out;
+    out.circle = ck;
+    out.cap = cj;
+    const Vec3 dn = sub(cj.n, ck.n);  // e1.n_j = e1.(n_j - n_k): no cancellation when the axes are close
+    const double A = ck.s * dot(e1, dn), B = ck.s * dot(e2, dn);
+    // C = c_j - c_k n_k.n_j written as (c_j - c_k) + c_k (1 - n_k.n_j), 1 - n_k.n_j = |n_j - n_k|^2 / 2.
+    const double C = (cj.c - ck.c) + ck.c * 0.5 * dot(dn, dn);
+    const double R = std::sqrt(A * A + B * B);
+    if (C < -R) {  // circle k lies inside cap j
+        out.kind = CircleInCap::whole;
+        return out;
+    }
+    if (C >= R) {  // outside (or touching only): no boundary here
+        out.kind = CircleInCap::none;
+        return out;
+    }
+    const double centre = std::atan2(B, A);
+    // half = acos(C / R), C / R in (-1, 1), as an argument: then e^{i half} below is its exact companion
+    // (and sqrt((R - C)(R + C)) keeps the digits of a short arc that 1 - (C / R)^2 would cancel).
+    const double sine_half = std::sqrt((R - C) * (R + C));
+    const double half = std::atan2(sine_half, C);
+    const std::complex<double> e_centre(A / R, B / R), e_half(C / R, sine_half / R);
+    const std::complex<double> e_lo = e_centre * std::conj(e_half), e_hi = e_centre * e_half;
+    out.kind = CircleInCap::arc;
+    out.lo = centre - half;
+    out.hi = centre + half;
+    out.lo_c = e_lo.real(), out.lo_s = e_lo.imag(), out.hi_c = e_hi.real(), out.hi_s = e_hi.imag();
+    return out;
+}
+
+bool same_cap(const Cap& a, const Cap& b) {
+    return a.c == b.c && a.s == b.s && a.n.x == b.n.x && a.n.y == b.n.y && a.n.z == b.n.z;
+}
+
 // The parts of circle k that lie inside every other cap, as psi intervals (possibly one full turn).
-// Into `arcs` (left empty when circle k bounds nothing).
-void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const Vec3& e1, const Vec3& e2, ArcList& arcs) {
+// Into `arcs` (left empty when circle k bounds nothing). A pair found in `known` (bit for bit the same
+// caps) is taken from there instead of computed.
+void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const Vec3& e1, const Vec3& e2,
+                   const CircleInCap* known, std::size_t known_count, ArcList& arcs) {
     arcs.count = 0;
     arcs.push({0.0, kTwoPi, {1, 0}, {1, 0}});
     bool full = true;
     for (std::size_t j = 0; j < cap_count; ++j) {
         if (j == k) continue;
-        const Cap& ck = caps[k];
-        const Cap& cj = caps[j];
-        const Vec3 dn = sub(cj.n, ck.n);  // e1.n_j = e1.(n_j - n_k): no cancellation when the axes are close
-        const double A = ck.s * dot(e1, dn), B = ck.s * dot(e2, dn);
-        // C = c_j - c_k n_k.n_j written as (c_j - c_k) + c_k (1 - n_k.n_j), 1 - n_k.n_j = |n_j - n_k|^2 / 2.
-        const double C = (cj.c - ck.c) + ck.c * 0.5 * dot(dn, dn);
-        const double R = std::sqrt(A * A + B * B);
-        if (C < -R) continue;                  // circle k lies inside cap j
-        if (C >= R) {                          // outside (or touching only): no boundary here
+        const CircleInCap* found = nullptr;
+        for (std::size_t i = 0; i < known_count && !found; ++i)
+            if (same_cap(known[i].circle, caps[k]) && same_cap(known[i].cap, caps[j])) found = &known[i];
+        const CircleInCap meeting = found ? *found : meet(caps[k], caps[j], e1, e2);
+        if (meeting.kind == CircleInCap::whole) continue;
+        if (meeting.kind == CircleInCap::none) {
             arcs.count = 0;
             return;
         }
-        const double centre = std::atan2(B, A);
-        // half = acos(C / R), C / R in (-1, 1), as an argument: then e^{i half} below is its exact companion
-        // (and sqrt((R - C)(R + C)) keeps the digits of a short arc that 1 - (C / R)^2 would cancel).
-        const double sine_half = std::sqrt((R - C) * (R + C));
-        const double half = std::atan2(sine_half, C);
-        const std::complex<double> e_centre(A / R, B / R), e_half(C / R, sine_half / R);
-        const std::complex<double> e_lo = e_centre * std::conj(e_half), e_hi = e_centre * e_half;
-        const Interval allowed{centre - half, centre + half, {e_lo.real(), e_lo.imag()}, {e_hi.real(), e_hi.imag()}};
+        const Interval allowed{meeting.lo, meeting.hi, {meeting.lo_c, meeting.lo_s}, {meeting.hi_c, meeting.hi_s}};
         ArcList next;
         for (const Interval& cur : arcs) {
             if (full) {
@@ -138,7 +167,7 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
             }
         }
         full = false;
-        std::copy(next.begin(), next.end(), arcs.items);
+        for (std::size_t i = 0; i < next.count; ++i) arcs.items[i] = next.items[i];
         arcs.count = next.count;
         if (arcs.empty()) return;
     }
@@ -663,6 +692,12 @@ PreparedCircle prepare_circle(double alpha_x, double alpha_y, const Cap& cap) {
     return out;
 }
 
+CircleInCap circle_in_cap(const Cap& circle, const Cap& cap) {
+    Vec3 e1, e2;
+    basis(circle.n, e1, e2);
+    return meet(circle, cap, e1, e2);
+}
+
 Microsurface make_microsurface(double alpha_x, double alpha_y, const Vec3& wi) {
     Microsurface m;
     m.alpha_x = alpha_x;
@@ -693,7 +728,8 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap>
 }
 
 BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::size_t cap_count, const ArcRule& rule,
-                                   double absolute_tolerance, const PreparedCircle* prepared) {
+                                   double absolute_tolerance, const PreparedCircle* prepared,
+                                   const CircleInCap* known_pairs, std::size_t known_pair_count) {
     if (cap_count > kMaxCaps) throw std::length_error("boundary_integral: too many caps (at most 6)");
     // Coincident caps (wo = e_z, wo = wi, wi = e_z) would each exclude the other's circle (C = R = 0):
     // keep one of each.
@@ -742,7 +778,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
         Vec3 e1, e2, p, q, r;
         parametrise(cap, known, e1, e2);
         ArcList arcs;
-        boundary_arcs(caps, cap_count, k, e1, e2, arcs);
+        boundary_arcs(caps, cap_count, k, e1, e2, known_pairs, known_pair_count, arcs);
         if (arcs.empty()) continue;
         stretch_free(cap, known, e1, e2, p, q, r);
         if (cap.c == 0) {

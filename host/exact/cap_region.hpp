@@ -103,9 +103,23 @@ struct BoundaryIntegral {
 // (optional) must have been prepared for the surface's alpha_x, alpha_y.
 BoundaryIntegral boundary_integral(const Microsurface& surface, std::vector<Cap> caps, const ArcRule& rule,
                                    double absolute_tolerance, const PreparedCircle* prepared = nullptr);
-// The same on `cap_count` caps in place (at most 6; coincident ones are removed in place), without allocating.
+// The part of one cap's circle inside another cap, as boundary_integral finds it on its way (the whole
+// circle, none of it, or one arc [lo, hi] of psi in the circle's basis, with e^{i lo} and e^{i hi}). Passed
+// to boundary_integral for a pair of caps that stays fixed across many calls (a LUT row's cone caps round
+// e_z and round wo, which the support {m.wi > 0} alone cuts differently from view to view), it is taken
+// instead of computed: the same values bit for bit, without the pair's two arc angles.
+struct CircleInCap {
+    Cap circle, cap;
+    enum Kind { whole, none, arc } kind = whole;
+    double lo = 0, hi = 0;
+    double lo_c = 1, lo_s = 0, hi_c = 1, hi_s = 0;  // cos and sin of lo and hi
+};
+CircleInCap circle_in_cap(const Cap& circle, const Cap& cap);
+// The same on `cap_count` caps in place (at most 6; coincident ones are removed in place), without allocating;
+// the pairs of caps found in `known_pairs` (bit for bit) are taken from there.
 BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::size_t cap_count, const ArcRule& rule,
-                                   double absolute_tolerance, const PreparedCircle* prepared = nullptr);
+                                   double absolute_tolerance, const PreparedCircle* prepared = nullptr,
+                                   const CircleInCap* known_pairs = nullptr, std::size_t known_pair_count = 0);
 
 // The boundary integral of the intersection of three hemispheres {m.n_k > 0} (unit normals), as
 // boundary_integral of the caps {n_k, 0, 1} computes it, from the circles' meeting points (no arc

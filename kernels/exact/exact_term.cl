@@ -138,8 +138,62 @@ inline void exact_basis(real3 n, real3* e1, real3* e2)
  * their inputs (the cosines and sines of the caps, the axis difference and the basis, each correct to
  * a few ulps): 16 ulps of the sizes that enter them, over R. The ends of a whole circle (0, 2 pi) are
  * no ends: the integrand is periodic. */
-inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1, real3 e2, real* arc_lo, real* arc_hi,
-                               real* end_lo, real* end_hi)
+/* Where circle k (basis e1, e2) meets cap j: wholly inside it, outside it (or touching only), or inside
+ * over the arc [lo, hi] whose ends carry the rounding bound `end`. */
+#define MS_EXACT_MEETS_WHOLE 0
+#define MS_EXACT_MEETS_NONE 1
+#define MS_EXACT_MEETS_ARC 2
+typedef struct exact_meeting {
+    exact_cap circle, cap;
+    int kind;
+    real lo, hi, end;
+} exact_meeting;
+
+inline int exact_same_cap(exact_cap a, exact_cap b)
+{
+    return a.n.x == b.n.x && a.n.y == b.n.y && a.n.z == b.n.z && a.c == b.c && a.s == b.s;
+}
+
+inline exact_meeting exact_meet(exact_cap ck, exact_cap cj, real3 e1, real3 e2)
+{
+    exact_meeting m;
+    m.circle = ck;
+    m.cap = cj;
+    m.lo = m.hi = m.end = MS_R(0.0);
+    const real3 dn = cj.n - ck.n; /* e1.n_j = e1.(n_j - n_k): no cancellation for close axes */
+    const real A = ck.s * dot(e1, dn), B = ck.s * dot(e2, dn);
+    /* C = c_j - c_k n_k.n_j as (c_j - c_k) + c_k |n_j - n_k|^2 / 2 */
+    const real C = (cj.c - ck.c) + ck.c * MS_R(0.5) * dot(dn, dn);
+    const real R = sqrt(A * A + B * B);
+    if (C < -R) { /* circle k lies inside cap j */
+        m.kind = MS_EXACT_MEETS_WHOLE;
+        return m;
+    }
+    if (C >= R) { /* outside, or touching only */
+        m.kind = MS_EXACT_MEETS_NONE;
+        return m;
+    }
+    const real centre = atan2(B, A);
+    const real x = C / R;
+    const real half_angle = acos(x);
+    m.kind = MS_EXACT_MEETS_ARC;
+    m.lo = centre - half_angle;
+    m.hi = centre + half_angle;
+    /* The ends' rounding (above): of x, of the centre (atan2: |d(A, B)| / R), and of the sums. */
+    const real dn_size = sqrt(dot(dn, dn));
+    const real dx = MS_R(4.0) * MS_EXACT_EPS *
+                    (fabs(cj.c) + fabs(ck.c) + cj.s + ck.s * dn_size * (MS_R(1.0) + fabs(x)) + fabs(C)) / R;
+    const real gap = MS_R(1.0) - fabs(x);
+    const real d_half = gap > MS_R(2.0) * dx ? dx / sqrt(gap * (MS_R(1.0) + fabs(x))) : sqrt(MS_R(6.0) * dx);
+    const real d_centre = MS_R(4.0) * MS_EXACT_EPS * ck.s * dn_size / R;
+    m.end = fmin(MS_EXACT_PI, d_half + d_centre) + MS_R(4.0) * MS_EXACT_EPS * (fabs(centre) + MS_EXACT_TWO_PI);
+    return m;
+}
+
+/* `known` (known_count of them): meetings computed before for pairs of caps that stay fixed, taken
+ * instead of computed where both caps match bit for bit. */
+inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1, real3 e2, const exact_meeting* known,
+                               int known_count, real* arc_lo, real* arc_hi, real* end_lo, real* end_hi)
 {
     int arcs = 1;
     arc_lo[0] = MS_R(0.0);
@@ -148,26 +202,13 @@ inline int exact_boundary_arcs(const exact_cap* caps, int count, int k, real3 e1
     int full = 1;
     for (int j = 0; j < count; ++j) {
         if (j == k) continue;
-        const exact_cap ck = caps[k], cj = caps[j];
-        const real3 dn = cj.n - ck.n; /* e1.n_j = e1.(n_j - n_k): no cancellation for close axes */
-        const real A = ck.s * dot(e1, dn), B = ck.s * dot(e2, dn);
-        /* C = c_j - c_k n_k.n_j as (c_j - c_k) + c_k |n_j - n_k|^2 / 2 */
-        const real C = (cj.c - ck.c) + ck.c * MS_R(0.5) * dot(dn, dn);
-        const real R = sqrt(A * A + B * B);
-        if (C < -R) continue;     /* circle k lies inside cap j */
-        if (C >= R) return 0;     /* outside, or touching only */
-        const real centre = atan2(B, A);
-        const real x = C / R;
-        const real half_angle = acos(x);
-        const real allowed_lo = centre - half_angle, allowed_hi = centre + half_angle;
-        /* The ends' rounding (above): of x, of the centre (atan2: |d(A, B)| / R), and of the sums. */
-        const real dn_size = sqrt(dot(dn, dn));
-        const real dx = MS_R(4.0) * MS_EXACT_EPS *
-                        (fabs(cj.c) + fabs(ck.c) + cj.s + ck.s * dn_size * (MS_R(1.0) + fabs(x)) + fabs(C)) / R;
-        const real gap = MS_R(1.0) - fabs(x);
-        const real d_half = gap > MS_R(2.0) * dx ? dx / sqrt(gap * (MS_R(1.0) + fabs(x))) : sqrt(MS_R(6.0) * dx);
-        const real d_centre = MS_R(4.0) * MS_EXACT_EPS * ck.s * dn_size / R;
-        const real d_end = fmin(MS_EXACT_PI, d_half + d_centre) + MS_R(4.0) * MS_EXACT_EPS * (fabs(centre) + MS_EXACT_TWO_PI);
+        int found = -1;
+        for (int i = 0; i < known_count; ++i)
+            if (found < 0 && exact_same_cap(known[i].circle, caps[k]) && exact_same_cap(known[i].cap, caps[j])) found = i;
+        const exact_meeting meeting = found >= 0 ? known[found] : exact_meet(caps[k], caps[j], e1, e2);
+        if (meeting.kind == MS_EXACT_MEETS_WHOLE) continue;
+        if (meeting.kind == MS_EXACT_MEETS_NONE) return 0;
+        const real allowed_lo = meeting.lo, allowed_hi = meeting.hi, d_end = meeting.end;
         if (full) {
             arc_lo[0] = allowed_lo;
             arc_hi[0] = allowed_hi;
@@ -294,15 +335,14 @@ inline int exact_poles(const exact_quartic* quartic, real* pole_re, real* pole_i
  * Log off its cut), is
  *     i psi + Log(1 - z_j e^{-i psi})   for |z_j| < 1   (log(z - z_j) = log z + log(1 - z_j / z)),
  *     Log(1 - e^{i psi} / z_j)          for |z_j| > 1   (up to the constant log(-z_j)),
- * so the arc's integral is Re sum_j rho_j [L_j(hi) - L_j(lo)]. Every root is handled by the same
- * straight-line code: w = A_j (e.x, sign_j e.y) with A_j = z_j, sign -1 inside and A_j = 1 / z_j,
- * sign +1 outside, and the i psi term weighted by inside_j in {0, 1}.
+ * so the arc's integral is Re sum_j rho_j [L_j(hi) - L_j(lo)]. The outer roots are taken as the
+ * reflections of the inner two, whose logarithms are then the conjugates of their partners'.
  *
  * What a circle's arcs share: the residues of the arc integrand (rho_f) and of 1 / |v|^2 (rho_one,
  * N = z), and the distance delta of P~4 from P4 on the unit circle. */
 typedef struct exact_residues {
-    ms_complex rho_f[4], rho_one[4], factor[4];
-    real sign[4], inside[4];
+    ms_complex rho_f[4], rho_one[4]; /* at the roots inside the unit disc (0, 1), then at their reflections */
+    ms_complex inner[2];
     real delta;
     int usable;
 } exact_residues;
@@ -315,7 +355,28 @@ inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0
     out.usable = 0;
     out.delta = MS_R(0.0);
     if (quartic->roots != 4) return out; /* vanishing leading coefficients: quadrature instead */
-    const ms_complex z0 = quartic->z[0], z1 = quartic->z[1], z2 = quartic->z[2], z3 = quartic->z[3];
+    /* The roots come in pairs z, 1 / conj(z) (P4 is self-reciprocal), two inside the unit disc: the two
+     * smallest computed roots are kept and the others taken as their reflections (P~4 below is the
+     * polynomial of these values), so that exact_closed_form_arc takes each outer root's logarithms as
+     * the conjugates of its partner's. */
+    int first = 0, second = 1; /* the smallest and second smallest moduli */
+    real norms[4];
+    for (int j = 0; j < 4; ++j) norms[j] = cx_norm(quartic->z[j]);
+    if (norms[1] < norms[0]) {
+        first = 1;
+        second = 0;
+    }
+    for (int j = 2; j < 4; ++j) {
+        if (norms[j] < norms[first]) {
+            second = first;
+            first = j;
+        } else if (norms[j] < norms[second]) {
+            second = j;
+        }
+    }
+    if (!(norms[second] < MS_R(1.0)) || !(norms[first] > MS_R(0.0))) return out; /* not two roots inside */
+    const ms_complex z0 = quartic->z[first], z1 = quartic->z[second];
+    const ms_complex z2 = z0 / norms[first], z3 = z1 / norms[second];
     const ms_complex c4 = quartic->c[4];
     /* P~4's coefficients c4 (e4, -e3, e2, -e1, 1) from the elementary symmetric functions. */
     const ms_complex z01 = cx_mul(z0, z1), z23 = cx_mul(z2, z3);
@@ -360,11 +421,7 @@ inline exact_residues exact_residues_make(const exact_quartic* quartic, real al0
         out.rho_f[j] = cx_mul(cx_mul(n2, zj) + n1, zj) + n0;
         out.rho_f[j] = cx_mul(out.rho_f[j], inv_i_derivative);
         out.rho_one[j] = cx_mul(zj, inv_i_derivative);
-        const real m2 = cx_norm(zj);
-        const int inside = m2 < MS_R(1.0);
-        out.inside[j] = inside ? MS_R(1.0) : MS_R(0.0);
-        out.sign[j] = inside ? MS_R(-1.0) : MS_R(1.0);
-        out.factor[j] = inside ? zj : cx_conj(zj) / m2;
+        if (j < 2) out.inner[j] = zj;
     }
     out.usable = finite;
     return out;
@@ -393,19 +450,26 @@ inline int exact_closed_form_arc(const exact_residues* res, real lo, real hi, re
     ms_complex sum_f = (ms_complex)(MS_R(0.0), MS_R(0.0)), sum_one = sum_f;
     real rounding_f = MS_R(0.0), rounding_one = MS_R(0.0);
     const real width = hi - lo, ends_size = fabs(hi) + fabs(lo);
-    for (int j = 0; j < 4; ++j) {
-        const ms_complex u_lo = (ms_complex)(MS_R(1.0), MS_R(0.0)) - cx_mul(res->factor[j], (ms_complex)(c_lo, res->sign[j] * s_lo));
-        const ms_complex u_hi = (ms_complex)(MS_R(1.0), MS_R(0.0)) - cx_mul(res->factor[j], (ms_complex)(c_hi, res->sign[j] * s_hi));
+    /* For the inner root z, w = z e^{-i psi}; for its reflection z' = 1 / conj(z), w' = e^{i psi} / z' =
+     * conj(w), so 1 - w' is the conjugate of 1 - w and so are the logarithms' differences (z' is the
+     * reflection rounded: conj(w) stands for e^{i psi} / z' to a few ulps, as forming that quotient would,
+     * which the 1 / |u| terms of the bound cover). */
+    for (int j = 0; j < 2; ++j) {
+        const ms_complex u_lo = (ms_complex)(MS_R(1.0), MS_R(0.0)) - cx_mul(res->inner[j], (ms_complex)(c_lo, -s_lo));
+        const ms_complex u_hi = (ms_complex)(MS_R(1.0), MS_R(0.0)) - cx_mul(res->inner[j], (ms_complex)(c_hi, -s_hi));
         const real n_lo = cx_norm(u_lo), n_hi = cx_norm(u_hi);
-        const ms_complex log_lo = (ms_complex)(MS_R(0.5) * log(n_lo), atan2(u_lo.y, u_lo.x));
-        const ms_complex log_hi = (ms_complex)(MS_R(0.5) * log(n_hi), atan2(u_hi.y, u_hi.x));
-        const ms_complex dl = log_hi - log_lo + (ms_complex)(MS_R(0.0), res->inside[j] * width);
-        sum_f += cx_mul(res->rho_f[j], dl);
-        sum_one += cx_mul(res->rho_one[j], dl);
-        const real log_size = fabs(log_lo.x) + fabs(log_lo.y) + fabs(log_hi.x) + fabs(log_hi.y) + res->inside[j] * ends_size +
-                              rsqrt(n_lo) + rsqrt(n_hi);
-        rounding_f += length(res->rho_f[j]) * log_size;
-        rounding_one += length(res->rho_one[j]) * log_size;
+        /* Log(u_hi) - Log(u_lo) as one logarithm and one atan2: Re u > 0 (|w| < 1) puts both arguments in
+         * (-pi/2, pi/2), so their difference is the argument of u_hi conj(u_lo), with no branch to choose. */
+        const ms_complex turn = cx_mul(u_hi, cx_conj(u_lo));
+        const ms_complex log_difference = (ms_complex)(MS_R(0.5) * log(n_hi / n_lo), atan2(turn.y, turn.x));
+        const ms_complex dl_inner = log_difference + (ms_complex)(MS_R(0.0), width), dl_outer = cx_conj(log_difference);
+        sum_f += cx_mul(res->rho_f[j], dl_inner) + cx_mul(res->rho_f[j + 2], dl_outer);
+        sum_one += cx_mul(res->rho_one[j], dl_inner) + cx_mul(res->rho_one[j + 2], dl_outer);
+        /* The difference carries a few ulps of its own size, and of 1 from the quotient and the turn's
+         * rounding; forming u an ulp of 1 / |u| at either end (the inner root's also the i psi term's). */
+        const real log_size = fabs(log_difference.x) + fabs(log_difference.y) + MS_R(2.0) + rsqrt(n_lo) + rsqrt(n_hi);
+        rounding_f += length(res->rho_f[j]) * (log_size + ends_size) + length(res->rho_f[j + 2]) * log_size;
+        rounding_one += length(res->rho_one[j]) * (log_size + ends_size) + length(res->rho_one[j + 2]) * log_size;
     }
     rounding_f *= MS_R(32.0) * MS_EXACT_EPS;
     rounding_one *= MS_R(32.0) * MS_EXACT_EPS;
@@ -595,6 +659,41 @@ inline real exact_swept_angle(real3 q, real3 r, real3 axis, real lo, real hi)
 
 /* ---- the boundary integral of a region ------------------------------------------------------------ */
 
+/* v = S^-1 m = p + q cos psi + r sin psi on the circle of `cap` (basis e1, e2): m / (ax, ay, 1)
+ * componentwise, as the host divides. */
+inline void exact_circle_parametrisation(exact_cap cap, real3 e1, real3 e2, real ax, real ay, real3* p, real3* q, real3* r)
+{
+    *p = (real3)(cap.n.x / ax, cap.n.y / ay, cap.n.z) * cap.c;
+    *q = (real3)(e1.x / ax, e1.y / ay, e1.z) * cap.s;
+    *r = (real3)(e2.x / ax, e2.y / ay, e2.z) * cap.s;
+}
+
+/* What every term of a texel's azimuth mean shares. The light stays fixed while the view turns (an
+ * isotropic surface is invariant under rotation about e_z), so the cone's caps round e_z and round the
+ * light are the same for every term: the circle round the light keeps its quartic (only the numerator
+ * a.(v x dv) changes with the view, and the residues are formed per term from the shared roots), and the
+ * two circles meet each other's caps the same way. exact_boundary_integral takes them for the caps
+ * equal to these (bit for bit: the same parametrisation and the same meetings). */
+typedef struct exact_fixed_cone {
+    exact_cap light_cap;
+    exact_quartic light_quartic;
+    exact_meeting meetings[2]; /* round e_z in the light's cap, round the light in e_z's */
+} exact_fixed_cone;
+
+inline exact_fixed_cone exact_fixed_cone_make(real alpha, exact_cap z_cap, exact_cap light_cap)
+{
+    exact_fixed_cone fixed;
+    fixed.light_cap = light_cap;
+    real3 e1, e2, p, q, r;
+    exact_basis(light_cap.n, &e1, &e2);
+    exact_circle_parametrisation(light_cap, e1, e2, alpha, alpha, &p, &q, &r);
+    fixed.light_quartic = exact_circle_quartic(p, q, r);
+    fixed.meetings[1] = exact_meet(light_cap, z_cap, e1, e2);
+    exact_basis(z_cap.n, &e1, &e2);
+    fixed.meetings[0] = exact_meet(z_cap, light_cap, e1, e2);
+    return fixed;
+}
+
 typedef struct exact_surface {
     real ax, ay;
     real3 a; /* normalize(ax wi.x, ay wi.y, wi.z) */
@@ -611,9 +710,10 @@ inline exact_surface exact_surface_make(real ax, real ay, real3 wi)
 }
 
 /* The closed integral of a.(v x dv) / |v|^2 over the boundary of the intersection of `count` (<= 3)
- * caps; `absolute_tolerance` applies to the value. */
+ * caps; `absolute_tolerance` applies to the value. `fixed` (or 0): what a texel's terms share. */
 inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap* caps, int count,
-                                         const exact_rules* rule, __global const real* gauss, real absolute_tolerance)
+                                         const exact_rules* rule, __global const real* gauss, real absolute_tolerance,
+                                         const exact_fixed_cone* fixed)
 {
     /* Coincident caps (wo = e_z, wo = wi, wi = e_z) would exclude each other's circle: keep one. */
     for (int i = 0; i < count; ++i)
@@ -635,13 +735,12 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
         real3 e1, e2;
         exact_basis(caps[k].n, &e1, &e2);
         real arc_lo[MS_EXACT_MAX_ARCS], arc_hi[MS_EXACT_MAX_ARCS], end_lo[MS_EXACT_MAX_ARCS], end_hi[MS_EXACT_MAX_ARCS];
-        const int arcs = exact_boundary_arcs(caps, count, k, e1, e2, arc_lo, arc_hi, end_lo, end_hi);
+        const int arcs = exact_boundary_arcs(caps, count, k, e1, e2, fixed ? fixed->meetings : 0, fixed ? 2 : 0, arc_lo, arc_hi,
+                                             end_lo, end_hi);
         if (arcs == 0) continue;
         const exact_cap cap = caps[k];
-        /* m / (ax, ay, 1) componentwise, as the host divides */
-        const real3 p = (real3)(cap.n.x / ax, cap.n.y / ay, cap.n.z) * cap.c;
-        const real3 q = (real3)(e1.x / ax, e1.y / ay, e1.z) * cap.s;
-        const real3 r = (real3)(e2.x / ax, e2.y / ay, e2.z) * cap.s;
+        real3 p, q, r;
+        exact_circle_parametrisation(cap, e1, e2, ax, ay, &p, &q, &r);
         if (cap.c == MS_R(0.0)) {
             /* A great circle: v stays in the plane normal to S n, the integral is a.n^ times the angle. */
             const real3 sn = (real3)(ax * cap.n.x, ay * cap.n.y, cap.n.z);
@@ -681,7 +780,8 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
             const real lp = length(p), lq = length(q), lr = length(r);
             f.parameter_size = lq * lr + lp * lr + lp * lq;
         }
-        const exact_quartic quartic = exact_circle_quartic(p, q, r);
+        const exact_quartic quartic =
+            fixed && exact_same_cap(fixed->light_cap, cap) ? fixed->light_quartic : exact_circle_quartic(p, q, r);
         exact_sum sum = {MS_R(0.0), MS_R(0.0), 0u, 0u};
 #if MS_EXACT_CLOSED_FORM
         /* |N| <= |k| + hypot(bc, bs) = max_numerator; |v'| = |r cos psi - q sin psi| <= sqrt(|q|^2 + |r|^2)
@@ -724,11 +824,64 @@ inline exact_sum exact_boundary_integral(const exact_surface* surface, exact_cap
     return result;
 }
 
+/* The boundary integral of the intersection of three hemispheres {m.n_k > 0} (unit normals), the
+ * normalisation of P(cone). In double it comes from the great circles' meeting points, as the host's
+ * hemisphere_integral does (no arc angles, three atan2 in all): on great circle k the part inside
+ * hemisphere j is the half circle from -u_kj to u_kj counter-clockwise round n_k, u_kj =
+ * normalize(n_k x n_j); two such half circles of one circle meet from -u_kl to u_kj when -u_kl lies in
+ * the first ((-u_kl).n_j >= 0), else from -u_kj to u_kl; the arc's integral is (a.n^) times the angle
+ * v = S^-1 m sweeps round n^ = normalize(S n_k), at most pi. In float, and for nearly coincident or
+ * opposite normals, the general boundary integral (its arc ends carry their rounding bounds). */
+inline exact_sum exact_hemisphere_integral(const exact_surface* surface, real3 n1, real3 n2, real3 n3, const exact_rules* rule,
+                                           __global const real* gauss)
+{
+#if MS_REAL_IS_DOUBLE
+    const real3 n[3] = {n1, n2, n3};
+    real3 u[3][3];
+    int separated = 1;
+    for (int k = 0; k < 3; ++k)
+        for (int j = k + 1; j < 3; ++j) {
+            const real3 dn = n[j] - n[k];
+            const real3 w = cross(n[k], dn); /* n_k x (n_j - n_k): no cancellation when the axes are close */
+            const real w2 = dot(w, w);
+            separated &= w2 > 1e-60 && dot(dn, dn) >= 1e-28;
+            u[k][j] = w * (MS_R(1.0) / sqrt(w2));
+            u[j][k] = -u[k][j];
+        }
+    if (separated) {
+        const real ax = surface->ax, ay = surface->ay;
+        exact_sum result = {MS_R(0.0), MS_R(0.0), 0u, 0u};
+        real magnitude = MS_R(0.0);
+        for (int k = 0; k < 3; ++k) {
+            const int j = (k + 1) % 3, l = (k + 2) % 3;
+            const int later_start = -dot(u[k][l], n[j]) >= MS_R(0.0);
+            const real3 start = later_start ? -u[k][l] : -u[k][j];
+            const real3 end = later_start ? u[k][j] : u[k][l];
+            const real3 sn = (real3)(ax * n[k].x, ay * n[k].y, n[k].z);
+            const real3 axis = sn * (MS_R(1.0) / sqrt(dot(sn, sn)));
+            const real3 vs = (real3)(start.x / ax, start.y / ay, start.z), ve = (real3)(end.x / ax, end.y / ay, end.z);
+            /* In [0, pi] for an arc of at most half a turn: a cross product rounded below 0 is 0. */
+            const real swept = atan2(fmax(MS_R(0.0), dot(cross(vs, ve), axis)), dot(vs, ve));
+            const real part = dot(surface->a, axis) * swept;
+            result.value += part;
+            magnitude += fabs(part);
+        }
+        result.error = MS_R(32.0) * MS_EXACT_EPS * magnitude;
+        return result;
+    }
+#endif
+    exact_cap caps[3];
+    caps[0] = exact_cap_make(n1, MS_R(0.0), MS_R(1.0));
+    caps[1] = exact_cap_make(n2, MS_R(0.0), MS_R(1.0));
+    caps[2] = exact_cap_make(n3, MS_R(0.0), MS_R(1.0));
+    return exact_boundary_integral(surface, caps, 3, rule, gauss, MS_R(0.0), 0);
+}
+
 /* ---- the term ------------------------------------------------------------------------------------- */
 
 /* T for unit wi above the horizon and unit wo, the cone given by its cosine c and squared sine s2. */
 inline exact_sum exact_term_of(real ax, real ay, real3 wi, real3 wo, real c, real s2, real tolerance,
-                               const exact_rules* rule, __global const real* gauss)
+                               const exact_rules* rule, __global const real* gauss, const exact_fixed_cone* fixed)
 {
     exact_sum out = {MS_R(0.0), MS_R(0.0), 0u, 0u};
     if (!(wo.z > MS_R(0.0))) return out; /* light at or below the horizon: G1(wo) = 0 */
@@ -740,11 +893,7 @@ inline exact_sum exact_term_of(real ax, real ay, real3 wi, real3 wo, real c, rea
     if (wo.z <= MS_R(1.0) - MS_R(2.0) * s2) return out;
     const exact_surface surface = exact_surface_make(ax, ay, wi);
     const real3 ez = (real3)(MS_R(0.0), MS_R(0.0), MS_R(1.0));
-    exact_cap caps[3];
-    caps[0] = exact_cap_make(ez, MS_R(0.0), MS_R(1.0));
-    caps[1] = exact_cap_make(wo, MS_R(0.0), MS_R(1.0));
-    caps[2] = exact_cap_make(wi, MS_R(0.0), MS_R(1.0));
-    const exact_sum hemisphere = exact_boundary_integral(&surface, caps, 3, rule, gauss, MS_R(0.0));
+    const exact_sum hemisphere = exact_hemisphere_integral(&surface, ez, wo, wi, rule, gauss);
     if (!(hemisphere.value > MS_R(0.0))) {
         /* wi and wo above the horizon give the hemisphere a positive probability: rounding lost it
          * (float, views within ~1e-6 of the horizon), and nothing is known of the ratio. */
@@ -753,10 +902,11 @@ inline exact_sum exact_term_of(real ax, real ay, real3 wi, real3 wo, real c, rea
         return out;
     }
     const real s = sqrt(s2);
+    exact_cap caps[3];
     caps[0] = exact_cap_make(ez, c, s);
     caps[1] = exact_cap_make(wo, c, s);
     caps[2] = exact_cap_make(wi, MS_R(0.0), MS_R(1.0));
-    const exact_sum cone = exact_boundary_integral(&surface, caps, 3, rule, gauss, tolerance * hemisphere.value);
+    const exact_sum cone = exact_boundary_integral(&surface, caps, 3, rule, gauss, tolerance * hemisphere.value, fixed);
     const real t = cone.value / hemisphere.value;
     out.value = clamp(t, MS_R(0.0), MS_R(1.0));
     out.error = (cone.error + fabs(t) * hemisphere.error) / hemisphere.value;
@@ -810,7 +960,7 @@ __kernel void ms_exact_term(__global const ms_exact_query* queries, uint count, 
                                       ms_exact_cone_cos(ms_exact_join(q.cos_theta_hi, q.cos_theta_lo),
                                                         ms_exact_join(q.sin2_cone_hi, q.sin2_cone_lo)),
                                       ms_exact_join(q.sin2_cone_hi, q.sin2_cone_lo),
-                                      ms_exact_join(rule.tolerance_hi, rule.tolerance_lo), &rules, gauss);
+                                      ms_exact_join(rule.tolerance_hi, rule.tolerance_lo), &rules, gauss, 0);
     exact_store(out + g, v);
 }
 
@@ -873,19 +1023,20 @@ inline int exact_azimuth_breakpoints(real c, real s, real s2, real n_dot_v, real
     return kept;
 }
 
-inline real3 exact_lut_light(real n_dot_l, real phi)
+/* The view at relative azimuth phi with the light held at azimuth 0: turned by -phi about e_z. */
+inline real3 exact_turned_view(real n_dot_v, real phi)
 {
-    const real sl = sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_l * n_dot_l));
+    const real sv = sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_v * n_dot_v));
     real c;
     const real s = sincos(phi, &c);
-    return (real3)(sl * c, sl * s, n_dot_l);
+    return (real3)(sv * c, -sv * s, n_dot_v);
 }
 
 /* The azimuth pieces' Gauss-Kronrod pair over [lo, hi] in the substitution phi = mid - half_width cos u,
  * u in [0, pi]: both sums from one evaluation of T at each of the 2n + 1 nodes (the high rule's weights
  * are the Kronrod weights, the low rule's the Gauss weights on the same nodes). */
-inline real exact_azimuth_pair(real mid, real half_width, real alpha, real3 wi, real c, real s2, real n_dot_l,
-                               real value_tolerance, const exact_rules* rule, __global const real* gauss,
+inline real exact_azimuth_pair(real mid, real half_width, real alpha, real n_dot_v, const exact_fixed_cone* fixed,
+                               real c, real s2, real value_tolerance, const exact_rules* rule, __global const real* gauss,
                                real* gauss_sum, real* value_error, uint* flags)
 {
     const int n = rule->azimuth_high, kronrod_at = rule->azimuth_high_at, gauss_at = rule->azimuth_low_at;
@@ -896,7 +1047,8 @@ inline real exact_azimuth_pair(real mid, real half_width, real alpha, real3 wi, 
         const real su = sincos(u, &cu);
         const real jacobian = half_width * su * MS_R(0.5) * MS_EXACT_PI;
         const exact_sum v =
-            exact_term_of(alpha, alpha, wi, exact_lut_light(n_dot_l, mid - half_width * cu), c, s2, value_tolerance, rule, gauss);
+            exact_term_of(alpha, alpha, exact_turned_view(n_dot_v, mid - half_width * cu), fixed->light_cap.n, c, s2,
+                          value_tolerance, rule, gauss, fixed);
         const real wk = gauss[kronrod_at + n + i] * jacobian;
         sum += wk * v.value;
         low += gauss[gauss_at + n + i] * jacobian * v.value;
@@ -933,17 +1085,21 @@ __kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint 
         exact_store(out + g, result);
         return;
     }
-    const real3 wi = (real3)(sqrt(fmax(MS_R(0.0), MS_R(1.0) - n_dot_v * n_dot_v)), MS_R(0.0), n_dot_v);
     /* Each value's tolerance is a quarter of the mean's; the azimuth quadrature takes half. */
     const real value_tolerance = MS_R(0.25) * tolerance;
     const real sv2 = MS_R(1.0) - n_dot_v * n_dot_v, sl2 = MS_R(1.0) - n_dot_l * n_dot_l;
+    /* The light at azimuth 0 for every term; the view turns (exact_turned_view). */
+    const real3 light = (real3)(sqrt(fmax(MS_R(0.0), sl2)), MS_R(0.0), n_dot_l);
     if (sv2 <= MS_R(0.0) || sl2 <= MS_R(0.0)) { /* the azimuth does not change the term */
-        exact_store(out + g, exact_term_of(alpha, alpha, wi, exact_lut_light(n_dot_l, MS_R(0.0)), c, s2, value_tolerance,
-                                           &rules, gauss));
+        exact_store(out + g, exact_term_of(alpha, alpha, exact_turned_view(n_dot_v, MS_R(0.0)), light, c, s2, value_tolerance,
+                                           &rules, gauss, 0));
         return;
     }
+    const real s = sqrt(s2);
+    const exact_fixed_cone fixed =
+        exact_fixed_cone_make(alpha, exact_cap_make((real3)(MS_R(0.0), MS_R(0.0), MS_R(1.0)), c, s), exact_cap_make(light, c, s));
     real points[MS_EXACT_MAX_BREAKPOINTS];
-    const int count_points = exact_azimuth_breakpoints(c, sqrt(s2), s2, n_dot_v, n_dot_l, points);
+    const int count_points = exact_azimuth_breakpoints(c, s, s2, n_dot_v, n_dot_l, points);
     real integral = MS_R(0.0);
     for (int piece = 0; piece + 1 < count_points; ++piece) {
         real stack_hi[MS_EXACT_AZIMUTH_STACK];
@@ -957,8 +1113,8 @@ __kernel void ms_exact_azimuth_mean(__global const ms_exact_texel* texels, uint 
             const int depth = stack_depth[top - 1];
             const real mid = MS_R(0.5) * (lo + hi), half_width = MS_R(0.5) * (hi - lo);
             real error_high = MS_R(0.0), low = MS_R(0.0);
-            const real high = exact_azimuth_pair(mid, half_width, alpha, wi, c, s2, n_dot_l, value_tolerance, &rules, gauss,
-                                                 &low, &error_high, &result.flags);
+            const real high = exact_azimuth_pair(mid, half_width, alpha, n_dot_v, &fixed, c, s2, value_tolerance, &rules,
+                                                 gauss, &low, &error_high, &result.flags);
             const real estimate = fabs(high - low);
             /* A difference at the level of the values' own errors or of rounding cannot be split away (both
              * sums' value errors: the Gauss weights are at most 2.05x the Kronrod weights at their nodes). */

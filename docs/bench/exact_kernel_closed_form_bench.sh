@@ -6,12 +6,12 @@
 # From the repository root, with the kernel tree of another revision unpacked beside it:
 #     mkdir -p /tmp/before && git archive REV kernels | tar -x -C /tmp/before
 #     bash docs/bench/exact_kernel_closed_form_bench.sh BINARY /tmp/before/kernels kernels [REPEATS] [SIZE]
-# -> docs/bench/exact_kernel_closed_form.csv: one row per run (wall and user+sys CPU seconds, the job's own
+# -> $OUT (docs/bench/exact_kernel_closed_form.csv unless set): one row per run (wall and user+sys CPU seconds, the job's own
 #    seconds as its summary says, the load average), and on stdout the after/before ratios of every repeat
 #    with their median, min and max, and the largest differences between the two kernels' outputs.
 set -euo pipefail
 BIN=$1 BEFORE=$(realpath "$2") AFTER=$(realpath "$3") REPEATS=${4:-3} SIZE=${5:-16}
-OUT=docs/bench/exact_kernel_closed_form.csv
+OUT=${OUT:-docs/bench/exact_kernel_closed_form.csv}
 export POCL_CACHE_DIR=${POCL_CACHE_DIR:-/tmp/pocl-cache}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT

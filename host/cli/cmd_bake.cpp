@@ -289,9 +289,9 @@ void add_bake_command(CLI::App& app) {
         ->check(real_range(1e-6, 1.0))
         ->capture_default_str();
     add_sampling_options(cmd, a->sampling,
-                         "Default sampled. On 2 CPU cores the default 32^3 x 4 azimuth-mean bake takes ~2.4 s either "
-                         "way (sampled: worst texel ~8e-4 off; exact at 1e-6 or 1e-7: estimated within 5e-7 or 6e-8), a 64^3 "
-                         "x 4 one ~11 s sampled against ~18 s exact; on a GPU the sampled bake is 2-5x faster "
+                         "Default sampled. On 2 CPU cores the default 32^3 x 4 azimuth-mean bake takes ~2.7 s sampled "
+                         "(worst texel ~8e-4 off) and ~2.2 s exact (at 1e-6 or 1e-7: estimated within 5e-7 or 6e-8), a 64^3 "
+                         "x 4 one ~11 s sampled against ~16 s exact; on a GPU the sampled bake is 2-5x faster "
                          "(docs/exact-method.md, docs/benchmarks.md)");
     // A bake's samples are per (roughness, NdotV) slice and batch, as its summary counts them.
     cmd->get_option("--samples")->description("VNDF samples per slice and batch, all replicates together (rounded up to replicates x 2^k; default 65536)");

@@ -12,7 +12,8 @@
  * Bernstein ellipse, then while the difference to a lower-order rule (the error estimate) exceeds the
  * piece's share of the tolerance. The azimuth mean integrates T between its non-analytic azimuths in a cosine
  * substitution, by a Gauss-Kronrod pair: the Kronrod sum is the value, its difference to the Gauss sum
- * (the Gauss rule's error, which bounds the Kronrod rule's) the estimate.
+ * (the Gauss rule's error, which bounds the Kronrod rule's) the estimate. Its terms hold the light fixed
+ * and turn the view, so that they share the light's circle (exact_fixed_cone).
  *
  * OpenCL C has no recursion: the host's recursive bisections are depth-first walks over explicit
  * stacks of piece ends (pieces are finished left to right, so a piece's start is the previous one's

@@ -9,6 +9,7 @@ import statistics
 import sys
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
@@ -56,6 +57,13 @@ ax.set_ylabel("largest per-pixel error bound")
 for ax in axes[:3]:
     ax.set_xlabel("wall time (s), 2 CPU cores")
     ax.grid(True, which="both", alpha=0.3)
+    # A panel spanning less than a decade may hold no 10^k tick: label it in plain seconds at 1, 1.5, 2,
+    # 3, 5 and 7 times the powers of ten.
+    lo, hi = ax.get_xlim()
+    if hi / lo < 10:
+        ax.xaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 1.5, 2.0, 3.0, 5.0, 7.0)))
+        ax.xaxis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
 # jobs: CPU seconds of each job's run, before and after (median bar, range as the error bar).
 ax = axes[3]
 if os.path.exists(f"{bench}/exact_jobs_grid.csv"):

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/digest.hpp"
+#include "schedule/source_fingerprint.hpp"
 
 namespace ms::schedule {
 
@@ -18,7 +19,8 @@ constexpr int kCacheKeyFormat = 1;
 CacheKey::CacheKey(std::string job) : job_(std::move(job)) {
     fields_["$format"] = kCacheKeyFormat;
     fields_["$job"] = job_;
-    fields_["$version"] = MICROSHADOW_VERSION;
+    // The version and the sources' fingerprint: a build from other sources may compute other bits.
+    fields_["$version"] = std::string(MICROSHADOW_VERSION) + "+" + source_fingerprint();
 }
 
 CacheKey& CacheKey::add(const std::string& name, nlohmann::json value) {

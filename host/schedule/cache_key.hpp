@@ -4,8 +4,9 @@
 // builds its key from its option structs (jobs/cache_keys.hpp), and lists the options it leaves out
 // (a path, a progress callback, a thread count: nothing that reaches a bit), each with the reason.
 //
-// The program's version is always part of the key: a new version may compute other bits (a new
-// quadrature rule, a kernel change), so its runs never resume a store of an earlier version.
+// The program's version and the fingerprint of its sources (source_fingerprint.hpp) are always part of
+// the key: other code may compute other bits (a new quadrature rule, a kernel's rounding) under the same
+// version number, so a run never resumes a store that other code began.
 #pragma once
 
 #include <cstdint>

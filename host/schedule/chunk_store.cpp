@@ -115,7 +115,7 @@ void check_same_job(const std::string& path, const json& m, const StoreKey& key)
         differs = "it was written by microshadow " + m["version"].get<std::string>() + ", this is " MICROSHADOW_VERSION;
     else if (m["spec_hash"] != key.spec_hash)
         differs = "its spec hash " + m["spec_hash"].get<std::string>() + " is not this job's " + key.spec_hash +
-                  " (the options, the spec or the kind of device differ)";
+                  " (the options, the spec, the kind of device or the program's sources differ)";
     else if (m["items"] != key.items)
         differs = "it has " + std::to_string(m["items"].get<std::uint64_t>()) + " items, this job " + std::to_string(key.items);
     if (!differs.empty())

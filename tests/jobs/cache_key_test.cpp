@@ -23,6 +23,7 @@
 #include "scene/image_io.hpp"
 #include "scene/inputs.hpp"
 #include "schedule/cache_key.hpp"
+#include "schedule/source_fingerprint.hpp"
 
 namespace ms {
 namespace {
@@ -96,6 +97,16 @@ TEST(CacheKey, RefusesAnOptionAddedTwiceAndDigestsFilesByTheirBytes) {
     EXPECT_NE(schedule::CacheKey("job").add("x", 0.1).hash(), schedule::CacheKey("job").add("x", std::nextafter(0.1, 1.0)).hash());
     EXPECT_NE(schedule::CacheKey("job").hash(), schedule::CacheKey("other").hash());
     EXPECT_THROW(schedule::CacheKey("job").add_file("f", "/nonexistent/microshadow/file"), std::runtime_error);
+}
+
+// Every key holds the version and the fingerprint of the sources (16 hex digits), so that a store
+// begun by other code under the same version number is not resumed.
+TEST(CacheKey, HoldsTheVersionAndTheSourcesFingerprint) {
+    const std::string fingerprint = schedule::source_fingerprint();
+    ASSERT_EQ(fingerprint.size(), 16u);
+    EXPECT_EQ(fingerprint.find_first_not_of("0123456789abcdef"), std::string::npos) << fingerprint;
+    const std::string text = schedule::CacheKey("job").canonical_text();
+    EXPECT_NE(text.find(std::string(MICROSHADOW_VERSION) + "+" + fingerprint), std::string::npos) << text;
 }
 
 TEST(CacheKey, BakeMovesWithEveryOptionThatDecidesASlice) {

@@ -89,6 +89,39 @@ TEST(AzimuthGrid, HemisphereFromMeetingPointsMatchesTheArcs) {
     std::printf("worst |meeting points - arcs| / (sum of estimates) %.3g\n", worst);
 }
 
+// The cone circles' meetings with each other's caps, found once per row (circle_in_cap) and passed to
+// boundary_integral, give the bits boundary_integral finds without them: on random rows and views, with
+// the cone's circles crossing, nested, apart and nearly coincident (NdotL near 1).
+TEST(AzimuthGrid, KnownMeetingsGiveTheSameBitsAsFindingThem) {
+    std::mt19937_64 rng(3604);
+    std::uniform_real_distribution<double> u(0, 1);
+    const Vec3 ez{0, 0, 1};
+    int with_arcs = 0;
+    for (int i = 0; i < 4000; ++i) {
+        const double v = i % 9 == 0 ? 1e-5 : u(rng);
+        const double alpha = std::pow(10.0, -2.5 * u(rng));
+        const double nl = i % 7 == 0 ? 1 - 1e-9 * u(rng) : 0.01 + 0.99 * u(rng);
+        const double nv = 0.01 + 0.99 * u(rng), phi = kPi * u(rng);
+        const AoWeighting weighting = i % 2 ? AoWeighting::cosine : AoWeighting::uniform;
+        const double c = cone_cos_theta(v, weighting), s = std::sqrt(cone_sin2_theta(v, weighting));
+        const double sl = std::sqrt(1 - nl * nl), sv = std::sqrt(1 - nv * nv);
+        const Vec3 wo{sl, 0, nl}, wi{sv * std::cos(phi), -sv * std::sin(phi), nv};
+        const exact::Cap round_z{ez, c, s}, round_wo{wo, c, s};
+        const exact::CircleInCap known[2] = {exact::circle_in_cap(round_z, round_wo), exact::circle_in_cap(round_wo, round_z)};
+        const exact::PreparedCircle prepared = exact::prepare_circle(alpha, alpha, round_wo);
+        const exact::Microsurface surface = exact::make_microsurface(alpha, alpha, wi);
+        const exact::ArcRule rule = exact::arc_rule_for(1e-9);
+        exact::Cap found_caps[3] = {round_z, round_wo, {wi, 0, 1}}, known_caps[3] = {round_z, round_wo, {wi, 0, 1}};
+        const exact::BoundaryIntegral found = exact::boundary_integral(surface, found_caps, 3, rule, 1e-9, &prepared);
+        const exact::BoundaryIntegral taken = exact::boundary_integral(surface, known_caps, 3, rule, 1e-9, &prepared, known, 2);
+        EXPECT_EQ(found.value, taken.value) << "case " << i;
+        EXPECT_EQ(found.error, taken.error) << "case " << i;
+        EXPECT_EQ(found.quadrature_pieces, taken.quadrature_pieces) << "case " << i;
+        with_arcs += found.value != 0;
+    }
+    EXPECT_GT(with_arcs, 1000);  // the cone is not empty in most cases, so the meetings were used
+}
+
 TEST(AzimuthGrid, MeansAgreeWithThePerValueEvaluatorsMeans) {
     std::mt19937_64 rng(3636);
     std::uniform_real_distribution<double> u(0, 1);

@@ -15,6 +15,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "core/digest.hpp"
 #include "platform/files.hpp"
 #include "platform/process.hpp"
 #include "platform/signals.hpp"
@@ -322,6 +323,25 @@ const std::vector<std::string>& preamble_files() {
                                                    "common/vndf.cl", "common/cone.cl", "common/work_items.cl",
                                                    "common/cubemap.cl"};
     return files;
+}
+
+std::string overridden_kernels_digest() {
+    const char* dir = std::getenv("MICROSHADOW_KERNEL_DIR");
+    if (!dir || !*dir) return "";
+    // Every kernel the build embeds, by name and bytes as read from the folder (a missing one by name).
+    std::uint64_t h = kFnv1aOffset;
+    for (const auto& entry : embedded_kernels()) {
+        h = fnv1a(entry.first + "\n", h);
+        std::ifstream in(std::string(dir) + "/" + entry.first, std::ios::binary);
+        if (!in) {
+            h = fnv1a("(missing)\n", h);
+            continue;
+        }
+        std::ostringstream ss;
+        ss << in.rdbuf();
+        h = fnv1a(ss.str(), h);
+    }
+    return "fnv1a " + hex16(h);
 }
 
 std::string kernel_source(const std::string& file) {

@@ -81,6 +81,10 @@ std::string build_options(const BuildConfig& config);
 // in $MICROSHADOW_KERNEL_DIR when set (a development switch: edit kernels without rebuilding).
 std::string kernel_source(const std::string& file);
 const std::vector<std::string>& preamble_files();
+// A digest of the kernel sources a run builds from when $MICROSHADOW_KERNEL_DIR is set (every embedded
+// kernel's name and the bytes of the file of that name in the folder), "" when it is not (the embedded
+// sources are the build's own, which its source fingerprint covers). Part of every cache key.
+std::string overridden_kernels_digest();
 
 // What every kernel routine needs (CLBlast's routine base, in three functions):
 // the wanted work-group size, or the kernel's limit on this device if that is smaller (at least 1);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/digest.hpp"
+#include "device/runtime.hpp"
 #include "schedule/source_fingerprint.hpp"
 
 namespace ms::schedule {
@@ -21,6 +22,8 @@ CacheKey::CacheKey(std::string job) : job_(std::move(job)) {
     fields_["$job"] = job_;
     // The version and the sources' fingerprint: a build from other sources may compute other bits.
     fields_["$version"] = std::string(MICROSHADOW_VERSION) + "+" + source_fingerprint();
+    // Kernels read from $MICROSHADOW_KERNEL_DIR instead of the embedded ones: their bytes too.
+    if (const std::string kernels = ocl::overridden_kernels_digest(); !kernels.empty()) fields_["$kernels"] = kernels;
 }
 
 CacheKey& CacheKey::add(const std::string& name, nlohmann::json value) {

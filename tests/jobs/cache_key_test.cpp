@@ -5,6 +5,8 @@
 // the reason. And a sweep resumed with --double-kernels is refused instead of mixing two precisions.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <functional>
 #include <map>
@@ -22,6 +24,7 @@
 #include "scene/description.hpp"
 #include "scene/image_io.hpp"
 #include "scene/inputs.hpp"
+#include "platform/process.hpp"
 #include "schedule/cache_key.hpp"
 #include "schedule/source_fingerprint.hpp"
 
@@ -107,6 +110,34 @@ TEST(CacheKey, HoldsTheVersionAndTheSourcesFingerprint) {
     EXPECT_EQ(fingerprint.find_first_not_of("0123456789abcdef"), std::string::npos) << fingerprint;
     const std::string text = schedule::CacheKey("job").canonical_text();
     EXPECT_NE(text.find(std::string(MICROSHADOW_VERSION) + "+" + fingerprint), std::string::npos) << text;
+}
+
+// Kernels read from $MICROSHADOW_KERNEL_DIR (the development switch) are not the build's: their bytes
+// enter the key, so an edited kernel moves it; without the switch the key holds no such field.
+class CacheKeyKernelDir : public ScratchDirTest {
+protected:
+    CacheKeyKernelDir() : ScratchDirTest("cache_key_kernel_dir") {}
+    void TearDown() override {
+        platform::set_environment("MICROSHADOW_KERNEL_DIR", "");
+        ScratchDirTest::TearDown();
+    }
+};
+
+TEST_F(CacheKeyKernelDir, KernelsFromAFolderEnterTheKeyByTheirBytes) {
+    if (const char* set = std::getenv("MICROSHADOW_KERNEL_DIR"); set && *set)
+        GTEST_SKIP() << "MICROSHADOW_KERNEL_DIR is set for this run; the test needs the embedded kernels";
+    const std::string embedded = schedule::CacheKey("job").hash();
+    EXPECT_EQ(schedule::CacheKey("job").canonical_text().find("$kernels"), std::string::npos);
+    platform::set_environment("MICROSHADOW_KERNEL_DIR", dir_.string());
+    const std::string empty_folder = schedule::CacheKey("job").hash();
+    EXPECT_NE(empty_folder, embedded);
+    std::filesystem::create_directories(dir_ / "exact");
+    std::ofstream(path("exact/exact_term.cl")) << "/* an edited kernel */\n";
+    const std::string edited = schedule::CacheKey("job").hash();
+    EXPECT_NE(edited, empty_folder);
+    EXPECT_EQ(schedule::CacheKey("job").hash(), edited);  // the same bytes, the same key
+    platform::set_environment("MICROSHADOW_KERNEL_DIR", "");
+    EXPECT_EQ(schedule::CacheKey("job").hash(), embedded);
 }
 
 TEST(CacheKey, BakeMovesWithEveryOptionThatDecidesASlice) {

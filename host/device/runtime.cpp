@@ -13,6 +13,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "core/digest.hpp"
@@ -325,45 +326,51 @@ const std::vector<std::string>& preamble_files() {
     return files;
 }
 
-std::string overridden_kernels_digest() {
+namespace {
+
+// The folder of $MICROSHADOW_KERNEL_DIR, "" when it is unset or empty (the embedded kernels).
+std::string kernel_dir() {
     const char* dir = std::getenv("MICROSHADOW_KERNEL_DIR");
-    if (!dir || !*dir) return "";
+    return dir ? dir : "";
+}
+
+// kernels/<name> as the folder holds it, or nothing when it cannot be read.
+std::optional<std::string> read_kernel_file(const std::string& dir, const std::string& name) {
+    std::ifstream in(dir + "/" + name, std::ios::binary);
+    if (!in) return std::nullopt;
+    std::ostringstream ss;
+    ss << in.rdbuf();
+    return ss.str();
+}
+
+}  // namespace
+
+std::string overridden_kernels_digest() {
+    const std::string dir = kernel_dir();
+    if (dir.empty()) return "";
     // Every kernel the build embeds, by name and bytes as read from the folder (a missing one by name).
     std::uint64_t h = kFnv1aOffset;
     for (const auto& entry : embedded_kernels()) {
         h = fnv1a(entry.first + "\n", h);
-        std::ifstream in(std::string(dir) + "/" + entry.first, std::ios::binary);
-        if (!in) {
-            h = fnv1a("(missing)\n", h);
-            continue;
-        }
-        std::ostringstream ss;
-        ss << in.rdbuf();
-        h = fnv1a(ss.str(), h);
+        const std::optional<std::string> text = read_kernel_file(dir, entry.first);
+        h = fnv1a(text ? *text : "(missing)\n", h);
     }
     return "fnv1a " + hex16(h);
 }
 
 std::string kernel_source(const std::string& file) {
-    std::function<std::string(const std::string&)> read;
-    if (const char* dir = std::getenv("MICROSHADOW_KERNEL_DIR"); dir && *dir) {
-        const std::string kernel_dir(dir);
-        read = [kernel_dir](const std::string& name) {
-            const std::string path = kernel_dir + "/" + name;
-            std::ifstream in(path, std::ios::binary);
-            if (!in) throw std::runtime_error("MICROSHADOW_KERNEL_DIR is set but " + path + " cannot be read");
-            std::ostringstream ss;
-            ss << in.rdbuf();
-            return ss.str();
-        };
-    } else {
-        read = [](const std::string& name) {
-            const auto& table = embedded_kernels();
-            auto it = table.find(name);
-            if (it == table.end()) throw std::runtime_error("no embedded kernel named " + name);
-            return it->second;
-        };
-    }
+    const std::string dir = kernel_dir();
+    auto read = [&dir](const std::string& name) {
+        if (!dir.empty()) {
+            std::optional<std::string> text = read_kernel_file(dir, name);
+            if (!text) throw std::runtime_error("MICROSHADOW_KERNEL_DIR is set but " + dir + "/" + name + " cannot be read");
+            return std::move(*text);
+        }
+        const auto& table = embedded_kernels();
+        auto it = table.find(name);
+        if (it == table.end()) throw std::runtime_error("no embedded kernel named " + name);
+        return it->second;
+    };
     // One program = the common preamble + the routine's file, so no two kernels can carry diverging
     // copies of the sampler, the sincos or the cone test. #line keeps build logs pointing at the file.
     std::string text;

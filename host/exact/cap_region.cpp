@@ -167,7 +167,7 @@ void boundary_arcs(const Cap* caps, std::size_t cap_count, std::size_t k, const 
             }
         }
         full = false;
-        for (std::size_t i = 0; i < next.count; ++i) arcs.items[i] = next.items[i];
+        std::copy(next.begin(), next.end(), arcs.items);
         arcs.count = next.count;
         if (arcs.empty()) return;
     }
@@ -770,11 +770,7 @@ BoundaryIntegral boundary_integral(const Microsurface& surface, Cap* caps, std::
         const Cap& cap = caps[k];
         // The prepared circle stands for this cap when it has the same axis and cosine (bit for bit: its
         // basis and parametrisation are then the ones computed below).
-        const PreparedCircle* known = prepared && cap.c == prepared->cap.c && cap.s == prepared->cap.s &&
-                                              cap.n.x == prepared->cap.n.x && cap.n.y == prepared->cap.n.y &&
-                                              cap.n.z == prepared->cap.n.z
-                                          ? prepared
-                                          : nullptr;
+        const PreparedCircle* known = prepared && same_cap(cap, prepared->cap) ? prepared : nullptr;
         Vec3 e1, e2, p, q, r;
         parametrise(cap, known, e1, e2);
         ArcList arcs;
